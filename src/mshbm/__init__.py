@@ -1,0 +1,25 @@
+"""mshbm: periodic solutions of linear structures with local nonsmooth elements.
+
+Full shooting (Moreau-Jean), HBM-AFT and the mixed shooting-harmonic balance
+method of Schreyer & Leine (2016), behind one call::
+
+    import mshbm
+    case = mshbm.load_case("case.yaml")
+    sol = mshbm.solve(case.system, case.omega, method="mshbm", harmonics=5)
+    sol.amplitude
+"""
+from .api import METHODS, build_problem, solve
+from .errors import ConvergenceError, InputError
+from .result import PeriodicSolution
+from .system import Contact, Friction, System, chain
+
+__all__ = ["solve", "build_problem", "METHODS", "System", "Friction", "Contact", "chain",
+           "PeriodicSolution", "InputError", "ConvergenceError", "load_case"]
+__version__ = "0.1.0"
+
+
+def load_case(path, **overrides):
+    """Read a YAML case file; see :func:`mshbm.io.load_case`."""
+    from .io import load_case as _load
+
+    return _load(path, **overrides)

@@ -1,0 +1,84 @@
+"""Helpers shared by the method modules (initial guesses, padding, the linear response)."""
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from . import fourier
+from .errors import InputError
+
+__all__ = ["linear_response", "pad_hat", "guess_parts"]
+
+
+def pad_hat(x_hat, n_h):
+    """Truncate or zero-pad coefficients (2 n_h' + 1, ...) to ``n_h`` harmonics."""
+    x_hat = np.asarray(x_hat, dtype=float)
+    out = np.zeros((2 * n_h + 1,) + x_hat.shape[1:])
+    m = min(out.shape[0], x_hat.shape[0])
+    out[:m] = x_hat[:m]
+    return out
+
+
+def linear_response(system, omega, n_h):
+    """Steady state of the linear structure without elements, ``q_hat`` shape (2 n_h + 1, n).
+
+    Harmonics whose dynamic stiffness is singular (undamped resonance) are set to zero.
+    """
+    F = fourier.to_complex(system.forcing_hat(n_h))
+    Z = np.zeros_like(F)
+    for k in range(n_h + 1):
+        if not np.any(F[k]):
+            continue
+        H = fourier.dynamic_stiffness(system.M, system.C, system.K, k * omega)
+        try:
+            if sp.issparse(H):
+                x = spla.spsolve(sp.csc_matrix(H), F[k])
+            else:
+                x = np.linalg.solve(H, F[k])
+        except (np.linalg.LinAlgError, RuntimeError):
+            continue
+        if np.all(np.isfinite(x)):
+            Z[k] = x
+    return fourier.from_complex(Z)
+
+
+def guess_parts(guess, system, omega, n_h):
+    """Normalise a user guess to ``(q_hat (2n_h+1, n), q0 (n,), u0 (n,))``.
+
+    ``guess`` may be ``None``/``"linear"`` (linear response), ``"zero"``, a
+    :class:`PeriodicSolution` (e.g. at a nearby frequency) or a dict with keys
+    ``q_hat`` and optionally ``q0``, ``u0``.
+    """
+    from .result import PeriodicSolution
+
+    n = system.n
+    if guess is None or (isinstance(guess, str) and guess == "linear"):
+        q_hat = linear_response(system, omega, n_h)
+        q0, u0 = None, None
+    elif isinstance(guess, str) and guess == "zero":
+        return np.zeros((2 * n_h + 1, n)), np.zeros(n), np.zeros(n)
+    elif isinstance(guess, PeriodicSolution):
+        if guess.n != n:
+            raise InputError("guess", f"solution has {guess.n} DOFs, system has {n}")
+        q_hat = pad_hat(guess.q_hat, n_h)
+        q0, u0 = guess.q[0].copy(), guess.u[0].copy()
+    elif isinstance(guess, dict):
+        if "q_hat" not in guess:
+            raise InputError("guess", "a dict guess needs 'q_hat'")
+        q_hat = np.asarray(guess["q_hat"], dtype=float)
+        if q_hat.ndim != 2 or q_hat.shape[1] != n or q_hat.shape[0] % 2 != 1:
+            raise InputError("guess.q_hat", f"must have shape (2*n_h+1, {n}), got {q_hat.shape}")
+        q_hat = pad_hat(q_hat, n_h)
+        q0 = None if guess.get("q0") is None else np.asarray(guess["q0"], dtype=float)
+        u0 = None if guess.get("u0") is None else np.asarray(guess["u0"], dtype=float)
+    else:
+        raise InputError("guess", "must be None, 'linear', 'zero', a PeriodicSolution or a dict")
+    if q0 is None:
+        q0 = q_hat[0] + q_hat[1::2].sum(axis=0)  # V(0)^T q_hat
+    if u0 is None:
+        u0 = fourier.derivative(q_hat, omega)[1::2].sum(axis=0)
+    for key, a in (("guess.q_hat", q_hat), ("guess.q0", q0), ("guess.u0", u0)):
+        if not np.all(np.isfinite(a)):
+            raise InputError(key, "contains NaN or inf")
+    return q_hat, q0, u0

@@ -1,0 +1,227 @@
+"""``mshbm.solve``: one driver, a registry of methods, validated options.
+
+Methods (``method=``):
+
+* ``"shooting"`` -- full shooting, Moreau-Jean (:mod:`mshbm.shooting`);
+* ``"hbm"`` -- HBM-AFT with regularised laws (:mod:`mshbm.hbm`);
+* ``"mshbm"`` -- MS-HBM, Section 3.2 (:mod:`mshbm.mshbm`);
+* ``"mshbm-intermediate"`` -- MS-HBM, Section 3.3.
+"""
+from __future__ import annotations
+
+import math
+import sys
+import time
+
+import numpy as np
+
+from .errors import ConvergenceError, InputError
+from .fourier import SingularHarmonicError
+from .hbm import HBMProblem
+from .mshbm import IntermediateProblem, MixedProblem
+from .newton import newton
+from .result import PeriodicSolution
+from .shooting import ShootingProblem
+from .system import System
+
+__all__ = ["solve", "build_problem", "METHODS", "default_steps"]
+
+_COMMON = {"guess", "tol", "max_iter", "line_search", "progress", "raise_on_failure", "continuation"}
+#: options accepted by each method (besides the common ones)
+METHODS = {
+    "shooting": {"steps", "theta", "jacobian", "harmonics", "project"},
+    "hbm": {"harmonics", "steps", "condense", "partition"},
+    "mshbm": {"harmonics", "steps", "theta", "jacobian", "partition", "project"},
+    "mshbm-intermediate": {"harmonics", "steps", "theta", "jacobian", "partition", "project"},
+}
+_PROBLEMS = {"shooting": ShootingProblem, "hbm": HBMProblem, "mshbm": MixedProblem,
+             "mshbm-intermediate": IntermediateProblem}
+
+
+def default_steps(method, n_h):
+    """Default time points per period: 4096 for time-stepping, ``max(512, 16 (2 n_h + 1))`` rounded
+    up to a power of two for the AFT of HBM."""
+    if method == "hbm":
+        return 1 << max(9, math.ceil(math.log2(16 * (2 * n_h + 1))))
+    return 4096
+
+
+def _int_option(key, value, minimum):
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        if isinstance(value, float) and value.is_integer():
+            value = int(value)
+        else:
+            raise InputError(key, f"must be an integer, got {value!r}")
+    if value < minimum:
+        raise InputError(key, f"must be >= {minimum}, got {value}")
+    return int(value)
+
+
+def _check_options(method, options):
+    if method not in METHODS:
+        raise InputError("method", f"unknown method {method!r} (choose from {', '.join(METHODS)})")
+    allowed = METHODS[method] | _COMMON
+    for key in options:
+        if key not in allowed:
+            raise InputError(key, f"unknown option for method {method!r} (allowed: {', '.join(sorted(allowed))})")
+    opts = dict(options)
+    n_h = _int_option("harmonics", opts.get("harmonics", 10 if method == "shooting" else 5), 1)
+    if n_h > 2000:
+        raise InputError("harmonics", f"{n_h} harmonics is beyond what this solver supports (max 2000)")
+    opts["harmonics"] = n_h
+    steps = opts.get("steps", default_steps(method, n_h))
+    min_steps = max(8, 2 * n_h + 2) if method != "shooting" else 8
+    steps = _int_option("steps", steps, min_steps)
+    if steps > 1 << 24:
+        raise InputError("steps", f"{steps} steps per period is beyond what this solver supports (max 2^24)")
+    opts["steps"] = steps
+    if "theta" in opts:
+        th = opts["theta"]
+        if isinstance(th, bool) or not isinstance(th, (int, float)) or not 0.5 <= float(th) <= 1.0:
+            raise InputError("theta", f"must be a number in [0.5, 1], got {th!r}")
+    if opts.get("jacobian", "exact") not in ("exact", "fd"):
+        raise InputError("jacobian", f"must be 'exact' or 'fd', got {opts['jacobian']!r}")
+    if "tol" in opts:
+        tol = opts["tol"]
+        if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not (0 < float(tol) < 1):
+            raise InputError("tol", f"must be a number in (0, 1), got {tol!r}")
+    if "max_iter" in opts:
+        opts["max_iter"] = _int_option("max_iter", opts["max_iter"], 0)
+    return opts
+
+
+def build_problem(system, omega, method="mshbm", **options):
+    """Validated problem object of a method (exposes ``residual(x) -> (R, J)``).
+
+    Returns
+    -------
+    problem, solver_options : object, dict
+        ``solver_options`` are the Newton and driver options not consumed by the problem.
+    """
+    if not isinstance(system, System):
+        raise InputError("system", f"must be an mshbm.System, got {type(system).__name__}")
+    if isinstance(omega, bool) or not isinstance(omega, (int, float, np.integer, np.floating)):
+        raise InputError("omega", f"must be a number, got {omega!r}")
+    if not math.isfinite(float(omega)) or float(omega) <= 0:
+        raise InputError("omega", f"must be finite and > 0, got {omega}")
+    opts = _check_options(method, options)
+    solver_keys = _COMMON
+    prob_opts = {k: v for k, v in opts.items() if k not in solver_keys and k in METHODS[method]}
+    if method == "hbm":
+        prob_opts.pop("theta", None)
+    if "partition" in prob_opts and method != "mshbm-intermediate":
+        try:
+            part = np.asarray(prob_opts["partition"], dtype=np.int64).reshape(-1)
+        except (TypeError, ValueError):
+            raise InputError("partition", "must be a list of DOF indices") from None
+        if part.size and (part.min() < 0 or part.max() >= system.n):
+            raise InputError("partition", f"DOF out of range 0..{system.n - 1}")
+        if np.unique(part).size != part.size:
+            raise InputError("partition", "repeats a DOF")
+        missing = set(int(e.dof) for e in system.elements) - set(part.tolist())
+        if missing:
+            raise InputError("partition", f"must contain the element DOFs {sorted(missing)}")
+        prob_opts["partition"] = part
+    problem = _PROBLEMS[method](system, float(omega), **prob_opts)
+    return problem, {k: v for k, v in opts.items() if k in solver_keys}
+
+
+class _Progress:
+    def __init__(self, method, enabled):
+        self.enabled = enabled and sys.stderr.isatty() or enabled == "always"
+        self.method = method
+
+    def __call__(self, it, x, r):
+        if self.enabled:
+            print(f"\r[{self.method}] Newton iteration {it:3d}  ||R||_inf = {r:.3e}", end="", file=sys.stderr,
+                  flush=True)
+
+    def close(self):
+        if self.enabled:
+            print(file=sys.stderr)
+
+
+def solve(system, omega, method="mshbm", **options):
+    """Periodic solution of ``system`` under forcing of angular frequency ``omega``.
+
+    Parameters
+    ----------
+    system : System
+    omega : float
+        Angular frequency (rad/s) of the forcing; period ``T = 2 pi / omega``.
+    method : {"shooting", "hbm", "mshbm", "mshbm-intermediate"}
+    **options
+        ``harmonics`` (n_h, default 5; shooting: harmonics of the reported
+        ``q_hat``, default 10), ``steps`` (time steps per period; default 4096,
+        HBM: AFT samples, see :func:`default_steps`), ``guess`` (``None`` or
+        ``"linear"``: linear response; ``"zero"``; a PeriodicSolution, e.g. at a
+        nearby frequency; a dict with ``q_hat``, ``q0``, ``u0``), ``tol``
+        (Newton tolerance on ``||R||_inf`` relative to ``max(1, ||x0||_inf)``,
+        default 1e-10), ``max_iter`` (default 50), ``line_search`` (default
+        True), ``theta`` (Moreau-Jean, default 0.5), ``jacobian`` (``"exact"`` or
+        ``"fd"``), ``partition`` (DOFs of N; for ``mshbm-intermediate`` a pair of
+        DOF lists for subsystems 1 and 2), ``condense`` (HBM: eliminate linear
+        DOFs exactly, default True), ``project`` (position projection of
+        contacts, default True), ``progress`` (print Newton progress to a
+        terminal), ``raise_on_failure`` (raise ConvergenceError instead of
+        returning ``success=False``), ``continuation`` (HBM: when Newton fails,
+        retry by continuation from softened regularisations; default True).
+
+    Returns
+    -------
+    PeriodicSolution
+
+    Raises
+    ------
+    InputError
+        Invalid system, frequency or option (names the key).
+    """
+    try:
+        problem, sopts = build_problem(system, omega, method, **options)
+    except SingularHarmonicError as exc:
+        raise InputError("omega", f"{exc}; move omega away from this resonance or add damping") from None
+    t0 = time.perf_counter()
+    progress = _Progress(method, sopts.get("progress", False))
+    try:
+        x0 = problem.initial_guess(sopts.get("guess"))
+        nkw = dict(tol=float(sopts.get("tol", 1e-10)), max_iter=int(sopts.get("max_iter", 50)),
+                   line_search=bool(sopts.get("line_search", True)), callback=progress)
+        res = newton(problem.residual, x0, **nkw)
+        fallback = None
+        if not res.success and sopts.get("continuation", True) and hasattr(problem, "homotopy"):
+            # fallback: continuation from softened laws to the requested ones
+            x, path = x0, problem.homotopy()
+            total_it, total_fev = res.nit, res.nfev
+            for sub in path:
+                r = newton(sub.residual, x, **nkw)
+                total_it, total_fev = total_it + r.nit, total_fev + r.nfev
+                if not r.success:
+                    break
+                x = r.x
+            fallback = f"regularisation continuation over {len(path)} stages"
+            if r.success:
+                res = r
+                res.message = f"{r.message} (after {fallback})"
+            else:
+                res.message = f"{res.message}; {fallback} failed too: {r.message}"
+            res.nit, res.nfev = total_it, total_fev
+        parts = problem.solution_parts(res.x)
+    except SingularHarmonicError as exc:
+        raise InputError("omega", f"{exc}; move omega away from this resonance or add damping") from None
+    finally:
+        progress.close()
+    wall = time.perf_counter() - t0
+    success, message = res.success, res.message
+    for key in ("q_time", "u_time", "q_hat", "lam"):
+        if not np.all(np.isfinite(parts[key])):
+            success, message = False, f"non-finite {key} in the solution ({message})"
+    n_h = parts.pop("harmonics")
+    sol = PeriodicSolution(method=method, omega=float(omega), harmonics=n_h,
+                           steps=int(sopts.get("steps", getattr(problem, "N", None) or len(parts["t"]) - 1)),
+                           success=success, message=message, iterations=res.nit, nfev=res.nfev,
+                           residual=res.residual_norm, wall_time=wall, x=res.x, **parts)
+    sol.steps = len(sol.t) - 1
+    sol.info["residual_history"] = res.history
+    if not success and sopts.get("raise_on_failure", False):
+        raise ConvergenceError(message)
+    return sol

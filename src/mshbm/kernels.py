@@ -1,0 +1,352 @@
+"""Compiled Moreau-Jean kernel on raw arrays (and a plain NumPy twin for tests).
+
+One step of the theta-method from ``(q, u)`` at ``t_k`` with step ``h``
+(``W = (M + h theta C + h^2 theta^2 K)^-1``)::
+
+    u_free = u + b_k - Aq q - Au u              b_k = h W f_theta,k
+                                               Aq = h W K, Au = h W C + h^2 theta W K
+    u+     = u_free + WG P                      P: impulses of the m elements
+    q+     = q + h ((1 - theta) u + theta u+)
+
+with ``f_theta,k = (1 - theta) f(t_k) + theta f(t_{k+1})``.  Element ``j`` acts on
+``dof[j]`` with direction ``sign[j]``; its relative velocity is
+``gamma_j = sign[j] u[dof[j]]``.  The local problem, with the Delassus matrix
+``D = G^T W G``, is:
+
+* friction (kind 0): ``gamma_j+ = 0`` if ``|P_j| < bound_j = h mu F_N`` else
+  ``P_j = -bound_j sign(gamma_j+)``;
+* contact (kind 1), active when the free end-of-step gap
+  ``g_j(q + h((1-theta)u + theta u_free)) <= 0``:
+  ``0 <= gamma_j+ + e_j gamma_j- _|_ P_j >= 0`` (Newton's law, ``gamma-`` at
+  the start of the step); inactive: ``P_j = 0``.
+
+One element is solved in closed form; several by projected Gauss-Seidel on
+``D`` (exact to ``tol``).  After the step a contact that penetrates is projected
+back onto ``g_j = 0`` in the metric of ``M`` (no-op for ``e_N = 1``).
+
+Sensitivities with respect to ``(q0, u0, p)``, where the forcing increment
+depends on parameters ``p`` through ``db_k/dp = dB[k]``, are propagated exactly
+for the current active set (a stick/closed element has ``dP`` from the linear
+equality, a slip/open one ``dP = 0``).
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+KIND_FRICTION = 0
+KIND_CONTACT = 1
+
+# status codes per element and step
+STATUS_OPEN = 0      # contact inactive / impulse zero
+STATUS_SLIP = 1      # friction at its bound
+STATUS_STICK = 2     # friction stick (gamma+ = 0)
+STATUS_CLOSED = 3    # contact active with P > 0 (gamma+ + e gamma- = 0)
+STATUS_PROJECTED = 4  # flag added when the position of a contact was projected
+
+
+@njit(cache=True, fastmath=False)
+def _local_solve(uf, u, q_free_gap, kind, dof, sign, bound, e, Del, P, status, tol, max_iter):
+    """Solve the local impulse problem; fills P and status; returns iterations."""
+    m = kind.shape[0]
+    # right-hand sides: gamma_free + e gamma_minus for contacts, gamma_free for friction
+    r = np.empty(m)
+    active = np.empty(m, dtype=np.bool_)
+    for j in range(m):
+        gf = sign[j] * uf[dof[j]]
+        if kind[j] == KIND_FRICTION:
+            r[j] = gf
+            active[j] = bound[j] > 0.0
+        else:
+            r[j] = gf + e[j] * sign[j] * u[dof[j]]
+            active[j] = q_free_gap[j] <= 0.0
+        P[j] = 0.0
+    it = 0
+    if m == 1:
+        it = 1
+        if active[0]:
+            if kind[0] == KIND_FRICTION:
+                p = -r[0] / Del[0, 0]
+                if p > bound[0]:
+                    p = bound[0]
+                elif p < -bound[0]:
+                    p = -bound[0]
+                P[0] = p
+            else:
+                p = -r[0] / Del[0, 0]
+                P[0] = p if p > 0.0 else 0.0
+    else:
+        for it in range(1, max_iter + 1):
+            change = 0.0
+            scale = 0.0
+            for j in range(m):
+                if not active[j]:
+                    continue
+                res = r[j]
+                for i in range(m):
+                    res += Del[j, i] * P[i]
+                p = P[j] - res / Del[j, j]
+                if kind[j] == KIND_FRICTION:
+                    if p > bound[j]:
+                        p = bound[j]
+                    elif p < -bound[j]:
+                        p = -bound[j]
+                elif p < 0.0:
+                    p = 0.0
+                d = abs(p - P[j])
+                if d > change:
+                    change = d
+                if abs(p) > scale:
+                    scale = abs(p)
+                P[j] = p
+            if change <= tol * (1.0 + scale):
+                break
+    for j in range(m):
+        if not active[j]:
+            status[j] = STATUS_OPEN
+        elif kind[j] == KIND_FRICTION:
+            status[j] = STATUS_SLIP if abs(P[j]) >= bound[j] * (1.0 - 1e-14) else STATUS_STICK
+        else:
+            status[j] = STATUS_CLOSED if P[j] > 0.0 else STATUS_OPEN
+    return it
+
+
+@njit(cache=True)
+def _solve_small(A, B):
+    """Solve A X = B for a small dense A by Gaussian elimination with pivoting."""
+    n = A.shape[0]
+    A = A.copy()
+    X = B.copy()
+    for c in range(n):
+        p = c
+        for r in range(c + 1, n):
+            if abs(A[r, c]) > abs(A[p, c]):
+                p = r
+        if p != c:
+            for k in range(n):
+                A[c, k], A[p, k] = A[p, k], A[c, k]
+            for k in range(X.shape[1]):
+                X[c, k], X[p, k] = X[p, k], X[c, k]
+        for r in range(c + 1, n):
+            f = A[r, c] / A[c, c]
+            if f != 0.0:
+                for k in range(c, n):
+                    A[r, k] -= f * A[c, k]
+                for k in range(X.shape[1]):
+                    X[r, k] -= f * X[c, k]
+    for c in range(n - 1, -1, -1):
+        for k in range(X.shape[1]):
+            s = X[c, k]
+            for j in range(c + 1, n):
+                s -= A[c, j] * X[j, k]
+            X[c, k] = s / A[c, c]
+    return X
+
+
+@njit(cache=True)
+def moreau_jean(q0, u0, Aq, Au, WG, Del, MinvG, B, dB, theta, h,
+                kind, dof, sign, bound, gap, e, project,
+                want_sens, store_q_sens, tol, max_iter):
+    """Integrate ``N = B.shape[0]`` Moreau-Jean steps.
+
+    Parameters
+    ----------
+    q0, u0 : (n,) initial displacement and velocity.
+    Aq, Au : (n, n) step matrices ``hWK`` and ``hWC + h^2 theta WK``.
+    WG : (n, m) ``W G``;  Del : (m, m) ``G^T W G``;  MinvG : (n, m) ``M^-1 G``.
+    B : (N, n) forcing increments ``b_k``;  dB : (N, n, n_p) their parameter derivatives.
+    theta, h : scheme parameter and step (s).
+    kind, dof, sign, bound, gap, e : (m,) element data; ``bound = h mu F_N``.
+    project : bool, project penetrating contacts back to ``g = 0``.
+    want_sens : bool, propagate sensitivities w.r.t. ``(q0, u0, p)``.
+    store_q_sens : bool, also store ``dq_k/d(q0,u0,p)`` at every step.
+
+    Returns
+    -------
+    q, u : (N+1, n) trajectory;  P : (N, m) impulses;  status : (N, m) int8;
+    Sq, Su : (n, n_s) end sensitivities, ``n_s = 2n + n_p`` (empty if not wanted);
+    Sq_traj : (N+1, n, n_s) if ``store_q_sens`` else empty;  max_iter_used : int.
+    """
+    N = B.shape[0]
+    n = q0.shape[0]
+    m = kind.shape[0]
+    n_p = dB.shape[2]
+    n_s = 2 * n + n_p if want_sens else 0
+    qt = np.empty((N + 1, n))
+    ut = np.empty((N + 1, n))
+    Pt = np.zeros((N, m))
+    st = np.zeros((N, m), dtype=np.int8)
+    Sq = np.zeros((n, n_s))
+    Su = np.zeros((n, n_s))
+    if want_sens:
+        for i in range(n):
+            Sq[i, i] = 1.0
+            Su[i, n + i] = 1.0
+    Sqt = np.zeros((N + 1 if store_q_sens else 0, n, n_s))
+    if store_q_sens:
+        Sqt[0] = Sq
+    q = q0.copy()
+    u = u0.copy()
+    qt[0] = q
+    ut[0] = u
+    uf = np.empty(n)
+    un = np.empty(n)
+    qn = np.empty(n)
+    P = np.zeros(m)
+    status = np.zeros(m, dtype=np.int8)
+    fgap = np.empty(m)
+    dUf = np.empty((n, n_s))
+    dUn = np.empty((n, n_s))
+    dQn = np.empty((n, n_s))
+    dP = np.zeros((m, n_s))
+    used = 0
+    c1 = h * (1.0 - theta)
+    c2 = h * theta
+    for k in range(N):
+        # free velocity
+        for i in range(n):
+            s = u[i] + B[k, i]
+            for j in range(n):
+                s -= Aq[i, j] * q[j] + Au[i, j] * u[j]
+            uf[i] = s
+        # predicted free end-of-step gap of contacts
+        for j in range(m):
+            if kind[j] == KIND_CONTACT:
+                d = dof[j]
+                fgap[j] = gap[j] + sign[j] * (q[d] + c1 * u[d] + c2 * uf[d])
+            else:
+                fgap[j] = 0.0
+        if m > 0:
+            it = _local_solve(uf, u, fgap, kind, dof, sign, bound, e, Del, P, status, tol, max_iter)
+            if it > used:
+                used = it
+        for i in range(n):
+            s = uf[i]
+            for j in range(m):
+                s += WG[i, j] * P[j]
+            un[i] = s
+            qn[i] = q[i] + c1 * u[i] + c2 * s
+        if want_sens:
+            if n * n * n_s > 4096:
+                dUf[:, :] = Su - np.dot(Aq, Sq) - np.dot(Au, Su)
+                for i in range(n):
+                    for c in range(n_p):
+                        dUf[i, 2 * n + c] += dB[k, i, c]
+            else:
+                for i in range(n):
+                    for c in range(n_s):
+                        s = Su[i, c]
+                        for j in range(n):
+                            s -= Aq[i, j] * Sq[j, c] + Au[i, j] * Su[j, c]
+                        if c >= 2 * n:
+                            s += dB[k, i, c - 2 * n]
+                        dUf[i, c] = s
+            # impulse sensitivities for equality-active elements
+            n_eq = 0
+            for j in range(m):
+                if status[j] == STATUS_STICK or status[j] == STATUS_CLOSED:
+                    n_eq += 1
+            for j in range(m):
+                for c in range(n_s):
+                    dP[j, c] = 0.0
+            if n_eq > 0:
+                idx = np.empty(n_eq, dtype=np.int64)
+                t = 0
+                for j in range(m):
+                    if status[j] == STATUS_STICK or status[j] == STATUS_CLOSED:
+                        idx[t] = j
+                        t += 1
+                A = np.empty((n_eq, n_eq))
+                R = np.empty((n_eq, n_s))
+                for a in range(n_eq):
+                    ja = idx[a]
+                    for b in range(n_eq):
+                        A[a, b] = Del[ja, idx[b]]
+                    d = dof[ja]
+                    ee = e[ja] if kind[ja] == KIND_CONTACT else 0.0
+                    for c in range(n_s):
+                        R[a, c] = -sign[ja] * (dUf[d, c] + ee * Su[d, c])
+                X = _solve_small(A, R)
+                for a in range(n_eq):
+                    for c in range(n_s):
+                        dP[idx[a], c] = X[a, c]
+            for i in range(n):
+                for c in range(n_s):
+                    s = dUf[i, c]
+                    for j in range(m):
+                        s += WG[i, j] * dP[j, c]
+                    dUn[i, c] = s
+                    dQn[i, c] = Sq[i, c] + c1 * Su[i, c] + c2 * s
+        # position projection of penetrating contacts (metric M)
+        if project:
+            for j in range(m):
+                if kind[j] == KIND_CONTACT:
+                    d = dof[j]
+                    g = gap[j] + sign[j] * qn[d]
+                    if g < 0.0:
+                        w = sign[j] * MinvG[d, j]
+                        delta = -g / w
+                        for i in range(n):
+                            qn[i] += MinvG[i, j] * delta
+                        status[j] += STATUS_PROJECTED
+                        if want_sens:
+                            for c in range(n_s):
+                                dd = -sign[j] * dQn[d, c] / w
+                                for i in range(n):
+                                    dQn[i, c] += MinvG[i, j] * dd
+        for i in range(n):
+            q[i] = qn[i]
+            u[i] = un[i]
+            qt[k + 1, i] = qn[i]
+            ut[k + 1, i] = un[i]
+        for j in range(m):
+            Pt[k, j] = P[j]
+            st[k, j] = status[j]
+        if want_sens:
+            for i in range(n):
+                for c in range(n_s):
+                    Sq[i, c] = dQn[i, c]
+                    Su[i, c] = dUn[i, c]
+            if store_q_sens:
+                Sqt[k + 1] = Sq
+    return qt, ut, Pt, st, Sq, Su, Sqt, used
+
+
+def moreau_jean_numpy(q0, u0, Aq, Au, WG, Del, MinvG, B, theta, h,
+                      kind, dof, sign, bound, gap, e, project=True):
+    """Plain NumPy version of :func:`moreau_jean` (no sensitivities), for testing.
+
+    One element per step is solved in closed form; several by PGS as in the kernel.
+    Returns ``q, u, P`` with the shapes of the kernel's outputs.
+    """
+    N, n, m = B.shape[0], q0.size, kind.size
+    q, u = q0.astype(float).copy(), u0.astype(float).copy()
+    qt, ut, Pt = [q.copy()], [u.copy()], np.zeros((N, m))
+    for k in range(N):
+        uf = u + B[k] - Aq @ q - Au @ u
+        P = np.zeros(m)
+        qfree = q + h * (1 - theta) * u + h * theta * uf
+        active = np.array([bound[j] > 0 if kind[j] == KIND_FRICTION
+                           else gap[j] + sign[j] * qfree[dof[j]] <= 0 for j in range(m)], dtype=bool)
+        r = np.array([sign[j] * uf[dof[j]] + (e[j] * sign[j] * u[dof[j]] if kind[j] == KIND_CONTACT else 0.0)
+                      for j in range(m)])
+        for _ in range(1 if m == 1 else 1000):
+            Pold = P.copy()
+            for j in np.flatnonzero(active):
+                p = P[j] - (r[j] + Del[j] @ P) / Del[j, j]
+                P[j] = np.clip(p, -bound[j], bound[j]) if kind[j] == KIND_FRICTION else max(p, 0.0)
+            if np.max(np.abs(P - Pold), initial=0.0) <= 1e-14 * (1 + np.max(np.abs(P), initial=0.0)):
+                break
+        u_new = uf + WG @ P
+        q_new = q + h * ((1 - theta) * u + theta * u_new)
+        if project:
+            for j in range(m):
+                if kind[j] == KIND_CONTACT:
+                    g = gap[j] + sign[j] * q_new[dof[j]]
+                    if g < 0:
+                        q_new += MinvG[:, j] * (-g / (sign[j] * MinvG[dof[j], j]))
+        q, u = q_new, u_new
+        qt.append(q.copy())
+        ut.append(u.copy())
+        Pt[k] = P
+    return np.array(qt), np.array(ut), Pt

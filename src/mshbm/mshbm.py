@@ -1,0 +1,331 @@
+"""Mixed shooting-harmonic balance (MS-HBM), Sections 3.2 and 3.3 of the paper.
+
+Section 3.2 (``method="mshbm"``): subsystems ``N`` (nonlinear, time domain) and
+``L`` (linear, harmonic).  Unknowns ``x = (q_hat_N, q_N(0), u_N(0))`` (eq. 26).
+The linear subsystem follows from eq. (22),
+``q_hat_L = H_LL^-1 (f_hat_ex,L - H_LN q_hat_N)``, condensed per harmonic.
+``q_N(t)`` is integrated by Moreau-Jean under eq. (25) with the sign of the
+forcing as in eq. (6)::
+
+    M_NN q_N'' + C_NN q_N' + K_NN q_N = f_ex,N(t) - V(t)^T H_NL q_hat_L + f_nl,N
+
+(the paper's eq. 25 prints ``- f_ex,N``; eq. 6 requires ``+``).  Residual (27)::
+
+    R = (q_hat_N - FFT(q_N(t)), q_N(T) - q_N(0), u_N(T) - u_N(0))
+
+Section 3.3 (``method="mshbm-intermediate"``): subsystems 1 (nonlinear, time
+domain), 2 (intermediate, harmonic unknowns) and 3 (condensed, eq. 35); needs
+``M_13 = C_13 = K_13 = 0``.  Unknowns ``x = (q_hat_2, q_1(0), u_1(0))`` (eq. 38),
+residual (39)::
+
+    R = (H_21 FFT(q_1) + (H_22 - H_23 H_33^-1 H_32) q_hat_2 - f_hat_2 + H_23 H_33^-1 f_hat_3,
+         q_1(T) - q_1(0), u_1(T) - u_1(0))
+
+with ``q_1(t)`` integrated under eq. (37).
+
+In both variants the time-domain forcing of the integrated subsystem is affine
+in the harmonic unknowns, so the exact Jacobian follows from the sensitivities
+of the Moreau-Jean steps (``jacobian="exact"``); forward differences are
+available (``jacobian="fd"``, the paper's choice).
+"""
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+from . import fourier
+from ._common import guess_parts
+from .errors import InputError
+from .fourier import Condensation
+from .stepper import MoreauJean
+
+__all__ = ["MixedProblem", "IntermediateProblem", "auto_intermediate_partition"]
+
+
+def _sub(A, r, c):
+    if sp.issparse(A):
+        return A.tocsr()[r][:, c]
+    return np.asarray(A)[np.ix_(r, c)]
+
+
+def _coupling(system, r, c, n_h, omega):
+    """Complex per-harmonic blocks ``H_rc,k``, shape (n_h+1, len(r), len(c))."""
+    out = np.zeros((n_h + 1, len(r), len(c)), dtype=complex)
+    Ms, Cs, Ks = (_sub(getattr(system, a), r, c) for a in "MCK")
+    dense = lambda A: A.toarray() if sp.issparse(A) else A
+    Ms, Cs, Ks = dense(Ms), dense(Cs), dense(Ks)
+    for k in range(n_h + 1):
+        out[k] = Ks - (k * omega) ** 2 * Ms + 1j * k * omega * Cs
+    return out
+
+
+def _local_elements(system, dofs):
+    pos = {int(d): i for i, d in enumerate(dofs)}
+    out = []
+    for el in system.elements:
+        if int(el.dof) not in pos:
+            raise InputError("partition", f"{el.kind} element on DOF {el.dof} is not in the nonlinear subsystem")
+        kw = {k: getattr(el, k) for k in el.__dataclass_fields__ if k not in ("kind", "dof")}
+        out.append(type(el)(dof=pos[int(el.dof)], **kw))
+    return out
+
+
+class _TimeDomainPart:
+    """Moreau-Jean integration of a subsystem driven by a harmonic forcing affine in parameters.
+
+    The force on the subsystem is ``f(t) = f0(t) + V(t)^T c`` with the real coefficient
+    vector ``c = c0 + Tr p`` (``c`` flattened harmonic-major, shape ``((2n_h+1) n_1,)``).
+    """
+
+    def __init__(self, system, dofs, omega, n_h, steps, theta, project, c0, Tr):
+        self.dofs = np.asarray(dofs, dtype=np.int64)
+        self.n1 = self.dofs.size
+        self.N = int(steps)
+        self.T = 2 * np.pi / omega
+        self.h = self.T / self.N
+        self.t = np.linspace(0.0, self.T, self.N + 1)
+        self.n_h = n_h
+        M, C, K = (_sub(getattr(system, a), self.dofs, self.dofs) for a in "MCK")
+        self.stepper = MoreauJean(M, C, K, _local_elements(system, self.dofs), self.h, theta, project)
+        V = fourier.basis(self.t, omega, n_h)
+        nc = 2 * n_h + 1
+        f0 = system.forcing(self.t, omega)[:, self.dofs] + V @ c0.reshape(nc, self.n1)
+        self.B0 = self.stepper.increments(f0)
+        n_p = Tr.shape[1]
+        dF = np.einsum("kj,jlp->klp", V, Tr.reshape(nc, self.n1, n_p))
+        self.dB = self.stepper.increments(dF)
+
+    def run(self, q0, u0, p, sens=True):
+        B = self.B0 + np.einsum("kip,p->ki", self.dB, p)
+        return self.stepper.run(q0, u0, B, self.dB, sensitivities=sens, store_q_sensitivities=sens)
+
+
+class MixedProblem:
+    """MS-HBM with a linear and a nonlinear subsystem (Section 3.2).
+
+    Parameters
+    ----------
+    system : System
+    omega : float
+    harmonics : int
+        ``n_h``.
+    steps : int
+        Moreau-Jean steps per period (``> 2 n_h``).
+    theta : float
+    jacobian : {"exact", "fd"}
+    partition : array of int, optional
+        DOFs of ``N`` (default: the DOFs carrying elements).
+    project : bool
+    """
+
+    method = "mshbm"
+
+    def __init__(self, system, omega, harmonics, steps, theta=0.5, jacobian="exact", partition=None,
+                 project=True):
+        self.system, self.omega, self.n_h = system, float(omega), int(harmonics)
+        self.jacobian = jacobian
+        n = system.n
+        self.Nd = system.nonlinear_dofs if partition is None else np.asarray(partition, dtype=np.int64)
+        if self.Nd.size == 0:
+            raise InputError("partition", "the nonlinear subsystem is empty (a linear system: use 'hbm')")
+        self.Ld = np.setdiff1d(np.arange(n), self.Nd)
+        self.cond = Condensation(system, omega, self.n_h, self.Nd, self.Ld)
+        # coupling force coefficients on N:  c = -H_NL q_hat_L = -g + T q_hat_N
+        c0 = fourier.from_complex(-self.cond.g).reshape(-1)
+        Tr = self.cond.real_matrix(self.cond.T)
+        self.td = _TimeDomainPart(system, self.Nd, omega, self.n_h, steps, theta, project, c0, Tr)
+        self.nN = self.Nd.size
+        self.nc = 2 * self.n_h + 1
+
+    @property
+    def n_unknowns(self):
+        return self.nc * self.nN + 2 * self.nN
+
+    def initial_guess(self, guess=None):
+        q_hat, q0, u0 = guess_parts(guess, self.system, self.omega, self.n_h)
+        return np.concatenate([q_hat[:, self.Nd].reshape(-1), q0[self.Nd], u0[self.Nd]])
+
+    def _split(self, x):
+        a = self.nc * self.nN
+        return x[:a], x[a:a + self.nN], x[a + self.nN:]
+
+    def _eval(self, x, sens):
+        p, q0, u0 = self._split(x)
+        tr = self.td.run(q0, u0, p, sens)
+        qh = fourier.fft(tr.q[:-1], self.n_h).reshape(-1)
+        R = np.concatenate([p - qh, tr.q[-1] - q0, tr.u[-1] - u0])
+        return R, tr
+
+    def residual(self, x, jac=True):
+        """``(R, J)``, shapes ``(n_x,)`` and ``(n_x, n_x)``."""
+        if not jac:
+            return self._eval(x, False)[0], None
+        if self.jacobian == "fd":
+            R, _ = self._eval(x, False)
+            J = np.empty((x.size, x.size))
+            for i in range(x.size):
+                d = 1e-7 * max(1.0, abs(x[i]))
+                xp = x.copy()
+                xp[i] += d
+                J[:, i] = (self._eval(xp, False)[0] - R) / d
+            return R, J
+        R, tr = self._eval(x, True)
+        nN, a = self.nN, self.nc * self.nN
+        # kernel columns: [q0 (nN), u0 (nN), p (a)] -> reorder to x = [p, q0, u0]
+        perm = np.concatenate([np.arange(2 * nN, 2 * nN + a), np.arange(2 * nN)])
+        dqh = fourier.fft(tr.Sq_traj[:-1], self.n_h).reshape(a, -1)[:, perm]
+        J = np.zeros((x.size, x.size))
+        J[:a] = -dqh
+        J[:a, :a] += np.eye(a)
+        J[a:a + nN] = tr.Sq[:, perm]
+        J[a + nN:] = tr.Su[:, perm]
+        J[a:a + nN, a:a + nN] -= np.eye(nN)
+        J[a + nN:, a + nN:] -= np.eye(nN)
+        return R, J
+
+    def solution_parts(self, x):
+        p, q0, u0 = self._split(x)
+        tr = self.td.run(q0, u0, p, sens=False)
+        XN = p.reshape(self.nc, self.nN)
+        q_hat = np.zeros((self.nc, self.system.n))
+        q_hat[:, self.Nd] = fourier.fft(tr.q[:-1], self.n_h)
+        if self.Ld.size:
+            q_hat[:, self.Ld] = fourier.from_complex(self.cond.recover(fourier.to_complex(XN)))
+        lam = np.vstack([tr.P, tr.P[:1]]) / self.td.h
+        info = {"partition": {"N": self.Nd.tolist(), "L_size": int(self.Ld.size)},
+                "min_rcond_H_LL": float(self.cond.rcond.min()), "time_step": self.td.h,
+                "connectivity_defect": float(np.max(np.abs(p - q_hat[:, self.Nd].reshape(-1)), initial=0.0)),
+                "stick_or_closed_fraction": [float(np.mean((tr.status[:, j] & 3) >= 2))
+                                             for j in range(tr.status.shape[1])]}
+        return dict(t=self.td.t, q_hat=q_hat, time_dofs=self.Nd, q_time=tr.q, u_time=tr.u,
+                    lam=lam, impulses=tr.P, harmonics=self.n_h, info=info)
+
+
+def auto_intermediate_partition(system):
+    """Default subsystems of Section 3.3: 1 = element DOFs, 2 = DOFs coupled to 1, 3 = the rest."""
+    I1 = system.nonlinear_dofs
+    coupled = set()
+    for A in (system.M, system.C, system.K):
+        rows = A.tocsr()[I1] if sp.issparse(A) else sp.csr_matrix(np.asarray(A)[I1])
+        coupled.update(int(c) for c in sp.find(rows)[1])
+    I2 = np.array(sorted(coupled - set(int(i) for i in I1)), dtype=np.int64)
+    return I1, I2
+
+
+class IntermediateProblem:
+    """MS-HBM with an intermediate subsystem (Section 3.3).
+
+    Parameters
+    ----------
+    system : System
+    omega : float
+    harmonics, steps, theta, jacobian, project :
+        As for :class:`MixedProblem`.
+    partition : (array of int, array of int), optional
+        DOFs of subsystems 1 and 2 (subsystem 3 is the rest); default
+        :func:`auto_intermediate_partition`.
+    """
+
+    method = "mshbm-intermediate"
+
+    def __init__(self, system, omega, harmonics, steps, theta=0.5, jacobian="exact", partition=None,
+                 project=True):
+        self.system, self.omega, self.n_h = system, float(omega), int(harmonics)
+        self.jacobian = jacobian
+        n = system.n
+        if partition is None:
+            I1, I2 = auto_intermediate_partition(system)
+        else:
+            try:
+                I1, I2 = (np.asarray(p, dtype=np.int64).reshape(-1) for p in partition)
+            except (TypeError, ValueError):
+                raise InputError("partition", "must be a pair (dofs_1, dofs_2)") from None
+        if I1.size == 0:
+            raise InputError("partition", "subsystem 1 is empty (a linear system: use 'hbm')")
+        if I2.size == 0:
+            raise InputError("partition", "subsystem 2 is empty: nothing couples subsystem 1 to the rest; "
+                             "use 'mshbm'")
+        if np.intersect1d(I1, I2).size or I1.min() < 0 or I2.min() < 0 or max(I1.max(), I2.max()) >= n:
+            raise InputError("partition", "subsystems 1 and 2 must be disjoint DOF sets within range")
+        I3 = np.setdiff1d(np.arange(n), np.concatenate([I1, I2]))
+        for a in "MCK":
+            blk = _sub(getattr(system, a), I1, I3)
+            nz = blk.nnz if sp.issparse(blk) else np.count_nonzero(blk)
+            if I3.size and nz:
+                raise InputError("partition", f"{a}_13 must vanish for Section 3.3 (subsystem 1 couples to 3)")
+        self.I1, self.I2, self.I3 = I1, I2, I3
+        self.cond = Condensation(system, omega, self.n_h, I2, I3)
+        nc = 2 * self.n_h + 1
+        H12 = _coupling(system, I1, I2, self.n_h, omega)
+        H21 = _coupling(system, I2, I1, self.n_h, omega)
+        H22 = _coupling(system, I2, I2, self.n_h, omega)
+        # force on subsystem 1: f_ex,1 - V^T H_12 q_hat_2   -> c = -H12r p
+        Tr = -self.cond.real_matrix(H12)
+        self.td = _TimeDomainPart(system, I1, omega, self.n_h, steps, theta, project, np.zeros(nc * I1.size), Tr)
+        self.H21r = self.cond.real_matrix(H21)
+        self.Sr = self.cond.real_matrix(H22 - self.cond.T)
+        F = fourier.to_complex(system.forcing_hat(self.n_h))
+        self.rhs = fourier.from_complex(F[:, I2] - self.cond.g).reshape(-1)
+        self.nc, self.n1, self.n2 = nc, I1.size, I2.size
+
+    @property
+    def n_unknowns(self):
+        return self.nc * self.n2 + 2 * self.n1
+
+    def initial_guess(self, guess=None):
+        q_hat, q0, u0 = guess_parts(guess, self.system, self.omega, self.n_h)
+        return np.concatenate([q_hat[:, self.I2].reshape(-1), q0[self.I1], u0[self.I1]])
+
+    def _split(self, x):
+        a = self.nc * self.n2
+        return x[:a], x[a:a + self.n1], x[a + self.n1:]
+
+    def _eval(self, x, sens):
+        p, q0, u0 = self._split(x)
+        tr = self.td.run(q0, u0, p, sens)
+        q1h = fourier.fft(tr.q[:-1], self.n_h).reshape(-1)
+        R = np.concatenate([self.H21r @ q1h + self.Sr @ p - self.rhs, tr.q[-1] - q0, tr.u[-1] - u0])
+        return R, tr
+
+    def residual(self, x, jac=True):
+        """``(R, J)``, shapes ``(n_x,)`` and ``(n_x, n_x)``."""
+        if not jac:
+            return self._eval(x, False)[0], None
+        if self.jacobian == "fd":
+            R, _ = self._eval(x, False)
+            J = np.empty((x.size, x.size))
+            for i in range(x.size):
+                d = 1e-7 * max(1.0, abs(x[i]))
+                xp = x.copy()
+                xp[i] += d
+                J[:, i] = (self._eval(xp, False)[0] - R) / d
+            return R, J
+        R, tr = self._eval(x, True)
+        n1, a = self.n1, self.nc * self.n2
+        perm = np.concatenate([np.arange(2 * n1, 2 * n1 + a), np.arange(2 * n1)])
+        dq1h = fourier.fft(tr.Sq_traj[:-1], self.n_h).reshape(self.nc * n1, -1)[:, perm]
+        J = np.zeros((x.size, x.size))
+        J[:a] = self.H21r @ dq1h
+        J[:a, :a] += self.Sr
+        J[a:a + n1] = tr.Sq[:, perm]
+        J[a + n1:] = tr.Su[:, perm]
+        J[a:a + n1, a:a + n1] -= np.eye(n1)
+        J[a + n1:, a + n1:] -= np.eye(n1)
+        return R, J
+
+    def solution_parts(self, x):
+        p, q0, u0 = self._split(x)
+        tr = self.td.run(q0, u0, p, sens=False)
+        X2 = p.reshape(self.nc, self.n2)
+        q_hat = np.zeros((self.nc, self.system.n))
+        q_hat[:, self.I1] = fourier.fft(tr.q[:-1], self.n_h)
+        q_hat[:, self.I2] = X2
+        if self.I3.size:
+            q_hat[:, self.I3] = fourier.from_complex(self.cond.recover(fourier.to_complex(X2)))
+        lam = np.vstack([tr.P, tr.P[:1]]) / self.td.h
+        info = {"partition": {"1": self.I1.tolist(), "2": self.I2.tolist(), "3_size": int(self.I3.size)},
+                "min_rcond_H_33": float(self.cond.rcond.min()), "time_step": self.td.h,
+                "stick_or_closed_fraction": [float(np.mean((tr.status[:, j] & 3) >= 2))
+                                             for j in range(tr.status.shape[1])]}
+        return dict(t=self.td.t, q_hat=q_hat, time_dofs=self.I1, q_time=tr.q, u_time=tr.u,
+                    lam=lam, impulses=tr.P, harmonics=self.n_h, info=info)

@@ -1,0 +1,149 @@
+"""Periodic solution returned by :func:`mshbm.solve`.
+
+Notation: ``n`` DOFs, ``m`` nonlinear elements, ``N`` time steps per period,
+``n_h`` harmonics.  Coefficient arrays follow :mod:`mshbm.fourier`.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import numpy as np
+
+from . import fourier
+
+__all__ = ["PeriodicSolution"]
+
+
+@dataclass
+class PeriodicSolution:
+    """A periodic solution and how it was obtained.
+
+    Attributes
+    ----------
+    method : str
+    omega : float
+        Angular frequency of the forcing (rad/s); the period is ``2 pi / omega``.
+    harmonics : int
+        ``n_h`` of the harmonic part (for shooting: of ``q_hat`` only).
+    steps : int
+        ``N``, time points per period.
+    success : bool
+    message : str
+    iterations : int
+        Newton iterations.
+    nfev : int
+        Residual evaluations (including line search).
+    residual : float
+        Final ``||R||_inf``.
+    wall_time : float
+        Seconds spent in the solve (after set-up checks).
+    t : ndarray, shape (N+1,)
+        Time grid ``t_k = k T / N``, ``k = 0..N``.
+    q_hat : ndarray, shape (2 n_h + 1, n)
+        Fourier coefficients of the displacements of all DOFs.
+    time_dofs : ndarray of int
+        DOFs represented in the time domain (integrated); others come from ``q_hat``.
+    q_time, u_time : ndarray, shape (N+1, len(time_dofs))
+    lam : ndarray, shape (N+1, m)
+        Element forces ``lambda_j`` along ``w_j`` (friction: force on the DOF;
+        contact: normal force >= 0).  For time-stepping methods the impulse of
+        step ``k`` divided by ``h`` (impacts show as spikes of height ``P/h``).
+    impulses : ndarray, shape (N, m) or None
+        Impulses per step (time-stepping methods).
+    x : ndarray
+        Final unknowns of the method.
+    info : dict
+        Method-specific extras (partition, Floquet multipliers, condition numbers...).
+    """
+
+    method: str
+    omega: float
+    harmonics: int
+    steps: int
+    success: bool
+    message: str
+    iterations: int
+    nfev: int
+    residual: float
+    wall_time: float
+    t: np.ndarray
+    q_hat: np.ndarray
+    time_dofs: np.ndarray
+    q_time: np.ndarray
+    u_time: np.ndarray
+    lam: np.ndarray
+    impulses: np.ndarray | None
+    x: np.ndarray
+    info: dict = field(default_factory=dict)
+
+    @property
+    def period(self):
+        return 2.0 * np.pi / self.omega
+
+    @property
+    def n(self):
+        return self.q_hat.shape[1]
+
+    def _assemble(self, which, dofs=None):
+        n = self.n
+        dofs = np.arange(n) if dofs is None else np.asarray(dofs, dtype=np.int64)
+        N = self.t.size - 1
+        coef = self.q_hat[:, dofs]
+        if which == "u":
+            coef = fourier.derivative(coef, self.omega)
+        out = fourier.ifft(coef, N) if dofs.size else np.zeros((N, 0))
+        out = np.vstack([out, out[:1]])
+        td = {int(d): i for i, d in enumerate(self.time_dofs)}
+        src = self.q_time if which == "q" else self.u_time
+        for col, d in enumerate(dofs):
+            if int(d) in td:
+                out[:, col] = src[:, td[int(d)]]
+        return out
+
+    def displacement(self, dofs=None):
+        """``q(t_k)`` for the given DOFs (all by default), shape (N+1, len(dofs))."""
+        return self._assemble("q", dofs)
+
+    def velocity(self, dofs=None):
+        """``u(t_k)``; time-stepped DOFs show true velocity jumps."""
+        return self._assemble("u", dofs)
+
+    @cached_property
+    def q(self):
+        """All displacements, shape (N+1, n)."""
+        return self.displacement()
+
+    @cached_property
+    def u(self):
+        """All velocities, shape (N+1, n)."""
+        return self.velocity()
+
+    @cached_property
+    def amplitude(self):
+        """``(max - min) / 2`` of every DOF over one period, shape (n,) (computed in chunks)."""
+        n = self.n
+        amp = np.empty(n)
+        chunk = max(1, int(2e7 // max(self.t.size, 1)))
+        for s in range(0, n, chunk):
+            d = np.arange(s, min(n, s + chunk))
+            x = self.displacement(d)
+            amp[d] = 0.5 * (x.max(axis=0) - x.min(axis=0))
+        return amp
+
+    def summary(self):
+        """Dict of scalar facts for JSON output."""
+        return {
+            "method": self.method,
+            "harmonics": int(self.harmonics),
+            "steps": int(self.steps),
+            "omega": float(self.omega),
+            "period": float(self.period),
+            "success": bool(self.success),
+            "message": self.message,
+            "iterations": int(self.iterations),
+            "nfev": int(self.nfev),
+            "residual": float(self.residual),
+            "wall_time_s": float(self.wall_time),
+            "amplitude": [float(a) for a in self.amplitude],
+        }

@@ -1,0 +1,103 @@
+"""Full shooting with Moreau-Jean time-stepping of the set-valued laws.
+
+Unknowns ``x = (q(0), u(0))`` (shape ``(2n,)``); residual (periodicity)::
+
+    R(x) = (q(T) - q(0), u(T) - u(0))
+
+with ``q(T), u(T)`` from ``N`` Moreau-Jean steps of ``h = T/N`` of the whole
+system.  The Jacobian is ``Phi - I`` with the monodromy matrix ``Phi``: the exact
+product of the step Jacobians for the active sets met along the trajectory
+(formed from matrix powers of runs of equal active sets,
+:meth:`MoreauJean.monodromy`), or forward finite differences (``jacobian="fd"``).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from . import fourier
+from ._common import guess_parts
+from .stepper import MoreauJean
+
+__all__ = ["ShootingProblem"]
+
+
+class ShootingProblem:
+    """Periodicity problem of the full system.
+
+    Parameters
+    ----------
+    system : System
+    omega : float
+        Forcing angular frequency (rad/s).
+    steps : int
+        Time steps per period ``N``.
+    theta : float
+        Moreau-Jean parameter.
+    jacobian : {"exact", "fd"}
+    harmonics : int
+        ``n_h`` of the reported Fourier coefficients ``q_hat``.
+    project : bool
+        Position projection of penetrating contacts.
+    """
+
+    method = "shooting"
+
+    def __init__(self, system, omega, steps, theta=0.5, jacobian="exact", harmonics=10, project=True):
+        self.system, self.omega, self.N = system, float(omega), int(steps)
+        self.T = 2 * np.pi / self.omega
+        self.h = self.T / self.N
+        self.jacobian, self.n_h = jacobian, int(harmonics)
+        self.stepper = MoreauJean(system.M, system.C, system.K, system.elements, self.h, theta, project)
+        self.t = np.linspace(0.0, self.T, self.N + 1)
+        self.B = self.stepper.increments(system.forcing(self.t, self.omega))
+        self.n = system.n
+
+    @property
+    def n_unknowns(self):
+        return 2 * self.n
+
+    def initial_guess(self, guess=None):
+        _, q0, u0 = guess_parts(guess, self.system, self.omega, self.n_h)
+        return np.concatenate([q0, u0])
+
+    def simulate(self, x, sensitivities=False):
+        """Trajectory over one period from ``x = (q0, u0)``."""
+        n = self.n
+        return self.stepper.run(x[:n], x[n:], self.B, sensitivities=sensitivities)
+
+    def residual(self, x, jac=True):
+        """``(R, J)`` with ``R`` shape (2n,) and ``J`` shape (2n, 2n) (``None`` if not ``jac``)."""
+        n = self.n
+        tr = self.simulate(x)
+        R = np.concatenate([tr.q[-1] - x[:n], tr.u[-1] - x[n:]])
+        if not jac:
+            return R, None
+        if self.jacobian == "exact":
+            Phi = self.stepper.monodromy(tr.status)
+        else:
+            Phi = np.empty((2 * n, 2 * n))
+            xe = np.concatenate([tr.q[-1], tr.u[-1]])
+            for i in range(2 * n):
+                d = 1e-7 * max(1.0, abs(x[i]))
+                xp = x.copy()
+                xp[i] += d
+                tp = self.simulate(xp)
+                Phi[:, i] = (np.concatenate([tp.q[-1], tp.u[-1]]) - xe) / d
+        return R, Phi - np.eye(2 * n)
+
+    def monodromy(self, x):
+        """Monodromy matrix ``d(q(T), u(T))/d(q0, u0)``, shape (2n, 2n)."""
+        return self.stepper.monodromy(self.simulate(x).status)
+
+    def solution_parts(self, x):
+        """Time-domain data for :class:`PeriodicSolution`."""
+        tr = self.simulate(x)
+        n_h = min(self.n_h, (self.N - 1) // 2)
+        q_hat = fourier.fft(tr.q[:-1], n_h)
+        lam = np.vstack([tr.P, tr.P[:1]]) / self.h
+        mult = np.linalg.eigvals(self.monodromy(x))
+        info = {"floquet_multipliers": mult, "max_floquet_modulus": float(np.max(np.abs(mult))),
+                "time_step": self.h, "stick_or_closed_fraction":
+                    [float(np.mean((tr.status[:, j] & 3) >= 2)) for j in range(tr.status.shape[1])]}
+        return dict(t=self.t, q_hat=q_hat, time_dofs=np.arange(self.n), q_time=tr.q, u_time=tr.u,
+                    lam=lam, impulses=tr.P, harmonics=n_h, info=info)

@@ -1,0 +1,227 @@
+"""Moreau-Jean time-stepping of ``M q'' + C q' + K q = f(t) + G lambda`` (thin layer over the kernel).
+
+Notation: ``q, u`` displacement and velocity (shape ``(n,)``), ``h`` the step,
+``theta`` the scheme parameter (1/2: trapezoidal, energy-conserving for the
+linear part), ``P`` contact/friction impulses per step (shape ``(m,)``).
+See :mod:`mshbm.kernels` for the step itself.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from . import kernels
+from .errors import InputError
+from .system import Contact, Friction
+
+__all__ = ["MoreauJean", "Trajectory"]
+
+#: largest subsystem for which the dense step matrices are built (memory ~ 24 n^2 bytes)
+MAX_DENSE_DOFS = 6000
+
+
+@dataclass
+class Trajectory:
+    """Output of :meth:`MoreauJean.run`.
+
+    Attributes
+    ----------
+    q, u : ndarray, shape (N+1, n)
+        States at ``t_k = t0 + k h``.
+    P : ndarray, shape (N, m)
+        Impulse of each element over step ``k`` (force ~ ``P / h``).
+    status : ndarray, shape (N, m), int8
+        0 open, 1 slip, 2 stick, 3 closed (see :mod:`mshbm.kernels`).
+    Sq, Su : ndarray, shape (n, n_s)
+        ``d(q_N, u_N)/d(q0, u0, p)`` at the end, if sensitivities were asked for.
+    Sq_traj : ndarray, shape (N+1, n, n_s)
+        ``dq_k/d(q0, u0, p)`` at every step, if asked for.
+    """
+
+    q: np.ndarray
+    u: np.ndarray
+    P: np.ndarray
+    status: np.ndarray
+    Sq: np.ndarray
+    Su: np.ndarray
+    Sq_traj: np.ndarray
+    pgs_iterations: int
+
+
+class MoreauJean:
+    """Moreau-Jean integrator for a (sub)system with local elements.
+
+    Parameters
+    ----------
+    M, C, K : array_like, shape (n, n)
+        Matrices of the integrated (sub)system (dense or sparse).
+    elements : sequence of Friction or Contact
+        Elements whose ``dof`` is an index *into this (sub)system*.
+    h : float
+        Time step (s).
+    theta : float
+        Scheme parameter in ``[1/2, 1]``.
+    project : bool
+        Project penetrating contacts back onto ``g_N = 0`` after a step.
+    tol, max_iter :
+        Tolerance and iteration limit of the projected Gauss-Seidel solver
+        (used only with several elements).
+    """
+
+    def __init__(self, M, C, K, elements, h, theta=0.5, project=True, tol=1e-14, max_iter=500):
+        n = M.shape[0]
+        if n > MAX_DENSE_DOFS:
+            raise InputError("method", f"time-stepping {n} DOFs needs dense {n}x{n} step matrices; "
+                             f"use 'mshbm' or 'hbm' for systems with more than {MAX_DENSE_DOFS} DOFs")
+        dense = lambda A: A.toarray() if sp.issparse(A) else np.asarray(A, dtype=float)
+        M, C, K = dense(M), dense(C), dense(K)
+        self.n, self.h, self.theta = n, float(h), float(theta)
+        S = M + h * theta * C + (h * theta) ** 2 * K
+        self.W = np.linalg.inv(S)
+        self.Aq = np.ascontiguousarray(h * self.W @ K)
+        self.Au = np.ascontiguousarray(h * self.W @ C + h * h * theta * self.W @ K)
+        m = len(elements)
+        G = np.zeros((n, m))
+        self.kind = np.zeros(m, dtype=np.int64)
+        self.dof = np.zeros(m, dtype=np.int64)
+        self.sign = np.zeros(m)
+        self.bound = np.zeros(m)
+        self.gap = np.zeros(m)
+        self.e = np.zeros(m)
+        for j, el in enumerate(elements):
+            G[el.dof, j] = el.sign
+            self.dof[j], self.sign[j] = el.dof, el.sign
+            if isinstance(el, Friction):
+                self.kind[j] = kernels.KIND_FRICTION
+                self.bound[j] = h * el.bound
+            elif isinstance(el, Contact):
+                self.kind[j] = kernels.KIND_CONTACT
+                self.gap[j], self.e[j] = el.gap, el.restitution
+            else:  # pragma: no cover - System validates this
+                raise TypeError(el)
+        self.G = G
+        self.WG = np.ascontiguousarray(self.W @ G)
+        self.Del = np.ascontiguousarray(G.T @ self.WG)
+        self.MinvG = np.ascontiguousarray(np.linalg.solve(M, G))
+        self.project = bool(project)
+        self.tol, self.max_iter = float(tol), int(max_iter)
+
+    @property
+    def m(self):
+        return self.kind.size
+
+    def increments(self, F):
+        """Forcing increments ``b_k = h W f_theta,k`` from forces at the grid points.
+
+        Parameters
+        ----------
+        F : ndarray, shape (N+1, n) or (N+1, n, n_p)
+            Force (or its parameter derivative) at ``t_0 .. t_N``.
+
+        Returns
+        -------
+        ndarray, shape (N, n) or (N, n, n_p)
+        """
+        F = np.asarray(F, dtype=float)
+        Ft = (1.0 - self.theta) * F[:-1] + self.theta * F[1:]
+        if F.ndim == 2:
+            return np.ascontiguousarray(self.h * Ft @ self.W.T)
+        return np.ascontiguousarray(self.h * np.einsum("il,klp->kip", self.W, Ft))
+
+    def run(self, q0, u0, B, dB=None, sensitivities=False, store_q_sensitivities=False):
+        """Integrate ``len(B)`` steps from ``(q0, u0)``.
+
+        Parameters
+        ----------
+        q0, u0 : ndarray, shape (n,)
+        B : ndarray, shape (N, n)
+            Forcing increments from :meth:`increments`.
+        dB : ndarray, shape (N, n, n_p), optional
+            Derivatives of ``B`` with respect to parameters ``p``.
+        sensitivities : bool
+            Propagate ``d(q, u)/d(q0, u0, p)``.
+        store_q_sensitivities : bool
+            Keep ``dq_k/d(q0, u0, p)`` for every step.
+
+        Returns
+        -------
+        Trajectory
+        """
+        N = B.shape[0]
+        if dB is None:
+            dB = np.zeros((N, self.n, 0))
+        out = kernels.moreau_jean(
+            np.ascontiguousarray(q0, dtype=float), np.ascontiguousarray(u0, dtype=float),
+            self.Aq, self.Au, self.WG, self.Del, self.MinvG,
+            np.ascontiguousarray(B, dtype=float), np.ascontiguousarray(dB, dtype=float),
+            self.theta, self.h, self.kind, self.dof, self.sign, self.bound, self.gap, self.e,
+            self.project, bool(sensitivities or store_q_sensitivities), bool(store_q_sensitivities),
+            self.tol, self.max_iter)
+        return Trajectory(*out)
+
+    def step_jacobian(self, pattern):
+        """Jacobian ``d(q+, u+)/d(q, u)`` of one step for an active-set pattern.
+
+        Parameters
+        ----------
+        pattern : sequence of int, length m
+            Status codes of the elements in that step (see :mod:`mshbm.kernels`).
+
+        Returns
+        -------
+        ndarray, shape (2n, 2n)
+        """
+        n, h, th = self.n, self.h, self.theta
+        I = np.eye(n)
+        dUf = np.hstack([-self.Aq, I - self.Au])
+        dU = np.hstack([np.zeros((n, n)), I])
+        pattern = np.asarray(pattern, dtype=np.int64)
+        base = pattern & 3
+        E = np.flatnonzero(base >= kernels.STATUS_STICK)
+        dUn = dUf.copy()
+        if E.size:
+            rows = np.empty((E.size, 2 * n))
+            for a, j in enumerate(E):
+                ee = self.e[j] if self.kind[j] == kernels.KIND_CONTACT else 0.0
+                rows[a] = -self.sign[j] * (dUf[self.dof[j]] + ee * dU[self.dof[j]])
+            dP = np.linalg.solve(self.Del[np.ix_(E, E)], rows)
+            dUn += self.WG[:, E] @ dP
+        dQn = np.hstack([I, h * (1 - th) * I]) + h * th * dUn
+        for j in np.flatnonzero(pattern & kernels.STATUS_PROJECTED):
+            d = self.dof[j]
+            w = self.sign[j] * self.MinvG[d, j]
+            dQn = dQn - np.outer(self.MinvG[:, j], self.sign[j] * dQn[d] / w)
+        return np.vstack([dQn, dUn])
+
+    def monodromy(self, status):
+        """Product of the step Jacobians along a trajectory, from its status array.
+
+        Consecutive steps with the same active set share one Jacobian, so the
+        product is formed from matrix powers of runs: cost
+        ``O(runs * log(run length) * n^3)`` instead of ``O(N n^3)``.
+
+        Parameters
+        ----------
+        status : ndarray, shape (N, m)
+
+        Returns
+        -------
+        ndarray, shape (2n, 2n)
+        """
+        N = status.shape[0]
+        Phi = np.eye(2 * self.n)
+        cache = {}
+        if self.m == 0:
+            return np.linalg.matrix_power(self.step_jacobian(()), N)
+        codes = status.astype(np.int64) @ (8 ** np.arange(self.m))
+        change = np.flatnonzero(np.diff(codes)) + 1
+        starts = np.concatenate([[0], change])
+        ends = np.concatenate([change, [N]])
+        for s, e in zip(starts, ends):
+            key = int(codes[s])
+            if key not in cache:
+                cache[key] = self.step_jacobian(status[s])
+            Phi = np.linalg.matrix_power(cache[key], int(e - s)) @ Phi
+        return Phi

@@ -1,0 +1,380 @@
+"""Mechanical systems with local nonsmooth elements.
+
+Notation (Schreyer & Leine 2016, eq. 6)::
+
+    M q'' + C q' + K q = f_ex(t) + f_nl(q, q')
+
+``q`` (displacements, shape ``(n,)``) and ``u = q'`` (velocities).  ``M, C, K``
+are ``(n, n)`` arrays, dense (``numpy.ndarray``) or ``scipy.sparse``.  The
+periodic forcing ``f_ex(t)`` with angular frequency ``omega`` is given by its
+Fourier coefficients in the paper's real convention (eqs. 1-3)::
+
+    f_ex(t) = f0 + sum_k fc_k cos(k omega t) + fs_k sin(k omega t)
+
+stored as ``f_hat`` of shape ``(2 n_f + 1, n)``, rows ``[f0, fc_1, fs_1, ...]``.
+
+Local nonlinear elements act on single DOFs:
+
+* :class:`Friction` -- Coulomb dry friction, slip velocity ``gamma_T = u_dof``,
+  set-valued law ``-lambda_T in mu F_N Sign(gamma_T)`` (eq. 41), regularised
+  for HBM as ``-lambda_T = mu F_N 2/pi arctan(kappa gamma_T)`` (eq. 42).
+* :class:`Contact` -- unilateral contact with gap ``g_N = g0 - q_dof >= 0``,
+  relative velocity ``gamma_N = -u_dof`` and Newton's impact law with
+  restitution ``e_N`` (eqs. 43-44); penalty law for HBM (eq. 45)
+  ``lambda_N = -(k_c g_N + d_c gamma_N)`` while ``g_N <= 0``.
+
+Every element has a direction ``w`` (``+e_dof`` for friction, ``-e_dof`` for
+contact); its force on the DOFs is ``w * lambda``.
+
+The DOFs carrying elements form the nonlinear subsystem ``N``; the others the
+linear subsystem ``L`` (eq. 7).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+
+from .errors import InputError
+
+__all__ = ["Friction", "Contact", "System", "chain"]
+
+
+def _finite_number(key, value, *, positive=False, nonnegative=False):
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise InputError(key, f"must be a number, got {type(value).__name__} {value!r}")
+    value = float(value)
+    if not math.isfinite(value):
+        raise InputError(key, f"must be finite, got {value}")
+    if positive and value <= 0:
+        raise InputError(key, f"must be > 0, got {value:g}")
+    if nonnegative and value < 0:
+        raise InputError(key, f"must be >= 0, got {value:g}")
+    return value
+
+
+def _dof(key, value):
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        if isinstance(value, float) and value.is_integer():
+            value = int(value)
+        else:
+            raise InputError(key, f"must be an integer DOF index, got {value!r}")
+    return int(value)
+
+
+@dataclass(frozen=True)
+class Friction:
+    """Coulomb friction on one DOF.
+
+    Parameters
+    ----------
+    dof : int
+        0-based DOF index.
+    mu : float
+        Friction coefficient, ``>= 0``.
+    normal_force : float
+        Normal force ``F_N`` (N), ``>= 0``.  The friction bound is ``mu*F_N``.
+    smoothing : float
+        Regularisation ``kappa`` (s/m) of eq. (42), used by HBM only.
+    """
+
+    dof: int
+    mu: float
+    normal_force: float
+    smoothing: float = 800.0
+    kind: str = field(default="friction", init=False)
+
+    def __post_init__(self):
+        object.__setattr__(self, "dof", _dof("friction.dof", self.dof))
+        object.__setattr__(self, "mu", _finite_number("friction.mu", self.mu, nonnegative=True))
+        object.__setattr__(self, "normal_force",
+                           _finite_number("friction.normal_force", self.normal_force, nonnegative=True))
+        object.__setattr__(self, "smoothing",
+                           _finite_number("friction.smoothing", self.smoothing, positive=True))
+
+    @property
+    def sign(self):
+        """Direction ``w = sign * e_dof``."""
+        return 1.0
+
+    @property
+    def bound(self):
+        """Maximal friction force ``mu * F_N``."""
+        return self.mu * self.normal_force
+
+
+@dataclass(frozen=True)
+class Contact:
+    """Unilateral contact ``g_N = gap - q_dof >= 0`` with Newton impact law.
+
+    Parameters
+    ----------
+    dof : int
+        0-based DOF index.
+    gap : float
+        Initial gap ``g_N,0 >= 0`` (m).
+    restitution : float
+        Newton restitution coefficient ``e_N`` in ``[0, 1]``.
+    penalty_stiffness, penalty_damping : float
+        ``k_c > 0`` (N/m) and ``d_c >= 0`` (Ns/m) of the penalty law eq. (45),
+        used by HBM only.
+    """
+
+    dof: int
+    gap: float
+    restitution: float = 1.0
+    penalty_stiffness: float = 8000.0
+    penalty_damping: float = 0.0
+    kind: str = field(default="contact", init=False)
+
+    def __post_init__(self):
+        object.__setattr__(self, "dof", _dof("contact.dof", self.dof))
+        object.__setattr__(self, "gap", _finite_number("contact.gap", self.gap, nonnegative=True))
+        e = _finite_number("contact.restitution", self.restitution)
+        if not 0.0 <= e <= 1.0:
+            raise InputError("contact.restitution", f"must lie in [0, 1], got {e:g}")
+        object.__setattr__(self, "restitution", e)
+        object.__setattr__(self, "penalty_stiffness",
+                           _finite_number("contact.penalty_stiffness", self.penalty_stiffness, positive=True))
+        object.__setattr__(self, "penalty_damping",
+                           _finite_number("contact.penalty_damping", self.penalty_damping, nonnegative=True))
+
+    @property
+    def sign(self):
+        """Direction ``w = sign * e_dof`` (``g_N = gap + sign*q_dof``)."""
+        return -1.0
+
+
+def _as_matrix(key, A, n=None):
+    if sp.issparse(A):
+        A = sp.csr_matrix(A, dtype=float)
+        data = A.data
+    else:
+        try:
+            A = np.array(A, dtype=float)
+        except (TypeError, ValueError) as exc:
+            raise InputError(key, f"must be a numeric matrix ({exc})") from None
+        if A.ndim == 0 and n is None:
+            A = A.reshape(1, 1)
+        data = A
+    if A.ndim != 2 or A.shape[0] != A.shape[1]:
+        raise InputError(key, f"must be a square matrix, got shape {A.shape}")
+    if n is not None and A.shape[0] != n:
+        raise InputError(key, f"must be {n}x{n} like M, got {A.shape[0]}x{A.shape[1]}")
+    if not np.all(np.isfinite(data)):
+        raise InputError(key, "contains NaN or inf")
+    return A
+
+
+def _is_symmetric(A):
+    if sp.issparse(A):
+        d = abs(A - A.T)
+        scale = abs(A).max() if A.nnz else 1.0
+        return (d.max() if d.nnz else 0.0) <= 1e-12 * max(scale, 1e-300)
+    return np.allclose(A, A.T, rtol=0.0, atol=1e-12 * max(np.abs(A).max(), 1e-300))
+
+
+def _check_positive_definite(M):
+    if sp.issparse(M):
+        off = M - sp.diags(M.diagonal())
+        diag = M.diagonal()
+        if np.any(diag <= 0):
+            raise InputError("M", "must be positive definite (non-positive diagonal entry)")
+        if off.nnz == 0 or np.all(diag > np.asarray(abs(off).sum(axis=1)).ravel()):
+            return  # diagonal or strictly diagonally dominant with positive diagonal
+        if M.shape[0] <= 3000:
+            M = M.toarray()
+        else:
+            from scipy.sparse.linalg import eigsh
+            lam = eigsh(M, k=1, which="SA", return_eigenvectors=False, tol=1e-8)[0]
+            if lam <= 0:
+                raise InputError("M", f"must be positive definite (smallest eigenvalue {lam:.3g})")
+            return
+    try:
+        np.linalg.cholesky(M)
+    except np.linalg.LinAlgError:
+        raise InputError("M", "must be positive definite") from None
+
+
+class System:
+    """Linear structure ``M q'' + C q' + K q = f_ex(t)`` plus local elements.
+
+    Parameters
+    ----------
+    M, C, K : array_like or sparse matrix, shape (n, n)
+        Mass (kg), damping (Ns/m) and stiffness (N/m) matrices.  ``M`` must
+        be symmetric positive definite.
+    f_hat : array_like, shape (2*n_f + 1, n) or (n,)
+        Fourier coefficients of the forcing (N) in the order
+        ``[f0, fc_1, fs_1, ..., fc_nf, fs_nf]``; a 1-D array is a constant force.
+    elements : sequence of Friction or Contact
+        Local nonlinear elements.
+    name : str
+        Label used in outputs.
+    """
+
+    def __init__(self, M, C, K, f_hat, elements=(), name="system"):
+        self.M = _as_matrix("M", M)
+        n = self.M.shape[0]
+        if n < 1:
+            raise InputError("M", "must have at least one DOF")
+        self.C = _as_matrix("C", C, n)
+        self.K = _as_matrix("K", K, n)
+        if not _is_symmetric(self.M):
+            raise InputError("M", "must be symmetric")
+        _check_positive_definite(self.M)
+        f_hat = np.array(f_hat, dtype=float) if not isinstance(f_hat, np.ndarray) else f_hat.astype(float)
+        if f_hat.ndim == 1:
+            f_hat = f_hat.reshape(1, -1)
+        if f_hat.ndim != 2 or f_hat.shape[1] != n or f_hat.shape[0] % 2 != 1:
+            raise InputError("forcing", f"f_hat must have shape (2*n_f+1, {n}), got {f_hat.shape}")
+        if not np.all(np.isfinite(f_hat)):
+            raise InputError("forcing", "contains NaN or inf")
+        self.f_hat = f_hat
+        self.elements = tuple(elements)
+        seen = set()
+        for i, el in enumerate(self.elements):
+            if not isinstance(el, (Friction, Contact)):
+                raise InputError(f"elements[{i}]", f"must be Friction or Contact, got {type(el).__name__}")
+            if not 0 <= el.dof < n:
+                raise InputError(f"{el.kind}.dof", f"DOF {el.dof} out of range 0..{n - 1}")
+            if (el.kind, el.dof) in seen:
+                raise InputError(f"{el.kind}.dof", f"two {el.kind} elements on DOF {el.dof}")
+            seen.add((el.kind, el.dof))
+        self.name = str(name)
+
+    # ------------------------------------------------------------------ basics
+    @property
+    def n(self):
+        """Number of DOFs."""
+        return self.M.shape[0]
+
+    @property
+    def is_sparse(self):
+        return sp.issparse(self.M) or sp.issparse(self.C) or sp.issparse(self.K)
+
+    @property
+    def n_forcing_harmonics(self):
+        """Highest harmonic ``n_f`` present in the forcing."""
+        return (self.f_hat.shape[0] - 1) // 2
+
+    @property
+    def nonlinear_dofs(self):
+        """Sorted DOFs carrying nonlinear elements (the default subsystem N)."""
+        return np.array(sorted({el.dof for el in self.elements}), dtype=np.int64)
+
+    def dense(self, name):
+        A = getattr(self, name)
+        return A.toarray() if sp.issparse(A) else np.asarray(A)
+
+    def forcing(self, t, omega):
+        """External force ``f_ex(t)``, shape ``(len(t), n)``."""
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        f = np.tile(self.f_hat[0], (t.size, 1))
+        for k in range(1, self.n_forcing_harmonics + 1):
+            f += np.cos(k * omega * t)[:, None] * self.f_hat[2 * k - 1]
+            f += np.sin(k * omega * t)[:, None] * self.f_hat[2 * k]
+        return f
+
+    def forcing_hat(self, n_h):
+        """Forcing coefficients truncated or zero-padded to ``n_h`` harmonics, shape (2 n_h + 1, n)."""
+        out = np.zeros((2 * n_h + 1, self.n))
+        m = min(out.shape[0], self.f_hat.shape[0])
+        out[:m] = self.f_hat[:m]
+        return out
+
+    def with_elements(self, elements):
+        """Copy of the system with other elements (matrices are shared)."""
+        new = object.__new__(System)
+        new.__dict__.update(self.__dict__)
+        new.elements = tuple(elements)
+        return new
+
+    def __repr__(self):
+        els = ", ".join(f"{e.kind}@{e.dof}" for e in self.elements) or "linear"
+        return f"System({self.name!r}, n={self.n}, {els}, sparse={self.is_sparse})"
+
+
+def _per_spring(key, value, n, *, positive):
+    if isinstance(value, (list, tuple, np.ndarray)):
+        arr = list(value)
+        if len(arr) != n:
+            raise InputError(key, f"needs {n} entries (one per spring), got {len(arr)}")
+    else:
+        arr = [value] * n
+    return np.array([_finite_number(f"{key}[{i}]", v, positive=positive, nonnegative=True)
+                     for i, v in enumerate(arr)])
+
+
+def chain(masses, stiffness, damping=0.0, forcing=(), elements=(), sparse=None, name="chain"):
+    """Wall-spring-mass chain (Fig. 1 extended to ``n`` masses).
+
+    Spring ``i`` (and the damper parallel to it) joins mass ``i-1`` to mass
+    ``i``; spring 0 joins mass 0 to the wall; the last mass has a free end.
+
+    Parameters
+    ----------
+    masses : sequence of float, length n
+        Masses (kg), each ``> 0``.
+    stiffness, damping : float or sequence of float (length n)
+        Spring stiffnesses (N/m, ``>= 0``) and damper coefficients (Ns/m, ``>= 0``).
+    forcing : sequence of dict
+        Items ``{"dof": i, "amplitude": a, "sin": b, "harmonic": k, "constant": c}``:
+        ``a cos(k omega t) + b sin(k omega t) + c`` on DOF ``i`` (``k`` defaults to 1).
+    elements : sequence of Friction or Contact
+    sparse : bool or None
+        Store ``M, C, K`` as CSR matrices; default: when ``n > 200``.
+
+    Returns
+    -------
+    System
+    """
+    if isinstance(masses, (int, float)) or not hasattr(masses, "__len__"):
+        raise InputError("masses", "must be a list with one mass per DOF")
+    n = len(masses)
+    if n < 1:
+        raise InputError("masses", "needs at least one mass")
+    m = np.array([_finite_number(f"masses[{i}]", v, positive=True) for i, v in enumerate(masses)])
+    k = _per_spring("stiffness", stiffness, n, positive=False)
+    c = _per_spring("damping", damping, n, positive=False)
+
+    def tridiag(s):
+        main = s.copy()
+        main[:-1] += s[1:]
+        off = -s[1:]
+        return sp.diags([off, main, off], [-1, 0, 1], shape=(n, n), format="csr")
+
+    M = sp.diags(m, 0, format="csr")
+    K, C = tridiag(k), tridiag(c)
+    if sparse is None:
+        sparse = n > 200
+    if not sparse:
+        M, C, K = M.toarray(), C.toarray(), K.toarray()
+
+    n_f = 1
+    items = list(forcing)
+    for j, item in enumerate(items):
+        if not isinstance(item, dict):
+            raise InputError(f"forcing[{j}]", "must be a mapping with keys dof, amplitude")
+        h = item.get("harmonic", 1)
+        if isinstance(h, bool) or not isinstance(h, (int, np.integer)) or h < 1:
+            raise InputError(f"forcing[{j}].harmonic", f"must be an integer >= 1, got {h!r}")
+        n_f = max(n_f, int(h))
+    f_hat = np.zeros((2 * n_f + 1, n))
+    allowed = {"dof", "amplitude", "sin", "harmonic", "constant"}
+    for j, item in enumerate(items):
+        unknown = set(item) - allowed
+        if unknown:
+            raise InputError(f"forcing[{j}].{sorted(unknown)[0]}", f"unknown key (allowed: {', '.join(sorted(allowed))})")
+        if "dof" not in item:
+            raise InputError(f"forcing[{j}].dof", "missing")
+        d = _dof(f"forcing[{j}].dof", item["dof"])
+        if not 0 <= d < n:
+            raise InputError(f"forcing[{j}].dof", f"DOF {d} out of range 0..{n - 1}")
+        h = int(item.get("harmonic", 1))
+        f_hat[2 * h - 1, d] += _finite_number(f"forcing[{j}].amplitude", item.get("amplitude", 0.0))
+        f_hat[2 * h, d] += _finite_number(f"forcing[{j}].sin", item.get("sin", 0.0))
+        f_hat[0, d] += _finite_number(f"forcing[{j}].constant", item.get("constant", 0.0))
+    return System(M, C, K, f_hat, elements, name=name)

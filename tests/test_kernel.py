@@ -1,0 +1,74 @@
+"""The compiled Moreau-Jean kernel against its plain NumPy twin; exact sensitivities against differences."""
+import numpy as np
+import pytest
+
+from mshbm import Contact, Friction, chain, kernels
+from mshbm.stepper import MoreauJean
+
+
+def _setup(elements, n=4, N=600, theta=0.5, c=0.05):
+    sys = chain([1.0, 2.0, 1.0, 1.5][:n], 1.0, c, forcing=[{"dof": n - 1, "amplitude": 3.0}], elements=elements)
+    omega = 0.8
+    h = 2 * np.pi / omega / N
+    st = MoreauJean(sys.M, sys.C, sys.K, sys.elements, h, theta)
+    t = np.arange(N + 1) * h
+    B = st.increments(sys.forcing(t, omega))
+    return sys, st, B
+
+
+CASES = {
+    "friction": [Friction(0, 0.5, 1.0)],
+    "contact_e1": [Contact(0, 0.2, 1.0)],
+    "contact_e05": [Contact(1, 0.3, 0.5)],
+    "two_elements": [Friction(0, 0.3, 1.0), Contact(1, 0.25, 0.8)],
+    "three_elements": [Friction(0, 0.3, 1.0), Friction(2, 0.2, 1.0), Contact(1, 0.25, 0.0)],
+}
+
+
+@pytest.mark.parametrize("name", list(CASES))
+@pytest.mark.parametrize("theta", [0.5, 0.75])
+def test_kernel_matches_numpy(name, theta):
+    sys, st, B = _setup(CASES[name], theta=theta)
+    q0, u0 = np.array([0.1, -0.2, 0.05, 0.0]), np.array([0.5, 0.0, -0.3, 0.2])
+    tr = st.run(q0, u0, B)
+    q, u, P = kernels.moreau_jean_numpy(q0, u0, st.Aq, st.Au, st.WG, st.Del, st.MinvG, B, st.theta, st.h,
+                                        st.kind, st.dof, st.sign, st.bound, st.gap, st.e)
+    assert np.abs(P).max() > 0  # the elements did act
+    assert np.allclose(tr.q, q, rtol=0, atol=1e-11)
+    assert np.allclose(tr.u, u, rtol=0, atol=1e-11)
+    assert np.allclose(tr.P, P, rtol=0, atol=1e-11)
+
+
+@pytest.mark.parametrize("name", list(CASES))
+def test_sensitivities_match_finite_differences_and_runs(name):
+    sys, st, B = _setup(CASES[name], N=300)
+    n = sys.n
+    x = np.concatenate([[0.1, -0.2, 0.05, 0.0], [0.5, 0.0, -0.3, 0.2]])
+    tr = st.run(x[:n], x[n:], B, sensitivities=True)
+    Phi = np.vstack([tr.Sq, tr.Su])
+    # run-length product of step Jacobians (used by full shooting) is the same matrix
+    assert np.allclose(st.monodromy(tr.status), Phi, rtol=0, atol=1e-10 * np.abs(Phi).max())
+    end = np.concatenate([tr.q[-1], tr.u[-1]])
+    d = 1e-7
+    worst = 0.0
+    for i in range(2 * n):
+        xp = x.copy()
+        xp[i] += d
+        tp = st.run(xp[:n], xp[n:], B)
+        if not np.array_equal(tp.status, tr.status):
+            continue  # the active set changed: the map is not differentiable across it
+        fd = (np.concatenate([tp.q[-1], tp.u[-1]]) - end) / d
+        worst = max(worst, np.abs(fd - Phi[:, i]).max() / max(1.0, np.abs(Phi[:, i]).max()))
+    assert worst < 1e-5
+
+
+def test_single_step_friction_closed_form():
+    """One friction element: stick iff |gamma_free| <= W_dd h mu F_N, then gamma+ = 0."""
+    sys, st, B = _setup([Friction(0, 0.5, 1.0)], N=200)
+    q0, u0 = np.zeros(4), np.array([1e-4, 0, 0, 0])
+    tr = st.run(q0, u0, B[:1])
+    assert tr.status[0, 0] == kernels.STATUS_STICK
+    assert abs(tr.u[1, 0]) < 1e-15
+    tr = st.run(q0, np.array([5.0, 0, 0, 0]), B[:1])
+    assert tr.status[0, 0] == kernels.STATUS_SLIP
+    assert np.isclose(tr.P[0, 0], -st.bound[0])
