@@ -52,3 +52,32 @@ def test_shooting_second_order(linear):
     orders = np.log2(np.array(errs[:-1]) / np.array(errs[1:]))
     assert np.all(np.abs(orders - 2.0) < 0.05), (errs, orders)
     assert errs[-1] < 5e-5
+
+
+def test_residual_omega_derivative_matches_dynamic_stiffness(linear):
+    """For a linear system the HBM residual is H(omega) q_hat - f_hat: dR/domega = dH/domega q_hat."""
+    sys, exact = linear
+    prob, _ = mshbm.build_problem(sys, OMEGA, "hbm", harmonics=3, condense=False)
+    x = np.random.default_rng(0).standard_normal(prob.n_unknowns)
+    dR = mshbm.residual_omega_derivative(sys, OMEGA, "hbm", x, harmonics=3, condense=False)
+    X = x.reshape(7, 3)
+    expect = np.zeros_like(X)
+    for k in range(1, 4):
+        a, b = X[2 * k - 1], X[2 * k]
+        dK = -2 * k * k * OMEGA * sys.M  # d/domega of K - (k omega)^2 M
+        dC = k * sys.C                   # d/domega of k omega C
+        expect[2 * k - 1] = dK @ a + dC @ b
+        expect[2 * k] = -dC @ a + dK @ b
+    assert np.allclose(dR, expect.reshape(-1), rtol=0, atol=1e-7)
+
+
+def test_residual_omega_derivative_time_domain_methods(linear):
+    """Consistency of the difference quotient for shooting and MS-HBM (two step sizes agree)."""
+    sys, _ = linear
+    for method, kw in (("shooting", {"steps": 512}), ("mshbm", {"steps": 512, "partition": [0], "harmonics": 3})):
+        prob, _ = mshbm.build_problem(sys, OMEGA, method, **kw)
+        x = prob.initial_guess()
+        a = mshbm.residual_omega_derivative(sys, OMEGA, method, x, rel_step=1e-4, **kw)
+        b = mshbm.residual_omega_derivative(sys, OMEGA, method, x, rel_step=1e-5, **kw)
+        assert np.abs(a).max() > 0.1
+        assert np.max(np.abs(a - b)) <= 1e-5 * np.max(np.abs(a))  # O(d^2) truncation

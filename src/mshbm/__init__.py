@@ -8,12 +8,12 @@ method of Schreyer & Leine (2016), behind one call::
     sol = mshbm.solve(case.system, case.omega, method="mshbm", harmonics=5)
     sol.amplitude
 """
-from .api import METHODS, build_problem, solve
+from .api import METHODS, build_problem, residual_omega_derivative, solve
 from .errors import ConvergenceError, InputError
 from .result import PeriodicSolution
 from .system import Contact, Friction, System, chain
 
-__all__ = ["solve", "build_problem", "METHODS", "System", "Friction", "Contact", "chain",
+__all__ = ["solve", "build_problem", "residual_omega_derivative", "METHODS", "System", "Friction", "Contact", "chain",
            "PeriodicSolution", "InputError", "ConvergenceError", "load_case"]
 __version__ = "0.1.0"
 

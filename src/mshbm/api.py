@@ -24,7 +24,7 @@ from .result import PeriodicSolution
 from .shooting import ShootingProblem
 from .system import System
 
-__all__ = ["solve", "build_problem", "METHODS", "default_steps"]
+__all__ = ["solve", "build_problem", "residual_omega_derivative", "METHODS", "default_steps"]
 
 _COMMON = {"guess", "tol", "max_iter", "line_search", "progress", "raise_on_failure", "continuation"}
 #: options accepted by each method (besides the common ones)
@@ -126,6 +126,32 @@ def build_problem(system, omega, method="mshbm", **options):
     return problem, {k: v for k, v in opts.items() if k in solver_keys}
 
 
+def residual_omega_derivative(system, omega, method, x, rel_step=1e-6, **options):
+    """``dR/domega`` of a method's residual at fixed unknowns ``x`` (central differences).
+
+    Together with ``problem.residual(x) -> (R, dR/dx)`` this is what frequency
+    continuation needs.  The unknowns keep their meaning when omega changes
+    (coefficients, or states at t = 0 with a fixed number of steps per period).
+
+    Parameters
+    ----------
+    system, omega, method, **options
+        As for :func:`solve`.
+    x : ndarray, shape (n_x,)
+        Unknowns of the method.
+    rel_step : float
+        Difference step relative to omega; the error is O(rel_step^2).
+
+    Returns
+    -------
+    ndarray, shape (n_x,)
+    """
+    d = rel_step * float(omega)
+    Rp = build_problem(system, omega + d, method, **options)[0].residual(np.asarray(x, float), jac=False)[0]
+    Rm = build_problem(system, omega - d, method, **options)[0].residual(np.asarray(x, float), jac=False)[0]
+    return (Rp - Rm) / (2.0 * d)
+
+
 class _Progress:
     def __init__(self, method, enabled):
         self.enabled = enabled and sys.stderr.isatty() or enabled == "always"
@@ -176,11 +202,11 @@ def solve(system, omega, method="mshbm", **options):
     InputError
         Invalid system, frequency or option (names the key).
     """
+    t0 = time.perf_counter()  # wall time includes set-up (condensation, factorisations)
     try:
         problem, sopts = build_problem(system, omega, method, **options)
     except SingularHarmonicError as exc:
         raise InputError("omega", f"{exc}; move omega away from this resonance or add damping") from None
-    t0 = time.perf_counter()
     progress = _Progress(method, sopts.get("progress", False))
     try:
         x0 = problem.initial_guess(sopts.get("guess"))

@@ -46,12 +46,13 @@ STATUS_PROJECTED = 4  # flag added when the position of a contact was projected
 
 
 @njit(cache=True, fastmath=False)
-def _local_solve(uf, u, q_free_gap, kind, dof, sign, bound, e, Del, P, status, tol, max_iter):
-    """Solve the local impulse problem; fills P and status; returns iterations."""
+def _local_solve(uf, u, q_free_gap, kind, dof, sign, bound, e, Del, P, status, tol, max_iter, r, active):
+    """Solve the local impulse problem; fills P and status; returns iterations.
+
+    ``r`` and ``active`` are work arrays of length m (right-hand sides
+    ``gamma_free + e gamma_minus`` and the active flags).
+    """
     m = kind.shape[0]
-    # right-hand sides: gamma_free + e gamma_minus for contacts, gamma_free for friction
-    r = np.empty(m)
-    active = np.empty(m, dtype=np.bool_)
     for j in range(m):
         gf = sign[j] * uf[dof[j]]
         if kind[j] == KIND_FRICTION:
@@ -195,6 +196,8 @@ def moreau_jean(q0, u0, Aq, Au, WG, Del, MinvG, B, dB, theta, h,
     P = np.zeros(m)
     status = np.zeros(m, dtype=np.int8)
     fgap = np.empty(m)
+    rwork = np.empty(m)
+    awork = np.empty(m, dtype=np.bool_)
     dUf = np.empty((n, n_s))
     dUn = np.empty((n, n_s))
     dQn = np.empty((n, n_s))
@@ -217,7 +220,8 @@ def moreau_jean(q0, u0, Aq, Au, WG, Del, MinvG, B, dB, theta, h,
             else:
                 fgap[j] = 0.0
         if m > 0:
-            it = _local_solve(uf, u, fgap, kind, dof, sign, bound, e, Del, P, status, tol, max_iter)
+            it = _local_solve(uf, u, fgap, kind, dof, sign, bound, e, Del, P, status, tol, max_iter,
+                              rwork, awork)
             if it > used:
                 used = it
         for i in range(n):

@@ -37,7 +37,8 @@ class PeriodicSolution:
     residual : float
         Final ``||R||_inf``.
     wall_time : float
-        Seconds spent in the solve (after set-up checks).
+        Seconds for the whole solve: validation, set-up (condensation,
+        factorisations, step matrices), Newton and the time-domain output.
     t : ndarray, shape (N+1,)
         Time grid ``t_k = k T / N``, ``k = 0..N``.
     q_hat : ndarray, shape (2 n_h + 1, n)
