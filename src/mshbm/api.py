@@ -85,6 +85,11 @@ def _check_options(method, options):
         tol = opts["tol"]
         if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not (0 < float(tol) < 1):
             raise InputError("tol", f"must be a number in (0, 1), got {tol!r}")
+    for key in ("condense", "project", "line_search", "continuation", "raise_on_failure"):
+        if key in opts and not isinstance(opts[key], (bool, np.bool_)):
+            raise InputError(key, f"must be true or false, got {opts[key]!r}")
+    if "progress" in opts and not (isinstance(opts["progress"], (bool, np.bool_)) or opts["progress"] == "always"):
+        raise InputError("progress", f"must be true, false or 'always', got {opts['progress']!r}")
     if "max_iter" in opts:
         opts["max_iter"] = _int_option("max_iter", opts["max_iter"], 0)
     return opts

@@ -127,7 +127,9 @@ class MixedProblem:
         n = system.n
         self.Nd = system.nonlinear_dofs if partition is None else np.asarray(partition, dtype=np.int64)
         if self.Nd.size == 0:
-            raise InputError("partition", "the nonlinear subsystem is empty (a linear system: use 'hbm')")
+            key = "partition" if partition is not None else "method"
+            raise InputError(key, "the nonlinear subsystem is empty: the system has no friction or contact "
+                             "element (use 'hbm', or give partition=[dofs] to integrate some DOFs in time)")
         self.Ld = np.setdiff1d(np.arange(n), self.Nd)
         self.cond = Condensation(system, omega, self.n_h, self.Nd, self.Ld)
         # coupling force coefficients on N:  c = -H_NL q_hat_L = -g + T q_hat_N
@@ -241,7 +243,9 @@ class IntermediateProblem:
             except (TypeError, ValueError):
                 raise InputError("partition", "must be a pair (dofs_1, dofs_2)") from None
         if I1.size == 0:
-            raise InputError("partition", "subsystem 1 is empty (a linear system: use 'hbm')")
+            key = "partition" if partition is not None else "method"
+            raise InputError(key, "subsystem 1 is empty: the system has no friction or contact element "
+                             "(use 'hbm', or give partition=(dofs_1, dofs_2))")
         if I2.size == 0:
             raise InputError("partition", "subsystem 2 is empty: nothing couples subsystem 1 to the rest; "
                              "use 'mshbm'")

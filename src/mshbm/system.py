@@ -359,8 +359,8 @@ def chain(masses, stiffness, damping=0.0, forcing=(), elements=(), sparse=None, 
         if not isinstance(item, dict):
             raise InputError(f"forcing[{j}]", "must be a mapping with keys dof, amplitude")
         h = item.get("harmonic", 1)
-        if isinstance(h, bool) or not isinstance(h, (int, np.integer)) or h < 1:
-            raise InputError(f"forcing[{j}].harmonic", f"must be an integer >= 1, got {h!r}")
+        if isinstance(h, bool) or not isinstance(h, (int, np.integer)) or not 1 <= h <= 2000:
+            raise InputError(f"forcing[{j}].harmonic", f"must be an integer in 1..2000, got {h!r}")
         n_f = max(n_f, int(h))
     f_hat = np.zeros((2 * n_f + 1, n))
     allowed = {"dof", "amplitude", "sin", "harmonic", "constant"}

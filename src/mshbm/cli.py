@@ -1,0 +1,183 @@
+"""Command line: ``mshbm solve CASE.yaml [--method M] [--harmonics N] [--steps N] [--out FILE] [--quiet]``.
+
+Exit codes: 0 converged, 1 not converged, 2 invalid input (one line
+``error: <key>: <problem>``), 3 internal error, 130 interrupted.  No traceback
+ever reaches the user.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import sys
+import tempfile
+
+__all__ = ["main"]
+
+EXIT_OK, EXIT_NOT_CONVERGED, EXIT_INPUT, EXIT_INTERNAL, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
+METHOD_CHOICES = ("shooting", "hbm", "mshbm", "mshbm-intermediate")
+
+
+def _one_line(text):
+    return " ".join(str(text).split())
+
+
+def _error(text):
+    print(f"error: {_one_line(text)}", file=sys.stderr)
+
+
+def _parser():
+    from . import __version__
+
+    p = argparse.ArgumentParser(prog="mshbm", description="Periodic solutions of linear structures with local "
+                                "friction and contact (shooting, HBM, mixed shooting-harmonic balance).")
+    p.add_argument("--version", action="version", version=f"mshbm {__version__}")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND")
+    s = sub.add_parser("solve", help="solve a case file", description="Compute the periodic solution of a case "
+                       "file. Exit codes: 0 converged, 1 not converged, 2 invalid input, 3 internal error.")
+    s.add_argument("case", metavar="CASE.yaml", help="case file (see examples/)")
+    s.add_argument("--method", choices=METHOD_CHOICES, default=None,
+                   help="solution method (default: the case's solver.method, else mshbm)")
+    s.add_argument("--harmonics", type=int, default=None, metavar="N", help="number of harmonics n_h")
+    s.add_argument("--steps", type=int, default=None, metavar="N", help="time steps (samples) per period")
+    s.add_argument("--out", default=None, metavar="FILE.json", help="write the result summary as JSON")
+    s.add_argument("--quiet", action="store_true", help="print no table (errors still go to stderr)")
+    return p
+
+
+def _fmt_float(x):
+    return "nan" if x is None else repr(float(x))
+
+
+def _table(case, summary):
+    rows = [("case", case.name), ("method", summary["method"]), ("harmonics", summary["harmonics"]),
+            ("steps", summary["steps"]), ("success", "yes" if summary["success"] else "no"),
+            ("iterations", summary["iterations"]), ("residual", f"{summary['residual']:.3e}"),
+            ("wall time", f"{summary['wall_time_s']:.3f} s")]
+    width = max(len(r[0]) for r in rows)
+    lines = [f"{k:<{width}}  {v}" for k, v in rows]
+    amp = summary["amplitude"]
+    n = len(amp)
+    shown = list(range(n)) if n <= 12 else list(range(5)) + [None] + list(range(n - 5, n))
+    lines.append(f"amplitude ({n} DOF{'s' if n != 1 else ''}, (max - min)/2 over one period)")
+    dw = len(str(n - 1))
+    for d in shown:
+        lines.append("  ..." if d is None else f"  dof {d:>{dw}}  {_fmt_float(amp[d])}")
+    return "\n".join(lines)
+
+
+def _json_safe(obj):
+    """Replace non-finite floats by None (JSON has no NaN/inf) and numpy scalars by Python ones."""
+    if isinstance(obj, dict):
+        return {str(k): _json_safe(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_json_safe(v) for v in obj]
+    if isinstance(obj, bool) or obj is None or isinstance(obj, (str, int)):
+        return obj
+    try:
+        x = float(obj)
+    except (TypeError, ValueError):
+        return str(obj)
+    return x if math.isfinite(x) else None
+
+
+def _check_out(path):
+    """Fail early (before solving) when the output file cannot be written."""
+    from .errors import InputError
+
+    if os.path.isdir(path):
+        raise InputError("--out", f"{path!r} is a directory")
+    parent = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(parent):
+        raise InputError("--out", f"directory {parent!r} does not exist")
+    if not os.access(parent, os.W_OK):
+        raise InputError("--out", f"directory {parent!r} is not writable")
+
+
+def _write_json(path, payload):
+    from .errors import InputError
+
+    text = json.dumps(_json_safe(payload), indent=2, allow_nan=False) + "\n"
+    parent = os.path.dirname(os.path.abspath(path))
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=".mshbm-", suffix=".json", dir=parent)
+        try:
+            with os.fdopen(fd, "w", encoding="utf-8") as fh:
+                fh.write(text)
+            os.replace(tmp, path)
+        except BaseException:
+            try:
+                os.unlink(tmp)
+            except OSError:
+                pass
+            raise
+    except OSError as exc:
+        raise InputError("--out", f"cannot write {path!r}: {exc.strerror or exc}") from None
+
+
+def _solve(args):
+    from . import __version__
+    from .errors import ConvergenceError, InputError
+    from .io import load_case
+
+    if args.out is not None:
+        _check_out(args.out)
+    case = load_case(args.case)
+    cli_opts = {k: getattr(args, k) for k in ("harmonics", "steps") if getattr(args, k) is not None}
+    try:
+        sol = case.solve(args.method, progress=not args.quiet, **cli_opts)
+    except InputError as exc:
+        if exc.key in cli_opts:
+            raise InputError(f"--{exc.key}", exc.problem) from None
+        raise
+    except ConvergenceError as exc:  # only with raise_on_failure; kept for safety
+        _error(f"solve did not converge: {exc}")
+        return EXIT_NOT_CONVERGED
+    summary = sol.summary()
+    summary["success"] = bool(sol.success)
+    if args.out is not None:
+        payload = {"case": case.name, **summary, "n_dofs": int(case.system.n), "source": case.source,
+                   "version": __version__}
+        _write_json(args.out, payload)
+    if not args.quiet:
+        print(_table(case, summary))
+        if args.out is not None:
+            print(f"wrote {args.out}")
+    if not sol.success:
+        _error(f"solve did not converge: {sol.message}")
+        return EXIT_NOT_CONVERGED
+    return EXIT_OK
+
+
+def main(argv=None):
+    """Run the ``mshbm`` command; returns the exit code."""
+    try:
+        parser = _parser()
+        try:
+            args = parser.parse_args(argv)
+        except SystemExit as exc:  # --help/--version (0) and usage errors (2)
+            code = exc.code
+            return code if isinstance(code, int) else (0 if code is None else EXIT_INPUT)
+        if args.command is None:
+            parser.print_usage(sys.stderr)
+            _error("a command is required (e.g. 'mshbm solve CASE.yaml')")
+            return EXIT_INPUT
+        from .errors import InputError
+
+        try:
+            return _solve(args)
+        except InputError as exc:
+            _error(f"{exc.key}: {exc.problem}")
+            return EXIT_INPUT
+    except KeyboardInterrupt:
+        print(file=sys.stderr)
+        _error("interrupted")
+        return EXIT_INTERRUPTED
+    except Exception as exc:  # noqa: BLE001 -- the last line of defence: never show a traceback
+        _error(f"internal: {type(exc).__name__}: {exc}")
+        return EXIT_INTERNAL
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,588 @@
+"""YAML case files.
+
+A case file is a top-level mapping.  A wall-spring-mass chain (see
+:func:`mshbm.system.chain`)::
+
+    name: friction3                  # optional, default: the file name
+    masses: [1, 1, 1]                # one per DOF, each > 0
+    stiffness: 1                     # number or list (one per spring), >= 0
+    damping: 0                       # same shape as stiffness, default 0
+    omega: 0.6283185307179586        # forcing frequency (rad/s), > 0
+    forcing:                         # amplitude*cos(k w t) + sin*sin(k w t) + constant
+      - {dof: 2, amplitude: 5}       #   on a 0-based DOF (k = harmonic, default 1)
+    friction: {dof: 0, mu: 0.8, normal_force: 9.81, smoothing: 800}
+    # or: contact: {dof: 0, gap: 0.1, restitution: 1, penalty_stiffness: 8000, penalty_damping: 0}
+    # friction/contact may also be lists of such mappings
+    solver: {method: mshbm, harmonics: 3, steps: 4096}   # optional defaults for solve
+
+or a general structure by its matrices (instead of masses/stiffness/damping)::
+
+    M: [[1, 0], [0, 2]]
+    C: [[0.1, 0], [0, 0.1]]          # optional, default 0
+    K: [[2, -1], [-1, 1]]
+
+Every problem is reported as :class:`mshbm.InputError` whose ``key`` is the
+dotted name of the offending entry (``friction.mu``, ``forcing[0].dof``,
+``solver.harmonics``, ...).  Reading is defensive: files over 10 MB, nesting
+deeper than 32 levels and alias expansions beyond 5 million values are
+rejected before anything big is built.
+"""
+from __future__ import annotations
+
+import difflib
+import math
+import os
+import re
+import reprlib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from . import api
+from .errors import InputError
+from .system import Contact, Friction, System, chain
+
+__all__ = ["Case", "load_case", "parse_case", "MAX_FILE_BYTES"]
+
+#: largest case file accepted (bytes)
+MAX_FILE_BYTES = 10 * 1024 * 1024
+#: deepest nesting of YAML collections accepted
+MAX_DEPTH = 32
+#: most values (after alias expansion) accepted
+MAX_VALUES = 5_000_000
+#: highest forcing harmonic accepted (the solvers support at most 2000 harmonics)
+MAX_FORCING_HARMONIC = 2000
+
+TOP_KEYS = ("name", "masses", "stiffness", "damping", "M", "C", "K", "omega", "forcing",
+            "friction", "contact", "solver")
+CHAIN_KEYS = ("masses", "stiffness", "damping")
+MATRIX_KEYS = ("M", "C", "K")
+FORCING_KEYS = ("dof", "amplitude", "sin", "harmonic", "constant")
+#: element keys: default value, or ``...`` when required
+FRICTION_KEYS = {"dof": ..., "mu": ..., "normal_force": ..., "smoothing": 800.0}
+CONTACT_KEYS = {"dof": ..., "gap": ..., "restitution": 1.0, "penalty_stiffness": 8000.0,
+                "penalty_damping": 0.0}
+SOLVER_KEYS = ("method", "harmonics", "steps", "theta", "jacobian", "tol", "max_iter", "partition",
+               "condense", "project", "line_search", "continuation")
+
+
+# ----------------------------------------------------------------------------- YAML reading
+_BaseLoader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+_MERGE_TAG = "tag:yaml.org,2002:merge"
+
+
+class _Loader(_BaseLoader):
+    """Safe loader that rejects duplicate keys and reads ``1e3`` / ``1.0e3`` as floats
+    (PyYAML follows YAML 1.1, where an exponent needs a dot and a sign)."""
+
+    def construct_mapping(self, node, deep=False):
+        if isinstance(node, yaml.MappingNode):
+            seen = set()
+            for key_node, _ in node.value:
+                if isinstance(key_node, yaml.ScalarNode) and key_node.tag != _MERGE_TAG:
+                    ident = (key_node.tag, key_node.value)
+                    if ident in seen:
+                        raise yaml.constructor.ConstructorError(
+                            "while constructing a mapping", node.start_mark,
+                            f"found duplicate key {_REPR.repr(key_node.value)}", key_node.start_mark)
+                    seen.add(ident)
+        return super().construct_mapping(node, deep=deep)
+
+
+_Loader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?|\.[0-9][0-9_]*)[eE][-+]?[0-9]+$"),
+    list("-+0123456789."))
+
+
+def _yaml_problem(exc):
+    """One-line description of a YAML error, with the line number when known."""
+    mark = getattr(exc, "problem_mark", None) or getattr(exc, "context_mark", None)
+    problem = getattr(exc, "problem", None) or getattr(exc, "reason", None) or str(exc)
+    context = getattr(exc, "context", None)
+    text = f"{context}: {problem}" if context and getattr(exc, "problem", None) else str(problem)
+    text = " ".join(str(text).split())
+    if mark is not None:
+        return f"invalid YAML at line {mark.line + 1}, column {mark.column + 1}: {text}"
+    return f"invalid YAML: {text}"
+
+
+def _read_text(path):
+    try:
+        fspath = os.fspath(path)
+    except TypeError:
+        raise InputError("path", f"must be a file path, got {type(path).__name__}") from None
+    key = str(fspath) or "path"
+    try:
+        with open(fspath, "rb") as fh:
+            try:
+                size = os.fstat(fh.fileno()).st_size
+            except OSError:
+                size = 0
+            if size > MAX_FILE_BYTES:
+                raise InputError(key, f"file is {size / 2**20:.1f} MB; case files are limited to "
+                                      f"{MAX_FILE_BYTES // 2**20} MB")
+            raw = fh.read(MAX_FILE_BYTES + 1)  # bounded even for endless special files
+    except InputError:
+        raise
+    except OSError as exc:
+        raise InputError(key, f"cannot read the file: {exc.strerror or exc}") from None
+    if len(raw) > MAX_FILE_BYTES:
+        raise InputError(key, f"file is larger than {MAX_FILE_BYTES // 2**20} MB (the limit for case files)")
+    try:
+        return raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        line = raw[:exc.start].count(b"\n") + 1
+        raise InputError("yaml", f"not UTF-8 text (invalid byte at line {line})") from None
+
+
+def _load_yaml(text):
+    """Parse ``text`` with bounded nesting (the C parser would crash on deep nesting)."""
+    try:
+        depth = 0
+        for event in yaml.parse(text, Loader=_Loader):
+            if isinstance(event, (yaml.SequenceStartEvent, yaml.MappingStartEvent)):
+                depth += 1
+                if depth > MAX_DEPTH:
+                    line = event.start_mark.line + 1 if event.start_mark is not None else "?"
+                    raise InputError("yaml", f"nesting deeper than {MAX_DEPTH} levels at line {line}")
+            elif isinstance(event, (yaml.SequenceEndEvent, yaml.MappingEndEvent)):
+                depth -= 1
+        data = yaml.load(text, Loader=_Loader)
+    except yaml.YAMLError as exc:
+        raise InputError("yaml", _yaml_problem(exc)) from None
+    except RecursionError:
+        raise InputError("yaml", "nesting too deep") from None
+    _check_expanded_size(data)
+    return data
+
+
+def _check_expanded_size(data):
+    """Bound the size and depth of the loaded data counting aliases as copies (billion laughs),
+    and reject recursive aliases.  Shared (aliased) nodes are measured once."""
+    sizes, depths, active = {}, {}, set()
+    stack = [(data, False)]
+    while stack:
+        obj, done = stack.pop()
+        if not isinstance(obj, (dict, list)):
+            continue
+        oid = id(obj)
+        children = [x for kv in obj.items() for x in kv] if isinstance(obj, dict) else obj
+        if done:
+            active.discard(oid)
+            sizes[oid] = 1 + sum(sizes.get(id(c), 1) for c in children)
+            depths[oid] = 1 + max((depths.get(id(c), 0) for c in children), default=0)
+            if sizes[oid] > MAX_VALUES:
+                raise InputError("yaml", f"more than {MAX_VALUES:,} values after expanding aliases")
+            if depths[oid] > MAX_DEPTH:
+                raise InputError("yaml", f"nesting deeper than {MAX_DEPTH} levels after expanding aliases")
+            continue
+        if oid in sizes:
+            continue
+        if oid in active:
+            raise InputError("yaml", "an alias refers to a collection containing it (recursive data)")
+        active.add(oid)
+        stack.append((obj, True))
+        stack.extend((c, False) for c in children if isinstance(c, (dict, list)) and id(c) not in sizes)
+
+
+# ----------------------------------------------------------------------------- value checks
+_REPR = reprlib.Repr()
+_REPR.maxlevel, _REPR.maxlist, _REPR.maxdict, _REPR.maxstring, _REPR.maxother = 2, 4, 3, 40, 40
+
+
+def _describe(value):
+    if isinstance(value, str):
+        try:
+            float(value)
+        except ValueError:
+            return f"string {_REPR.repr(value)}"
+        return f"string {_REPR.repr(value)} (remove the quotes)"
+    if value is None:
+        return "nothing (null)"
+    if isinstance(value, bool):
+        return f"boolean {str(value).lower()} (YAML reads true/false/yes/no/on/off as booleans)"
+    return f"{type(value).__name__} {_REPR.repr(value)}"
+
+
+def _number(key, value):
+    """Finite float; bools, strings and other types are rejected."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise InputError(key, f"must be a number, got {_describe(value)}")
+    try:
+        out = float(value)
+    except OverflowError:
+        raise InputError(key, "is too large") from None
+    if not math.isfinite(out):
+        raise InputError(key, f"must be finite, got {out}")
+    return out
+
+
+def _integer(key, value, minimum=None, maximum=None):
+    if isinstance(value, float) and math.isfinite(value) and value.is_integer():
+        value = int(value)
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise InputError(key, f"must be an integer, got {_describe(value)}")
+    value = int(value)
+    if minimum is not None and value < minimum:
+        raise InputError(key, f"must be >= {minimum}, got {value}")
+    if maximum is not None and value > maximum:
+        raise InputError(key, f"must be <= {maximum}, got {value}")
+    return value
+
+
+def _dof(key, value, n):
+    d = _integer(key, value)
+    if not 0 <= d < n:
+        raise InputError(key, f"DOF {d} out of range 0..{n - 1}")
+    return d
+
+
+def _unknown(key, allowed):
+    close = difflib.get_close_matches(str(key), list(allowed), n=1)
+    hint = f"; did you mean {close[0]!r}?" if close else ""
+    return f"unknown key (allowed: {', '.join(allowed)}){hint}"
+
+
+def _keyname(k):
+    k = str(k)
+    return k if len(k) <= 60 else k[:57] + "..."
+
+
+def _check_keys(prefix, mapping, allowed):
+    for k in mapping:
+        if k not in allowed:
+            raise InputError(f"{prefix}.{_keyname(k)}" if prefix else _keyname(k), _unknown(k, allowed))
+
+
+def _items(key, value):
+    """A mapping or a list of mappings -> list of (item key, mapping)."""
+    if isinstance(value, dict):
+        return [(key, value)]
+    if isinstance(value, list):
+        out = []
+        for i, item in enumerate(value):
+            if not isinstance(item, dict):
+                raise InputError(f"{key}[{i}]", f"must be a mapping, got {_describe(item)}")
+            out.append((f"{key}[{i}]", item))
+        return out
+    raise InputError(key, f"must be a mapping or a list of mappings, got {_describe(value)}")
+
+
+# ----------------------------------------------------------------------------- sections
+def _masses(value):
+    if not isinstance(value, list):
+        raise InputError("masses", f"must be a list with one mass per DOF, got {_describe(value)}")
+    if not value:
+        raise InputError("masses", "needs at least one mass")
+    return [_number(f"masses[{i}]", v) for i, v in enumerate(value)]
+
+
+def _per_spring(key, value):
+    if isinstance(value, list):
+        return [_number(f"{key}[{i}]", v) for i, v in enumerate(value)]
+    if isinstance(value, dict) or isinstance(value, str) or value is None:
+        raise InputError(key, f"must be a number or a list with one entry per spring, got {_describe(value)}")
+    value = _number(key, value)
+    if value < 0:
+        raise InputError(key, f"must be >= 0, got {value:g}")
+    return value
+
+
+def _matrix(key, value, n=None):
+    if isinstance(value, (int, float)) and not isinstance(value, bool) and n in (None, 1):
+        value = [[value]]
+    if not isinstance(value, list) or not value:
+        raise InputError(key, f"must be a square matrix given as a list of rows, got {_describe(value)}")
+    rows = len(value)
+    if n is not None and rows != n:
+        raise InputError(key, f"must be {n}x{n} like M, got {rows} row{'s' if rows != 1 else ''}")
+    out = np.empty((rows, rows))
+    for i, row in enumerate(value):
+        if not isinstance(row, list):
+            raise InputError(f"{key}[{i}]", f"must be a list (a matrix row), got {_describe(row)}")
+        if len(row) != rows:
+            raise InputError(key, f"must be square: row {i} has {len(row)} entries, expected {rows}")
+        for j, v in enumerate(row):
+            out[i, j] = _number(f"{key}[{i}][{j}]", v)
+    return out
+
+
+def _forcing(value, n):
+    """Validated forcing items (dicts with all keys filled)."""
+    if value is None:
+        return []
+    if isinstance(value, dict):
+        value = [value]
+    if not isinstance(value, list):
+        raise InputError("forcing", f"must be a list of mappings {{dof, amplitude, ...}}, got {_describe(value)}")
+    out = []
+    for key, item in _items("forcing", value):
+        _check_keys(key, item, FORCING_KEYS)
+        if "dof" not in item:
+            raise InputError(f"{key}.dof", "missing (required)")
+        out.append({
+            "dof": _dof(f"{key}.dof", item["dof"], n),
+            "amplitude": _number(f"{key}.amplitude", item.get("amplitude", 0.0)),
+            "sin": _number(f"{key}.sin", item.get("sin", 0.0)),
+            "harmonic": _integer(f"{key}.harmonic", item.get("harmonic", 1), 1, MAX_FORCING_HARMONIC),
+            "constant": _number(f"{key}.constant", item.get("constant", 0.0)),
+        })
+    return out
+
+
+def _forcing_hat(items, n):
+    n_f = max([1] + [it["harmonic"] for it in items])
+    f_hat = np.zeros((2 * n_f + 1, n))
+    for it in items:
+        h, d = it["harmonic"], it["dof"]
+        f_hat[2 * h - 1, d] += it["amplitude"]
+        f_hat[2 * h, d] += it["sin"]
+        f_hat[0, d] += it["constant"]
+    return f_hat
+
+
+def _elements(kind, value, n):
+    if value is None:
+        return []
+    cls, spec = (Friction, FRICTION_KEYS) if kind == "friction" else (Contact, CONTACT_KEYS)
+    out, seen = [], {}
+    for key, item in _items(kind, value):
+        _check_keys(key, item, tuple(spec))
+        vals = {}
+        for name, default in spec.items():
+            if name not in item:
+                if default is ...:
+                    raise InputError(f"{key}.{name}", "missing (required)")
+                vals[name] = default
+            elif name == "dof":
+                vals[name] = _dof(f"{key}.dof", item[name], n)
+            else:
+                vals[name] = _number(f"{key}.{name}", item[name])
+        if vals["dof"] in seen:
+            raise InputError(f"{key}.dof", f"DOF {vals['dof']} already has a {kind} element ({seen[vals['dof']]})")
+        seen[vals["dof"]] = key
+        try:
+            out.append(cls(**vals))
+        except InputError as exc:  # Friction/Contact name keys "friction.mu": add the list index
+            if key != kind and exc.key.startswith(kind + "."):
+                raise InputError(key + exc.key[len(kind):], exc.problem) from None
+            raise
+    return out
+
+
+def _solver(value, n):
+    if value is None:
+        return {}
+    if not isinstance(value, dict):
+        raise InputError("solver", f"must be a mapping of solver options, got {_describe(value)}")
+    _check_keys("solver", value, SOLVER_KEYS)
+    out = {}
+    for k, v in value.items():
+        key = f"solver.{k}"
+        if k == "method":
+            if not isinstance(v, str) or v not in api.METHODS:
+                raise InputError(key, f"unknown method {_REPR.repr(v)} (choose from {', '.join(api.METHODS)})")
+        elif k == "harmonics":
+            v = _integer(key, v, 1, 2000)
+        elif k == "steps":
+            v = _integer(key, v, 8, 1 << 24)
+        elif k == "max_iter":
+            v = _integer(key, v, 0)
+        elif k == "theta":
+            v = _number(key, v)
+            if not 0.5 <= v <= 1.0:
+                raise InputError(key, f"must be a number in [0.5, 1], got {v:g}")
+        elif k == "tol":
+            v = _number(key, v)
+            if not 0.0 < v < 1.0:
+                raise InputError(key, f"must be a number in (0, 1), got {v:g}")
+        elif k == "jacobian":
+            if v not in ("exact", "fd"):
+                raise InputError(key, f"must be 'exact' or 'fd', got {_describe(v)}")
+        elif k in ("condense", "project", "line_search", "continuation"):
+            if not isinstance(v, bool):
+                raise InputError(key, f"must be true or false, got {_describe(v)}")
+        elif k == "partition":
+            v = _partition(key, v, n)
+        out[k] = v
+    method = out.get("method")
+    if method is not None:
+        allowed = api.METHODS[method] | api._COMMON
+        for k in out:
+            if k != "method" and k not in allowed:
+                raise InputError(f"solver.{k}", f"is not an option of method {method!r} "
+                                                f"(its options: {', '.join(sorted(allowed & set(SOLVER_KEYS)))})")
+    return out
+
+
+def _partition(key, value, n):
+    if not isinstance(value, list):
+        raise InputError(key, f"must be a list of DOF indices, got {_describe(value)}")
+    if value and all(isinstance(v, list) for v in value):  # (N1, N2) of mshbm-intermediate
+        return [[_dof(f"{key}[{i}][{j}]", d, n) for j, d in enumerate(part)] for i, part in enumerate(value)]
+    return [_dof(f"{key}[{i}]", d, n) for i, d in enumerate(value)]
+
+
+# ----------------------------------------------------------------------------- the case
+@dataclass
+class Case:
+    """A system, a forcing frequency and default solver options, read from a case file.
+
+    Attributes
+    ----------
+    system : System
+    omega : float
+        Angular frequency of the forcing (rad/s).
+    solver : dict
+        Default options from the ``solver:`` section (may hold ``method``).
+    name : str
+    source : str or None
+        File the case was read from.
+    """
+
+    system: System
+    omega: float
+    solver: dict = field(default_factory=dict)
+    name: str = "case"
+    source: str | None = None
+
+    @property
+    def method(self):
+        """Default method: ``solver.method`` or ``"mshbm"``."""
+        return self.solver.get("method", "mshbm")
+
+    def solve(self, method=None, **options):
+        """``mshbm.solve(system, omega, method, **{solver defaults, then options})``.
+
+        ``method`` defaults to :attr:`method`.  When another method is asked for,
+        defaults of the ``solver:`` section that it does not accept are dropped;
+        ``options`` always pass through.  Errors in values coming from the
+        ``solver:`` section are reported as ``solver.<key>``.
+        """
+        method = method or self.method
+        defaults = {k: v for k, v in self.solver.items() if k != "method"}
+        if method in api.METHODS:
+            allowed = api.METHODS[method] | api._COMMON
+            defaults = {k: v for k, v in defaults.items() if k in allowed}
+        opts = {**defaults, **options}
+        from_file = set(defaults) - set(options)
+        try:
+            return api.solve(self.system, self.omega, method, **opts)
+        except InputError as exc:
+            if exc.key in from_file:
+                raise InputError(f"solver.{exc.key}", exc.problem) from None
+            raise
+
+    def __repr__(self):
+        return f"Case({self.name!r}, {self.system!r}, omega={self.omega:g}, solver={self.solver!r})"
+
+
+def parse_case(data, name=None, source=None):
+    """Build a :class:`Case` from an already parsed mapping (the content of a case file)."""
+    if not isinstance(data, dict):
+        got = "an empty document" if data is None else f"a {type(data).__name__}"
+        raise InputError("yaml", f"the top level must be a mapping of keys ({', '.join(TOP_KEYS)}), got {got}")
+    _check_keys("", data, TOP_KEYS)
+    chain_keys = [k for k in CHAIN_KEYS if k in data]
+    matrix_keys = [k for k in MATRIX_KEYS if k in data]
+    if chain_keys and matrix_keys:
+        raise InputError(matrix_keys[0], f"cannot be combined with {'/'.join(chain_keys)}: describe the "
+                                         "structure either as a chain (masses, stiffness, damping) or by "
+                                         "matrices (M, C, K)")
+    if "name" in data:
+        if not isinstance(data["name"], str):
+            raise InputError("name", f"must be a string, got {_describe(data['name'])}")
+        name = data["name"]
+    if "omega" not in data:
+        raise InputError("omega", "missing (required): the angular frequency of the forcing in rad/s")
+    omega = _number("omega", data["omega"])
+    if omega <= 0:
+        raise InputError("omega", f"must be > 0, got {omega:g}")
+    name = name if name is not None else "case"
+
+    if matrix_keys:
+        if "M" not in data:
+            raise InputError("M", "missing (required with C/K)")
+        if "K" not in data:
+            raise InputError("K", "missing (required with M)")
+        M = _matrix("M", data["M"])
+        n = M.shape[0]
+        K = _matrix("K", data["K"], n)
+        C = _matrix("C", data["C"], n) if "C" in data else np.zeros((n, n))
+        forcing = _forcing(data.get("forcing"), n)
+        elements = _elements("friction", data.get("friction"), n) + _elements("contact", data.get("contact"), n)
+        system = System(M, C, K, _forcing_hat(forcing, n), elements, name=name)
+    else:
+        if "masses" not in data:
+            raise InputError("masses", "missing (required): give masses and stiffness for a chain, "
+                                       "or M and K matrices")
+        if "stiffness" not in data:
+            raise InputError("stiffness", "missing (required with masses)")
+        masses = _masses(data["masses"])
+        n = len(masses)
+        stiffness = _per_spring("stiffness", data["stiffness"])
+        damping = _per_spring("damping", data.get("damping", 0.0))
+        forcing = _forcing(data.get("forcing"), n)
+        elements = _elements("friction", data.get("friction"), n) + _elements("contact", data.get("contact"), n)
+        system = chain(masses, stiffness, damping, forcing=forcing, elements=elements, name=name)
+    solver = _solver(data.get("solver"), n)
+    return Case(system=system, omega=omega, solver=solver, name=name, source=source)
+
+
+def _apply_overrides(data, overrides):
+    if not overrides:
+        return data
+    if not isinstance(data, dict):
+        return data  # parse_case reports it
+    data = dict(data)
+    for k, v in overrides.items():
+        if k in TOP_KEYS:
+            if v is None:
+                data.pop(k, None)
+            elif k == "solver" and isinstance(v, dict) and isinstance(data.get("solver"), dict):
+                data["solver"] = {**data["solver"], **v}
+            else:
+                data[k] = v
+        elif k in SOLVER_KEYS:
+            solver = data.get("solver") or {}
+            if isinstance(solver, dict):
+                solver = dict(solver)
+                if v is None:
+                    solver.pop(k, None)
+                else:
+                    solver[k] = v
+                data["solver"] = solver
+        else:
+            raise InputError(k, f"unknown override (allowed: the top-level keys {', '.join(TOP_KEYS)} "
+                                f"or the solver options {', '.join(SOLVER_KEYS)})")
+    return data
+
+
+def load_case(path, **overrides):
+    """Read a YAML case file (see the module docstring for its keys).
+
+    Parameters
+    ----------
+    path : str or path-like
+    **overrides
+        Replace top-level keys (``omega=0.5``, ``friction={...}``; ``None`` removes
+        a key) or set solver options (``harmonics=3``, ``method="hbm"``) before
+        validation.
+
+    Returns
+    -------
+    Case
+
+    Raises
+    ------
+    InputError
+        Unreadable file (key: the path), invalid YAML (key ``"yaml"``) or an invalid
+        entry (its dotted key, e.g. ``friction.mu``).
+    """
+    text = _read_text(path)
+    data = _load_yaml(text)
+    data = _apply_overrides(data, overrides)
+    return parse_case(data, name=Path(os.fspath(path)).stem, source=str(os.fspath(path)))
