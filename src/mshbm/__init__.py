@@ -10,11 +10,12 @@ method of Schreyer & Leine (2016), behind one call::
 """
 from .api import METHODS, build_problem, residual_omega_derivative, solve
 from .errors import ConvergenceError, InputError
+from .exact import exact_periodic
 from .result import PeriodicSolution
 from .system import Contact, Friction, System, chain
 
 __all__ = ["solve", "build_problem", "residual_omega_derivative", "METHODS", "System", "Friction", "Contact", "chain",
-           "PeriodicSolution", "InputError", "ConvergenceError", "load_case"]
+           "PeriodicSolution", "InputError", "ConvergenceError", "load_case", "exact_periodic"]
 __version__ = "0.1.0"
 
 

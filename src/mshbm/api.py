@@ -14,6 +14,7 @@ import sys
 import time
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from .errors import ConvergenceError, InputError
 from .fourier import SingularHarmonicError
@@ -195,7 +196,11 @@ def solve(system, omega, method="mshbm", **options):
         DOFs exactly, default True), ``project`` (position projection of
         contacts, default True), ``progress`` (print Newton progress to a
         terminal), ``raise_on_failure`` (raise ConvergenceError instead of
-        returning ``success=False``), ``continuation`` (HBM: when Newton fails,
+        returning ``success=False``), ``blas_threads`` (BLAS threads during
+        the solve, default 1: the dense matrices are small, and one thread keeps
+        results bit-identical across machines and parallel jobs from
+        oversubscribing the cores; ``None`` leaves the setting alone),
+        ``continuation`` (HBM: when Newton fails,
         retry by continuation from softened regularisations; default True).
 
     Returns
@@ -207,6 +212,16 @@ def solve(system, omega, method="mshbm", **options):
     InputError
         Invalid system, frequency or option (names the key).
     """
+    threads = options.pop("blas_threads", 1)
+    if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int) or threads < 1):
+        raise InputError("blas_threads", f"must be a positive integer or None, got {threads!r}")
+    if threads is None:
+        return _solve(system, omega, method, options)
+    with threadpool_limits(limits=threads, user_api="blas"):
+        return _solve(system, omega, method, options)
+
+
+def _solve(system, omega, method, options):
     t0 = time.perf_counter()  # wall time includes set-up (condensation, factorisations)
     try:
         problem, sopts = build_problem(system, omega, method, **options)
