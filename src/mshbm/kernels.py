@@ -45,7 +45,7 @@ STATUS_CLOSED = 3    # contact active with P > 0 (gamma+ + e gamma- = 0)
 STATUS_PROJECTED = 4  # flag added when the position of a contact was projected
 
 
-@njit(cache=True, fastmath=False)
+@njit(cache=True)
 def _local_solve(uf, u, q_free_gap, kind, dof, sign, bound, e, Del, P, status, tol, max_iter, r, active):
     """Solve the local impulse problem; fills P and status; returns iterations.
 
@@ -145,6 +145,97 @@ def _solve_small(A, B):
 
 
 @njit(cache=True)
+def _moreau_jean_scalar(q0, u0, aq, au, wg, dl, minvg, B, dB, theta, h, kind, sign, bound, gap, e, project,
+                        want_sens, store_q_sens):
+    """:func:`moreau_jean` for one DOF and one element, in scalar arithmetic (same results)."""
+    N = B.shape[0]
+    n_p = dB.shape[2]
+    n_s = 2 + n_p if want_sens else 0
+    qt = np.empty((N + 1, 1))
+    ut = np.empty((N + 1, 1))
+    Pt = np.zeros((N, 1))
+    st = np.zeros((N, 1), dtype=np.int8)
+    Sq = np.zeros((1, n_s))
+    Su = np.zeros((1, n_s))
+    if want_sens:
+        Sq[0, 0] = 1.0
+        Su[0, 1] = 1.0
+    Sqt = np.zeros((N + 1 if store_q_sens else 0, 1, n_s))
+    if store_q_sens:
+        Sqt[0, 0, :] = Sq[0, :]
+    sq = Sq[0].copy()
+    su = Su[0].copy()
+    duf = np.empty(n_s)
+    q = q0[0]
+    u = u0[0]
+    qt[0, 0] = q
+    ut[0, 0] = u
+    c1 = h * (1.0 - theta)
+    c2 = h * theta
+    friction = kind == KIND_FRICTION
+    for k in range(N):
+        uf = u + B[k, 0] - aq * q - au * u
+        # local problem (closed form)
+        P = 0.0
+        stat = STATUS_OPEN
+        if friction:
+            if bound > 0.0:
+                p = -sign * uf / dl
+                if p >= bound:
+                    P = bound
+                    stat = STATUS_SLIP
+                elif p <= -bound:
+                    P = -bound
+                    stat = STATUS_SLIP
+                else:
+                    P = p
+                    stat = STATUS_STICK
+        elif gap + sign * (q + c1 * u + c2 * uf) <= 0.0:
+            p = -(sign * uf + e * sign * u) / dl
+            if p > 0.0:
+                P = p
+                stat = STATUS_CLOSED
+        un = uf + wg * P
+        qn = q + c1 * u + c2 * un
+        if want_sens:
+            eq = stat == STATUS_STICK or stat == STATUS_CLOSED
+            ee = 0.0 if friction else e
+            for c in range(n_s):
+                d = su[c] - aq * sq[c] - au * su[c]
+                if c >= 2:
+                    d += dB[k, 0, c - 2]
+                duf[c] = d
+            for c in range(n_s):
+                dun = duf[c]
+                if eq:
+                    dun += wg * (-sign * (duf[c] + ee * su[c]) / dl)
+                sq[c] = sq[c] + c1 * su[c] + c2 * dun
+                su[c] = dun
+        if project and not friction:
+            g = gap + sign * qn
+            if g < 0.0:
+                w = sign * minvg
+                qn += minvg * (-g / w)
+                stat += STATUS_PROJECTED
+                if want_sens:
+                    for c in range(n_s):
+                        sq[c] += minvg * (-sign * sq[c] / w)
+        q = qn
+        u = un
+        qt[k + 1, 0] = q
+        ut[k + 1, 0] = u
+        Pt[k, 0] = P
+        st[k, 0] = stat
+        if store_q_sens:
+            for c in range(n_s):
+                Sqt[k + 1, 0, c] = sq[c]
+    for c in range(n_s):
+        Sq[0, c] = sq[c]
+        Su[0, c] = su[c]
+    return qt, ut, Pt, st, Sq, Su, Sqt, 1
+
+
+@njit(cache=True)
 def moreau_jean(q0, u0, Aq, Au, WG, Del, MinvG, B, dB, theta, h,
                 kind, dof, sign, bound, gap, e, project,
                 want_sens, store_q_sens, tol, max_iter):
@@ -171,6 +262,9 @@ def moreau_jean(q0, u0, Aq, Au, WG, Del, MinvG, B, dB, theta, h,
     N = B.shape[0]
     n = q0.shape[0]
     m = kind.shape[0]
+    if n == 1 and m == 1:
+        return _moreau_jean_scalar(q0, u0, Aq[0, 0], Au[0, 0], WG[0, 0], Del[0, 0], MinvG[0, 0], B, dB, theta, h,
+                                   kind[0], sign[0], bound[0], gap[0], e[0], project, want_sens, store_q_sens)
     n_p = dB.shape[2]
     n_s = 2 * n + n_p if want_sens else 0
     qt = np.empty((N + 1, n))
