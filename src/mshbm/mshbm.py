@@ -95,6 +95,16 @@ class _TimeDomainPart:
         dF = np.einsum("kj,jlp->klp", V, Tr.reshape(nc, self.n1, n_p))
         self.dB = self.stepper.increments(dF)
 
+        # Fourier projection of sampled signals: a DFT matrix is cheaper than an FFT of all N
+        # frequencies when only 2 n_h + 1 coefficients are needed (kept below ~100 MB)
+        self.E = fourier.dft_matrix(self.N, n_h) if nc * self.N <= 12_000_000 else None
+
+    def project(self, x):
+        """Coefficients (eq. 28) of samples ``x`` of shape (N, ...) -> (2 n_h + 1, ...)."""
+        if self.E is None:
+            return fourier.fft(x, self.n_h)
+        return (self.E @ x.reshape(self.N, -1)).reshape((self.E.shape[0],) + x.shape[1:])
+
     def run(self, q0, u0, p, sens=True):
         B = self.B0 + np.einsum("kip,p->ki", self.dB, p)
         return self.stepper.run(q0, u0, B, self.dB, sensitivities=sens, store_q_sensitivities=sens)
@@ -154,7 +164,7 @@ class MixedProblem:
     def _eval(self, x, sens):
         p, q0, u0 = self._split(x)
         tr = self.td.run(q0, u0, p, sens)
-        qh = fourier.fft(tr.q[:-1], self.n_h).reshape(-1)
+        qh = self.td.project(tr.q[:-1]).reshape(-1)
         R = np.concatenate([p - qh, tr.q[-1] - q0, tr.u[-1] - u0])
         return R, tr
 
@@ -175,7 +185,7 @@ class MixedProblem:
         nN, a = self.nN, self.nc * self.nN
         # kernel columns: [q0 (nN), u0 (nN), p (a)] -> reorder to x = [p, q0, u0]
         perm = np.concatenate([np.arange(2 * nN, 2 * nN + a), np.arange(2 * nN)])
-        dqh = fourier.fft(tr.Sq_traj[:-1], self.n_h).reshape(a, -1)[:, perm]
+        dqh = self.td.project(tr.Sq_traj[:-1]).reshape(a, -1)[:, perm]
         J = np.zeros((x.size, x.size))
         J[:a] = -dqh
         J[:a, :a] += np.eye(a)
@@ -287,7 +297,7 @@ class IntermediateProblem:
     def _eval(self, x, sens):
         p, q0, u0 = self._split(x)
         tr = self.td.run(q0, u0, p, sens)
-        q1h = fourier.fft(tr.q[:-1], self.n_h).reshape(-1)
+        q1h = self.td.project(tr.q[:-1]).reshape(-1)
         R = np.concatenate([self.H21r @ q1h + self.Sr @ p - self.rhs, tr.q[-1] - q0, tr.u[-1] - u0])
         return R, tr
 
@@ -307,7 +317,7 @@ class IntermediateProblem:
         R, tr = self._eval(x, True)
         n1, a = self.n1, self.nc * self.n2
         perm = np.concatenate([np.arange(2 * n1, 2 * n1 + a), np.arange(2 * n1)])
-        dq1h = fourier.fft(tr.Sq_traj[:-1], self.n_h).reshape(self.nc * n1, -1)[:, perm]
+        dq1h = self.td.project(tr.Sq_traj[:-1]).reshape(self.nc * n1, -1)[:, perm]
         J = np.zeros((x.size, x.size))
         J[:a] = self.H21r @ dq1h
         J[:a, :a] += self.Sr
