@@ -110,6 +110,9 @@ def build_problem(system, omega, method="mshbm", **options):
         raise InputError("omega", f"must be a number, got {omega!r}")
     if not math.isfinite(float(omega)) or float(omega) <= 0:
         raise InputError("omega", f"must be finite and > 0, got {omega}")
+    if not 1e-100 <= float(omega) <= 1e100:
+        raise InputError("omega", f"{float(omega):g} rad/s is outside the supported range [1e-100, 1e100] "
+                                  "((k omega)^2 and (h theta)^2 would overflow)")
     opts = _check_options(method, options)
     solver_keys = _COMMON
     prob_opts = {k: v for k, v in opts.items() if k not in solver_keys and k in METHODS[method]}
@@ -200,7 +203,8 @@ def solve(system, omega, method="mshbm", **options):
         the solve, default 1: the dense matrices are small, and one thread keeps
         results bit-identical across machines and parallel jobs from
         oversubscribing the cores; ``None`` leaves the setting alone),
-        ``continuation`` (HBM: when Newton fails,
+        ``continuation`` (mixed methods: ``True`` opts in to restarts and
+        continuation fallbacks, :mod:`mshbm.continuation`; HBM: when Newton fails,
         retry by continuation from softened regularisations; default True).
 
     Returns
@@ -212,6 +216,11 @@ def solve(system, omega, method="mshbm", **options):
     InputError
         Invalid system, frequency or option (names the key).
     """
+    if method in ("mshbm", "mshbm-intermediate") and options.get("continuation") is True:
+        from .continuation import solve_with_continuation
+
+        return solve_with_continuation(system, omega, method,
+                                       **{k: v for k, v in options.items() if k != "continuation"})
     threads = options.pop("blas_threads", 1)
     if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int) or threads < 1):
         raise InputError("blas_threads", f"must be a positive integer or None, got {threads!r}")
@@ -261,6 +270,12 @@ def _solve(system, omega, method, options):
     for key in ("q_time", "u_time", "q_hat", "lam"):
         if not np.all(np.isfinite(parts[key])):
             success, message = False, f"non-finite {key} in the solution ({message})"
+    rc = getattr(getattr(problem, "cond", None), "rcond", None)
+    if not success and rc is not None and rc.size and float(rc.min()) < 1e-4:
+        k = int(np.argmin(rc))
+        message += (f"; note: the condensed block is nearly singular at harmonic k={k} (rcond {rc[k]:.1e}): "
+                    "k*omega is at a resonance of the linear subsystem, where the periodic solution may be "
+                    "non-unique or unbounded (add damping or move omega)")
     n_h = parts.pop("harmonics")
     sol = PeriodicSolution(method=method, omega=float(omega), harmonics=n_h,
                            steps=int(sopts.get("steps", getattr(problem, "N", None) or len(parts["t"]) - 1)),

@@ -17,6 +17,8 @@ Samples are always taken on the uniform grid ``t_j = j T / N``, ``j = 0..N-1``.
 """
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
@@ -187,9 +189,11 @@ class Condensation:
         ``H_RE H_EE^-1 F_E``.
     rcond : ndarray, shape (n_h+1,)
         Reciprocal condition estimate of each ``H_EE,k`` (1 for an empty E).
+    name : str
+        Name of ``H_EE`` in error messages (``"H_LL"``, ``"H_33"``).
     """
 
-    def __init__(self, system, omega, n_h, keep, eliminate, rcond_min=1e-13):
+    def __init__(self, system, omega, n_h, keep, eliminate, rcond_min=1e-13, name="H_LL"):
         self.keep = np.asarray(keep, dtype=np.int64)
         self.elim = np.asarray(eliminate, dtype=np.int64)
         nR, nE = self.keep.size, self.elim.size
@@ -203,8 +207,8 @@ class Condensation:
             return
         M, C, K = system.M, system.C, system.K
         blocks = {}
-        for name, A in (("M", M), ("C", C), ("K", K)):
-            blocks[name] = (_sub(A, self.elim, self.elim), _sub(A, self.elim, self.keep),
+        for mat, A in (("M", M), ("C", C), ("K", K)):
+            blocks[mat] = (_sub(A, self.elim, self.elim), _sub(A, self.elim, self.keep),
                             _sub(A, self.keep, self.elim))
         sparse = sp.issparse(blocks["M"][0]) and nE > 400
         for k in range(n_h + 1):
@@ -220,22 +224,24 @@ class Condensation:
                     lu = spla.splu(sp.csc_matrix(H_EE), permc_spec="MMD_AT_PLUS_A")
                 except RuntimeError:
                     raise SingularHarmonicError(
-                        f"H_LL is singular at harmonic k={k} (k*omega={w:.6g})") from None
+                        f"{name} is singular at harmonic k={k} (k*omega={w:.6g})") from None
                 d = np.abs(lu.U.diagonal())
                 self.rcond[k] = d.min() / d.max() if d.max() > 0 else 0.0
                 sol = lu.solve(rhs)
             else:
                 H = H_EE.toarray() if sp.issparse(H_EE) else H_EE
-                lu_piv = sla.lu_factor(H, check_finite=False)
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore", sla.LinAlgWarning)
+                    lu_piv = sla.lu_factor(H, check_finite=False)
                 d = np.abs(np.diag(lu_piv[0]))
                 self.rcond[k] = d.min() / d.max() if d.max() > 0 else 0.0
                 if self.rcond[k] < rcond_min:
                     raise SingularHarmonicError(
-                        f"H_LL is singular at harmonic k={k} (k*omega={w:.6g}, rcond~{self.rcond[k]:.1e})")
+                        f"{name} is singular at harmonic k={k} (k*omega={w:.6g}, rcond~{self.rcond[k]:.1e})")
                 sol = sla.lu_solve(lu_piv, rhs, check_finite=False)
             if not np.all(np.isfinite(sol)) or self.rcond[k] < rcond_min:
                 raise SingularHarmonicError(
-                    f"H_LL is singular at harmonic k={k} (k*omega={w:.6g}, rcond~{self.rcond[k]:.1e})")
+                    f"{name} is singular at harmonic k={k} (k*omega={w:.6g}, rcond~{self.rcond[k]:.1e})")
             self.z[k] = sol[:, 0]
             self.Z[k] = sol[:, 1:]
             HRE = H_RE.toarray() if sp.issparse(H_RE) else H_RE

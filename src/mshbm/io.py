@@ -127,8 +127,9 @@ def _read_text(path):
             raw = fh.read(MAX_FILE_BYTES + 1)  # bounded even for endless special files
     except InputError:
         raise
-    except OSError as exc:
-        raise InputError(key, f"cannot read the file: {exc.strerror or exc}") from None
+    except (OSError, ValueError) as exc:  # ValueError: NUL byte in the path
+        raise InputError(key.replace("\x00", "\\0"),
+                         f"cannot read the file: {getattr(exc, 'strerror', None) or exc}") from None
     if len(raw) > MAX_FILE_BYTES:
         raise InputError(key, f"file is larger than {MAX_FILE_BYTES // 2**20} MB (the limit for case files)")
     try:
@@ -247,7 +248,10 @@ def _unknown(key, allowed):
 
 
 def _keyname(k):
-    k = str(k)
+    if not isinstance(k, str):
+        k = "null" if k is None else repr(k)
+    elif not k.strip() or not k.isprintable():
+        k = repr(k)
     return k if len(k) <= 60 else k[:57] + "..."
 
 

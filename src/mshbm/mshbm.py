@@ -268,7 +268,7 @@ class IntermediateProblem:
             if I3.size and nz:
                 raise InputError("partition", f"{a}_13 must vanish for Section 3.3 (subsystem 1 couples to 3)")
         self.I1, self.I2, self.I3 = I1, I2, I3
-        self.cond = Condensation(system, omega, self.n_h, I2, I3)
+        self.cond = Condensation(system, omega, self.n_h, I2, I3, name="H_33")
         nc = 2 * self.n_h + 1
         H12 = _coupling(system, I1, I2, self.n_h, omega)
         H21 = _coupling(system, I2, I1, self.n_h, omega)

@@ -1,0 +1,179 @@
+"""The quick profile of the stress suite (workflow/scripts/stress.py, GitHub issue 5) and the
+continuation fallback it measures (mshbm.continuation).
+
+The quick profile must finish in < 90 s, report no WRONG outcome and no NaN in any number.
+"""
+import json
+import math
+import re
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+import mshbm
+from conftest import OMEGA, friction_chain, impact_chain
+from mshbm.continuation import scaled_system, solve_with_continuation
+
+ROOT = Path(__file__).resolve().parents[1]
+SCRIPT = ROOT / "workflow" / "scripts" / "stress.py"
+CONFIG = ROOT / "workflow" / "stress.yaml"
+
+
+def _no_nan(text):
+    def reject(name):
+        raise AssertionError(f"{name} in the JSON summary")
+
+    return json.loads(text, parse_constant=reject)
+
+
+@pytest.fixture(scope="module")
+def quick(tmp_path_factory):
+    out = tmp_path_factory.mktemp("stress")
+    t0 = time.perf_counter()
+    proc = subprocess.run([sys.executable, str(SCRIPT), "--config", str(CONFIG), "--quick", "--out", str(out),
+                           "--jobs", "2"], cwd=str(ROOT), capture_output=True, text=True, timeout=170)
+    wall = time.perf_counter() - t0
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    summary = _no_nan((out / "summary.json").read_text())
+    return summary, (out / "summary.md").read_text(), wall, proc.stderr
+
+
+def test_quick_profile_is_quick(quick):
+    summary, _, wall, _ = quick
+    assert wall < 90, f"quick stress profile took {wall:.0f} s"
+
+
+def test_no_wrong_outcome(quick):
+    summary, _, _, log = quick
+    wrong = [r for r in summary["rows"] if r["outcome"] == "WRONG"]
+    assert not wrong, json.dumps(wrong, indent=1)[:4000]
+    assert summary["counts"]["WRONG"] == 0
+    assert summary["timeouts"] == 0
+
+
+def test_every_row_is_complete_and_finite(quick):
+    summary, md, _, _ = quick
+    rows = summary["rows"]
+    cats = {r["category"] for r in rows}
+    assert cats == {"resonance", "stiff", "starts", "random"}
+    for r in rows:
+        assert r["outcome"] in ("converged", "failed-with-diagnosis", "WRONG")
+        for key in ("case", "method", "options", "outcome", "message", "reference"):
+            assert key in r, (key, r)
+        for key in ("omega", "residual", "error", "time_s", "tolerance", "residual_recheck", "error_setvalued"):
+            v = r.get(key)
+            assert v is None or (isinstance(v, (int, float)) and math.isfinite(v)), (key, r)
+        if r["outcome"] == "converged":
+            assert r["residual"] is not None and r["time_s"] is not None
+            assert r["error"] is not None or r["reference"].startswith("no reference"), r
+            if r["error"] is not None:
+                assert r["error"] <= r["tolerance"] + 0.05 + 1e-12
+        if r["outcome"] == "failed-with-diagnosis":
+            assert r["message"].strip(), r
+    assert not re.search(r"\b(nan|inf)\b", md, re.I)  # no NaN in the Markdown table either
+    assert "| case | omega |" in md and "## Convergence from poor starts" in md
+
+
+def test_singular_harmonic_is_a_clear_failure(quick):
+    """omega exactly on omega_r / k: InputError naming omega, reported as failed-with-diagnosis."""
+    rows = [r for r in quick[0]["rows"] if "exactly" in str(r.get("point")) and r["method"] != "shooting"]
+    assert rows
+    for r in rows:
+        assert r["outcome"] == "failed-with-diagnosis"
+        assert r["message"].startswith("InputError omega: H_LL is singular at harmonic")
+
+
+def test_start_rates_reported(quick):
+    rates = quick[0]["start_rates"]
+    assert rates and all(0 <= s["converged"] <= s["total"] for s in rates)
+    with_c = {(s["method"], s["start"]): s["converged"] for s in rates if s["continuation"] == "with"}
+    without = {(s["method"], s["start"]): s["converged"] for s in rates if s["continuation"] == "without"}
+    assert all(with_c[k] >= without[k] for k in without)  # the fallback never makes things worse
+
+
+def test_invalid_config_is_rejected(tmp_path):
+    cfg = yaml.safe_load(CONFIG.read_text())
+    cfg["tolerance"]["mshbm"] = "1e-2"  # a string (YAML 1.1 reads 1e-2 without a dot as text)
+    bad = tmp_path / "stress.yaml"
+    bad.write_text(yaml.safe_dump(cfg))
+    proc = subprocess.run([sys.executable, str(SCRIPT), "--config", str(bad), "--quick", "--out", str(tmp_path)],
+                          capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 2
+    assert "tolerance.mshbm" in proc.stderr and "Traceback" not in proc.stderr
+
+
+# ----------------------------------------------------------------------------- continuation
+KW = dict(harmonics=5, steps=1024)
+
+
+def test_continuation_rescues_zero_start():
+    system = friction_chain(3)
+    direct = mshbm.solve(system, OMEGA, "mshbm", guess="zero", **KW)
+    sol = solve_with_continuation(system, OMEGA, "mshbm", guess="zero", strategies=("forcing",), **KW)
+    assert sol.success, sol.message
+    c = sol.info["continuation"]
+    assert c["used"] == ("forcing" if not direct.success else None)
+    ref = mshbm.solve(system, OMEGA, "mshbm", **KW)
+    assert np.allclose(sol.amplitude, ref.amplitude, rtol=1e-6)
+
+
+@pytest.mark.parametrize("strategy", ["transient", "omega"])
+def test_continuation_from_far_frequency(strategy):
+    """impact5 at omega = 0.3 from its solution at 0.6: direct Newton fails, the fallback succeeds."""
+    system = impact_chain(5)
+    far = mshbm.solve(system, 0.6, "mshbm", **KW)
+    assert far.success
+    direct = mshbm.solve(system, 0.3, "mshbm", guess=far, **KW)
+    sol = solve_with_continuation(system, 0.3, "mshbm", guess=far, strategies=(strategy,), **KW)
+    assert sol.success, sol.message
+    if not direct.success:
+        assert sol.info["continuation"]["used"] == strategy
+        assert sol.info["continuation"]["stages"] >= 1
+    # the answer is a solution of the original problem: same as shooting started from it
+    ref = mshbm.solve(system, 0.3, "shooting", steps=4096, guess=sol)
+    assert ref.success
+    assert np.max(np.abs(sol.amplitude - ref.amplitude)) < 0.03 * np.max(ref.amplitude)
+
+
+def test_continuation_never_claims_success_it_did_not_get():
+    system = impact_chain(5)
+    sol = solve_with_continuation(system, 1.0, "mshbm", guess="zero", strategies=("linear", "forcing"),
+                                  max_stages=6, **KW)
+    if not sol.success:
+        assert "continuation fallbacks failed" in sol.message
+        assert sol.info["continuation"]["used"] is None
+    with pytest.raises(mshbm.ConvergenceError):
+        solve_with_continuation(system, 1.0, "mshbm", guess="zero", strategies=(), max_iter=1,
+                                raise_on_failure=True, **KW)
+
+
+def test_continuation_input_errors():
+    system = friction_chain(3)
+    with pytest.raises(mshbm.InputError) as info:
+        solve_with_continuation(system, OMEGA, "mshbm", strategies=("nope",))
+    assert info.value.key == "strategies"
+    w1 = (3 - 5 ** 0.5) / 2  # first eigenvalue of K_LL (masses 2, 3 of the chain)
+    with pytest.raises(mshbm.InputError) as info:
+        solve_with_continuation(system, w1 ** 0.5, "mshbm", **KW)
+    assert info.value.key == "omega"
+    with pytest.raises(mshbm.InputError) as info:
+        solve_with_continuation(system, OMEGA, "mshbm", blas_threads="many")
+    assert info.value.key == "blas_threads"
+
+
+def test_scaled_system_shares_matrices_and_scales():
+    system = friction_chain(3)
+    s = scaled_system(system, forcing=0.5, friction=0.25)
+    assert s.M is system.M and s.K is system.K
+    assert np.array_equal(s.f_hat, 0.5 * system.f_hat)
+    assert s.elements[0].normal_force == 0.25 * system.elements[0].normal_force
+    assert system.elements[0].normal_force == 5.0 or system.elements[0].normal_force == 9.81  # unchanged
+    # positive homogeneity of friction: (s f, s mu F_N) -> s x solution
+    a = mshbm.solve(system, OMEGA, "shooting", steps=1024)
+    b = mshbm.solve(scaled_system(system, forcing=2.0, friction=2.0), OMEGA, "shooting", steps=1024)
+    assert np.allclose(b.amplitude, 2.0 * a.amplitude, rtol=1e-8)
