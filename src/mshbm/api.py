@@ -205,6 +205,8 @@ def solve(system, omega, method="mshbm", **options):
         oversubscribing the cores; ``None`` leaves the setting alone),
         ``continuation`` (mixed methods: ``True`` opts in to restarts and
         continuation fallbacks, :mod:`mshbm.continuation`; HBM: when Newton fails,
+        follow the exact piecewise-linear solution path of penalty contacts
+        (:meth:`mshbm.hbm.HBMProblem.newton_fallback`), else
         retry by continuation from softened regularisations; default True).
 
     Returns
@@ -241,7 +243,7 @@ def _solve(system, omega, method, options):
         x0 = problem.initial_guess(sopts.get("guess"))
         nkw = dict(tol=float(sopts.get("tol", 1e-10)), max_iter=int(sopts.get("max_iter", 50)),
                    line_search=bool(sopts.get("line_search", True)), callback=progress)
-        res = newton(problem.residual, x0, **nkw)
+        res = newton(problem.residual, x0, fallback=bool(sopts.get("continuation", True)), **nkw)
         fallback = None
         if not res.success and sopts.get("continuation", True) and hasattr(problem, "homotopy"):
             # fallback: continuation from softened laws to the requested ones

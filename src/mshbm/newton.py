@@ -1,23 +1,42 @@
-"""Damped Newton iteration shared by all methods.
+"""Damped Newton iteration shared by all methods, and exact piecewise-linear path following.
 
 The residual function returns ``(R, J)``: the residual (shape ``(n_x,)``) and its
 Jacobian (dense ``(n_x, n_x)`` or sparse).  Globalisation is an Armijo
 backtracking line search on ``||R||_2``; a non-finite residual or Jacobian ends
 the iteration with a diagnosis instead of a number.
+
+When the line search fails and ``fun`` is a bound method of an object that
+provides ``newton_fallback`` (e.g. :class:`mshbm.hbm.HBMProblem` with penalty
+contacts, whose residual is piecewise linear in ``q_hat``), that method is
+called as a second globalisation stage; see :func:`newton`.
+
+:func:`follow_pl_path` traces the solution curve of a piecewise-linear
+homotopy ``H(x, lambda) = 0`` exactly, region by region (Eaves' piecewise-linear
+continuation): inside a region ``H`` is affine, the curve is a straight segment,
+and the curve is followed through turning points (folds) by keeping its
+orientation, ``d lambda ~ sign det(dH/dx)``.  A line search on ``||R||`` cannot
+pass such folds, which is why Newton stalls on stiff penalty contact.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-__all__ = ["newton", "NewtonResult"]
+__all__ = ["newton", "NewtonResult", "follow_pl_path", "PathResult"]
 
 
 @dataclass
 class NewtonResult:
+    """Outcome of :func:`newton`.
+
+    ``nit`` counts Newton iterations plus, when a fallback was used, its
+    linear solves (path segments); ``info`` holds the fallback's statistics.
+    """
+
     x: np.ndarray
     success: bool
     message: str
@@ -25,6 +44,7 @@ class NewtonResult:
     nfev: int
     residual_norm: float
     history: list = field(default_factory=list)
+    info: dict = field(default_factory=dict)
 
 
 def _solve(J, R):
@@ -36,7 +56,7 @@ def _solve(J, R):
         return np.linalg.lstsq(J, R, rcond=None)[0]
 
 
-def newton(fun, x0, tol=1e-10, max_iter=50, line_search=True, callback=None, scale=None):
+def newton(fun, x0, tol=1e-10, max_iter=50, line_search=True, callback=None, scale=None, fallback=True):
     """Solve ``R(x) = 0``.
 
     Parameters
@@ -53,14 +73,40 @@ def newton(fun, x0, tol=1e-10, max_iter=50, line_search=True, callback=None, sca
         ``callback(it, x, residual_norm)`` after each iteration (progress display).
     scale : float, optional
         Residual scale; default ``max(1, ||x0||_inf)``.
+    fallback : bool
+        If Newton fails and ``fun`` is a bound method of an object with a method
+        ``newton_fallback(x0, failed, tol=, scale=, max_iter=, callback=)``
+        returning a :class:`NewtonResult`, call it (default True).  The
+        fallback's result is returned if it succeeds, with the same
+        convergence test ``||R||_inf <= tol * scale`` on the real problem.
 
     Returns
     -------
     NewtonResult
     """
-    x = np.array(x0, dtype=float)
+    x0 = np.array(x0, dtype=float)
     if scale is None:
-        scale = max(1.0, float(np.max(np.abs(x), initial=0.0)))
+        scale = max(1.0, float(np.max(np.abs(x0), initial=0.0)))
+    res = _newton(fun, x0, tol, max_iter, line_search, callback, scale)
+    hook = getattr(getattr(fun, "__self__", None), "newton_fallback", None) if fallback else None
+    if res.success or hook is None or not callable(hook):
+        return res
+    alt = hook(x0, res, tol=tol, scale=scale, max_iter=max_iter, callback=callback)
+    if alt is None:
+        return res
+    alt.nit += res.nit
+    alt.nfev += res.nfev
+    alt.history = res.history + alt.history
+    if alt.success:
+        alt.message = f"{alt.message} (Newton alone failed: {res.message})"
+        return alt
+    res.message = f"{res.message}; {alt.message}"
+    res.nit, res.nfev, res.info = alt.nit, alt.nfev, alt.info
+    return res
+
+
+def _newton(fun, x, tol, max_iter, line_search, callback, scale):
+    x = np.array(x, dtype=float)
     nfev = 0
     R, J = fun(x)
     nfev += 1
@@ -110,3 +156,158 @@ def newton(fun, x0, tol=1e-10, max_iter=50, line_search=True, callback=None, sca
     r = float(np.max(np.abs(R), initial=0.0))
     return NewtonResult(x, False, f"no convergence in {max_iter} iterations: ||R||_inf = {r:.2e}",
                         max_iter, nfev, r, hist)
+
+
+# ----------------------------------------------------------------------------------------------
+# exact piecewise-linear path following
+
+
+@dataclass
+class PathResult:
+    """Outcome of :func:`follow_pl_path`.
+
+    Attributes
+    ----------
+    x : ndarray
+        Point reached (on the curve at ``lam_end`` if ``success``).
+    lam : float
+        Homotopy parameter reached.
+    state : object
+        Region (as defined by the caller) of the last segment.
+    success : bool
+        ``lam_end`` was reached.
+    message : str
+    segments : int
+        Straight segments traversed (one factorisation each).
+    folds : int
+        Turning points passed (sign changes of ``det dH/dx``, i.e. of ``d lambda``).
+    """
+
+    x: np.ndarray
+    lam: float
+    state: object
+    success: bool
+    message: str
+    segments: int
+    folds: int
+
+
+def _perm_parity(p):
+    """Sign of the permutation ``i -> p[i]``."""
+    p = np.asarray(p)
+    seen = np.zeros(p.size, dtype=bool)
+    sign = 1.0
+    for i in range(p.size):
+        if seen[i]:
+            continue
+        j, length = i, 0
+        while not seen[j]:
+            seen[j] = True
+            j = p[j]
+            length += 1
+        if length % 2 == 0:
+            sign = -sign
+    return sign
+
+
+def _factor(J):
+    """``(solve, sign det J)`` of a dense or sparse square matrix; ``(None, 0)`` if singular."""
+    if sp.issparse(J):
+        try:
+            lu = spla.splu(sp.csc_matrix(J))
+        except RuntimeError:
+            return None, 0.0
+        d = lu.U.diagonal()
+        if not np.all(np.isfinite(d)) or np.any(d == 0):
+            return None, 0.0
+        sign = float(np.prod(np.sign(d))) * _perm_parity(lu.perm_r) * _perm_parity(lu.perm_c)
+        return lu.solve, sign
+    J = np.asarray(J)
+    if not np.all(np.isfinite(J)):
+        return None, 0.0
+    lu, piv = sla.lu_factor(J, check_finite=False)
+    d = np.diag(lu)
+    if np.any(d == 0) or np.min(np.abs(d)) <= 1e-14 * np.max(np.abs(d)):
+        return None, 0.0
+    sign = float(np.prod(np.sign(d))) * (-1.0) ** int(np.count_nonzero(piv != np.arange(piv.size)))
+    return (lambda b: sla.lu_solve((lu, piv), b, check_finite=False)), sign
+
+
+def follow_pl_path(linearise, crossing, x0, lam0, lam_end, state0, direction=None,
+                   max_segments=100000, max_norm=1e12):
+    """Follow the solution curve of a piecewise-linear homotopy ``H(x, lambda) = 0`` exactly.
+
+    ``H`` is continuous and affine in ``(x, lambda)`` on each region of a
+    partition (regions are identified by a caller-defined ``state``).  From a
+    point ``(x0, lam0)`` on the curve, each segment moves along the tangent
+    ``(dx, dlam)`` with ``dH/dx dx + dH/dlam dlam = 0`` up to the next region
+    boundary.  The direction keeps the curve's orientation,
+    ``dlam = direction * sign det(dH/dx) / sign det(dH/dx)_0``, so turning points
+    (where ``det dH/dx`` changes sign) are passed instead of stalling there
+    (pseudo-arclength continuation without step size: the steps are exact).
+
+    Parameters
+    ----------
+    linearise : callable
+        ``linearise(x, lam, state) -> (J, h)``: ``J = dH/dx`` (dense or sparse)
+        and ``h = dH/dlambda`` (shape ``(n_x,)``) of region ``state``.
+    crossing : callable
+        ``crossing(x, lam, dx, dlam, state) -> (s, new_state)``: the smallest
+        ``s > 0`` at which ``(x, lam) + s (dx, dlam)`` leaves region ``state``
+        and the region entered there (``s = inf`` if none).
+    x0 : ndarray, shape (n_x,)
+    lam0, lam_end : float
+        Start and target of ``lambda``; the path ends when ``lambda`` reaches ``lam_end``.
+    state0 : object
+        Region at the start, entered in the direction of travel.
+    direction : float, optional
+        Initial sign of ``dlam`` (default ``sign(lam_end - lam0)``).
+    max_segments : int
+    max_norm : float
+        Failure when ``||x||_inf`` exceeds this (the curve runs off to infinity).
+
+    Returns
+    -------
+    PathResult
+    """
+    x = np.array(x0, dtype=float)
+    lam = float(lam0)
+    state = state0
+    if direction is None:
+        direction = 1.0 if lam_end >= lam0 else -1.0
+    sign0, prev, folds, stuck = None, None, 0, 0
+    for seg in range(1, max_segments + 1):
+        J, h = linearise(x, lam, state)
+        solve, sdet = _factor(J)
+        if solve is None:
+            return PathResult(x, lam, state, False, f"singular dH/dx on segment {seg} (lambda = {lam:.6g}); "
+                              "the path is not regular here", seg, folds)
+        if sign0 is None:
+            sign0 = sdet
+        dlam = direction * sdet * sign0
+        if prev is not None and dlam != prev:
+            folds += 1
+        prev = dlam
+        dx = -dlam * solve(np.asarray(h, dtype=float))
+        if not np.all(np.isfinite(dx)):
+            return PathResult(x, lam, state, False, f"non-finite tangent on segment {seg}", seg, folds)
+        s, new_state = crossing(x, lam, dx, dlam, state)
+        s_end = (lam_end - lam) / dlam
+        if 0.0 <= s_end <= s:
+            return PathResult(x + s_end * dx, float(lam_end), state, True,
+                              f"reached lambda = {lam_end:.6g} after {seg} segments, {folds} folds", seg, folds)
+        if not np.isfinite(s):
+            return PathResult(x, lam, state, False, f"the path leaves to infinity after {seg} segments "
+                              f"(lambda = {lam:.6g}, {folds} folds)", seg, folds)
+        x = x + s * dx
+        lam = lam + s * dlam
+        state = new_state
+        stuck = stuck + 1 if s <= 0.0 else 0
+        if stuck > 1000:
+            return PathResult(x, lam, state, False, f"the path is degenerate at lambda = {lam:.6g} (1000 "
+                              "zero-length segments)", seg, folds)
+        if not np.all(np.isfinite(x)) or np.max(np.abs(x)) > max_norm:
+            return PathResult(x, lam, state, False, f"the path diverges (||x|| > {max_norm:.0e}) after {seg} "
+                              "segments", seg, folds)
+    return PathResult(x, lam, state, False, f"no end of the path after {max_segments} segments "
+                      f"(lambda = {lam:.6g}, {folds} folds)", max_segments, folds)
