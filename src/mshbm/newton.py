@@ -105,8 +105,25 @@ def newton(fun, x0, tol=1e-10, max_iter=50, line_search=True, callback=None, sca
     return res
 
 
-def _newton(fun, x, tol, max_iter, line_search, callback, scale):
+def _watchdog_step(fun, xt, r2):
+    """Newton step from the provisional point ``xt``; ``(x, R, J)`` if it ends below ``r2``."""
+    Rt, Jt = fun(xt)
+    if not np.all(np.isfinite(Rt)):
+        return None
+    dx = -_solve(Jt, Rt)
+    if not np.all(np.isfinite(dx)):
+        return None
+    x2 = xt + dx
+    R2, J2 = fun(x2)
+    if np.all(np.isfinite(R2)) and float(np.linalg.norm(R2)) <= (1.0 - 1e-4) * r2:
+        return x2, R2, J2
+    return None
+
+
+def _newton(fun, x, tol, max_iter, line_search, callback, scale, watchdog=None):
     x = np.array(x, dtype=float)
+    if watchdog is None:
+        watchdog = max_iter
     nfev = 0
     R, J = fun(x)
     nfev += 1
@@ -132,6 +149,7 @@ def _newton(fun, x, tol, max_iter, line_search, callback, scale):
         lam = 1.0
         r2 = float(np.linalg.norm(R))
         best = None
+        watched = None
         while True:
             xt = x + lam * dx
             Rt, _ = fun(xt, jac=False)
@@ -141,7 +159,19 @@ def _newton(fun, x, tol, max_iter, line_search, callback, scale):
                 best = (rt2, lam, xt)
             if not line_search or rt2 <= (1.0 - 1e-4 * lam) * r2 or lam < 1.0 / 1024:
                 break
+            if lam == 1.0 and watchdog > 0 and np.isfinite(rt2):
+                # watchdog: a full step that crosses a switch of the active set (an impact moving
+                # by one time step) may raise ||R|| although the next Newton step converges.
+                # Take it provisionally with one more Newton step; keep both if that ends lower.
+                watchdog -= 1
+                watched = _watchdog_step(fun, xt, r2)
+                nfev += 2
+                if watched is not None:
+                    break
             lam *= 0.5
+        if watched is not None:
+            x, R, J = watched
+            continue
         rt2, lam, xt = best
         if not np.isfinite(rt2):
             return NewtonResult(x, False, f"residual became NaN/inf along the Newton step at iteration {it}",
