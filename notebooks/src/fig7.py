@@ -1,0 +1,104 @@
+# %% [markdown]
+# # Fig. 7 — phase diagram of mass 1, 50-mass impact chain
+#
+# **Paper (Sec. 4.2, Fig. 7):** *"Phase diagram of the nonlinear subsystem of the 50-mass
+# oscillator calculated with 3 and 9 considered harmonics using the HBM (left), MS-HBM (right), as
+# reference the full shooting approach is depicted in both diagrams as black curve."*  The text:
+# the periodic solution *"shows the existence of an accumulation point, i.e. infinitely many
+# impacts occur during a finite time period.  The HBM cannot model this effect but the MS-HBM
+# already provides a good approximation with just a few considered harmonics and it exactly
+# fulfils the non-penetration condition of the contact."*
+#
+# **Here:** the solutions are those of the Fig. 8 sweep (same solve jobs, same starts).  An
+# impact of the time-stepping methods is a step with a positive contact impulse; consecutive
+# impulse steps form one impact cluster, and an accumulation of impacts would show as many
+# impulse steps/clusters close together, ending in a phase of persistent contact.  HBM uses the
+# penalty spring, so it has contact episodes (intervals with $q_1 > g_{N,0}$) instead of impacts.
+# If HBM did not converge from the Fig. 8 starts it is restarted, for this figure only, from the
+# converged MS-HBM and full-shooting solutions (config `hbm_fallback`); the legend says so.
+
+# %% tags=["parameters"]
+config = "results/config.json"
+summary = "results/summary/fig7.json"
+npz = {}
+out_png = "results/figures/fig7.png"
+out_pdf = "results/figures/fig7.pdf"
+
+# %%
+import os, sys
+sys.path.insert(0, "notebooks") if os.path.isdir("notebooks") else None
+import nbcommon as nc
+import numpy as np
+import matplotlib.pyplot as plt
+from IPython.display import Markdown, display
+
+nc.setup()
+cfg = nc.load_json(config)
+S = nc.load_json(summary)
+num = S["numbers"]
+scfg = cfg["systems"][S["system"]]
+g0 = scfg["contact"]["gap"]
+nhs = S["harmonics"]
+ref = nc.load_npz(npz["ref"])
+
+# %% [markdown]
+# ## The paper's claims and our numbers
+
+# %%
+display(Markdown(nc.claims_table(S)))
+
+# %%
+fig, axes = plt.subplots(1, 2, figsize=(7.6, 3.6), sharey=True)
+colors = ["#1f77b4", "#2ca02c", "#9467bd", "#8c564b"]
+for ax, method in zip(axes, ("hbm", "mshbm")):
+    ax.plot(ref["q"][:, 0], ref["u"][:, 0], color="k", lw=1.6, label=f"full shooting, N = {cfg['numerics']['reference_steps']}", zorder=2)
+    imp = np.flatnonzero(ref["impulses"][:, 0] > 0)
+    ax.plot(ref["q"][imp, 0], ref["u"][imp, 0], "ko", ms=4, mfc="white", zorder=4, label="impulse steps (shooting)")
+    notes = []
+    for c, nh in zip(colors, nhs):
+        key = f"{method}_nh{nh}"
+        d = nc.load_npz(npz[key])
+        f = S["solves"][key]
+        if d is None:
+            notes.append(f"$n_H$ = {nh}: no convergence from any start")
+            continue
+        lab = f"{nc.LABELS[method]}, $n_H$ = {nh}"
+        if f.get("display_only"):
+            lab += f" (from {f['start_used']})"
+        ax.plot(d["q"][:, 0], d["u"][:, 0], color=c, lw=1.1, ls="--" if nh == nhs[0] else "-", label=lab, zorder=3)
+    ax.axvline(g0, color="0.4", lw=0.8, ls=":")
+    ax.text(g0, 0, r" $g_{N,0}$", fontsize=7, color="0.3", va="bottom")
+    for t in notes:
+        ax.plot([], [], color="tab:red", marker="x", ls="none", label=t + ", not drawn")
+    ax.set_xlabel("$q_1$ (m)")
+    ax.set_title({"hbm": "HBM (penalty contact)", "mshbm": "MS-HBM (set-valued contact)"}[method])
+    ax.legend(loc="upper left", fontsize=6.5, framealpha=0.9)
+axes[0].set_ylabel(r"$u_1$ (m/s)")
+fig.suptitle(f"mass 1 of the {scfg['n']}-mass impact chain: {num['reference_impulse_steps']} impulse step(s) per period, "
+             f"{'accumulation' if num['accumulation'] else 'no accumulation'} of impacts (full shooting)", fontsize=8.5)
+fig.tight_layout()
+nc.save(fig, out_png, out_pdf)
+
+# %% [markdown]
+# ## Impacts per period, non-penetration, branch
+#
+# `max(q1 - g0)` is the largest value of $q_1 - g_{N,0}$ on the time grid: negative or zero means
+# no penetration.  The shooting reference was reached from its own solution at the nearby
+# frequency (Newton); its largest Floquet multiplier modulus tells whether this branch is stable.
+
+# %%
+rows = [("full shooting (reference)", "-", "yes", num["reference_start"], num["reference_impulse_steps"],
+         num["reference_impact_clusters"], "-", nc.fmt(S["reference"].get("max_penetration"), "sci"),
+         nc.fmt(num["reference_floquet"], "f4"))]
+for method in ("hbm", "mshbm"):
+    for nh in nhs:
+        f = S["solves"][f"{method}_nh{nh}"]
+        rows.append((nc.LABELS[method], nh, "yes" if f["success"] else "NO", f.get("start_used") or "-",
+                     f.get("impulse_steps", "-") if f["success"] else "-",
+                     f.get("impact_clusters", "-") if f["success"] else "-",
+                     f.get("contact_episodes", "-") if f["success"] else "-",
+                     nc.fmt(f.get("max_penetration"), "sci") if f["success"] else "-", "-"))
+display(Markdown(nc.md_table(["method", "n_H", "converged", "start", "impulse steps/period", "impact clusters",
+                              "HBM contact episodes", "max(q1 - g0) (m)", "max. Floquet modulus"], rows)))
+print("impact cluster sizes (reference):", S["reference"].get("impact_cluster_sizes"))
+print("largest Floquet moduli (reference):", ", ".join(f"{x:.4f}" for x in S["reference"].get("floquet_moduli_top") or []))

@@ -1,0 +1,162 @@
+"""The Snakemake workflow: lint, dry run of the full workflow, the quick workflow end to end.
+
+The quick workflow (workflow/config-quick.yaml) runs in a temporary copy of the workflow files
+(Snakefile, workflow/, notebooks/, paper/), so it never touches results/ or .snakemake/ of the
+working tree.  Its summaries are compared with tests/reference/quick.json (tolerances per
+quantity, see tests/reference/README.md); wall times are never asserted.
+"""
+import json
+import math
+import os
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+SNAKEMAKE = [sys.executable, "-m", "snakemake"]
+WORKFLOW_FILES = ["Snakefile", "workflow", "notebooks", "paper"]
+QUICK = ["--configfile", "workflow/config-quick.yaml"]
+#: the paper's outputs (rule `all` may also hold targets of other rule files, e.g. the stress suite)
+TARGET = ["reproduction"]
+FIGURES = [f"fig{i}" for i in range(1, 9)]
+TABLES = ["table1", "table2"]
+#: the one lint we accept: the software environment is the pinned venv (environment.txt), not conda
+ACCEPTED_LINT = "Specify a conda environment or container for each rule."
+
+
+def copy_workflow(dst):
+    ignore = shutil.ignore_patterns("__pycache__", ".ipynb_checkpoints", "results", ".snakemake")
+    for name in WORKFLOW_FILES:
+        src = ROOT / name
+        if src.is_dir():
+            shutil.copytree(src, dst / name, ignore=ignore)
+        else:
+            shutil.copy2(src, dst / name)
+    return dst
+
+
+def run(args, cwd, timeout=600):
+    env = dict(os.environ, MPLBACKEND="Agg")
+    return subprocess.run(SNAKEMAKE + args, cwd=cwd, capture_output=True, text=True, timeout=timeout, env=env)
+
+
+@pytest.fixture(scope="module")
+def workdir(tmp_path_factory):
+    return copy_workflow(tmp_path_factory.mktemp("workflow"))
+
+
+@pytest.fixture(scope="module")
+def quick_run(workdir):
+    """Run the quick workflow once (a couple of minutes on 2 cores)."""
+    proc = run(TARGET + ["--cores", "2"] + QUICK, workdir, timeout=900)
+    assert proc.returncode == 0, proc.stdout[-4000:] + proc.stderr[-4000:]
+    return workdir / "results" / "quick"
+
+
+def test_notebooks_are_built_from_their_sources():
+    proc = subprocess.run([sys.executable, "notebooks/build_notebooks.py", "--check"], cwd=ROOT,
+                          capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+
+
+def test_lint(workdir):
+    proc = run(["--lint"], workdir, timeout=120)
+    out = proc.stdout + proc.stderr
+    assert "Traceback" not in out, out[-3000:]
+    titles = re.findall(r"^\s+\* (.+?):\s*$", out, re.M)
+    unexpected = [t for t in titles if t != ACCEPTED_LINT]
+    assert not unexpected, out[-5000:]
+
+
+def test_dry_run_of_the_full_workflow(workdir):
+    proc = run(["-n", "--cores", "2"], workdir, timeout=120)
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+    out = proc.stdout + proc.stderr
+    for name in ["solve", "summary", "paper", "all", "config_snapshot"] + FIGURES + TABLES:
+        assert re.search(rf"^{re.escape(name)}\s+\d+\s*$", out, re.M), f"no {name} job in the dry run"
+    n_solves = int(re.search(r"^solve\s+(\d+)\s*$", out, re.M).group(1))
+    assert n_solves >= 60  # 2 sweeps x 13 n_H x 2 methods + references + Figs. 3, 5
+
+
+def test_config_schema_rejects_invalid_values():
+    import yaml
+    from snakemake.exceptions import WorkflowError
+    from snakemake.utils import validate
+
+    cfg = yaml.safe_load((ROOT / "workflow" / "config.yaml").read_text())
+    validate(cfg, str(ROOT / "workflow" / "schemas" / "config.schema.yaml"))
+    bad = json.loads(json.dumps(cfg))
+    bad["systems"]["impact5"]["contact"]["restitution"] = 1.5
+    with pytest.raises(WorkflowError):
+        validate(bad, str(ROOT / "workflow" / "schemas" / "config.schema.yaml"))
+    bad = json.loads(json.dumps(cfg))
+    bad["numerics"]["stepz"] = bad["numerics"].pop("steps")
+    with pytest.raises(WorkflowError):
+        validate(bad, str(ROOT / "workflow" / "schemas" / "config.schema.yaml"))
+
+
+@pytest.mark.slow
+def test_quick_workflow_outputs(quick_run):
+    for name in FIGURES:
+        for ext in ("png", "pdf"):
+            assert (quick_run / "figures" / f"{name}.{ext}").stat().st_size > 1000
+    for name in TABLES:
+        assert "|" in (quick_run / "tables" / f"{name}.md").read_text()
+        assert (quick_run / "tables" / f"{name}.csv").exists()
+    for name in FIGURES + TABLES:
+        nb = json.loads((quick_run / "notebooks" / f"{name}.ipynb").read_text())
+        errors = [o for c in nb["cells"] if c["cell_type"] == "code" for o in c.get("outputs", [])
+                  if o.get("output_type") == "error"]
+        assert not errors, (name, errors)
+        assert "<html" in (quick_run / "notebooks" / f"{name}.html").read_text()[:2000].lower()
+    # every solve wrote its facts; failures are recorded with a message, never dropped
+    for path in (quick_run / "solves").rglob("*.json"):
+        facts = json.loads(path.read_text())
+        assert isinstance(facts["success"], bool)
+        if not facts["success"]:
+            assert facts["message"], path
+
+
+@pytest.mark.slow
+def test_quick_workflow_matches_references(quick_run):
+    ref = json.loads((ROOT / "tests" / "reference" / "quick.json").read_text())
+    failures = []
+    for item in ref["values"]:
+        summary = json.loads((quick_run / "summary" / f"{item['figure']}.json").read_text())["numbers"]
+        if item["key"] not in summary:
+            failures.append(f"{item['figure']}.{item['key']}: missing")
+            continue
+        got, want = summary[item["key"]], item["value"]
+        if item["kind"] == "exact" or want is None or got is None or isinstance(want, (bool, str)):
+            ok = got == want
+        else:
+            ok = math.isclose(got, want, rel_tol=item["rtol"], abs_tol=item["atol"])
+        if not ok:
+            failures.append(f"{item['figure']}.{item['key']}: got {got!r}, reference {want!r} "
+                            f"(rtol {item['rtol']}, atol {item['atol']})")
+    assert not failures, "\n".join(failures) + (
+        "\n(if the change is intended, regenerate: python workflow/scripts/update_references.py)")
+
+
+@pytest.mark.slow
+def test_paper_html_is_self_contained_and_complete(quick_run):
+    page = (quick_run / "paper" / "paper.html").read_text()
+    for name in FIGURES:
+        m = re.search(rf'<figure id="{name}"><img alt="[^"]*" src="data:image/png;base64,([A-Za-z0-9+/=]+)"', page)
+        assert m and len(m.group(1)) > 1000, f"figure {name} missing from the paper"
+    for name in TABLES:
+        m = re.search(rf'<div class="table" id="{name}">\s*<table>(.*?)</table>', page, re.S)
+        assert m and m.group(1).count("<tr>") >= 5, f"table {name} missing from the paper"
+    assert "{{" not in page and "}}" not in page  # every placeholder filled
+    assert not re.search(r'(src|href)="(https?:)?//', page)  # nothing loaded from elsewhere
+
+
+@pytest.mark.slow
+def test_rerun_with_nothing_changed_does_nothing(quick_run, workdir):
+    proc = run(TARGET + ["-n", "--cores", "2"] + QUICK, workdir, timeout=120)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert "Nothing to be done" in proc.stdout + proc.stderr, (proc.stdout + proc.stderr)[-3000:]

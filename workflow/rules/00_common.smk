@@ -1,0 +1,154 @@
+# Helpers shared by the rule files; included first (files are included sorted by name).
+# All functions of the workflow live here, the other files hold rules only.
+import hashlib
+import importlib.util
+import sys
+
+sys.path.insert(0, str(Path(workflow.basedir, "workflow", "scripts")))
+import wfcore  # noqa: E402
+
+R = config["results_dir"].rstrip("/")
+NUMERICS = config["numerics"]
+FIGURES = ["fig1", "fig2", "fig3", "fig4", "fig5", "fig6", "fig7", "fig8"]
+TABLES = ["table1", "table2"]
+NOTEBOOKS = FIGURES + TABLES
+#: figures whose data come from solves (summary rule)
+SUMMARIZED = ["fig3", "fig4", "fig5", "fig6", "fig7", "fig8"]
+
+
+def _check_config():
+    """Consistency checks the JSON schema cannot express."""
+    problems = []
+    for fig in SUMMARIZED:
+        fcfg = config["figures"][fig]
+        for key in ("system", "check_system"):
+            if key in fcfg and fcfg[key] not in config["systems"]:
+                problems.append(f"figures.{fig}.{key}: unknown system {fcfg[key]!r}")
+    if NUMERICS["reference_steps"] == NUMERICS["steps"]:
+        problems.append("numerics.reference_steps must differ from numerics.steps "
+                        "(the reference is untimed, full shooting at `steps` is the timed effort reference)")
+    f7, f8 = config["figures"]["fig7"], config["figures"]["fig8"]
+    if f7["system"] != f8["system"] or not set(f7["harmonics"]) <= set(f8["harmonics"]):
+        problems.append("figures.fig7 must use the system of fig8 and a subset of its harmonics "
+                        "(Fig. 7 shows solutions of the Fig. 8 sweep)")
+    for fig in ("fig5", "fig6"):
+        if config["figures"][fig] != config["figures"]["fig5" if fig == "fig6" else "fig6"]:
+            problems.append("figures.fig5 and figures.fig6 must be equal (one set of solves)")
+            break
+    for fig in ("fig4", "fig8"):
+        if not config["systems"][config["figures"][fig]["system"]]["timed"]:
+            problems.append(f"the system of figures.{fig} must be timed (work-precision diagram)")
+    if problems:
+        joined = "\n  ".join(problems)
+        raise ValueError(f"invalid configuration:\n  {joined}")
+
+
+_check_config()
+
+
+def _solver_digest():
+    """Digest of the source of the installed solver package (without importing it): a change of
+    the solver reruns every solve, a touched but unchanged file does not."""
+    spec = importlib.util.find_spec("mshbm")
+    h = hashlib.sha256()
+    for path in sorted(Path(spec.origin).parent.glob("*.py")):
+        h.update(path.name.encode())
+        h.update(path.read_bytes())
+    return h.hexdigest()[:16]
+
+
+SOLVER_DIGEST = _solver_digest()
+
+
+def solve_file(case, method, nh=None, reference=False, ext="json"):
+    """Result file of one solve (see rule `solve`)."""
+    stem = wfcore.solve_stem(config, case, method, nh, reference)
+    return f"{stem}.{ext}"
+
+
+def figure_solves(fig, ext="json"):
+    """Named solve results a figure needs: ref, shooting, <method>_nh<n>."""
+    fcfg = config["figures"][fig]
+    case = fcfg["system"]
+    out = {"ref": solve_file(case, "shooting", reference=True, ext=ext),
+           "shooting": solve_file(case, "shooting", ext=ext)}
+    if fcfg.get("check_system"):
+        out["check"] = solve_file(fcfg["check_system"], "shooting", ext=ext)
+    if "harmonics" in fcfg:
+        for method in ("hbm", "mshbm"):
+            for nh in fcfg["harmonics"]:
+                out[f"{method}_nh{nh}"] = solve_file(case, method, nh, ext=ext)
+        if fcfg.get("fd_harmonics"):
+            out["shooting-fd"] = solve_file(case, "shooting-fd", ext=ext)
+            for nh in fcfg["fd_harmonics"]:
+                out[f"mshbm-fd_nh{nh}"] = solve_file(case, "mshbm-fd", nh, ext=ext)
+    else:
+        out[f"hbm_nh{fcfg['hbm_harmonics']}"] = solve_file(case, "hbm", fcfg["hbm_harmonics"], ext=ext)
+        out[f"mshbm_nh{fcfg['mshbm_harmonics']}"] = solve_file(case, "mshbm", fcfg["mshbm_harmonics"], ext=ext)
+    return out
+
+
+def notebook_outputs(name):
+    kind = "tables" if name.startswith("table") else "figures"
+    outs = {"nb": f"{R}/notebooks/{name}.ipynb", "html": f"{R}/notebooks/{name}.html"}
+    if kind == "figures":
+        outs.update(png=f"{R}/figures/{name}.png", pdf=f"{R}/figures/{name}.pdf")
+    else:
+        outs.update(md=f"{R}/tables/{name}.md", csv=f"{R}/tables/{name}.csv")
+    return outs
+
+
+#: rule files added later may append their final outputs here to make them part of `rule all`
+EXTRA_TARGETS = []
+
+
+def reproduction_targets():
+    """The paper, every figure, table and rendered notebook."""
+    out = [f"{R}/paper/paper.html"]
+    for name in NOTEBOOKS:
+        out += list(notebook_outputs(name).values())
+    return out
+
+
+def all_targets():
+    return reproduction_targets() + EXTRA_TARGETS
+
+
+# ----------------------------------------------------------------------------- solves
+def _is_reference(w):
+    return wfcore.split_method(w.method)[0] == "shooting" and int(w.steps) == NUMERICS["reference_steps"]
+
+
+def solve_inputs(w):
+    """HBM that fails from every start is restarted from these converged solutions (display only)."""
+    scfg = config["systems"][w.case]
+    if w.method != "hbm":
+        return {}
+    return {"fallback": [solve_file(w.case, m, int(w.nh), ext="npz") for m in scfg["hbm_fallback"]]}
+
+
+def solve_params(w):
+    """Exactly the configuration a solve depends on (a change reruns only the affected solves)."""
+    scfg = config["systems"][w.case]
+    reference = _is_reference(w)
+    numerics = {k: NUMERICS[k] for k in ("tol", "max_iter")}
+    base, jac = wfcore.split_method(w.method)
+    if base != "hbm":
+        numerics.update(theta=NUMERICS["theta"], jacobian=jac or NUMERICS["jacobian"])
+    cfg = {"omega_over_pi": config["omega_over_pi"], "numerics": numerics,
+           "systems": {w.case: scfg}, "starts": config["starts"],
+           "timing": {k: config["timing"][k] for k in ("warmup", "repeats")}}
+    if "nearby" not in scfg["starts"]:
+        cfg["starts"] = {}
+    if not scfg["timed"] or reference:
+        cfg["timing"] = {}
+    return cfg
+
+
+# ----------------------------------------------------------------------------- notebooks
+#: code the notebooks import (a change reruns the notebooks); not passed as a parameter
+NB_HELPERS = ["notebooks/nbcommon.py", "workflow/scripts/wfcore.py"]
+
+
+def npz_inputs(fig):
+    return {f"npz_{k}": v for k, v in figure_solves(fig, ext="npz").items()}

@@ -1,0 +1,24 @@
+# The literate manuscript paper/paper.md -> one self-contained HTML file (figures embedded).
+# Numbers in the text are placeholders {{fig8.<key>}} / {{config.<dotted key>}} filled from
+# results/summary/*.json and results/config.json by scripts/build_paper.py.
+
+
+rule paper:
+    input:
+        md="paper/paper.md",
+        config=f"{R}/config.json",
+        figures=expand(f"{R}/figures/{{name}}.png", name=FIGURES),
+        tables=expand(f"{R}/tables/{{name}}.md", name=TABLES),
+        summaries=expand(f"{R}/summary/{{fig}}.json", fig=SUMMARIZED),
+    output:
+        html=f"{R}/paper/paper.html",
+        md=f"{R}/paper/paper.filled.md",
+    log:
+        f"{R}/logs/paper.log",
+    threads: 1
+    priority: 10
+    resources:
+        mem_mb=500,
+        runtime=5,
+    script:
+        "../scripts/build_paper.py"

@@ -1,0 +1,36 @@
+# Cheap aggregation: errors against the reference, efforts, impacts, claims (scripts/summarize.py).
+# Restyling a figure never reruns a solver; these read JSON only.
+
+
+rule summary:
+    input:
+        unpack(lambda w: figure_solves(w.fig)),
+    output:
+        f"{R}/summary/{{fig}}.json",
+    params:
+        figure=lambda w: config["figures"][w.fig],
+        clock=config["timing"]["clock"],
+        system=lambda w: config["systems"][config["figures"][w.fig]["system"]],
+    log:
+        f"{R}/logs/summary/{{fig}}.log",
+    threads: 1
+    resources:
+        mem_mb=500,
+        runtime=5,
+    script:
+        "../scripts/summarize.py"
+
+
+rule config_snapshot:
+    output:
+        f"{R}/config.json",
+    params:
+        config={k: v for k, v in config.items() if k != "results_dir"},
+    log:
+        f"{R}/logs/config_snapshot.log",
+    threads: 1
+    resources:
+        mem_mb=200,
+        runtime=5,
+    script:
+        "../scripts/config_snapshot.py"

@@ -1,0 +1,151 @@
+"""Build the literate manuscript paper/paper.md into ONE self-contained HTML file.
+
+* ``{{fig8.key|fmt}}`` / ``{{config.dotted.key|fmt}}``: numbers from results/summary/<fig>.json
+  (``numbers``) and the configuration (see :func:`wfcore.fill_placeholders`); an unknown key fails
+  the build.
+* ``{{include:table1}}``: the generated table results/tables/table1.md, wrapped in
+  ``<div class="table" id="table1">``.
+* ``{{include:claims-fig3}}``: the paper's claims of a figure next to our numbers and the verdict
+  (``claims`` of results/summary/fig3.json).
+* ``{{include:choices}}``: every value the paper leaves open and our choice (config ``choices``).
+* ``<!-- check: EXPR ## statement -->``: a qualitative statement of the text that depends on the
+  results, as a Python expression over the figure numbers (``fig8["hbm_failed"] > 0``).  When a
+  result changes and the expression turns false, the document opens with a warning box listing
+  the stale statements (and the build log says so), instead of silently printing outdated text.
+* ``![caption](figures/fig3.png)`` on its own line: the figure, embedded as a base64 data URI in
+  ``<figure id="fig3">`` with the caption.
+
+Run by the rule ``paper`` or stand-alone::
+
+    python workflow/scripts/build_paper.py [results_dir]
+"""
+import base64
+import html
+import os
+import re
+import sys
+
+import mistune
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from wfcore import fill_placeholders, get_key, load_json  # noqa: E402
+
+CSS = """
+body { font-family: Georgia, 'Times New Roman', serif; max-width: 52em; margin: 2em auto; padding: 0 1em;
+       line-height: 1.45; color: #222; }
+h1, h2, h3 { font-family: Helvetica, Arial, sans-serif; line-height: 1.2; }
+h1 { font-size: 1.6em; } h2 { font-size: 1.25em; margin-top: 2em; border-bottom: 1px solid #ccc; }
+figure { margin: 1.5em 0; text-align: center; }
+figure img { max-width: 100%; }
+figcaption { font-size: 0.9em; text-align: left; margin-top: 0.4em; }
+table { border-collapse: collapse; font-size: 0.82em; margin: 1em 0; }
+th, td { border: 1px solid #bbb; padding: 0.25em 0.5em; vertical-align: top; }
+th { background: #f0f0f0; }
+div.table { overflow-x: auto; }
+code { font-size: 0.9em; background: #f5f5f5; padding: 0 0.2em; }
+pre { background: #f5f5f5; padding: 0.6em; overflow-x: auto; }
+.verdict { font-weight: bold; }
+div.stale { border: 2px solid #c00; background: #fee; padding: 0.5em 1em; }
+"""
+
+FIGURE = re.compile(r"^!\[(?P<cap>[^\]]*)\]\((?P<path>figures/(?P<name>[A-Za-z0-9_]+)\.png)\)\s*$", re.M)
+CHECK = re.compile(r"<!--\s*check:\s*(?P<expr>.+?)\s*##\s*(?P<text>.+?)\s*-->", re.S)
+INCLUDE = re.compile(r"\{\{\s*include:(?P<name>[A-Za-z0-9_\-]+)\s*\}\}")
+
+
+def md_table(header, rows):
+    out = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
+    out += ["| " + " | ".join(str(c).replace("|", "/") for c in r) + " |" for r in rows]
+    return "\n".join(out)
+
+
+def build(md_path, results_dir, out_html, out_md=None):
+    text = open(md_path, encoding="utf-8").read()
+    config = load_json(os.path.join(results_dir, "config.json"))
+    context, summaries = {"config": config}, {}
+    sdir = os.path.join(results_dir, "summary")
+    for fn in sorted(os.listdir(sdir)):
+        if fn.endswith(".json"):
+            summaries[fn[:-5]] = load_json(os.path.join(sdir, fn))
+            context[fn[:-5]] = summaries[fn[:-5]]["numbers"]
+
+    def include(m):
+        name = m.group("name")
+        if name.startswith("claims-"):
+            claims = summaries[name[len("claims-"):]]["claims"]
+            return md_table(["the paper says", "we measure", "verdict"],
+                            [(c["paper"], c["ours"], f"**{c['verdict']}**") for c in claims])
+        if name == "choices":
+            lines = []
+            for c in config["choices"]:
+                value = get_key(config, c["key"])
+                shown = "" if isinstance(value, str) and len(value) > 40 else f" = {value}"
+                lines.append(f"- **{c['what']}**: `{c['key']}`{shown}. {' '.join(c['why'].split())}")
+            return "\n".join(lines)
+        table = open(os.path.join(results_dir, "tables", f"{name}.md"), encoding="utf-8").read()
+        return f'<div class="table" id="{name}">\n\n{table.strip()}\n\n</div>'
+
+    stale = []
+    for m in CHECK.finditer(text):
+        scope = {k: v for k, v in context.items() if k != "config"}
+        try:
+            ok = bool(eval(m.group("expr"), {"__builtins__": {"min": min, "max": max, "abs": abs, "len": len}}, scope))
+        except (KeyError, TypeError, NameError) as exc:
+            ok, note = False, f" ({type(exc).__name__}: {exc})"
+        else:
+            note = ""
+        if not ok:
+            stale.append(f"{m.group('text')} [check `{m.group('expr')}` failed{note}]")
+    text = CHECK.sub("", text)
+    if stale:
+        items = "\n".join(f"<li>{html.escape(x)}</li>" for x in stale)
+        banner = ('<div class="stale"><strong>Stale text:</strong> these statements of the manuscript no longer '
+                  f"match the regenerated results; update paper/paper.md.<ul>{items}</ul></div>\n\n")
+        text = re.sub(r"^(# .*\n)", lambda mm: mm.group(1) + "\n" + banner, text, count=1, flags=re.M)
+    text = INCLUDE.sub(include, text)
+    text = fill_placeholders(text, context)
+    left = re.findall(r"\{\{[^}]*\}\}", text)
+    if left:
+        raise ValueError(f"unfilled placeholders: {left}")
+    if out_md:
+        with open(out_md, "w", encoding="utf-8") as fh:
+            fh.write(text)
+
+    md = mistune.create_markdown(escape=False, plugins=["table", "footnotes", "strikethrough"])
+
+    def figure(m):
+        path = os.path.join(results_dir, m.group("path"))
+        with open(path, "rb") as fh:
+            data = base64.b64encode(fh.read()).decode("ascii")
+        cap_html = md(m.group("cap")).strip()
+        cap_html = re.sub(r"^<p>(.*)</p>$", r"\1", cap_html, flags=re.S)
+        alt = html.escape(re.sub(r"[*_`]", "", m.group("cap")), quote=True)
+        return (f'<figure id="{m.group("name")}"><img alt="{alt}" src="data:image/png;base64,{data}"/>'
+                f"<figcaption>{cap_html}</figcaption></figure>")
+
+    text = FIGURE.sub(figure, text)
+    body = md(text)
+    title = re.search(r"^# (.+)$", text, re.M)
+    title = html.escape(title.group(1)) if title else "paper"
+    page = (f'<!DOCTYPE html>\n<html lang="en">\n<head>\n<meta charset="utf-8"/>\n<title>{title}</title>\n'
+            f"<style>{CSS}</style>\n</head>\n<body>\n{body}\n</body>\n</html>\n")
+    os.makedirs(os.path.dirname(out_html) or ".", exist_ok=True)
+    with open(out_html, "w", encoding="utf-8") as fh:
+        fh.write(page)
+    return page, stale
+
+
+if "snakemake" in globals():
+    smk = snakemake  # noqa: F821
+    with open(smk.log[0], "w") as log:
+        results = os.path.dirname(smk.input.config)
+        _, stale = build(smk.input.md, results, smk.output.html, smk.output.md)
+        for x in stale:
+            print(f"STALE TEXT: {x}", file=log)
+        print(f"wrote {smk.output.html}", file=log)
+elif __name__ == "__main__":
+    results = sys.argv[1] if len(sys.argv) > 1 else "results"
+    _, stale = build("paper/paper.md", results, os.path.join(results, "paper", "paper.html"),
+                     os.path.join(results, "paper", "paper.filled.md"))
+    for x in stale:
+        print(f"STALE TEXT: {x}")

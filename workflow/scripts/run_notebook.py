@@ -1,0 +1,47 @@
+"""Execute a parameterised notebook with papermill and render it to HTML (rules fig*/table*).
+
+Named inputs other than ``nb`` and ``helpers`` become notebook parameters of the same name; inputs named
+``npz_<key>`` are passed together as the dict ``npz``; named outputs other than ``nb`` and
+``html`` become parameters ``out_<name>``.
+"""
+import logging
+import os
+
+os.environ.setdefault("MPLBACKEND", "Agg")
+
+import nbformat  # noqa: E402
+import papermill as pm  # noqa: E402
+from nbconvert import HTMLExporter  # noqa: E402
+
+
+def as_param(value):
+    return str(value) if isinstance(value, str) else [str(v) for v in value]
+
+
+def main(smk):
+    inputs = dict(smk.input.items())
+    nb_in = inputs.pop("nb")
+    inputs.pop("helpers", None)
+    params = {}
+    npz = {k[len("npz_"):]: str(v) for k, v in inputs.items() if k.startswith("npz_")}
+    if npz:
+        params["npz"] = npz
+    params.update({k: as_param(v) for k, v in inputs.items() if not k.startswith("npz_")})
+    outputs = dict(smk.output.items())
+    params.update({f"out_{k}": str(v) for k, v in outputs.items() if k not in ("nb", "html")})
+    for path in outputs.values():
+        os.makedirs(os.path.dirname(path) or ".", exist_ok=True)
+    logging.basicConfig(filename=smk.log[0], filemode="w", level=logging.INFO,
+                        format="%(asctime)s %(name)s %(message)s")
+    logging.info("parameters: %s", params)
+    pm.execute_notebook(nb_in, outputs["nb"], parameters=params, kernel_name="python3", progress_bar=False,
+                        log_output=True, cwd=os.getcwd())
+    nb = nbformat.read(outputs["nb"], as_version=4)
+    exporter = HTMLExporter(template_name="lab")
+    body, _ = exporter.from_notebook_node(nb, resources={"metadata": {"name": os.path.basename(nb_in)}})
+    with open(outputs["html"], "w", encoding="utf-8") as fh:
+        fh.write(body)
+    logging.info("wrote %s and %s", outputs["nb"], outputs["html"])
+
+
+main(snakemake)  # noqa: F821

@@ -1,0 +1,262 @@
+"""One periodic solve of the workflow: a system of the config, one method, n_H and steps.
+
+Writes ``<stem>.json`` (facts: success, message, iterations, residual, every start tried,
+wall times, amplitudes, Floquet multipliers, stick fraction, impacts) and ``<stem>.npz``
+(time series of the solution shown in the figures).  Run by the Snakemake rule ``solve``
+(workflow/rules/solves.smk) or stand-alone::
+
+    python workflow/scripts/solve.py workflow/config.yaml impact5 mshbm 3 4096 results/solves/impact5/mshbm_nh3_N4096
+
+Start protocol (config ``systems.<case>.starts``, tried in order until one converges):
+
+* ``linear``: Newton at omega from the linear response at omega;
+* ``nearby``: Newton at omega from the method's own converged solution at
+  ``nearby_factor * omega`` (which itself starts from the linear response there).
+
+Wall time (``time.perf_counter``) and the process CPU time (``time.process_time``; robust when
+other processes load the machine) of every timed call are recorded.
+
+For ``timed`` systems each start gets ``timing.warmup`` untimed solves and then
+``timing.repeats`` timed ones (the whole :func:`mshbm.solve` call is timed).  Full shooting
+at the working step count is the effort reference and is timed from every start.  HBM
+solutions that fail from every start may be restarted from the converged solutions of
+``hbm_fallback`` methods (inputs ``fallback``), for display only (never timed).
+"""
+
+import os
+
+for _v in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS"):
+    os.environ.setdefault(_v, "1")  # one thread per job: timings are per core, jobs run side by side
+
+import statistics  # noqa: E402
+import sys  # noqa: E402
+import time  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+import mshbm  # noqa: E402
+from wfcore import build_system, get_key, omega as config_omega, runs, split_method, write_json  # noqa: E402
+
+#: DOFs whose full time series are stored when the system is at most this large
+STORE_ALL_DOFS = 10
+
+
+def solve_once(system, om, method, n_h, steps, guess, numerics):
+    """One call of :func:`mshbm.solve`, timed as a whole (set-up included)."""
+    base, jac = split_method(method)
+    kw = dict(harmonics=int(n_h), steps=int(steps), guess=guess, tol=float(numerics["tol"]),
+              max_iter=int(numerics["max_iter"]))
+    if base != "hbm":
+        kw.update(theta=float(numerics["theta"]), jacobian=jac or numerics["jacobian"])
+    method = base
+    c0, t0 = time.process_time(), time.perf_counter()
+    sol = mshbm.solve(system, om, method, **kw)
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    sol.info["cpu_time"] = cpu
+    return sol, wall
+
+
+def brief(sol, wall):
+    return {"success": bool(sol.success), "message": sol.message, "iterations": int(sol.iterations),
+            "nfev": int(sol.nfev), "residual": float(sol.residual), "wall_time": wall}
+
+
+def guess_from_npz(path):
+    with np.load(path) as z:
+        if not bool(z["valid"]):
+            return None
+        return {"q_hat": z["q_hat"].copy(), "q0": z["q0"].copy(), "u0": z["u0"].copy()}
+
+
+def describe(sol, system):
+    """Scalar facts of a converged solution (JSON)."""
+    n = system.n
+    amp = sol.amplitude
+    out = {"amplitude_first": float(amp[0]), "amplitude_last": float(amp[n - 1]),
+           "amplitude": [float(a) for a in amp] if n <= STORE_ALL_DOFS else None,
+           "period": float(sol.period)}
+    info = sol.info or {}
+    if "floquet_multipliers" in info:
+        mult = np.asarray(info["floquet_multipliers"])
+        mod = np.sort(np.abs(mult))[::-1]
+        out["floquet_max_modulus"] = float(mod[0])
+        out["floquet_moduli_top"] = [float(m) for m in mod[:6]]
+        out["stable"] = bool(mod[0] < 1.0)
+    if "stick_or_closed_fraction" in info:
+        out["stick_or_closed_fraction"] = float(info["stick_or_closed_fraction"][0])
+    el = system.elements[0]
+    q1 = sol.displacement([0])[:, 0]
+    u1 = sol.velocity([0])[:, 0]
+    t = sol.t
+    if el.kind == "contact":
+        gap = float(el.gap)
+        out["max_penetration"] = float(np.max(q1 - gap))
+        if sol.impulses is not None:
+            imp = sol.impulses[:, 0] > 0
+            clusters = runs(imp)
+            out["impulse_steps"] = int(np.count_nonzero(imp))
+            out["impact_clusters"] = len(clusters)
+            out["impact_cluster_sizes"] = [c[1] for c in clusters]
+            jumps = []
+            for s, length in clusters[:50]:
+                e = (s + length) % (t.size - 1)
+                jumps.append({"t": float(t[s]), "steps": int(length), "u_before": float(u1[s]),
+                              "u_after": float(u1[e])})
+            out["impacts"] = jumps
+        else:
+            pen = runs(q1[:-1] > gap)
+            out["contact_episodes"] = len(pen)
+            out["contact_episode_times"] = [float(t[s]) for s, _ in pen[:50]]
+    else:
+        bound = float(el.mu * el.normal_force)
+        out["friction_bound"] = bound
+        out["max_friction_force"] = float(np.max(np.abs(sol.lam[:, 0])))
+        if sol.impulses is not None:
+            out["stick_fraction"] = out.get("stick_or_closed_fraction")
+            stick = np.abs(u1[:-1]) < 1e-9 * max(1.0, float(np.max(np.abs(u1))))
+            out["stick_phases"] = len(runs(stick))
+    return out
+
+
+def arrays(sol, system):
+    n = system.n
+    dofs = np.arange(n) if n <= STORE_ALL_DOFS else np.array([0, n - 1])
+    return {"valid": np.array(True), "t": sol.t, "dofs": dofs, "q": sol.displacement(dofs),
+            "u": sol.velocity(dofs), "lam": sol.lam,
+            "impulses": sol.impulses if sol.impulses is not None else np.zeros((0, len(system.elements))),
+            "q_hat": sol.q_hat, "q0": sol.q[0], "u0": sol.u[0], "omega": np.array(sol.omega)}
+
+
+def run(config, case, method, n_h, steps, stem, fallback=(), reference=False, log=print, solver_digest=None):
+    scfg = config["systems"][case]
+    numerics = config["numerics"]
+    system = build_system(scfg, case)
+    om = config_omega(config)
+    timed = bool(scfg["timed"]) and not reference
+    warmup = int(config["timing"]["warmup"]) if timed else 0
+    repeats = int(config["timing"]["repeats"]) if timed else 1
+    # full shooting at the working steps is the effort reference: time it from every start
+    all_starts = timed and split_method(method)[0] == "shooting"
+    starts = list(scfg["starts"])
+    log(f"{case} ({system!r}) method={method} n_h={n_h} steps={steps} omega={om:.6g} "
+        f"starts={starts} timed={timed} warmup={warmup} repeats={repeats}")
+
+    attempts, chosen = [], None
+    for start in starts:
+        rec = {"start": start, "timed": timed}
+        guess = None
+        if start == "nearby":
+            factor = float(config["starts"]["nearby_factor"])
+            near, wall = solve_once(system, factor * om, method, n_h, steps, None, numerics)
+            rec["nearby"] = dict(brief(near, wall), omega=factor * om, factor=factor,
+                                 amplitude_first=float(near.amplitude[0]) if near.success else None,
+                                 amplitude_last=float(near.amplitude[-1]) if near.success else None)
+            log(f"  [{start}] solution at {factor} omega: {near.message} ({wall:.3f} s)")
+            if not near.success:
+                rec.update(success=False, message=f"no converged solution at {factor} omega to start from: "
+                                                  f"{near.message}", wall_times=[], wall_time_median=None)
+                attempts.append(rec)
+                continue
+            guess = near
+        times, cpus, sol = [], [], None
+        for i in range(warmup + repeats):
+            s, wall = solve_once(system, om, method, n_h, steps, guess, numerics)
+            log(f"  [{start}] solve {i + 1}/{warmup + repeats}: {s.message} ({wall:.4f} s)")
+            if i == 0:
+                sol = s
+                rec.update(brief(s, wall))
+                rec["first_wall_time"] = wall
+                if not s.success:
+                    break
+            elif not np.array_equal(s.x, sol.x):
+                raise RuntimeError("repeated solve gave a different solution: the solver is not deterministic")
+            if i >= warmup:
+                times.append(wall)
+                cpus.append(s.info["cpu_time"])
+        rec["wall_times"] = times if sol.success else []
+        rec["wall_time_median"] = statistics.median(times) if (times and sol.success) else None
+        rec["cpu_times"] = cpus if sol.success else []
+        rec["cpu_time_median"] = statistics.median(cpus) if (cpus and sol.success) else None
+        attempts.append(rec)
+        if sol.success and chosen is None:
+            chosen = (start, sol)
+            if not all_starts:
+                break
+
+    display = chosen
+    display_only = False
+    if chosen is None and method == "hbm":
+        for path in fallback:
+            g = guess_from_npz(path)
+            src = os.path.basename(path).split("_nh")[0]
+            rec = {"start": f"{src} solution at omega", "timed": False, "display_only": True, "source": str(path)}
+            if g is None:
+                rec.update(success=False, message=f"{src} did not converge either")
+                attempts.append(rec)
+                continue
+            s, wall = solve_once(system, om, method, n_h, steps, g, numerics)
+            rec.update(brief(s, wall))
+            attempts.append(rec)
+            log(f"  [fallback from {src}] {s.message} ({wall:.3f} s)")
+            if s.success:
+                display, display_only = (rec["start"], s), True
+                break
+
+    facts = {
+        "case": case, "method": method, "harmonics": int(n_h), "steps": int(steps), "omega": om,
+        "n": system.n, "element": system.elements[0].kind, "reference": bool(reference), "timed": timed,
+        "mshbm_version": mshbm.__version__, "solver_digest": solver_digest,
+        "success": display is not None,
+        "timed_success": chosen is not None,
+        "start_used": display[0] if display else None,
+        "display_only": display_only,
+        "attempts": attempts,
+    }
+    last = attempts[-1] if attempts else {}
+    main = next((a for a in attempts if a.get("success") and a["start"] == (display[0] if display else None)), last)
+    for key in ("message", "iterations", "residual"):
+        facts[key] = main.get(key)
+    if display is None:
+        facts["message"] = "; ".join(f"[{a['start']}] {a.get('message')}" for a in attempts)
+    chosen_rec = next((a for a in attempts if chosen and a["start"] == chosen[0]), None)
+    facts["wall_times"] = chosen_rec["wall_times"] if chosen_rec else []
+    facts["wall_time_median"] = chosen_rec["wall_time_median"] if chosen_rec else None
+    facts["wall_time_median_by_start"] = {a["start"]: a.get("wall_time_median") for a in attempts
+                                          if not a.get("display_only")}
+    facts["cpu_times"] = chosen_rec["cpu_times"] if chosen_rec else []
+    facts["cpu_time_median"] = chosen_rec["cpu_time_median"] if chosen_rec else None
+    facts["cpu_time_median_by_start"] = {a["start"]: a.get("cpu_time_median") for a in attempts
+                                         if not a.get("display_only")}
+    data = {"valid": np.array(False)}
+    if display is not None:
+        facts.update(describe(display[1], system))
+        data = arrays(display[1], system)
+    write_json(f"{stem}.json", facts)
+    np.savez_compressed(f"{stem}.npz", **data)
+    log(f"done: success={facts['success']} start={facts['start_used']} message={facts['message']}")
+    return facts
+
+
+def _snakemake_main(smk):
+    with open(smk.log[0], "w") as logf:
+        def log(msg):
+            print(msg, file=logf, flush=True)
+        w = smk.wildcards
+        stem = smk.output.json[: -len(".json")]
+        run(smk.params.cfg, w.case, w.method, int(w.nh), int(w.steps), stem,
+            fallback=list(smk.input.fallback) if hasattr(smk.input, "fallback") else [],
+            reference=bool(smk.params.reference), log=log, solver_digest=smk.params.solver)
+
+
+if __name__ == "__main__" and "snakemake" not in globals():
+    import yaml
+
+    if len(sys.argv) < 7:
+        sys.exit(__doc__)
+    cfg_path, case, method, nh, steps, stem = sys.argv[1:7]
+    with open(cfg_path) as fh:
+        cfg = yaml.safe_load(fh)
+    ref = int(steps) == int(get_key(cfg, "numerics.reference_steps")) and split_method(method)[0] == "shooting"
+    run(cfg, case, method, int(nh), int(steps), stem, fallback=sys.argv[7:], reference=ref)
+elif "snakemake" in globals():
+    _snakemake_main(snakemake)  # noqa: F821

@@ -1,0 +1,199 @@
+"""Shared helpers of the workflow scripts: systems from the config, paths, small statistics.
+
+Nothing here solves anything by itself; the solver is :func:`mshbm.solve`.  Imported by the
+scripts in this directory (Snakemake puts the script directory on ``sys.path``) and by the
+tests (``tests/test_workflow.py``).
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+
+METHOD_LABELS = {"shooting": "full shooting", "hbm": "HBM", "mshbm": "MS-HBM",
+                 "mshbm-intermediate": "MS-HBM (intermediate)", "shooting-fd": "full shooting, FD Jacobian",
+                 "mshbm-fd": "MS-HBM, FD Jacobian"}
+
+
+def split_method(method):
+    """``"mshbm-fd"`` -> ``("mshbm", "fd")``: a ``-fd`` suffix selects the finite-difference Jacobian
+    (the paper's choice) instead of the configured one; ``(method, None)`` otherwise."""
+    if method.endswith("-fd"):
+        return method[: -len("-fd")], "fd"
+    return method, None
+
+
+# ----------------------------------------------------------------------------- config
+def omega(config):
+    """Forcing angular frequency (rad/s)."""
+    return float(config["omega_over_pi"]) * math.pi
+
+
+def hbm_samples(config, n_h):
+    """AFT samples of HBM for ``n_h`` harmonics (config ``numerics.hbm_samples``)."""
+    rule = config["numerics"]["hbm_samples"]
+    if rule == "auto":
+        return 1 << max(9, math.ceil(math.log2(16 * (2 * int(n_h) + 1))))
+    return int(rule)
+
+
+def method_steps(config, method, n_h, reference=False):
+    """Time points per period used for a solve of ``method`` with ``n_h`` harmonics."""
+    if split_method(method)[0] == "hbm":
+        return hbm_samples(config, n_h)
+    return int(config["numerics"]["reference_steps" if reference else "steps"])
+
+
+def method_harmonics(config, method, n_h):
+    """``n_h`` in the result key (shooting: harmonics of its reported Fourier coefficients)."""
+    return int(config["numerics"]["shooting_harmonics"]) if split_method(method)[0] == "shooting" else int(n_h)
+
+
+def solve_stem(config, case, method, n_h=None, reference=False):
+    """Path stem (without .json/.npz) of one solve under ``results_dir``."""
+    nh = method_harmonics(config, method, n_h)
+    steps = method_steps(config, method, nh, reference)
+    return f"{config['results_dir']}/solves/{case}/{method}_nh{nh}_N{steps}"
+
+
+def build_system(scfg, name="system"):
+    """:class:`mshbm.System` of one ``systems.<name>`` entry of the config."""
+    from mshbm import Contact, Friction, chain
+
+    n = int(scfg["n"])
+    masses = [float(scfg["mass_first"])] + [float(scfg["mass_other"])] * (n - 1)
+    elements = []
+    if "friction" in scfg:
+        f = scfg["friction"]
+        elements.append(Friction(0, float(f["mu"]), float(f["normal_force"]), float(f["kappa"])))
+    if "contact" in scfg:
+        c = scfg["contact"]
+        elements.append(Contact(0, float(c["gap"]), float(c["restitution"]), float(c["penalty_stiffness"]),
+                                float(c["penalty_damping"])))
+    return chain(masses, float(scfg["stiffness"]), float(scfg["damping"]),
+                 forcing=[{"dof": n - 1, "amplitude": float(scfg["forcing_amplitude"])}],
+                 elements=elements, name=name)
+
+
+def get_key(config, dotted):
+    """Value of a dotted key (``"systems.friction3.friction.normal_force"``) of the config."""
+    node = config
+    for part in dotted.split("."):
+        node = node[int(part)] if isinstance(node, list) else node[part]
+    return node
+
+
+# ----------------------------------------------------------------------------- results
+def load_json(path):
+    with open(path) as fh:
+        return json.load(fh)
+
+
+def write_json(path, data):
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    tmp = f"{path}.tmp{os.getpid()}"
+    with open(tmp, "w") as fh:
+        json.dump(data, fh, indent=1, sort_keys=False, default=_json_default)
+        fh.write("\n")
+    os.replace(tmp, path)
+
+
+def _json_default(obj):
+    if isinstance(obj, (np.integer,)):
+        return int(obj)
+    if isinstance(obj, (np.floating,)):
+        return float(obj)
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, (np.bool_,)):
+        return bool(obj)
+    raise TypeError(f"not JSON serialisable: {type(obj).__name__}")
+
+
+def runs(mask):
+    """Maximal runs of True in a periodic boolean sequence: list of (start, length)."""
+    mask = np.asarray(mask, dtype=bool)
+    n = mask.size
+    if n == 0 or not mask.any():
+        return []
+    if mask.all():
+        return [(0, n)]
+    # rotate so that index 0 is False: runs then never wrap around
+    shift = int(np.flatnonzero(~mask)[0])
+    m = np.roll(mask, -shift)
+    d = np.diff(np.concatenate([[0], m.astype(np.int8), [0]]))
+    starts, ends = np.flatnonzero(d == 1), np.flatnonzero(d == -1)
+    return [(int((s + shift) % n), int(e - s)) for s, e in zip(starts, ends)]
+
+
+def rel_err(value, ref):
+    """``|value / ref - 1|`` (``None`` when either is missing)."""
+    if value is None or ref is None:
+        return None
+    return abs(float(value) / float(ref) - 1.0)
+
+
+# ----------------------------------------------------------------------------- placeholders
+_PLACEHOLDER = None
+
+
+def format_value(value, fmt=None):
+    """Format a generated number for text: filters pct, pct1, pct3, f1..f4, sci, int, g, yesno."""
+    if value is None:
+        return "n/a"
+    if isinstance(value, bool) or fmt == "yesno":
+        return "yes" if value else "no"
+    if isinstance(value, str):
+        return value
+    if fmt is None and isinstance(value, int):
+        return str(value)
+    if fmt is None or fmt == "g":
+        return f"{value:.4g}"
+    if fmt.startswith("pct"):
+        digits = int(fmt[3:] or 2)
+        if value == 0:
+            return "0 %"
+        v = 100 * float(value)
+        s = f"{v:.{digits}g}"
+        if "e" in s:
+            s = f"{v:.{digits}e}"
+        return f"{s} %"
+    if fmt.startswith("f") and fmt[1:].isdigit():
+        return f"{float(value):.{int(fmt[1:])}f}"
+    if fmt == "sci":
+        return f"{float(value):.2e}"
+    if fmt == "int":
+        return f"{int(round(float(value)))}"
+    raise ValueError(f"unknown format {fmt!r}")
+
+
+def fill_placeholders(text, context):
+    """Replace ``{{fig8.key|fmt}}`` and ``{{config.dotted.key|fmt}}`` by generated values.
+
+    ``context`` maps a prefix (``fig3``..``fig8``, ``config``) to the figure's summary
+    ``numbers`` dict or the configuration.  An unknown key raises ``KeyError``: a typo in the
+    manuscript must fail the build, never print a wrong number.
+    """
+    import re
+
+    global _PLACEHOLDER
+    if _PLACEHOLDER is None:
+        _PLACEHOLDER = re.compile(r"\{\{\s*([A-Za-z0-9_]+)\.([A-Za-z0-9_.\-]+?)\s*(?:\|\s*([a-z0-9]+)\s*)?\}\}")
+
+    def repl(m):
+        prefix, key, fmt = m.group(1), m.group(2), m.group(3)
+        if prefix not in context:
+            raise KeyError(f"placeholder {m.group(0)}: unknown prefix {prefix!r}")
+        src = context[prefix]
+        if prefix == "config":
+            value = get_key(src, key)
+        else:
+            if key not in src:
+                raise KeyError(f"placeholder {m.group(0)}: no key {key!r} in {prefix}")
+            value = src[key]
+        return format_value(value, fmt)
+
+    return _PLACEHOLDER.sub(repl, text)
