@@ -10,6 +10,8 @@ rule paper:
         figures=expand(f"{R}/figures/{{name}}.png", name=FIGURES),
         tables=expand(f"{R}/tables/{{name}}.md", name=TABLES),
         summaries=expand(f"{R}/summary/{{fig}}.json", fig=SUMMARIZED),
+        stress=(f"{R}/stress-quick/summary.md" if config.get("stress_profile", "full") == "quick"
+                else f"{R}/stress/summary.md"),
     output:
         html=f"{R}/paper/paper.html",
         md=f"{R}/paper/paper.filled.md",

@@ -59,7 +59,7 @@ def md_table(header, rows):
     return "\n".join(out)
 
 
-def build(md_path, results_dir, out_html, out_md=None):
+def build(md_path, results_dir, out_html, out_md=None, stress_md=None):
     text = open(md_path, encoding="utf-8").read()
     config = load_json(os.path.join(results_dir, "config.json"))
     context, summaries = {"config": config}, {}
@@ -75,6 +75,23 @@ def build(md_path, results_dir, out_html, out_md=None):
             claims = summaries[name[len("claims-"):]]["claims"]
             return md_table(["the paper says", "we measure", "verdict"],
                             [(c["paper"], c["ours"], f"**{c['verdict']}**") for c in claims])
+        if name == "stress":
+            path = stress_md or os.path.join(results_dir, "stress", "summary.md")
+            data = load_json(os.path.splitext(path)[0] + ".json")
+            counts = {}
+            for r in data["rows"]:
+                c = counts.setdefault((r["category"], r["method"]), {"converged": 0, "failed-with-diagnosis": 0,
+                                                                     "WRONG": 0})
+                c[r["outcome"]] = c.get(r["outcome"], 0) + 1
+            rows = [(cat, meth, c["converged"], c["failed-with-diagnosis"], c["WRONG"])
+                    for (cat, meth), c in sorted(counts.items())]
+            total = {k: sum(c.get(k, 0) for c in counts.values()) for k in ("converged", "failed-with-diagnosis", "WRONG")}
+            head = (f"Profile `{data['profile']}`: {len(data['rows'])} solves in {data['wall_time_s']:.0f} s; "
+                    f"converged {total['converged']}, failed with a diagnosis {total['failed-with-diagnosis']}, "
+                    f"WRONG {total['WRONG']}.  Every row, with its reference or message: "
+                    f"`{os.path.relpath(path, results_dir)}`.")
+            table = md_table(["category", "method", "converged", "failed with diagnosis", "WRONG"], rows)
+            return f'<div class="table" id="stress">\n\n{head}\n\n{table}\n\n</div>'
         if name == "choices":
             lines = []
             for c in config["choices"]:
@@ -139,7 +156,7 @@ if "snakemake" in globals():
     smk = snakemake  # noqa: F821
     with open(smk.log[0], "w") as log:
         results = os.path.dirname(smk.input.config)
-        _, stale = build(smk.input.md, results, smk.output.html, smk.output.md)
+        _, stale = build(smk.input.md, results, smk.output.html, smk.output.md, smk.input.stress)
         for x in stale:
             print(f"STALE TEXT: {x}", file=log)
         print(f"wrote {smk.output.html}", file=log)
