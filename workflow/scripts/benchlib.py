@@ -1,0 +1,230 @@
+"""Shared helpers of the benchmark scripts (``bench_*.py``): machine facts, interleaved timing, JSON, plots.
+
+Timing policy: the machine is shared (2 cores, other jobs running), so absolute times
+are noisy.  Every benchmark therefore
+
+* warms up each case first (numba compilation and caches excluded),
+* runs the cases it compares *interleaved* in one process (round-robin over the
+  repeats, so that a load change hits all cases alike),
+* keeps every repeat time and reports the median (and min).
+
+Ratios of medians measured this way are what the benchmarks' conclusions rest on.
+"""
+from __future__ import annotations
+
+import datetime as _dt
+import json
+import math
+import os
+import platform
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["machine_info", "interleaved", "timed", "stats", "write_json", "plot_path", "parser",
+           "jsonable", "fit_exponent"]
+
+
+def machine_info():
+    """Facts about the machine and the software versions (for the JSON header)."""
+    info = {"date": _dt.datetime.now().astimezone().isoformat(timespec="seconds"),
+            "python": sys.version.split()[0], "platform": platform.platform(),
+            "machine": platform.machine(), "cpu_count": os.cpu_count()}
+    try:
+        info["cpu_affinity"] = len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):  # pragma: no cover - not on Linux
+        pass
+    try:
+        with open("/proc/cpuinfo") as fh:
+            for line in fh:
+                if line.startswith("model name"):
+                    info["cpu_model"] = line.split(":", 1)[1].strip()
+                    break
+    except OSError:  # pragma: no cover
+        pass
+    try:
+        info["load_average_1_5_15"] = list(os.getloadavg())
+    except OSError:  # pragma: no cover
+        pass
+    for mod in ("numpy", "scipy", "numba", "matplotlib"):
+        try:
+            info[f"{mod}_version"] = __import__(mod).__version__
+        except ImportError:
+            info[f"{mod}_version"] = None
+    try:
+        import mshbm
+        info["mshbm_version"] = getattr(mshbm, "__version__", None)
+    except ImportError:
+        info["mshbm_version"] = None
+    return info
+
+
+def stats(times):
+    """``{"times_s": [...], "median_s", "min_s", "repeats"}`` of a list of wall times."""
+    t = [float(x) for x in times]
+    return {"times_s": t, "median_s": float(np.median(t)) if t else float("nan"),
+            "min_s": float(np.min(t)) if t else float("nan"), "repeats": len(t)}
+
+
+def timed(fn):
+    """``(seconds, result)`` of one call."""
+    t0 = time.perf_counter()
+    out = fn()
+    return time.perf_counter() - t0, out
+
+
+def interleaved(cases, repeats, warmup=1, budget_s=None):
+    """Time several callables round-robin.
+
+    Parameters
+    ----------
+    cases : dict name -> callable (no arguments)
+    repeats : int
+        Timed calls of each case (fewer if ``budget_s`` runs out; at least one each).
+    warmup : int
+        Untimed calls of each case first (compilation, caches).
+    budget_s : float, optional
+        Stop starting new rounds after this many seconds of timed calls.
+
+    Returns
+    -------
+    dict name -> list of seconds
+    """
+    for _ in range(warmup):
+        for fn in cases.values():
+            fn()
+    times = {k: [] for k in cases}
+    t_start = time.perf_counter()
+    for r in range(repeats):
+        for k, fn in cases.items():
+            t0 = time.perf_counter()
+            fn()
+            times[k].append(time.perf_counter() - t0)
+        if budget_s is not None and r >= 0 and time.perf_counter() - t_start > budget_s:
+            break
+    return times
+
+
+def fit_exponent(n, t):
+    """Least-squares slope of ``log t`` against ``log n`` (``nan`` with fewer than two points)."""
+    n, t = np.asarray(n, float), np.asarray(t, float)
+    ok = np.isfinite(n) & np.isfinite(t) & (n > 0) & (t > 0)
+    if ok.sum() < 2:
+        return float("nan")
+    return float(np.polyfit(np.log(n[ok]), np.log(t[ok]), 1)[0])
+
+
+def jsonable(obj):
+    """Convert numpy scalars/arrays (and non-finite floats, as ``None``) for ``json``."""
+    if isinstance(obj, dict):
+        return {str(k): jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return jsonable(obj.tolist())
+    if isinstance(obj, (np.bool_, bool)):
+        return bool(obj)
+    if isinstance(obj, (np.integer,)):
+        return int(obj)
+    if isinstance(obj, (np.floating, float)):
+        v = float(obj)
+        return v if math.isfinite(v) else None
+    if isinstance(obj, complex):
+        return [obj.real, obj.imag]
+    return obj
+
+
+def write_json(path, data):
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(path.suffix + ".tmp")
+    with open(tmp, "w") as fh:
+        json.dump(jsonable(data), fh, indent=1)
+        fh.write("\n")
+    os.replace(tmp, path)
+    return path
+
+
+def plot_path(out):
+    """The PNG next to the JSON ``out``."""
+    return Path(out).with_suffix(".png")
+
+
+def parser(description, default_out):
+    import argparse
+    p = argparse.ArgumentParser(description=description)
+    p.add_argument("--out", default=default_out, help=f"output JSON (default {default_out}); the PNG goes next to it")
+    p.add_argument("--quick", action="store_true", help="reduced version (< 40 s)")
+    return p
+
+
+def pyplot():
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    return plt
+
+
+# ----------------------------------------------------------------------------- the paper's systems
+#: forcing frequency of the paper's examples (rad/s)
+OMEGA = math.pi / 5
+#: friction normal force of tests/conftest.py (mu F_N = 4)
+NORMAL_FORCE = 5.0
+
+
+def friction_chain(n, kappa=800.0, damping=0.0, sparse=None):
+    """``n`` unit masses, unit springs, friction (mu 0.8, F_N 5) on mass 1, 5 cos(omega t) on mass n
+    (as ``tests/conftest.py``)."""
+    from mshbm import Friction, chain
+    return chain([1.0] * n, 1.0, damping, forcing=[{"dof": n - 1, "amplitude": 5.0}],
+                 elements=[Friction(0, 0.8, NORMAL_FORCE, kappa)], sparse=sparse, name=f"friction{n}")
+
+
+def impact_chain(n, gap=0.1, kc=8000.0, e=1.0):
+    """Mass 10 then ``n-1`` unit masses, unit springs, dampers 0.3, contact (gap 0.1) on mass 1
+    (as ``tests/conftest.py``)."""
+    from mshbm import Contact, chain
+    return chain([10.0] + [1.0] * (n - 1), 1.0, 0.3, forcing=[{"dof": n - 1, "amplitude": 5.0}],
+                 elements=[Contact(0, gap, e, kc, 0.0)], name=f"impact{n}")
+
+
+# ----------------------------------------------------------------------------- memory
+def _status_kb(key):
+    try:
+        with open("/proc/self/status") as fh:
+            for line in fh:
+                if line.startswith(key + ":"):
+                    return int(line.split()[1])
+    except OSError:  # pragma: no cover - not Linux
+        return None
+    return None
+
+
+class PeakRSS:
+    """Peak resident memory of this process during a ``with`` block (Linux).
+
+    Resets the kernel's high-water mark (``/proc/self/clear_refs`` <- 5) on entry and reads
+    ``VmHWM`` on exit.  ``extra_mb`` is the peak minus the resident size at entry: the memory
+    the block needed on top of what was already allocated.  ``None`` where unsupported.
+    """
+
+    def __enter__(self):
+        self.peak_mb = self.extra_mb = None
+        self._ok = False
+        try:
+            with open("/proc/self/clear_refs", "w") as fh:
+                fh.write("5")
+            self._ok = True
+        except OSError:  # pragma: no cover
+            pass
+        self.start_kb = _status_kb("VmRSS")
+        return self
+
+    def __exit__(self, *exc):
+        hwm = _status_kb("VmHWM")
+        if self._ok and hwm is not None and self.start_kb is not None:
+            self.peak_mb = hwm / 1024.0
+            self.extra_mb = (hwm - self.start_kb) / 1024.0
+        return False
