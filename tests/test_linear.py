@@ -81,3 +81,15 @@ def test_residual_omega_derivative_time_domain_methods(linear):
         b = mshbm.residual_omega_derivative(sys, OMEGA, method, x, rel_step=1e-5, **kw)
         assert np.abs(a).max() > 0.1
         assert np.max(np.abs(a - b)) <= 1e-5 * np.max(np.abs(a))  # O(d^2) truncation
+
+
+def test_sparse_condensation_matches_dense():
+    """The sparse (symmetric-mode LU) path of the condensation gives the dense result."""
+    from mshbm import Friction
+    kw = dict(forcing=[{"dof": 599, "amplitude": 5.0}], elements=[Friction(0, 0.8, 5.0)])
+    s = chain([1.0] * 600, 1.0, 0.05, sparse=True, **kw)
+    d = chain([1.0] * 600, 1.0, 0.05, sparse=False, **kw)
+    a = mshbm.solve(s, 0.9, "mshbm", harmonics=3, steps=1024)
+    b = mshbm.solve(d, 0.9, "mshbm", harmonics=3, steps=1024)
+    assert a.success and b.success
+    assert np.max(np.abs(a.q_hat - b.q_hat)) <= 1e-12 * np.max(np.abs(b.q_hat))
