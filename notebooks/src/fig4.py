@@ -32,19 +32,14 @@ out_pdf = "results/figures/fig4.pdf"
 import os, sys
 sys.path.insert(0, "notebooks") if os.path.isdir("notebooks") else None
 import nbcommon as nc
-import numpy as np
-import matplotlib.pyplot as plt
-from matplotlib.lines import Line2D
-from matplotlib.transforms import blended_transform_factory
+import wpcommon as wp
 from IPython.display import Markdown, display
 
 nc.setup()
 cfg = nc.load_json(config)
 S = nc.load_json(summary)
-num = S["numbers"]
 scfg = cfg["systems"][S["system"]]
 n = scfg["n"]
-factor = cfg["starts"]["nearby_factor"]
 CLOCK = S.get("clock", "wall")
 
 # %% [markdown]
@@ -54,101 +49,7 @@ CLOCK = S.get("clock", "wall")
 display(Markdown(nc.claims_table(S)))
 
 # %%
-MARK = {"hbm": "o", "mshbm": "s", "mshbm-fd": "D"}
-COL = {"hbm": nc.COLORS["hbm"], "mshbm": nc.COLORS["mshbm"], "mshbm-fd": "#ff7f0e"}
-LAB = {"hbm": "HBM", "mshbm": "MS-HBM", "mshbm-fd": "MS-HBM vs shooting, both FD Jacobian"}
-
-
-def series(rows, method):
-    return [r for r in rows if r["method"] == method]
-
-
-def plot_points(ax, rows, method, yfun, connect=True):
-    ok = [r for r in rows if r["success"] and yfun(r) is not None]
-    if connect and ok:
-        ax.plot([r["harmonics"] for r in ok], [yfun(r) for r in ok], color=COL[method], lw=0.9, alpha=0.7,
-                ls="--" if method == "mshbm-fd" else "-")
-    for r in ok:
-        fill = "full" if r["start"] == "nearby" else "left"
-        ax.plot(r["harmonics"], yfun(r), marker=MARK[method], color=COL[method], fillstyle=fill, ms=5.5,
-                mfc=COL[method] if fill == "full" else COL[method], mfcalt="white", ls="none")
-    bad = [r for r in rows if not r["success"]]
-    tr = blended_transform_factory(ax.transData, ax.transAxes)
-    for r in bad:
-        ax.plot(r["harmonics"], 0.955 if method == "hbm" else 0.915, marker="x", color=COL[method], ms=6,
-                transform=tr, clip_on=False, ls="none")
-
-
-def fail_band(ax, rows_all):
-    """Reserve the top of a log axis for the 'no convergence' markers (above every data point)."""
-    if not any(not r["success"] for r in rows_all):
-        return
-    lo, hi = ax.get_ylim()
-    ax.set_ylim(lo, hi * (hi / lo) ** 0.18)
-    ax.axhspan(hi * (hi / lo) ** 0.06, ax.get_ylim()[1], color="0.93", zorder=0, lw=0)
-    yc = (hi * (hi / lo) ** 0.06 * ax.get_ylim()[1]) ** 0.5
-    ax.annotate("n.c.", xy=(0, yc), xycoords=("axes fraction", "data"), xytext=(-3, 0), textcoords="offset points",
-                ha="right", va="center", fontsize=7, color="0.3")
-
-
-rows, fd_rows = S["rows"], S.get("fd_rows") or []
-fig, axes = plt.subplots(2, 2, figsize=(7.6, 6.2))
-(a1, a2), (a3, a4) = axes
-for ax, key, title in ((a1, "err_first", "mass 1"), (a2, "err_last", f"mass {n}")):
-    floor = S["shooting_error"]["err_first" if key == "err_first" else "err_last"]
-    if floor:
-        ax.axhline(floor, color="k", ls="--", lw=0.9)
-    ax.set_yscale("log")
-    for m in ("hbm", "mshbm"):
-        ok = [r for r in series(rows, m) if r["success"]]
-        if ok:
-            ax.plot([r["harmonics"] for r in ok], [max(r[key], 1e-12) for r in ok], ls="none")
-    fail_band(ax, rows)
-    for m in ("hbm", "mshbm"):
-        plot_points(ax, series(rows, m), m, lambda r, k=key: max(r[k], 1e-12))
-    ax.set_title(f"relative amplitude error, {title}")
-    ax.set_xlabel("$n_H$")
-a3.axhline(1.0, color="k", lw=0.9)
-a3.set_yscale("log")
-for m, rr in (("hbm", series(rows, "hbm")), ("mshbm", series(rows, "mshbm")), ("mshbm-fd", fd_rows)):
-    ok = [r for r in rr if r["success"] and r["effort"]]
-    if ok:
-        a3.plot([r["harmonics"] for r in ok], [r["effort"] for r in ok], ls="none")
-fail_band(a3, rows + fd_rows)
-for m in ("hbm", "mshbm"):
-    plot_points(a3, series(rows, m), m, lambda r: r["effort"])
-plot_points(a3, fd_rows, "mshbm-fd", lambda r: r["effort"])
-a3.set_title(f"effort: {CLOCK} time / full shooting")
-a3.set_xlabel("$n_H$")
-# work-precision: larger of the two errors vs effort
-for m, rr in (("hbm", series(rows, "hbm")), ("mshbm", series(rows, "mshbm")), ("mshbm-fd", fd_rows)):
-    ok = [r for r in rr if r["success"] and r["effort"]]
-    if not ok:
-        continue
-    x = [r["effort"] for r in ok]
-    y = [max(r["err_first"], r["err_last"], 1e-12) for r in ok]
-    for r, xi, yi in zip(ok, x, y):
-        a4.plot(xi, yi, marker=MARK[m], color=COL[m], ls="none", ms=5,
-                fillstyle="full" if r["start"] == "nearby" else "left", mfcalt="white")
-    for r, xi, yi in zip(ok, x, y):
-        if r["harmonics"] in (1, 3, 5, 9, 25) or len(ok) <= 5:
-            a4.annotate(str(r["harmonics"]), (xi, yi), textcoords="offset points", xytext=(3, 2), fontsize=6.5, color=COL[m])
-a4.axvline(1.0, color="k", lw=0.9)
-a4.set_xscale("log"); a4.set_yscale("log")
-a4.set_xlabel(f"effort ({CLOCK} time / full shooting)")
-a4.set_title("work-precision: max. error of masses 1 and n")
-handles = [Line2D([], [], marker=MARK[m], color=COL[m], ls="-", label=LAB[m]) for m in ("hbm", "mshbm")]
-if fd_rows:
-    handles.append(Line2D([], [], marker=MARK["mshbm-fd"], color=COL["mshbm-fd"], ls="--", label=LAB["mshbm-fd"]))
-handles += [Line2D([], [], marker="s", color="0.3", ls="none", label=f"start: own solution at {factor:g} ω"),
-            Line2D([], [], marker="s", color="0.3", fillstyle="left", mfcalt="white", ls="none",
-                   label="start: linear response at ω (nearby failed)"),
-            Line2D([], [], marker="x", color="0.3", ls="none", label="no convergence from any start"),
-            Line2D([], [], color="k", ls="--", label=f"full shooting, N = {cfg['numerics']['steps']}, vs reference")]
-fig.legend(handles=handles, loc="lower center", ncol=2, fontsize=7, bbox_to_anchor=(0.5, -0.1))
-fig.suptitle(f"{scfg['title']}: {n} masses, reference full shooting N = {cfg['numerics']['reference_steps']}", fontsize=9)
-fig.tight_layout()
-nc.save(fig, out_png, out_pdf)
+rows, fd_rows = wp.plot(cfg, S, out_png, out_pdf)
 
 # %% [markdown]
 # ## All points
@@ -159,24 +60,7 @@ nc.save(fig, out_png, out_pdf)
 # (`nearby`: the paper's protocol).
 
 # %%
-def table(rr):
-    out = []
-    for r in rr:
-        out.append((r["method"], r["harmonics"], "yes" if r["success"] else "NO", r["start"] or "-",
-                    r["iterations"] if r["success"] else "-",
-                    nc.fmt(r["err_first"], "pct") if r["success"] else "-",
-                    nc.fmt(r["err_last"], "pct") if r["success"] else "-",
-                    nc.fmt(r["time_median"], "f4") if r["success"] else "-",
-                    nc.fmt(r["effort"], "f3") if r["success"] else "-",
-                    nc.fmt(r.get("effort_cpu", r.get("effort_wall")), "f3") if r["success"] else "-",
-                    (r.get("effort_ref_start") or "-") if r["success"] else "-",
-                    "" if r["success"] else (r["message"] or "")[:160]))
-    return nc.md_table(["method", "n_H", "converged", "start", "Newton it.", "err. mass 1", f"err. mass {n}",
-                        f"{CLOCK} time (s)", "effort", "effort (other clock)", "shooting start (effort ref.)",
-                        "failure"], out)
-
-
-display(Markdown(table(rows + fd_rows)))
+display(Markdown(wp.points_table(rows + fd_rows, n, CLOCK)))
 
 # %% [markdown]
 # ## Reference solutions
@@ -186,17 +70,4 @@ display(Markdown(table(rows + fd_rows)))
 # the undamped friction chain the largest modulus is close to 1.
 
 # %%
-rows2 = []
-for key, label in (("reference", f"full shooting, N = {cfg['numerics']['reference_steps']} (error reference)"),
-                   ("shooting", f"full shooting, N = {cfg['numerics']['steps']} (effort reference)"),
-                   ("shooting_fd", f"full shooting, N = {cfg['numerics']['steps']}, FD Jacobian"),
-                   ("check", "check system (see Table footnote)")):
-    m = S.get(key)
-    if not m:
-        continue
-    rows2.append((label, "yes" if m["success"] else "NO", m.get("start_used"), m.get("iterations"),
-                  nc.fmt(m.get("amplitude_first"), "g"), nc.fmt(m.get("amplitude_last"), "g"),
-                  nc.fmt(m.get("floquet_max_modulus"), "f6"), nc.fmt(m.get("stick_or_closed_fraction"), "pct3"),
-                  ", ".join(f"{k}: {v:.4f} s" for k, v in (m.get("wall_time_median_by_start") or {}).items() if v)))
-display(Markdown(nc.md_table(["solution", "converged", "start", "Newton it.", "amp. mass 1", f"amp. mass n",
-                              "max. Floquet modulus", "stick fraction m1 / impulse", "median time by start"], rows2)))
+display(Markdown(wp.reference_table(cfg, S)))

@@ -147,7 +147,7 @@ def solve_params(w):
 
 # ----------------------------------------------------------------------------- notebooks
 #: code the notebooks import (a change reruns the notebooks); not passed as a parameter
-NB_HELPERS = ["notebooks/nbcommon.py", "workflow/scripts/wfcore.py"]
+NB_HELPERS = ["notebooks/nbcommon.py", "notebooks/wpcommon.py", "workflow/scripts/wfcore.py"]
 
 
 def npz_inputs(fig):
