@@ -47,7 +47,19 @@ from .laws import regularised_forces
 from .newton import NewtonResult, follow_pl_path, newton
 from .system import Contact
 
-__all__ = ["HBMProblem"]
+__all__ = ["HBMProblem", "scaled_regularisation"]
+
+
+def scaled_regularisation(system, factor):
+    """Copy of ``system`` whose HBM laws are ``factor`` times stiffer (``kappa``; ``k_c`` and ``d_c``)."""
+    els = []
+    for el in system.elements:
+        if el.kind == "friction":
+            els.append(replace(el, smoothing=el.smoothing * factor))
+        else:
+            els.append(replace(el, penalty_stiffness=el.penalty_stiffness * factor,
+                               penalty_damping=el.penalty_damping * factor))
+    return system.with_elements(els)
 
 
 class HBMProblem:
@@ -121,17 +133,8 @@ class HBMProblem:
         solution starts the next, stiffer problem.
         """
         system, omega, n_h, steps, condense, partition = self._args
-        out = []
-        for f in factors:
-            els = []
-            for el in system.elements:
-                if el.kind == "friction":
-                    els.append(replace(el, smoothing=el.smoothing * f))
-                else:
-                    els.append(replace(el, penalty_stiffness=el.penalty_stiffness * f,
-                                       penalty_damping=el.penalty_damping * f))
-            out.append(HBMProblem(system.with_elements(els), omega, n_h, steps, condense, partition))
-        return out + [self]
+        return [HBMProblem(scaled_regularisation(system, f), omega, n_h, steps, condense, partition)
+                for f in factors] + [self]
 
     def initial_guess(self, guess=None):
         q_hat, _, _ = guess_parts(guess, self.system, self.omega, self.n_h)

@@ -18,7 +18,6 @@ import json
 import platform
 import sys
 import time
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -29,18 +28,7 @@ import wfcore  # noqa: E402
 
 import mshbm  # noqa: E402
 from mshbm.exact import exact_periodic  # noqa: E402
-
-
-def regularised(system, factor):
-    """System whose HBM laws are ``factor`` times stiffer (kappa, k_c, d_c)."""
-    els = []
-    for el in system.elements:
-        if el.kind == "friction":
-            els.append(replace(el, smoothing=el.smoothing * factor))
-        else:
-            els.append(replace(el, penalty_stiffness=el.penalty_stiffness * factor,
-                               penalty_damping=el.penalty_damping * factor))
-    return system.with_elements(els)
+from mshbm.hbm import scaled_regularisation  # noqa: E402
 
 
 def timed_solve(system, omega, nearby, method, repeats, **opts):
@@ -95,7 +83,7 @@ def main(argv=None):
     for method, opts in points(bcfg):
         opts = dict(opts)
         factor = opts.pop("regularisation_factor", 1.0)
-        sys_m = regularised(system, factor) if method == "hbm" else system
+        sys_m = scaled_regularisation(system, factor) if method == "hbm" else system
         sol, times, nearby_ok = timed_solve(sys_m, omega, nearby, method, int(bcfg["repeats"]), **opts)
         amp = sol.amplitude
         err = [abs(amp[i] / amp_ref[i] - 1.0) if amp_ref[i] > 1e-9 * amp_ref.max() else abs(amp[i])
