@@ -14,7 +14,7 @@ import sys
 import time
 
 import numpy as np
-from threadpoolctl import threadpool_limits
+from ._blas import blas_threads
 
 from .errors import ConvergenceError, InputError
 from .fourier import SingularHarmonicError
@@ -228,7 +228,7 @@ def solve(system, omega, method="mshbm", **options):
         raise InputError("blas_threads", f"must be a positive integer or None, got {threads!r}")
     if threads is None:
         return _solve(system, omega, method, options)
-    with threadpool_limits(limits=threads, user_api="blas"):
+    with blas_threads(threads):
         return _solve(system, omega, method, options)
 
 

@@ -285,11 +285,11 @@ def solve_with_continuation(system, omega, method="mshbm", guess=None, *, strate
         return _solve_with_continuation(system, omega, method, guess, strategies, forcing_start, friction_start,
                                         max_stages, min_step, stage_max_iter, transient_periods, transient_budget,
                                         options)
-    from threadpoolctl import threadpool_limits
+    from ._blas import blas_threads
 
     # the same BLAS pinning as solve() (bit-identical results whatever the thread settings), also
     # around the transient simulation that runs outside solve()
-    with threadpool_limits(limits=threads, user_api="blas"):
+    with blas_threads(threads):
         return _solve_with_continuation(system, omega, method, guess, strategies, forcing_start, friction_start,
                                         max_stages, min_step, stage_max_iter, transient_periods, transient_budget,
                                         options)

@@ -46,7 +46,6 @@ DOFs.
 """
 from __future__ import annotations
 
-import contextlib
 import math
 import time
 from dataclasses import dataclass
@@ -55,7 +54,7 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 from scipy.optimize import brentq
-from threadpoolctl import threadpool_limits
+from ._blas import blas_threads as _blas_threads
 
 from . import fourier
 from ._common import linear_response
@@ -71,20 +70,6 @@ MODE_NAMES = {FREE: "free", SLIP_P: "slip+", SLIP_M: "slip-", STICK: "stick", CL
 #: points (fractions of the sub-step) of the careful event search on the first sub-step of a mode,
 #: where the event function starts at 0: geometric towards 0, then uniform
 _FIRST = np.concatenate([2.0 ** -np.arange(40, 6, -1), np.arange(1, 65) / 64.0])
-
-
-@contextlib.contextmanager
-def _blas_threads(k):
-    """Temporarily limit the BLAS threads of numpy/scipy to ``k`` (``None``: leave as is).
-
-    The matrices here are small (``2n + 3``); multi-threaded BLAS on a loaded
-    machine made the solve 30x slower in our measurements.
-    """
-    if k is None:
-        yield
-        return
-    with threadpool_limits(limits=int(k), user_api="blas"):
-        yield
 
 
 class EventError(RuntimeError):

@@ -17,7 +17,7 @@ Samples are always taken on the uniform grid ``t_j = j T / N``, ``j = 0..N-1``.
 """
 from __future__ import annotations
 
-import warnings
+import functools
 
 import numpy as np
 import scipy.linalg as sla
@@ -120,16 +120,41 @@ def from_complex(Z):
 
 
 def dft_matrix(N, n_h):
-    """Matrix ``E`` with ``fft(x, n_h) = E @ x`` for samples ``x`` of shape (N,)."""
-    t = 2.0 * np.pi * np.arange(N) / N
-    E = basis(t, 1.0, n_h).T * (2.0 / N)
-    E[0] *= 0.5
-    return E
+    """Matrix ``E`` with ``fft(x, n_h) = E @ x`` for samples ``x`` of shape (N,).
+
+    Read-only; small matrices are cached (every HBM problem of a sweep uses the same).
+    """
+    if N * (2 * n_h + 1) <= _CACHE_MAX:
+        return _dft_cached(int(N), int(n_h))
+    return _dft(N, n_h)
 
 
 def idft_matrix(N, n_h):
-    """Matrix ``V`` with ``ifft(x_hat, N) = V @ x_hat``."""
-    return basis(2.0 * np.pi * np.arange(N) / N, 1.0, n_h)
+    """Matrix ``V`` with ``ifft(x_hat, N) = V @ x_hat`` (read-only, cached like :func:`dft_matrix`)."""
+    if N * (2 * n_h + 1) <= _CACHE_MAX:
+        return _idft_cached(int(N), int(n_h))
+    return _idft(N, n_h)
+
+
+_CACHE_MAX = 1 << 20  # entries (8 MiB) per cached matrix
+
+
+def _dft(N, n_h):
+    t = 2.0 * np.pi * np.arange(N) / N
+    E = basis(t, 1.0, n_h).T * (2.0 / N)
+    E[0] *= 0.5
+    E.flags.writeable = False
+    return E
+
+
+def _idft(N, n_h):
+    V = basis(2.0 * np.pi * np.arange(N) / N, 1.0, n_h)
+    V.flags.writeable = False
+    return V
+
+
+_dft_cached = functools.lru_cache(maxsize=32)(_dft)
+_idft_cached = functools.lru_cache(maxsize=32)(_idft)
 
 
 def real_block(Zk, k):
@@ -141,7 +166,13 @@ def real_block(Zk, k):
     A, B = Zk.real, Zk.imag
     if k == 0:
         return A.copy()
-    return np.block([[A, B], [-B, A]])
+    a, b = A.shape
+    out = np.empty((2 * a, 2 * b))
+    out[:a, :b] = A
+    out[:a, b:] = B
+    out[a:, :b] = -B
+    out[a:, b:] = A
+    return out
 
 
 def dynamic_stiffness(M, C, K, k_omega):
@@ -233,15 +264,15 @@ class Condensation:
                 sol = lu.solve(rhs)
             else:
                 H = H_EE.toarray() if sp.issparse(H_EE) else H_EE
-                with warnings.catch_warnings():
-                    warnings.simplefilter("ignore", sla.LinAlgWarning)
-                    lu_piv = sla.lu_factor(H, check_finite=False)
-                d = np.abs(np.diag(lu_piv[0]))
-                self.rcond[k] = d.min() / d.max() if d.max() > 0 else 0.0
+                # LAPACK directly: the scipy wrappers' checks cost more than the LU of a small H_EE
+                getrf, getrs = sla.get_lapack_funcs(("getrf", "getrs"), (H,))
+                lu, piv, info = getrf(H)
+                d = np.abs(np.diag(lu))
+                self.rcond[k] = d.min() / d.max() if info == 0 and d.max() > 0 else 0.0
                 if self.rcond[k] < rcond_min:
                     raise SingularHarmonicError(
                         f"{name} is singular at harmonic k={k} (k*omega={w:.6g}, rcond~{self.rcond[k]:.1e})")
-                sol = sla.lu_solve(lu_piv, rhs, check_finite=False)
+                sol, info = getrs(lu, piv, rhs)
             if not np.all(np.isfinite(sol)) or self.rcond[k] < rcond_min:
                 raise SingularHarmonicError(
                     f"{name} is singular at harmonic k={k} (k*omega={w:.6g}, rcond~{self.rcond[k]:.1e})")

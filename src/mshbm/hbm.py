@@ -34,6 +34,7 @@ of the law is involved.
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import replace
 
 import numpy as np
@@ -102,19 +103,19 @@ class HBMProblem:
         F = fourier.to_complex(system.forcing_hat(self.n_h))
         sub = lambda A: A.tocsr()[self.keep][:, self.keep] if sp.issparse(A) else np.asarray(A)[np.ix_(self.keep, self.keep)]
         MRR, CRR, KRR = sub(system.M), sub(system.C), sub(system.K)
-        blocks = []
-        for k in range(self.n_h + 1):
-            Hk = fourier.dynamic_stiffness(MRR, CRR, KRR, k * omega)
-            if self.condense:
-                Hk = (Hk.toarray() if sp.issparse(Hk) else Hk) - self.cond.T[k]
-                blocks.append(sp.csr_matrix(fourier.real_block(Hk, k)))
-            else:
-                Hk = sp.csr_matrix(Hk)
+        if self.condense:  # dense: n_R is the (small) nonlinear subsystem
+            Hs = np.empty((self.n_h + 1, nR, nR), dtype=complex)
+            for k in range(self.n_h + 1):
+                Hk = fourier.dynamic_stiffness(MRR, CRR, KRR, k * omega)
+                Hs[k] = (Hk.toarray() if sp.issparse(Hk) else Hk) - self.cond.T[k]
+            self.A = self.cond.real_matrix(Hs)
+        else:
+            blocks = []
+            for k in range(self.n_h + 1):
+                Hk = sp.csr_matrix(fourier.dynamic_stiffness(MRR, CRR, KRR, k * omega))
                 A, Bm = Hk.real, Hk.imag
                 blocks.append(A if k == 0 else sp.bmat([[A, Bm], [-Bm, A]]))
-        self.A = sp.block_diag(blocks, format="csr")
-        if self.condense:
-            self.A = self.A.toarray()
+            self.A = sp.block_diag(blocks, format="csr")
         self.r = fourier.from_complex(F[:, self.keep] - self.cond.g).reshape(-1)
         self.E = fourier.dft_matrix(self.Ns, self.n_h)
         self.Vs = fourier.idft_matrix(self.Ns, self.n_h)
@@ -149,28 +150,44 @@ class HBMProblem:
         """``(R, J)`` with shapes ``(n_x,)`` and ``(n_x, n_x)`` (dense if condensed, else sparse)."""
         nc, nR = 2 * self.n_h + 1, self.nR
         q, u = self._time(x)
-        cols = {int(c): i for i, c in enumerate(self.nl_cols)}
-        ldof = [cols[d] for d in self.local_dof]
-        _, f, dfdq, dfdu = regularised_forces(self.system.elements, ldof, q, u)
-        fh = np.zeros((nc, nR))
-        fh[:, self.nl_cols] = self.E @ f
-        R = self.A @ x - self.r - fh.reshape(-1)
+        _, f, dfdq, dfdu = regularised_forces(self.system.elements, self._ldof, q, u)
+        R = self.A @ x - self.r
+        R.reshape(nc, nR)[:, self.nl_cols] -= self.E @ f
         if not jac:
             return R, None
         nN = self.nl_cols.size
         Jn = np.zeros((nc, nN, nc, nN))
         for i in range(nN):
-            Jn[:, i, :, i] = self.E @ (dfdq[:, i:i + 1] * self.Vs + dfdu[:, i:i + 1] * self.VsOm)
+            # d f / d q (penalty contact) and d f / d u (friction, contact damping): skip zero terms
+            if dfdq[:, i].any():
+                Jn[:, i, :, i] += (self.E * dfdq[:, i]) @ self.Vs
+            if dfdu[:, i].any():
+                Jn[:, i, :, i] += (self.E * dfdu[:, i]) @ self.VsOm
         return R, self._jacobian(Jn)
+
+    @functools.cached_property
+    def _ldof(self):
+        """Column of the nonlinear-DOF samples each element acts on."""
+        cols = {int(c): i for i, c in enumerate(self.nl_cols)}
+        return [cols[d] for d in self.local_dof]
+
+    @functools.cached_property
+    def _nl_idx(self):
+        """Rows/columns of the nonlinear DOFs' coefficients in the unknowns (harmonic-major)."""
+        nc = 2 * self.n_h + 1
+        return (np.arange(nc)[:, None] * self.nR + self.nl_cols[None, :]).reshape(-1)
 
     def _jacobian(self, Jn):
         """``A - P^T Jn P`` with ``Jn`` (nc, n_N, nc, n_N) acting on the nonlinear columns."""
         nc, nN = 2 * self.n_h + 1, self.nl_cols.size
-        idx = (np.arange(nc)[:, None] * self.nR + self.nl_cols[None, :]).reshape(-1)
+        idx = self._nl_idx
         Jn = Jn.reshape(nc * nN, nc * nN)
         if self.condense:
             J = self.A.copy()
-            J[np.ix_(idx, idx)] -= Jn
+            if nN == self.nR:
+                J -= Jn
+            else:
+                J[np.ix_(idx, idx)] -= Jn
         else:
             rr, cc = np.meshgrid(idx, idx, indexing="ij")
             J = self.A - sp.csr_matrix((Jn.ravel(), (rr.ravel(), cc.ravel())), shape=self.A.shape)
