@@ -81,6 +81,6 @@ def test_bench_scaling_quick(tmp_path):
     exponent = data["mshbm_exponent_n_ge_1000"]
     assert isinstance(exponent, float) and math.isfinite(exponent)
     fe = data["fe_membrane"]
-    pts = fe["mshbm/symmetric-lu"]["points"]
+    pts = fe["mshbm"]["points"]
     assert pts and all(p["success"] and _finite_positive(p["solve_s"]) for p in pts)
     assert "target" in data and "exponent_le_1" in data["target"]

@@ -93,7 +93,14 @@ class PeriodicSolution:
         coef = self.q_hat[:, dofs]
         if which == "u":
             coef = fourier.derivative(coef, self.omega)
-        out = fourier.ifft(coef, N) if dofs.size else np.zeros((N, 0))
+        nc = coef.shape[0]
+        if not dofs.size:
+            out = np.zeros((N, 0))
+        elif nc <= 64 and N > 2 * (nc // 2):
+            # a (cached) DFT matrix: one BLAS product instead of an FFT per DOF (5x faster at 1e5 DOFs)
+            out = fourier.idft_matrix(N, nc // 2) @ coef
+        else:
+            out = fourier.ifft(coef, N)
         out = np.vstack([out, out[:1]])
         td = {int(d): i for i, d in enumerate(self.time_dofs)}
         src = self.q_time if which == "q" else self.u_time

@@ -1,57 +1,89 @@
 # Performance benchmarks (issue 4): work-precision against the exact reference, kernel speed,
-# scaling to 1e5 DOFs, the SciPy baseline and pyHarm.  Target `benchmarks` runs them all;
-# `benchmarks.in_all: true` in the config makes them part of `rule all`.
+# scaling to 1e5 DOFs, the SciPy baseline and pyHarm.  Parameters: `benchmarks` of the config.
+#
+#   <results>/benchmarks/       profile `benchmarks.profile` (default): part of `snakemake`, since
+#                               the paper's Performance section embeds its summary
+#   <results>/benchmarks-full/  the long sweeps (grids of `benchmarks.full`, scripts' full
+#                               profile): `snakemake --cores 2 benchmarks_full` (about 40 min)
+#
+# Every benchmark is one single-threaded process; ratios are measured side by side inside it.
+import sys as _bench_sys
+
 BENCH = config.get("benchmarks")
+#: the interpreter running Snakemake (the one with mshbm installed), not whatever `python` is on PATH
+_PY = _bench_sys.executable
 
 if BENCH:
-    _BQ = ["--quick"] if BENCH.get("quick") else []
+    _BDIRS = "benchmarks|benchmarks-full"
+    _unknown = [s for s in BENCH["systems"] if s not in config["systems"]]
+    if _unknown:
+        raise ValueError(f"invalid configuration: benchmarks.systems: unknown system(s) {_unknown}")
+
+    def _bench_profile(w):
+        """Profile of the stand-alone scripts for an output directory."""
+        return "full" if w.bdir == "benchmarks-full" else BENCH.get("profile", "default")
 
     rule bench_workprecision:
         input:
             config=f"{R}/config.json",
+            script="workflow/scripts/bench_workprecision.py",
         output:
-            f"{R}/benchmarks/workprecision_{{system}}.json",
+            f"{R}/{{bdir}}/workprecision_{{system}}.json",
         log:
-            f"{R}/logs/benchmarks/workprecision_{{system}}.log",
+            f"{R}/logs/{{bdir}}/workprecision_{{system}}.log",
+        wildcard_constraints:
+            bdir=_BDIRS,
+        params:
+            profile=lambda w: "full" if w.bdir == "benchmarks-full" else "default",
+            solver=SOLVER_DIGEST,
         threads: 1
         resources:
             mem_mb=2000,
         shell:
-            "python workflow/scripts/bench_workprecision.py --config {input.config} --system {wildcards.system} "
-            "--out {output} > {log} 2>&1"
+            "{_PY} {input.script} --config {input.config} --system {wildcards.system} "
+            "--profile {params.profile} --out {output} > {log} 2>&1"
 
     rule bench_standalone:
+        input:
+            script="workflow/scripts/bench_{bench}.py",
+            lib="workflow/scripts/benchlib.py",
         output:
-            json=f"{R}/benchmarks/{{bench}}.json",
-            png=f"{R}/benchmarks/{{bench}}.png",
+            json=f"{R}/{{bdir}}/{{bench}}.json",
+            png=f"{R}/{{bdir}}/{{bench}}.png",
         log:
-            f"{R}/logs/benchmarks/{{bench}}.log",
+            f"{R}/logs/{{bdir}}/{{bench}}.log",
         wildcard_constraints:
             bench="kernel|scaling|scipy|pyharm",
+            bdir=_BDIRS,
         params:
-            quick=" ".join(_BQ),
+            profile=_bench_profile,
+            solver=SOLVER_DIGEST,
         threads: 1
         resources:
             mem_mb=6000,
         shell:
-            "python workflow/scripts/bench_{wildcards.bench}.py --out {output.json} {params.quick} > {log} 2>&1"
+            "{_PY} {input.script} --profile {params.profile} --out {output.json} > {log} 2>&1"
 
     rule bench_report:
         input:
-            wp=expand(f"{R}/benchmarks/workprecision_{{system}}.json", system=BENCH["systems"]),
-            other=expand(f"{R}/benchmarks/{{bench}}.json", bench=BENCH["standalone"]),
+            script="workflow/scripts/bench_report.py",
+            wp=lambda w: expand(f"{R}/{w.bdir}/workprecision_{{system}}.json", system=BENCH["systems"]),
+            other=lambda w: expand(f"{R}/{w.bdir}/{{bench}}.json", bench=BENCH["standalone"]),
         output:
-            png=f"{R}/benchmarks/workprecision.png",
-            md=f"{R}/benchmarks/summary.md",
-            json=f"{R}/benchmarks/summary.json",
+            png=f"{R}/{{bdir}}/workprecision.png",
+            md=f"{R}/{{bdir}}/summary.md",
+            json=f"{R}/{{bdir}}/summary.json",
         log:
-            f"{R}/logs/benchmarks/report.log",
+            f"{R}/logs/{{bdir}}/report.log",
+        wildcard_constraints:
+            bdir=_BDIRS,
         shell:
-            "python workflow/scripts/bench_report.py --out-dir {R}/benchmarks {input.wp} {input.other} > {log} 2>&1"
+            "{_PY} {input.script} --out-dir {R}/{wildcards.bdir} {input.wp} {input.other} > {log} 2>&1"
 
     rule benchmarks:
         input:
-            rules.bench_report.output,
+            f"{R}/benchmarks/summary.md",
 
-    if BENCH.get("in_all", False):
-        EXTRA_TARGETS.extend([f"{R}/benchmarks/summary.md", f"{R}/benchmarks/workprecision.png"])
+    rule benchmarks_full:
+        input:
+            f"{R}/benchmarks-full/summary.md",

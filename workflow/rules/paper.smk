@@ -12,6 +12,10 @@ rule paper:
         summaries=expand(f"{R}/summary/{{fig}}.json", fig=SUMMARIZED),
         stress=(f"{R}/stress-quick/summary.md" if config.get("stress_profile", "full") == "quick"
                 else f"{R}/stress/summary.md"),
+        # the Performance section (rule bench_report; absent without a `benchmarks` config)
+        benchmarks=([f"{R}/benchmarks/summary.md", f"{R}/benchmarks/workprecision.png"]
+                    + ([f"{R}/benchmarks/scaling.png"] if "scaling" in config["benchmarks"]["standalone"] else [])
+                    if config.get("benchmarks") else []),
     output:
         html=f"{R}/paper/paper.html",
         md=f"{R}/paper/paper.filled.md",

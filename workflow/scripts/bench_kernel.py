@@ -157,6 +157,7 @@ def plot(data, png):
 
 def main(argv=None):
     args = bl.parser(__doc__.splitlines()[1], "results/benchmarks/kernel.json").parse_args(argv)
+    bl.profile(args)  # no separate full sweep: default and full are the same
     t_begin = time.perf_counter()
     repeats = 3 if args.quick else 7
     cases, meta, states, twin_diff = _cases(args.quick)

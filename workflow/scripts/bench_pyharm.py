@@ -317,6 +317,7 @@ def plot(data, png):
 
 def main(argv=None):
     args = bl.parser(__doc__.splitlines()[1], "results/benchmarks/pyharm.json").parse_args(argv)
+    bl.profile(args)  # no separate full sweep: default and full are the same
     args.out = os.path.abspath(args.out)
     try:
         import pyHarm  # noqa: F401

@@ -14,8 +14,9 @@ reaches mass 1 for n >= ~1000, where the friction then sticks throughout; the se
 
 Methods: mshbm (n_H 5, 4096 steps), mshbm-intermediate (n_H 5, 4096 steps), hbm (condensed,
 n_H 5), hbm-full (condense=False, the whole sparse system), shooting (4096 steps).  A method is
-dropped for larger n once one solve takes > 60 s, (hbm-full, shooting) needs > 4 GB, or the time predicted for the
-next n (power law through its last two points, exponent >= 1) exceeds 60 s.  Time = wall time
+dropped for larger n once one solve takes longer than the profile's limit (quick 5 s, default
+30 s, full 60 s), (hbm-full, shooting) needs > 4 GB, or the time predicted for the next n
+(power law through its last two points, exponent >= 1) exceeds the limit.  Time = wall time
 of ``mshbm.solve`` (set-up included); ``PeriodicSolution.amplitude`` is timed separately.  The
 methods are interleaved per n (round-robin over the repeats) after a warm-up solve of each.
 The peak extra resident memory of every solve is recorded (the 4 GB limit applies to hbm-full
@@ -24,18 +25,18 @@ and shooting).
 Sparse FE model: a 2-D finite-difference membrane on an nx x nx grid (clamped edges,
 5-point Laplacian K, "consistent-ish" M = 0.6 I + 0.1 adjacency, Rayleigh damping with ~1 %
 at omega), friction (mu 0.8, F_N 2) on the corner DOF and 5 cos(omega t) on node (1, 1), built
-with ``mshbm.System``; solved by mshbm and hbm.  It is solved twice: as the package is
-("as-is") and, as a what-if done in this process only, with the sparse LU of the condensation
-(``mshbm.fourier``'s ``spla.splu``) replaced by SuperLU's symmetric mode
-(``MMD_AT_PLUS_A``, ``diag_pivot_thresh=0.1``, ``SymmetricMode=True``).
+with ``mshbm.System``; solved by mshbm and hbm through the same sparse condensation
+(symmetric-mode SuperLU, which keeps the fill-reducing ordering of the 2-D grid).
+
+Profiles: ``quick`` (n <= 10^4, tests), ``default`` (10 ... 10^5 in decades, FE to 4*10^4 DOFs;
+part of ``snakemake``), ``full`` (half decades, FE to 9*10^4; ``snakemake benchmarks_full``).
 
 Usage::
 
-    python workflow/scripts/bench_scaling.py --out results/benchmarks/scaling.json [--quick]
+    python workflow/scripts/bench_scaling.py --out results/benchmarks/scaling.json [--profile quick|default|full]
 """
 from __future__ import annotations
 
-import contextlib
 import gc
 import os
 import sys
@@ -93,50 +94,6 @@ def membrane(nx, omega=bl.OMEGA, amplitude=5.0, normal_force=2.0, node=(1, 1)):
     f = np.zeros((3, n))
     f[1, node[0] * nx + node[1]] = amplitude
     return System(M, C, K, f, [Friction(0, 0.8, normal_force, 800.0)], name=f"membrane{nx}x{nx}")
-
-
-class _SymmetricSplu:
-    """Stand-in for ``scipy.sparse.linalg`` inside ``mshbm.fourier``: splu in SuperLU's symmetric mode."""
-
-    def __init__(self, spla):
-        self._spla = spla
-
-    def __getattr__(self, name):
-        return getattr(self._spla, name)
-
-    def splu(self, A, permc_spec=None, **kw):
-        return self._spla.splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.1,
-                               options=dict(SymmetricMode=True))
-
-
-@contextlib.contextmanager
-def symmetric_lu():
-    """What-if: the condensation's sparse LU in symmetric mode (this process only; no file changed)."""
-    import mshbm.fourier as mf
-    old = mf.spla
-    mf.spla = _SymmetricSplu(old)
-    try:
-        yield
-    finally:
-        mf.spla = old
-
-
-def amplitude_blas(sol):
-    """``(max - min)/2`` per DOF like ``PeriodicSolution.amplitude``, but with one BLAS product
-    ``V @ q_hat`` per chunk instead of an inverse FFT along axis 0 (what-if for the report)."""
-    from mshbm import fourier
-    N = sol.t.size - 1
-    V = fourier.idft_matrix(N, (sol.q_hat.shape[0] - 1) // 2)
-    n = sol.n
-    amp = np.empty(n)
-    chunk = max(1, int(2e7 // max(N, 1)))
-    for s in range(0, n, chunk):
-        x = V @ sol.q_hat[:, s:s + chunk]
-        amp[s:s + chunk] = 0.5 * (x.max(axis=0) - x.min(axis=0))
-    td = np.asarray(sol.time_dofs)
-    if td.size:
-        amp[td] = 0.5 * (sol.q_time.max(axis=0) - sol.q_time.min(axis=0))
-    return amp
 
 
 def one_solve(system, method, opts):
@@ -210,11 +167,6 @@ def run_chain(ns, repeats_for, limit_s, log):
                     recs[m] = []
                     gc.collect()
                     continue
-                if m == "mshbm" and r == 0:
-                    t1 = time.perf_counter()
-                    amp_b = amplitude_blas(sol)
-                    rec["amplitude_blas_s"] = time.perf_counter() - t1
-                    rec["amplitude_blas_max_abs_diff"] = float(np.max(np.abs(amp_b - sol.amplitude)))
                 del sol
                 recs[m].append(rec)
                 log(f"  n={n:6d} {m:20s} solve {rec['solve_s']:8.3f} s  amplitude {rec['amplitude_s']:7.3f} s  "
@@ -235,55 +187,37 @@ def run_chain(ns, repeats_for, limit_s, log):
                      "success": all(x["success"] for x in rs), "iterations": rs[0]["iterations"],
                      "message": rs[0]["message"], "amplitude_mass1": rs[0]["amplitude_mass1"],
                      "amplitude_last": rs[0]["amplitude_last"], "stick_fraction": rs[0]["stick_fraction"]}
-            for key in ("amplitude_blas_s", "amplitude_blas_max_abs_diff"):
-                if key in rs[0]:
-                    point[key] = rs[0][key]
             results[m]["points"].append(point)
             history[m].append((n, solve["median_s"]))
     return results
 
 
-def run_fe(sizes, limits, log):
-    """The membrane model, as-is and with the symmetric-mode LU, interleaved per size."""
+def run_fe(sizes, limit, log):
+    """The membrane model, solved by mshbm and hbm for growing grids (until a solve exceeds ``limit``)."""
     import mshbm
     out = {}
-    last = {}
     warm = membrane(8)
     for m in ("mshbm", "hbm"):
         mshbm.solve(warm, bl.OMEGA, m, harmonics=N_H)
     for nx in sizes:
         system = membrane(nx)
-        for variant in ("as-is", "symmetric-lu"):
-            for m in ("mshbm", "hbm"):
-                key = f"{m}/{variant}"
-                pts = last.setdefault(key, [])
-                limit = limits[variant]
-                pred = _predict(pts, system.n)
-                entry = out.setdefault(key, {"points": [], "stopped": None, "limit_s": limit})
-                if entry["stopped"]:
-                    continue
-                if pred > limit:
-                    entry["stopped"] = f"n={system.n}: predicted {pred:.3g} s > {limit:g} s"
-                    continue
-                ctx = symmetric_lu() if variant == "symmetric-lu" else contextlib.nullcontext()
-                with ctx:
-                    rec, sol = one_solve(system, m, dict(harmonics=N_H))
-                rec.update(nx=nx, n=system.n, amplitude_corner=float(np.abs(sol.q_hat[:, 0]).max()),
-                           q_hat_friction_dof=sol.q_hat[:, 0].tolist())
-                entry["points"].append(rec)
-                pts.append((system.n, rec["solve_s"]))
-                log(f"  FE {nx}x{nx} (n={system.n}) {key:20s} solve {rec['solve_s']:8.2f} s  ok {rec['success']}  "
-                    f"it {rec['iterations']}  stick {rec['stick_fraction']}")
-                if rec["solve_s"] > limit:
-                    entry["stopped"] = f"n={system.n}: one solve took {rec['solve_s']:.3g} s"
-    # agreement of the two LU variants where both ran
-    agree = {}
-    for m in ("mshbm", "hbm"):
-        a = {p["n"]: np.array(p["q_hat_friction_dof"]) for p in out.get(f"{m}/as-is", {}).get("points", [])}
-        b = {p["n"]: np.array(p["q_hat_friction_dof"]) for p in out.get(f"{m}/symmetric-lu", {}).get("points", [])}
-        agree[m] = {str(n): float(np.max(np.abs(a[n] - b[n])) / max(np.max(np.abs(a[n])), 1e-300))
-                    for n in sorted(set(a) & set(b))}
-    return out, agree
+        for m in ("mshbm", "hbm"):
+            entry = out.setdefault(m, {"points": [], "stopped": None, "limit_s": limit})
+            if entry["stopped"]:
+                continue
+            pred = _predict([(p["n"], p["solve_s"]) for p in entry["points"]], system.n)
+            if pred > limit:
+                entry["stopped"] = f"n={system.n}: predicted {pred:.3g} s > {limit:g} s"
+                continue
+            rec, sol = one_solve(system, m, dict(harmonics=N_H))
+            rec.update(nx=nx, n=system.n, amplitude_corner=float(np.abs(sol.q_hat[:, 0]).max()),
+                       q_hat_friction_dof=sol.q_hat[:, 0].tolist())
+            entry["points"].append(rec)
+            log(f"  FE {nx}x{nx} (n={system.n}) {m:6s} solve {rec['solve_s']:8.2f} s  ok {rec['success']}  "
+                f"it {rec['iterations']}  stick {rec['stick_fraction']}")
+            if rec["solve_s"] > limit:
+                entry["stopped"] = f"n={system.n}: one solve took {rec['solve_s']:.3g} s"
+    return out
 
 
 def plot(data, png):
@@ -333,21 +267,24 @@ def main(argv=None):
     def log(msg):
         print(msg, flush=True)
 
-    if args.quick:
+    profile = bl.profile(args)
+    if profile == "quick":
         ns = [10, 100, 1000, 10_000]
         limit = 5.0
         repeats_for = lambda n: 1  # noqa: E731
-        fe_sizes = [30, 60]
-        fe_limits = {"as-is": 5.0, "symmetric-lu": 10.0}
+        fe_sizes, fe_limit = [30, 60], 5.0
+    elif profile == "default":
+        ns = [10, 100, 1000, 10_000, 100_000]
+        limit = 30.0
+        repeats_for = lambda n: 3 if n <= 1000 else (2 if n <= 10_000 else 1)  # noqa: E731
+        fe_sizes, fe_limit = [30, 100, 200], 30.0
     else:
         ns = [10, 30, 100, 300, 1000, 3000, 10_000, 30_000, 100_000]
         limit = 60.0
         repeats_for = lambda n: 3 if n <= 10_000 else 2  # noqa: E731
-        fe_sizes = [30, 50, 100, 200, 300]
-        # as-is: one run at ~10^4 DOFs is the FE target measurement, so allow up to 300 s there
-        fe_limits = {"as-is": 300.0, "symmetric-lu": 60.0}
+        fe_sizes, fe_limit = [30, 50, 100, 200, 300], 60.0
     chain = run_chain(ns, repeats_for, limit, log)
-    fe, fe_agree = run_fe(fe_sizes, fe_limits, log)
+    fe = run_fe(fe_sizes, fe_limit, log)
     pts = chain["mshbm"]["points"]
     big = [(p["n"], p["solve"]["median_s"]) for p in pts if p["n"] >= 1000]
     exponent = bl.fit_exponent([a for a, _ in big], [b for _, b in big]) if len(big) >= 2 else None
@@ -357,9 +294,9 @@ def main(argv=None):
         exp_local = bl.fit_exponent([a for a, _ in pts_local], [b for _, b in pts_local])
     at_target = [p for p in pts if p["n"] == TARGET_N]
     table = {m: {str(p["n"]): p["solve"]["median_s"] for p in r["points"]} for m, r in chain.items()}
-    fe_target = [p for p in fe.get("mshbm/as-is", {}).get("points", []) if p["n"] >= 10_000]
+    fe_target = [p for p in fe.get("mshbm", {}).get("points", []) if p["n"] >= 10_000]
     data = {
-        "benchmark": "scaling", "quick": bool(args.quick), "machine": bl.machine_info(),
+        "benchmark": "scaling", "quick": profile == "quick", "profile": profile, "machine": bl.machine_info(),
         "method": "wall time of mshbm.solve incl. set-up; methods interleaved per n (round-robin repeats) after "
                   "a warm-up solve each; medians; result.amplitude timed separately",
         "system": {"chain": "masses 1, springs 1, dampers %g, friction mu 0.8 F_N %g on mass 1, 5 cos(omega t) on "
@@ -371,7 +308,7 @@ def main(argv=None):
         "limits": {"time_s": limit, "memory_mb": MEM_LIMIT_MB},
         "chain": chain, "time_table_s": table,
         "mshbm_exponent_n_ge_1000": exponent, "mshbm_local_exponent_n_ge_1000": exp_local,
-        "fe_membrane": fe, "fe_lu_variants_relative_difference_q_hat_friction_dof": fe_agree,
+        "fe_membrane": fe,
         "target": {
             "statement": "MS-HBM cost at most linear in n; 10^5-mass chain solved by MS-HBM (n_H=5) in <= 30 s; "
                          "general sparse M, C, K through the same path",
@@ -381,7 +318,7 @@ def main(argv=None):
             "amplitude_eval_at_1e5_s": at_target[0]["amplitude_eval"]["median_s"] if at_target else None,
             "met_1e5_within_30s": (bool(at_target[0]["solve"]["median_s"] <= TARGET_S and at_target[0]["success"])
                                    if at_target else None),
-            "fe_model_mshbm_as_is": [{k: p[k] for k in ("n", "solve_s", "success", "iterations")} for p in fe_target],
+            "fe_model_mshbm": [{k: p[k] for k in ("n", "solve_s", "success", "iterations")} for p in fe_target],
         },
         "total_wall_s": time.perf_counter() - t_begin,
     }

@@ -9,7 +9,7 @@ Systems (omega = pi/5):
 * ``friction3`` -- the 3-mass friction chain of tests/conftest.py (unit masses and springs, no
   damping, friction mu 0.8, F_N 5 on mass 1, 5 cos(omega t) on mass 3); baseline law: arctan
   regularisation ``-mu F_N 2/pi arctan(kappa u_1)``, kappa in {100, 1000, 10000};
-* ``impact5`` (full run only) -- the 5-mass impact chain (contact on mass 1, gap 0.1, e = 1);
+* ``impact5`` (default and full profiles) -- the 5-mass impact chain (contact on mass 1, gap 0.1, e = 1);
   baseline law: penalty ``-k_c (q_1 - gap)`` while ``q_1 > gap``, k_c = 8000.
 
 Reference: ``mshbm.exact_periodic`` (event-driven exact flow, started from shooting with 4096
@@ -31,7 +31,11 @@ is <= the baseline's error (undefined when none of ours is that accurate).
 
 Usage::
 
-    python workflow/scripts/bench_scipy.py --out results/benchmarks/scipy.json [--quick]
+    python workflow/scripts/bench_scipy.py --out results/benchmarks/scipy.json [--profile quick|default|full]
+
+Profiles: quick (friction3, LSODA only), default (two regularisations, LSODA and Radau at
+rtol 1e-6 and 1e-8, 20 s budget per run; part of ``snakemake``), full (also RK45, rtol 1e-10,
+kappa 1e4, 120 s budget; ``snakemake benchmarks_full``).
 """
 from __future__ import annotations
 
@@ -281,12 +285,22 @@ def main(argv=None):
     def log(m):
         print(m, flush=True)
 
-    if args.quick:
+    profile = bl.profile(args)
+    if profile == "quick":
         ours_cfg = {f"shooting/steps={N}": ("shooting", dict(steps=N)) for N in (256, 1024, 4096)}
         ours_cfg.update({f"mshbm/nh={h}/steps={N}": ("mshbm", dict(harmonics=h, steps=N))
                          for h in (3, 5) for N in (1024, 4096)})
         fr = dict(regs=(100.0, 1000.0), base_methods=("LSODA",), rtols=(1e-8,), budget_s=8.0, max_our_rounds=3)
         systems = {"friction3": (bl.friction_chain(3), fr)}
+    elif profile == "default":
+        ours_cfg = {f"shooting/steps={N}": ("shooting", dict(steps=N)) for N in (256, 1024, 4096, 16384)}
+        ours_cfg.update({f"mshbm/nh={h}/steps={N}": ("mshbm", dict(harmonics=h, steps=N))
+                         for h in (3, 5, 9) for N in (1024, 4096, 16384)})
+        fr = dict(regs=(100.0, 1000.0), base_methods=("LSODA", "Radau"), rtols=(1e-6, 1e-8),
+                  budget_s=20.0, max_our_rounds=5)
+        im = dict(regs=(8000.0,), base_methods=("LSODA", "Radau"), rtols=(1e-6, 1e-8), budget_s=20.0,
+                  max_our_rounds=5)
+        systems = {"friction3": (bl.friction_chain(3), fr), "impact5": (bl.impact_chain(5), im)}
     else:
         ours_cfg = {f"shooting/steps={N}": ("shooting", dict(steps=N)) for N in (256, 1024, 4096, 16384)}
         ours_cfg.update({f"mshbm/nh={h}/steps={N}": ("mshbm", dict(harmonics=h, steps=N))
@@ -305,7 +319,7 @@ def main(argv=None):
     all_ok = [v["speedup"] for r in results.values() for v in r["speedups"].values()
               if v["speedup"] is not None and v["baseline_status"] == "ok"]
     data = {
-        "benchmark": "scipy", "quick": bool(args.quick), "machine": bl.machine_info(), "omega": bl.OMEGA,
+        "benchmark": "scipy", "quick": profile == "quick", "profile": profile, "machine": bl.machine_info(), "omega": bl.OMEGA,
         "method": "baseline runs once each (budgeted); our runs repeated in rounds spread between them; medians",
         "systems": results,
         "target": {"statement": "at equal amplitude error our Moreau shooting and MS-HBM are >= 100x faster than "

@@ -3,8 +3,10 @@
 For every method and discretisation (n_h, steps, regularisation) the solve at omega is
 started, as in the paper, from that method's own converged solution at a nearby
 frequency; the timed quantity is the median wall time of repeated solves from that start
-(after one untimed warm-up, so numba compilation is excluded).  The error is the relative
-amplitude error of masses 1 and n against ``mshbm.exact.exact_periodic``.
+(one untimed warm-up solve per method excludes numba compilation).  The error is the
+relative amplitude error of masses 1 and n against ``mshbm.exact.exact_periodic``, whose
+own convergence is checked by independent re-solves (``reference_convergence``).  The grids
+are ``benchmarks`` of the config (``--profile full``: with the overrides of ``benchmarks.full``).
 
 Usage::
 
@@ -31,11 +33,15 @@ from mshbm.exact import exact_periodic  # noqa: E402
 from mshbm.hbm import scaled_regularisation  # noqa: E402
 
 
-def timed_solve(system, omega, nearby, method, repeats, **opts):
-    """Start from the method's own solution at ``nearby``; median wall time of ``repeats`` solves."""
+def timed_solve(system, omega, nearby, method, repeats, warmup=True, **opts):
+    """Start from the method's own solution at ``nearby``; wall times of ``repeats`` solves.
+
+    ``warmup``: one untimed solve first (numba compilation; needed once per method and process).
+    """
     start = mshbm.solve(system, nearby, method, **opts)
     guess = start if start.success else None
-    sol = mshbm.solve(system, omega, method, guess=guess, **opts)  # warm-up (compilation, caches)
+    if warmup:
+        mshbm.solve(system, omega, method, guess=guess, **opts)
     times = []
     for _ in range(repeats):
         t0 = time.perf_counter()
@@ -58,14 +64,24 @@ def points(bcfg):
             yield "hbm", {"harmonics": n_h, "regularisation_factor": factor}
 
 
+def hbm_samples(bcfg, config, n_h):
+    """AFT samples of HBM: ``benchmarks.hbm_samples`` if given, else the reproduction's rule."""
+    rule = bcfg.get("hbm_samples", config["numerics"]["hbm_samples"])
+    return wfcore.hbm_samples({"numerics": {"hbm_samples": rule}}, n_h)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--config", required=True)
     ap.add_argument("--system", required=True)
     ap.add_argument("--out", required=True)
+    ap.add_argument("--profile", choices=("default", "full"), default="default",
+                    help="full: the grids of `benchmarks.full` (overrides) instead of the default ones")
     args = ap.parse_args(argv)
     config = yaml.safe_load(Path(args.config).read_text())
-    bcfg = config["benchmarks"]
+    bcfg = dict(config["benchmarks"])
+    if args.profile == "full":
+        bcfg.update(bcfg.get("full") or {})
     system = wfcore.build_system(config["systems"][args.system], args.system)
     omega = wfcore.omega(config)
     nearby = omega * float(bcfg["nearby_factor"])
@@ -79,12 +95,19 @@ def main(argv=None):
         raise SystemExit(f"exact reference failed for {args.system}: {ref.message}")
     amp_ref = np.asarray(ref.info["amplitude_exact"])
     idx = [0, n - 1]
-    rows = []
+    ref_check = reference_convergence(system, omega, amp_ref, idx, bcfg)
+    print(f"{args.system} exact reference: amplitudes {amp_ref[idx]}, {len(ref.info.get('events', []))} events, "
+          f"{ref_time:.2f} s; variants differ by <= {ref_check['max_relative_difference']:.1e}", flush=True)
+    rows, warmed = [], set()
     for method, opts in points(bcfg):
         opts = dict(opts)
         factor = opts.pop("regularisation_factor", 1.0)
+        if method == "hbm":
+            opts["steps"] = hbm_samples(bcfg, config, opts["harmonics"])
         sys_m = scaled_regularisation(system, factor) if method == "hbm" else system
-        sol, times, nearby_ok = timed_solve(sys_m, omega, nearby, method, int(bcfg["repeats"]), **opts)
+        sol, times, nearby_ok = timed_solve(sys_m, omega, nearby, method, int(bcfg["repeats"]),
+                                            warmup=method not in warmed, **opts)
+        warmed.add(method)
         amp = sol.amplitude
         err = [abs(amp[i] / amp_ref[i] - 1.0) if amp_ref[i] > 1e-9 * amp_ref.max() else abs(amp[i])
                for i in idx]
@@ -100,11 +123,14 @@ def main(argv=None):
               f"t={np.median(times):.4f}s", flush=True)
 
     summary = targets(rows, float(bcfg["target_error"]))
+    summary["equal_error"] = equal_error_ratios(rows, bcfg.get("error_levels", [0.02, 1e-2, 1e-3, 1e-4]))
+    summary["shooting_order"] = observed_order(rows)
     out = {
-        "system": args.system, "n": n, "omega": omega, "nearby_omega": nearby,
+        "system": args.system, "profile": args.profile, "n": n, "omega": omega, "nearby_omega": nearby,
         "reference": {"method": "exact", "amplitude": [float(a) for a in amp_ref[idx]],
                       "residual": float(ref.residual), "time_s": ref_time,
                       "n_events": len(ref.info.get("events", [])),
+                      "convergence": ref_check,
                       "max_floquet_modulus": float(np.max(np.abs(ref.info["floquet_multipliers"])))
                       if "floquet_multipliers" in ref.info else None},
         "machine": {"cpus": __import__("os").cpu_count(), "python": platform.python_version(),
@@ -113,6 +139,71 @@ def main(argv=None):
     }
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
     Path(args.out).write_text(json.dumps(out, indent=1))
+
+
+def reference_convergence(system, omega, amp_ref, idx, bcfg):
+    """Evidence that the exact reference is converged: independent re-solves agree with it.
+
+    Variants: a 100x tighter Newton tolerance, a 4x finer event-search grid and a different
+    seed (shooting with 16x fewer steps).  Returns their relative amplitude differences
+    (masses 1 and n) to the reference; their maximum is what the reference is good to.
+    """
+    seed_steps = max(256, int(bcfg["reference_seed_steps"]) // 16)
+    coarse = mshbm.solve(system, omega, "shooting", steps=seed_steps)
+    fine_seed = mshbm.solve(system, omega, "shooting", steps=int(bcfg["reference_seed_steps"]))
+    variants = {
+        "tol_1e-13": dict(guess=fine_seed, tol=1e-13),
+        "substeps_512": dict(guess=fine_seed, substeps=512),
+        f"seed_shooting_{seed_steps}_steps": dict(guess=coarse),
+    }
+    out = {}
+    for name, kw in variants.items():
+        v = exact_periodic(system, omega, **kw)
+        if not v.success:
+            out[name] = {"success": False, "message": v.message}
+            continue
+        a = np.asarray(v.info["amplitude_exact"])
+        out[name] = {"success": True, "residual": float(v.residual),
+                     "relative_difference": float(max(abs(a[i] / amp_ref[i] - 1.0) for i in idx))}
+    diffs = [v["relative_difference"] for v in out.values() if v.get("success")]
+    return {"variants": out, "max_relative_difference": float(max(diffs)) if diffs else None,
+            "all_converged": all(v.get("success") for v in out.values())}
+
+
+def observed_order(rows):
+    """Least-squares order p of full shooting's error ~ steps^-p (converged points, error > 1e-12)."""
+    pts = [(r["steps"], r["error"]) for r in rows if r["method"] == "shooting" and r["success"] and r["error"] > 1e-12]
+    if len(pts) < 3:
+        return None
+    s, e = np.log(np.array(pts, dtype=float)).T
+    return float(-np.polyfit(s, e, 1)[0])
+
+
+def cheapest(rows, method, level):
+    """Cheapest converged point of ``method`` with error <= ``level`` (None if there is none)."""
+    ok = [r for r in rows if r["method"] == method and r["success"] and r["error"] <= level]
+    return min(ok, key=lambda r: r["time_s"]) if ok else None
+
+
+def equal_error_ratios(rows, levels):
+    """Time of full shooting over the time of each method to reach the same error level.
+
+    For each level ``e``: the cheapest converged point of each method with error <= e,
+    and ``speedup[method] = time(shooting) / time(method)`` (``None`` if either never
+    reaches ``e`` in the sweep).
+    """
+    out = []
+    for level in levels:
+        entry = {"error_level": float(level)}
+        shoot = cheapest(rows, "shooting", level)
+        for method in ("shooting", "mshbm", "mshbm-intermediate", "hbm"):
+            best = cheapest(rows, method, level)
+            entry[method] = None if best is None else {
+                "time_s": best["time_s"], "error": best["error"], "harmonics": best["harmonics"],
+                "steps": best["steps"], "regularisation_factor": best["regularisation_factor"],
+                "speedup_over_shooting": (shoot["time_s"] / best["time_s"]) if shoot else None}
+        out.append(entry)
+    return out
 
 
 def targets(rows, target_error):

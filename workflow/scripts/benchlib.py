@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["machine_info", "interleaved", "timed", "stats", "write_json", "plot_path", "parser",
+__all__ = ["machine_info", "interleaved", "timed", "stats", "write_json", "plot_path", "parser", "profile",
            "jsonable", "fit_exponent"]
 
 
@@ -156,8 +156,19 @@ def parser(description, default_out):
     import argparse
     p = argparse.ArgumentParser(description=description)
     p.add_argument("--out", default=default_out, help=f"output JSON (default {default_out}); the PNG goes next to it")
-    p.add_argument("--quick", action="store_true", help="reduced version (< 40 s)")
+    p.add_argument("--profile", choices=("quick", "default", "full"), default="default",
+                   help="size of the benchmark: quick (< 40 s, tests), default (part of `snakemake`), "
+                        "full (the long sweeps, `snakemake benchmarks_full`); scripts without a separate "
+                        "full sweep run their default for full")
+    p.add_argument("--quick", action="store_true", help="same as --profile quick")
     return p
+
+
+def profile(args):
+    """The profile selected by ``--profile`` / ``--quick``; also sets ``args.quick``."""
+    prof = "quick" if args.quick else args.profile
+    args.quick = prof == "quick"
+    return prof
 
 
 def pyplot():

@@ -8,6 +8,10 @@
 * ``{{include:claims-fig3}}``: the paper's claims of a figure next to our numbers and the verdict
   (``claims`` of results/summary/fig3.json).
 * ``{{include:choices}}``: every value the paper leaves open and our choice (config ``choices``).
+* ``{{include:benchmarks}}``: the Performance section written by bench_report.py
+  (results/benchmarks/summary.md; its figures ``benchmarks/*.png`` are embedded like the others);
+  its numbers (``numbers`` of summary.json) are placeholders ``{{benchmarks.key}}`` and available to
+  checks as ``benchmarks``.
 * ``<!-- check: EXPR ## statement -->``: a qualitative statement of the text that depends on the
   results, as a Python expression over the figure numbers (``fig8["hbm_failed"] > 0``).  When a
   result changes and the expression turns false, the document opens with a warning box listing
@@ -48,7 +52,8 @@ pre { background: #f5f5f5; padding: 0.6em; overflow-x: auto; }
 div.stale { border: 2px solid #c00; background: #fee; padding: 0.5em 1em; }
 """
 
-FIGURE = re.compile(r"^!\[(?P<cap>[^\]]*)\]\((?P<path>figures/(?P<name>[A-Za-z0-9_]+)\.png)\)\s*$", re.M)
+FIGURE = re.compile(r"^!\[(?P<cap>[^\]]*)\]\((?P<path>(?:figures|benchmarks(?:-full)?)/(?P<name>[A-Za-z0-9_]+)\.png)\)\s*$",
+                    re.M)
 CHECK = re.compile(r"<!--\s*check:\s*(?P<expr>.+?)\s*##\s*(?P<text>.+?)\s*-->", re.S)
 INCLUDE = re.compile(r"\{\{\s*include:(?P<name>[A-Za-z0-9_\-]+)\s*\}\}")
 
@@ -59,7 +64,7 @@ def md_table(header, rows):
     return "\n".join(out)
 
 
-def build(md_path, results_dir, out_html, out_md=None, stress_md=None):
+def build(md_path, results_dir, out_html, out_md=None, stress_md=None, bench_md=None):
     text = open(md_path, encoding="utf-8").read()
     config = load_json(os.path.join(results_dir, "config.json"))
     context, summaries = {"config": config}, {}
@@ -68,6 +73,10 @@ def build(md_path, results_dir, out_html, out_md=None, stress_md=None):
         if fn.endswith(".json"):
             summaries[fn[:-5]] = load_json(os.path.join(sdir, fn))
             context[fn[:-5]] = summaries[fn[:-5]]["numbers"]
+    if bench_md is None:  # stand-alone use; "" (the rule without a `benchmarks` config): none
+        bench_md = os.path.join(results_dir, "benchmarks", "summary.md")
+    if bench_md and os.path.exists(bench_md):
+        context["benchmarks"] = load_json(os.path.splitext(bench_md)[0] + ".json")["numbers"]
 
     def include(m):
         name = m.group("name")
@@ -92,6 +101,11 @@ def build(md_path, results_dir, out_html, out_md=None, stress_md=None):
                     f"`{os.path.relpath(path, results_dir)}`.")
             table = md_table(["category", "method", "converged", "failed with diagnosis", "WRONG"], rows)
             return f'<div class="table" id="stress">\n\n{head}\n\n{table}\n\n</div>'
+        if name == "benchmarks":
+            if not (bench_md and os.path.exists(bench_md)):
+                return ("*The benchmarks are not part of this configuration (no `benchmarks` section in the "
+                        "config).*")
+            return open(bench_md, encoding="utf-8").read().strip()
         if name == "choices":
             lines = []
             for c in config["choices"]:
@@ -106,7 +120,9 @@ def build(md_path, results_dir, out_html, out_md=None, stress_md=None):
     for m in CHECK.finditer(text):
         scope = {k: v for k, v in context.items() if k != "config"}
         try:
-            ok = bool(eval(m.group("expr"), {"__builtins__": {"min": min, "max": max, "abs": abs, "len": len}}, scope))
+            # the names as globals: generator expressions in a check see them too
+            env = dict(scope, __builtins__={"min": min, "max": max, "abs": abs, "len": len, "all": all, "any": any})
+            ok = bool(eval(m.group("expr"), env))
         except (KeyError, TypeError, NameError) as exc:
             ok, note = False, f" ({type(exc).__name__}: {exc})"
         else:
@@ -156,7 +172,9 @@ if "snakemake" in globals():
     smk = snakemake  # noqa: F821
     with open(smk.log[0], "w") as log:
         results = os.path.dirname(smk.input.config)
-        _, stale = build(smk.input.md, results, smk.output.html, smk.output.md, smk.input.stress)
+        bench = [p for p in smk.input.benchmarks if p.endswith("summary.md")]
+        _, stale = build(smk.input.md, results, smk.output.html, smk.output.md, smk.input.stress,
+                         bench[0] if bench else "")
         for x in stale:
             print(f"STALE TEXT: {x}", file=log)
         print(f"wrote {smk.output.html}", file=log)
