@@ -81,3 +81,18 @@ def start_text(start, factor=None):
     near = f"own solution at {factor:g} omega" if factor else "own solution at the nearby frequency"
     return {"linear": "linear response at omega, then Newton", "nearby": f"{near}, then Newton",
             None: "no converged solution"}.get(start, start)
+
+
+def time_figure_solutions(cfg, S, npz):
+    """Solutions and legend labels of a figure comparing shooting, MS-HBM and HBM in time (Figs. 5, 6).
+
+    Returns ``(scfg, sol, label)``: the system's config, ``{method: arrays or None}`` (None: the
+    solve did not converge, never drawn) and ``{method: legend label}``.
+    """
+    nh_hbm, nh_ms = S["hbm_harmonics"], S["mshbm_harmonics"]
+    scfg = cfg["systems"][S["system"]]
+    sol = {"shooting": load_npz(npz["shooting"]), "mshbm": load_npz(npz[f"mshbm_nh{nh_ms}"]),
+           "hbm": load_npz(npz[f"hbm_nh{nh_hbm}"])}
+    label = {"shooting": f"full shooting (N = {cfg['numerics']['steps']})", "mshbm": f"MS-HBM, $n_H$ = {nh_ms}",
+             "hbm": f"HBM, $n_H$ = {nh_hbm}, $k_c$ = {scfg['contact']['penalty_stiffness']:g}"}
+    return scfg, sol, label

@@ -160,3 +160,30 @@ def test_rerun_with_nothing_changed_does_nothing(quick_run, workdir):
     proc = run(TARGET + ["-n", "--cores", "2"] + QUICK, workdir, timeout=120)
     assert proc.returncode == 0, proc.stderr[-3000:]
     assert "Nothing to be done" in proc.stdout + proc.stderr, (proc.stdout + proc.stderr)[-3000:]
+
+
+@pytest.mark.slow
+def test_quick_benchmarks(quick_run):
+    """The quick benchmarks (part of the quick workflow, embedded in its paper): the exact reference
+    is converged, full shooting shows its known orders against it, and every method converged.
+    Times are never asserted; the accuracy numbers are (bounds with a margin of >= 2x, see the
+    measured values in the comments)."""
+    bench = quick_run / "benchmarks"
+    digest = json.loads((bench / "summary.json").read_text())
+    assert (bench / "workprecision.png").stat().st_size > 1000
+    assert "Work–precision against the exact reference" in (quick_run / "paper" / "paper.html").read_text()
+    orders = {"friction3": (1.6, 2.4), "impact5": (0.7, 1.3)}  # measured 1.98 and 0.96
+    for system, (lo, hi) in orders.items():
+        d = json.loads((bench / f"workprecision_{system}.json").read_text())
+        conv = d["reference"]["convergence"]
+        assert conv["all_converged"] and conv["max_relative_difference"] < 1e-9, conv  # measured ~1e-14
+        assert lo <= d["targets"]["shooting_order"] <= hi, d["targets"]["shooting_order"]
+        assert all(r["success"] for r in d["rows"]), [r for r in d["rows"] if not r["success"]]
+        best = {m: min(r["error"] for r in d["rows"] if r["method"] == m) for m in ("shooting", "mshbm", "hbm")}
+        # MS-HBM (time-stepped contact) is far more accurate than HBM (penalty/arctan law)
+        assert best["mshbm"] < 0.1 * best["hbm"], best
+        assert digest["workprecision"][system]["reference_convergence"]["all_converged"]
+    # friction: MS-HBM with 9 harmonics and 2048 steps within 2e-5 (measured 5.2e-6)
+    d = json.loads((bench / "workprecision_friction3.json").read_text())
+    r = [r for r in d["rows"] if r["method"] == "mshbm" and r["harmonics"] == 9 and r["steps"] == 2048][0]
+    assert r["error"] < 2e-5, r["error"]

@@ -32,12 +32,7 @@ nc.setup()
 cfg = nc.load_json(config)
 S = nc.load_json(summary)
 num = S["numbers"]
-nh_hbm, nh_ms = S["hbm_harmonics"], S["mshbm_harmonics"]
-scfg = cfg["systems"][S["system"]]
-sol = {"shooting": nc.load_npz(npz["shooting"]), "mshbm": nc.load_npz(npz[f"mshbm_nh{nh_ms}"]),
-       "hbm": nc.load_npz(npz[f"hbm_nh{nh_hbm}"])}
-label = {"shooting": f"full shooting (N = {cfg['numerics']['steps']})", "mshbm": f"MS-HBM, $n_H$ = {nh_ms}",
-         "hbm": f"HBM, $n_H$ = {nh_hbm}, $k_c$ = {scfg['contact']['penalty_stiffness']:g}"}
+scfg, sol, label = nc.time_figure_solutions(cfg, S, npz)
 
 # %% [markdown]
 # ## The paper's claims and our numbers
@@ -61,7 +56,7 @@ for i in range(n):
     axes[i].set_ylabel(f"$q_{i + 1}$ (m)")
 if sol["hbm"] is None:
     axes[0].plot([], [], color=nc.COLORS["hbm"], marker="x", ls="none",
-                 label=f"HBM ($n_H$ = {nh_hbm}, penalty): no convergence from any start, not drawn")
+                 label=f"HBM ($n_H$ = {S['hbm_harmonics']}, penalty): no convergence from any start, not drawn")
 axes[-1].set_xlabel("t (s)")
 axes[-1].set_xlim(0, sol["shooting"]["t"][-1])
 handles, labels = axes[0].get_legend_handles_labels()

@@ -31,12 +31,7 @@ nc.setup()
 cfg = nc.load_json(config)
 S = nc.load_json(summary)
 num = S["numbers"]
-nh_hbm, nh_ms = S["hbm_harmonics"], S["mshbm_harmonics"]
-scfg = cfg["systems"][S["system"]]
-sol = {"shooting": nc.load_npz(npz["shooting"]), "mshbm": nc.load_npz(npz[f"mshbm_nh{nh_ms}"]),
-       "hbm": nc.load_npz(npz[f"hbm_nh{nh_hbm}"])}
-label = {"shooting": f"full shooting (N = {cfg['numerics']['steps']})", "mshbm": f"MS-HBM, $n_H$ = {nh_ms}",
-         "hbm": f"HBM, $n_H$ = {nh_hbm}, $k_c$ = {scfg['contact']['penalty_stiffness']:g}"}
+scfg, sol, label = nc.time_figure_solutions(cfg, S, npz)
 
 # %% [markdown]
 # ## The paper's claims and our numbers
@@ -62,7 +57,7 @@ if t_imp is not None:
     axz.set_title(f"zoom at the impact, t = {t_imp:.3f} s")
 if sol["hbm"] is None:
     ax.plot([], [], color=nc.COLORS["hbm"], marker="x", ls="none",
-            label=f"HBM ($n_H$ = {nh_hbm}): no convergence, not drawn")
+            label=f"HBM ($n_H$ = {S['hbm_harmonics']}): no convergence, not drawn")
 ax.set_xlabel("t (s)"); axz.set_xlabel("t (s)")
 ax.set_ylabel(r"$u_1 = \dot q_1$ (m/s)")
 ax.set_xlim(0, sol["shooting"]["t"][-1])

@@ -89,7 +89,7 @@ class _TimeDomainPart:
         self.stepper = MoreauJean(M, C, K, _local_elements(system, self.dofs), self.h, theta, project)
         V = fourier.basis(self.t, omega, n_h)
         nc = 2 * n_h + 1
-        f0 = system.forcing(self.t, omega)[:, self.dofs] + V @ c0.reshape(nc, self.n1)
+        f0 = system.forcing(self.t, omega, self.dofs) + V @ c0.reshape(nc, self.n1)
         self.B0 = self.stepper.increments(f0)
         n_p = Tr.shape[1]
         dF = np.einsum("kj,jlp->klp", V, Tr.reshape(nc, self.n1, n_p))

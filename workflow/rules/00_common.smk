@@ -98,6 +98,18 @@ def notebook_outputs(name):
     return outs
 
 
+# ----------------------------------------------------------------------------- benchmarks
+#: the `benchmarks` section of the config (None: no benchmarks, no Performance section)
+BENCH = config.get("benchmarks")
+#: the interpreter running Snakemake (the one with mshbm installed), not whatever `python` is on PATH
+BENCH_PY = sys.executable
+
+
+def bench_profile(w):
+    """Profile of the stand-alone benchmark scripts for an output directory (rule bench_standalone)."""
+    return "full" if w.bdir == "benchmarks-full" else BENCH.get("profile", "default")
+
+
 #: rule files added later may append their final outputs here to make them part of `rule all`
 EXTRA_TARGETS = []
 
@@ -147,7 +159,7 @@ def solve_params(w):
 
 # ----------------------------------------------------------------------------- notebooks
 #: code the notebooks import (a change reruns the notebooks); not passed as a parameter
-NB_HELPERS = ["notebooks/nbcommon.py", "notebooks/wpcommon.py", "workflow/scripts/wfcore.py"]
+NB_HELPERS = ["notebooks/nbcommon.py", "notebooks/tables.py", "notebooks/wpcommon.py", "workflow/scripts/wfcore.py"]
 
 
 def npz_inputs(fig):

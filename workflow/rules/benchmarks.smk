@@ -7,21 +7,13 @@
 #                               profile): `snakemake --cores 2 benchmarks_full` (about 40 min)
 #
 # Every benchmark is one single-threaded process; ratios are measured side by side inside it.
-import sys as _bench_sys
-
-BENCH = config.get("benchmarks")
-#: the interpreter running Snakemake (the one with mshbm installed), not whatever `python` is on PATH
-_PY = _bench_sys.executable
+# (BENCH, BENCH_PY and bench_profile are defined in 00_common.smk)
 
 if BENCH:
     _BDIRS = "benchmarks|benchmarks-full"
     _unknown = [s for s in BENCH["systems"] if s not in config["systems"]]
     if _unknown:
         raise ValueError(f"invalid configuration: benchmarks.systems: unknown system(s) {_unknown}")
-
-    def _bench_profile(w):
-        """Profile of the stand-alone scripts for an output directory."""
-        return "full" if w.bdir == "benchmarks-full" else BENCH.get("profile", "default")
 
     rule bench_workprecision:
         input:
@@ -36,11 +28,12 @@ if BENCH:
         params:
             profile=lambda w: "full" if w.bdir == "benchmarks-full" else "default",
             solver=SOLVER_DIGEST,
+            python=BENCH_PY,
         threads: 1
         resources:
             mem_mb=2000,
         shell:
-            "{_PY} {input.script} --config {input.config} --system {wildcards.system} "
+            "{params.python} {input.script} --config {input.config} --system {wildcards.system} "
             "--profile {params.profile} --out {output} > {log} 2>&1"
 
     rule bench_standalone:
@@ -56,13 +49,14 @@ if BENCH:
             bench="kernel|scaling|scipy|pyharm",
             bdir=_BDIRS,
         params:
-            profile=_bench_profile,
+            profile=bench_profile,
             solver=SOLVER_DIGEST,
+            python=BENCH_PY,
         threads: 1
         resources:
             mem_mb=6000,
         shell:
-            "{_PY} {input.script} --profile {params.profile} --out {output.json} > {log} 2>&1"
+            "{params.python} {input.script} --profile {params.profile} --out {output.json} > {log} 2>&1"
 
     rule bench_report:
         input:
@@ -77,8 +71,11 @@ if BENCH:
             f"{R}/logs/{{bdir}}/report.log",
         wildcard_constraints:
             bdir=_BDIRS,
+        params:
+            python=BENCH_PY,
+            outdir=lambda w, output: str(Path(output.md).parent),
         shell:
-            "{_PY} {input.script} --out-dir {R}/{wildcards.bdir} {input.wp} {input.other} > {log} 2>&1"
+            "{params.python} {input.script} --out-dir {params.outdir} {input.wp} {input.other} > {log} 2>&1"
 
     rule benchmarks:
         input:

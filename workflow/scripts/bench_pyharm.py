@@ -60,13 +60,30 @@ TARGET_SPEEDUP = 5.0
 DEFAULT_PYHARM_PYTHON = "/tmp/pyharm-venv/bin/python"
 
 
+def _mshbm_parent():
+    """Directory holding the ``mshbm`` package this interpreter imports (for the pyHarm child process;
+    the workflow may run from a copy without ``src/``)."""
+    try:
+        import mshbm
+    except ImportError:
+        return REPO_SRC
+    return os.path.dirname(os.path.dirname(os.path.abspath(mshbm.__file__)))
+
+
 def unavailable(out, what, error, extra=None):
     data = {"benchmark": "pyharm", "status": "unavailable", "what_failed": what, "error": error,
             "machine": bl.machine_info(), "target": {"met": None},
             "summary": {"status": "unavailable", "what_failed": what, "error": error}}
     if extra:
         data.update(extra)
-    bl.write_json(out, data)
+    out = bl.write_json(out, data)
+    # the PNG is a declared output too: a figure that says why there is no comparison
+    plt = bl.pyplot()
+    fig, ax = plt.subplots(figsize=(6, 1.6))
+    ax.axis("off")
+    ax.text(0.5, 0.5, f"pyHarm comparison unavailable: {what}", ha="center", va="center", fontsize=9, wrap=True)
+    fig.savefig(bl.plot_path(out), dpi=100)
+    plt.close(fig)
     print(f"pyHarm unavailable: {what}\n{error}")
     return data
 
@@ -332,7 +349,8 @@ def main(argv=None):
                            f"{py} does not exist (create it: python3 -m venv /tmp/pyharm-venv && "
                            f"/tmp/pyharm-venv/bin/pip install pyHarm-os threadpoolctl, or set $PYHARM_PYTHON)")
     env = dict(os.environ, _BENCH_PYHARM_CHILD="1",
-               PYTHONPATH=os.pathsep.join([REPO_SRC, HERE] + [p for p in [os.environ.get("PYTHONPATH")] if p]))
+               PYTHONPATH=os.pathsep.join([REPO_SRC, _mshbm_parent(), HERE]
+                                          + [p for p in [os.environ.get("PYTHONPATH")] if p]))
     cmd = [py, os.path.abspath(__file__), "--out", args.out] + (["--quick"] if args.quick else [])
     print(f"re-running with the pyHarm environment: {' '.join(cmd)}", flush=True)
     proc = subprocess.run(cmd, env=env)

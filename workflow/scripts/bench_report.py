@@ -233,6 +233,14 @@ def numbers(wp, other, digest):
         num[f"speedup_best_{name}"] = best_equal_error(d) if d else None
         num[f"error_at_best_{name}"] = (d["targets"].get("mshbm") or {}).get("error") if d else None
         num[f"speedup_2pct_{name}"] = at2.get("speedup_over_shooting")
+        for tag, level in (("lvl2", 1e-2), ("lvl3", 1e-3), ("lvl4", 1e-4), ("lvl5", 1e-5)):
+            p = (lvl.get(level, {}).get("mshbm") or {}) if d else {}
+            num[f"speedup_{tag}_{name}"] = p.get("speedup_over_shooting")
+        ms = [r for r in d["rows"] if r["method"] == "mshbm"] if d else []
+        num[f"mshbm_nearby_failed_{name}"] = (sum(not r["nearby_start_converged"] for r in ms) / len(ms)) if ms else None
+        fine = [r["iterations"] for r in ms if r["steps"] >= 4096 and r["success"]]
+        num[f"mshbm_iter_min_fine_{name}"] = min(fine) if fine else None  # Newton iterations, >= 4096 steps
+        num[f"mshbm_iter_max_fine_{name}"] = max(fine) if fine else None
         num[f"shooting_order_{name}"] = d["targets"].get("shooting_order") if d else None
         hb = [r["error"] for r in d["rows"] if r["method"] == "hbm" and r["success"]] if d else []
         num[f"hbm_best_error_{name}"] = min(hb) if hb else None

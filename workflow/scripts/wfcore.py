@@ -158,8 +158,8 @@ def format_value(value, fmt=None):
             return "0 %"
         v = 100 * float(value)
         s = f"{v:.{digits}g}"
-        if "e" in s:
-            s = f"{v:.{digits}e}"
+        if "e" in s:  # 100 % -> "100 %", not "1e+02 %"; tiny values in scientific notation
+            s = f"{v:.0f}" if abs(v) >= 1 else f"{v:.{digits}e}"
         return f"{s} %"
     if fmt.startswith("f") and fmt[1:].isdigit():
         return f"{float(value):.{int(fmt[1:])}f}"
