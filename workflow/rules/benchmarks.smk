@@ -4,7 +4,7 @@
 #   <results>/benchmarks/       profile `benchmarks.profile` (default): part of `snakemake`, since
 #                               the paper's Performance section embeds its summary
 #   <results>/benchmarks-full/  the long sweeps (grids of `benchmarks.full`, scripts' full
-#                               profile): `snakemake --cores 2 benchmarks_full` (about 40 min)
+#                               profile): `snakemake --cores 2 benchmarks_full` (long; see README)
 #
 # Every benchmark is one single-threaded process; ratios are measured side by side inside it.
 # (BENCH, BENCH_PY and bench_profile are defined in 00_common.smk)
