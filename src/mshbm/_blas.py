@@ -11,6 +11,8 @@ import contextlib
 
 from threadpoolctl import ThreadpoolController
 
+from .errors import InputError
+
 _CONTROLLER = None
 
 
@@ -20,6 +22,13 @@ def controller():
     if _CONTROLLER is None:
         _CONTROLLER = ThreadpoolController()
     return _CONTROLLER
+
+
+def check_threads(k):
+    """``k`` if it is a valid ``blas_threads`` option (a positive int or None), else InputError."""
+    if k is not None and (isinstance(k, bool) or not isinstance(k, int) or k < 1):
+        raise InputError("blas_threads", f"must be a positive integer or None, got {k!r}")
+    return k
 
 
 @contextlib.contextmanager

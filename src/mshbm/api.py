@@ -14,7 +14,7 @@ import sys
 import time
 
 import numpy as np
-from ._blas import blas_threads
+from ._blas import blas_threads, check_threads
 
 from .errors import ConvergenceError, InputError
 from .fourier import SingularHarmonicError
@@ -223,12 +223,7 @@ def solve(system, omega, method="mshbm", **options):
 
         return solve_with_continuation(system, omega, method,
                                        **{k: v for k, v in options.items() if k != "continuation"})
-    threads = options.pop("blas_threads", 1)
-    if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int) or threads < 1):
-        raise InputError("blas_threads", f"must be a positive integer or None, got {threads!r}")
-    if threads is None:
-        return _solve(system, omega, method, options)
-    with blas_threads(threads):
+    with blas_threads(check_threads(options.pop("blas_threads", 1))):
         return _solve(system, omega, method, options)
 
 

@@ -278,18 +278,11 @@ def solve_with_continuation(system, omega, method="mshbm", guess=None, *, strate
     unknown = [s for s in strategies if s not in STRATEGIES]
     if unknown:
         raise InputError("strategies", f"unknown strategy {unknown[0]!r} (choose from {', '.join(STRATEGIES)})")
-    threads = options.get("blas_threads", 1)
-    if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int) or threads < 1):
-        raise InputError("blas_threads", f"must be a positive integer or None, got {threads!r}")
-    if threads is None:
-        return _solve_with_continuation(system, omega, method, guess, strategies, forcing_start, friction_start,
-                                        max_stages, min_step, stage_max_iter, transient_periods, transient_budget,
-                                        options)
-    from ._blas import blas_threads
+    from ._blas import blas_threads, check_threads
 
     # the same BLAS pinning as solve() (bit-identical results whatever the thread settings), also
     # around the transient simulation that runs outside solve()
-    with blas_threads(threads):
+    with blas_threads(check_threads(options.get("blas_threads", 1))):
         return _solve_with_continuation(system, omega, method, guess, strategies, forcing_start, friction_start,
                                         max_stages, min_step, stage_max_iter, transient_periods, transient_budget,
                                         options)
