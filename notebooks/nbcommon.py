@@ -60,11 +60,7 @@ def save(fig, png, pdf):
         pass
 
 
-def md_table(header, rows):
-    out = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
-    for r in rows:
-        out.append("| " + " | ".join(str(c).replace("|", "/") for c in r) + " |")
-    return "\n".join(out)
+md_table = wfcore.md_table
 
 
 def claims_table(summary):

@@ -100,6 +100,18 @@ def parameter_table(cfg, table, fill):
     return header, rows, foot
 
 
+def build(config, summaries, table, out_md, out_csv):
+    """Table ``table`` from the config snapshot and the figure summaries (JSON paths): writes the
+    Markdown and CSV files and returns the Markdown."""
+    cfg = nc.load_json(config)
+    context = {"config": cfg}
+    for path in summaries:
+        s = nc.load_json(path)
+        context[s["figure"]] = s["numbers"]
+    header, rows, foot = parameter_table(cfg, table, lambda text: nc.wfcore.fill_placeholders(text, context))
+    return write_table(header, rows, foot, out_md, out_csv)
+
+
 def write_table(header, rows, foot, out_md, out_csv):
     """Write the table as Markdown (with footnotes) and CSV; returns the Markdown."""
     md = nc.md_table(header, rows) + "\n\n" + "\n\n".join(foot) + "\n"

@@ -17,18 +17,8 @@ TABLE = 1
 # %%
 import os, sys
 sys.path.insert(0, "notebooks") if os.path.isdir("notebooks") else None
-import nbcommon as nc
 import tables
 from IPython.display import Markdown, display
 
-cfg = nc.load_json(config)
-context = {"config": cfg}
-for path in summaries:
-    s = nc.load_json(path)
-    context[s["figure"]] = s["numbers"]
-fill = lambda text: nc.wfcore.fill_placeholders(text, context)
-
 # %%
-header, rows, foot = tables.parameter_table(cfg, TABLE, fill)
-md = tables.write_table(header, rows, foot, out_md, out_csv)
-display(Markdown(md))
+display(Markdown(tables.build(config, summaries, TABLE, out_md, out_csv)))

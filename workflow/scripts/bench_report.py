@@ -22,6 +22,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from wfcore import md_table  # noqa: E402  (the script's directory is on sys.path)
 
 STYLE = {"shooting": ("k", "o", "full shooting"), "mshbm": ("tab:red", "s", "MS-HBM"),
          "mshbm-intermediate": ("tab:orange", "D", "MS-HBM (intermediate)"), "hbm": ("tab:blue", "^", "HBM")}
@@ -30,12 +31,6 @@ TARGET_SPEEDUP = 20.0
 
 def fmt(x, spec=".2g"):
     return "–" if x is None else format(x, spec)
-
-
-def md_table(header, rows):
-    out = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
-    out += ["| " + " | ".join(str(c) for c in r) + " |" for r in rows]
-    return "\n".join(out)
 
 
 def point_label(p):

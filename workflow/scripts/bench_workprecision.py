@@ -97,7 +97,7 @@ def main(argv=None):
         raise SystemExit(f"exact reference failed for {args.system}: {ref.message}")
     amp_ref = np.asarray(ref.info["amplitude_exact"])
     idx = [0, n - 1]
-    ref_check = reference_convergence(system, omega, amp_ref, idx, bcfg)
+    ref_check = reference_convergence(system, omega, amp_ref, idx, seed)
     print(f"{args.system} exact reference: amplitudes {amp_ref[idx]}, {len(ref.info.get('events', []))} events, "
           f"{ref_time:.2f} s; variants differ by <= {ref_check['max_relative_difference']:.1e}", flush=True)
     rows, warmed = [], set()
@@ -143,19 +143,19 @@ def main(argv=None):
     Path(args.out).write_text(json.dumps(out, indent=1))
 
 
-def reference_convergence(system, omega, amp_ref, idx, bcfg):
+def reference_convergence(system, omega, amp_ref, idx, seed):
     """Evidence that the exact reference is converged: independent re-solves agree with it.
 
     Variants: a 100x tighter Newton tolerance, a 4x finer event-search grid and a different
-    seed (shooting with 16x fewer steps).  Returns their relative amplitude differences
-    (masses 1 and n) to the reference; their maximum is what the reference is good to.
+    seed (shooting with 16x fewer steps than ``seed``, the reference's own start).  Returns
+    their relative amplitude differences (masses 1 and n) to the reference; their maximum is
+    what the reference is good to.
     """
-    seed_steps = max(256, int(bcfg["reference_seed_steps"]) // 16)
+    seed_steps = max(256, int(seed.steps) // 16)
     coarse = mshbm.solve(system, omega, "shooting", steps=seed_steps)
-    fine_seed = mshbm.solve(system, omega, "shooting", steps=int(bcfg["reference_seed_steps"]))
     variants = {
-        "tol_1e-13": dict(guess=fine_seed, tol=1e-13),
-        "substeps_512": dict(guess=fine_seed, substeps=512),
+        "tol_1e-13": dict(guess=seed, tol=1e-13),
+        "substeps_512": dict(guess=seed, substeps=512),
         f"seed_shooting_{seed_steps}_steps": dict(guess=coarse),
     }
     out = {}

@@ -32,7 +32,7 @@ import sys
 import mistune
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from wfcore import fill_placeholders, get_key, load_json  # noqa: E402
+from wfcore import fill_placeholders, get_key, load_json, md_table  # noqa: E402
 
 CSS = """
 body { font-family: Georgia, 'Times New Roman', serif; max-width: 52em; margin: 2em auto; padding: 0 1em;
@@ -56,12 +56,6 @@ FIGURE = re.compile(r"^!\[(?P<cap>[^\]]*)\]\((?P<path>(?:figures|benchmarks(?:-f
                     re.M)
 CHECK = re.compile(r"<!--\s*check:\s*(?P<expr>.+?)\s*##\s*(?P<text>.+?)\s*-->", re.S)
 INCLUDE = re.compile(r"\{\{\s*include:(?P<name>[A-Za-z0-9_\-]+)\s*\}\}")
-
-
-def md_table(header, rows):
-    out = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
-    out += ["| " + " | ".join(str(c).replace("|", "/") for c in r) + " |" for r in rows]
-    return "\n".join(out)
 
 
 def build(md_path, results_dir, out_html, out_md=None, stress_md=None, bench_md=None):

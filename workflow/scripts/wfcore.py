@@ -129,6 +129,13 @@ def runs(mask):
     return [(int((s + shift) % n), int(e - s)) for s, e in zip(starts, ends)]
 
 
+def md_table(header, rows):
+    """A Markdown table; a ``|`` inside a cell is written as ``/`` (it would end the cell)."""
+    out = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
+    out += ["| " + " | ".join(str(c).replace("|", "/") for c in r) + " |" for r in rows]
+    return "\n".join(out)
+
+
 def rel_err(value, ref):
     """``|value / ref - 1|`` (``None`` when either is missing)."""
     if value is None or ref is None:
