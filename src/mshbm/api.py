@@ -15,6 +15,7 @@ import time
 
 import numpy as np
 from ._blas import blas_threads, check_threads
+from . import starts
 
 from .errors import ConvergenceError, InputError
 from .fourier import SingularHarmonicError
@@ -238,9 +239,15 @@ def _solve(system, omega, method, options):
         x0 = problem.initial_guess(sopts.get("guess"))
         nkw = dict(tol=float(sopts.get("tol", 1e-10)), max_iter=int(sopts.get("max_iter", 50)),
                    line_search=bool(sopts.get("line_search", True)), callback=progress)
-        res = newton(problem.residual, x0, fallback=bool(sopts.get("continuation", True)), **nkw)
+        if sopts.get("guess") is None and sopts.get("continuation", True) and not starts.active():
+            # default start: a ladder of starts, the first accepted one wins (mshbm.starts)
+            res = starts.solve_from_starts(problem, method, system, omega, nkw,
+                                           starts.residual_accept(problem, system, omega), solve_options=options)
+        else:
+            res = newton(problem.residual, x0, fallback=bool(sopts.get("continuation", True)), **nkw)
         fallback = None
-        if not res.success and sopts.get("continuation", True) and hasattr(problem, "homotopy"):
+        if not res.success and sopts.get("continuation", True) and hasattr(problem, "homotopy") \
+                and "starts" not in res.info:
             # fallback: continuation from softened laws to the requested ones
             x, path = x0, problem.homotopy()
             total_it, total_fev = res.nit, res.nfev
@@ -280,6 +287,8 @@ def _solve(system, omega, method, options):
                            residual=res.residual_norm, wall_time=wall, x=res.x, **parts)
     sol.steps = len(sol.t) - 1
     sol.info["residual_history"] = res.history
+    if "starts" in res.info:
+        sol.info["starts"], sol.info["start_used"] = res.info["starts"], res.info["start_used"]
     if not success and sopts.get("raise_on_failure", False):
         raise ConvergenceError(message)
     return sol

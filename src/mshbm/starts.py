@@ -1,0 +1,682 @@
+"""Start strategy of :func:`mshbm.solve`: several starting points, the first accepted one wins.
+
+Newton's method converges only from a start close enough to a periodic
+solution, and the nonsmooth residuals of the time-stepping methods (impacts,
+stick-slip) make its basin small and ragged.  The default of
+:func:`mshbm.solve` (``guess=None``, ``continuation=True``) is therefore not one
+start but a ladder of starts, tried in a documented order until one of them
+gives a result that the caller's predicate ``accept(attempt) -> bool`` accepts
+(the certificate of the result; :func:`residual_accept` is a start-independent
+residual check used until then):
+
+``"guess"``
+    the caller's own guess (only when one is given to :func:`solve_from_starts`);
+``"linear"``
+    the linear response without elements (the historical default start);
+``"regularisation"`` (HBM only)
+    the linear start, continued from softened regularised laws (``kappa``, ``k_c``
+    times 1e-3 ... 0.3) to the requested ones (:meth:`mshbm.hbm.HBMProblem.homotopy`);
+``"shifted"`` (time-stepping methods)
+    the linear start with the *Poincare section moved*: the problem is solved for the
+    forcing delayed by ``k`` time steps, ``t0 = k h``, and the periodic solution shifted
+    back.  The time-domain unknowns ``q(0), u(0)`` of shooting and MS-HBM are
+    discontinuous in the impact time when an impact (or a stick-slip switch) lies at the
+    section ``t = 0 = T``; Newton then cycles the event across the section and stalls.
+    ``t0`` is chosen as far as possible from the events of the best failed attempt.  The
+    discrete solution is exactly the same (the grid is shifted by whole steps);
+``"clamped"``
+    the linear response with every element DOF held fixed: friction sticking (the
+    DOF at rest at its mean linear-response position) and contacts closed (the DOF at
+    the gap); the exact answer when the friction sticks for the whole period;
+``"zero"``
+    all displacements and velocities zero;
+``"exact"`` (one element, at most :data:`EXACT_MAX_DOFS` DOFs)
+    the exact event-driven periodic orbit (:func:`mshbm.exact_periodic`), itself started
+    from the linear response, then from the best attempt so far;
+``"transient"``
+    Moreau-Jean simulation of the whole system (friction and impacts exact, the
+    method's steps per period) from the best start so far, Newton restarted at the
+    checkpoints ``transient_periods``; time-boxed by ``transient_budget``
+    (``n^2 x steps x periods``) and ``transient_seconds``.  Finds attracting orbits;
+``"forcing"``, ``"friction"``
+    natural-parameter continuation in the forcing amplitude / the friction bound
+    (:mod:`mshbm.continuation`), from the side where the linear response is exact.
+
+Every start ends in an ordinary Newton solve of the *original* problem, so all
+accepted results are solutions of the requested discretisation; the starts only
+differ in where Newton begins.  The first accepted attempt is returned.  If none
+is accepted, the attempt with the smallest residual ``||R||_inf`` (all attempts
+solve the same problem, so their residuals are comparable) is returned with
+``success=False`` and a message listing the starts tried.
+
+Interface
+---------
+:func:`solve_from_starts` returns a :class:`mshbm.newton.NewtonResult` (the type that
+:func:`mshbm.newton.newton` returns), so that :func:`mshbm.api._solve` treats it as
+before; ``result.info["starts"]`` holds one record per attempt (start, accepted,
+residual, iterations, wall time, message) and ``result.info["start_used"]`` the
+accepted start (``None`` on failure).
+"""
+from __future__ import annotations
+
+import contextlib
+import contextvars
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+
+from . import fourier
+from ._common import linear_response
+from .errors import InputError
+from .newton import NewtonResult, newton
+
+__all__ = ["solve_from_starts", "residual_accept", "Attempt", "DEFAULT_STARTS", "active", "shifted_system",
+           "clamped_response", "force_scale", "displacement_scale"]
+
+#: default order of the starts (those that do not apply to a method or system are skipped)
+DEFAULT_STARTS = ("guess", "linear", "regularisation", "shifted", "clamped", "zero", "exact", "transient",
+                  "forcing", "friction")
+
+#: largest system for which the ``"exact"`` start runs the event-driven solver
+EXACT_MAX_DOFS = 100
+
+_TIME_METHODS = ("shooting", "mshbm", "mshbm-intermediate")
+_ACTIVE = contextvars.ContextVar("mshbm_starts_active", default=False)
+
+
+def active():
+    """True while a start strategy runs (nested :func:`mshbm.solve` calls then use one start only)."""
+    return _ACTIVE.get()
+
+
+@contextlib.contextmanager
+def _activated():
+    token = _ACTIVE.set(True)
+    try:
+        yield
+    finally:
+        _ACTIVE.reset(token)
+
+
+@dataclass
+class Attempt:
+    """One start and the Newton solve of the original problem from it (the argument of ``accept``).
+
+    Attributes
+    ----------
+    start : str
+        Name of the start (see the module docstring).
+    x0 : ndarray, shape (n_x,)
+        Unknowns Newton started from (after any continuation or simulation).
+    newton : NewtonResult
+        Newton's outcome on the original problem; ``newton.x`` are the final unknowns.
+    problem : object
+        The method's problem (``residual(x) -> (R, J)``, ``solution_parts(x)``).
+    note : str
+        What the start did (e.g. "180 periods simulated").
+    """
+
+    start: str
+    x0: np.ndarray
+    newton: NewtonResult
+    problem: object
+    note: str = ""
+    wall_time: float = 0.0
+    accepted: bool = False
+    extra_iterations: int = 0
+    verdict: str = ""
+    _parts: dict = field(default=None, repr=False)
+
+    @property
+    def x(self):
+        return self.newton.x
+
+    def parts(self):
+        """``problem.solution_parts(x)`` (cached): time series, ``q_hat``, element forces."""
+        if self._parts is None:
+            self._parts = self.problem.solution_parts(self.newton.x)
+        return self._parts
+
+    def record(self):
+        return {"start": self.start, "accepted": bool(self.accepted), "newton_converged": bool(self.newton.success),
+                "residual": float(self.newton.residual_norm), "iterations": int(self.newton.nit),
+                "extra_iterations": int(self.extra_iterations), "wall_time_s": float(self.wall_time),
+                "note": self.note, "verdict": self.verdict, "message": self.newton.message}
+
+
+# ----------------------------------------------------------------------------------------------
+# a start-independent acceptance test (until the certificate of the result replaces it)
+
+
+def force_scale(system):
+    """Physical force scale (N): the largest forcing coefficient and element force bound ``mu F_N``."""
+    s = float(np.max(np.abs(system.f_hat), initial=0.0))
+    for el in system.elements:
+        if el.kind == "friction":
+            s = max(s, el.bound)
+    return s if s > 0 else 1.0
+
+
+def displacement_scale(system, omega):
+    """Physical displacement scale (m): :func:`force_scale` over the largest diagonal stiffness
+    (``omega^2`` times the largest mass if ``K`` vanishes), at least the largest gap."""
+    diag = lambda A: np.abs(A.diagonal() if sp.issparse(A) else np.diag(np.asarray(A)))
+    k = float(np.max(diag(system.K), initial=0.0))
+    if k <= 0:
+        k = float(omega) ** 2 * float(np.max(diag(system.M), initial=0.0))
+    D = force_scale(system) / k if k > 0 else 1.0
+    gaps = max([el.gap for el in system.elements if el.kind == "contact"], default=0.0)
+    return max(D, gaps)
+
+
+def _residual_units(problem):
+    """Per-entry unit of the method's residual: 0 displacement, 1 velocity, 2 force."""
+    name = getattr(problem, "method", "")
+    n_x = problem.n_unknowns
+    units = np.zeros(n_x, dtype=np.int8)
+    if name == "hbm":
+        units[:] = 2
+    elif name == "shooting":
+        units[problem.n:] = 1
+    elif name == "mshbm":
+        units[problem.nc * problem.nN + problem.nN:] = 1
+    elif name == "mshbm-intermediate":
+        a = problem.nc * problem.n2
+        units[:a] = 2
+        units[a + problem.n1:] = 1
+    return units
+
+
+def _steps(problem):
+    """Time steps per period of a time-stepping problem."""
+    return problem.N if hasattr(problem, "N") else problem.td.N
+
+
+def _time_step(problem):
+    h = getattr(problem, "h", None)
+    if h is None and hasattr(problem, "td"):
+        h = problem.td.h
+    return h
+
+
+def residual_accept(problem, system, omega, rtol=1e-8, step_accuracy=True):
+    """Predicate ``accept(attempt) -> bool`` on the residual in physical units (start-independent).
+
+    The residual is re-evaluated at the final unknowns.  Every entry is compared with a scale that
+    depends neither on the start nor on the solution: forces (HBM; the harmonic block of
+    ``mshbm-intermediate``) with ``F`` = :func:`force_scale` (forcing and ``mu F_N``), displacements
+    with ``D`` = :func:`displacement_scale` (``F`` over the stiffness, or the gap), velocities with
+    ``omega D``.  (A garbage answer at a resonance, amplitude 1e7 with ``||R|| = 500``, is rejected.)
+
+    Accepted when
+
+    * Newton converged and ``|R_i| <= rtol * scale_i`` for every entry; or
+    * ``step_accuracy`` and the method steps in time (shooting, MS-HBM): ``|R_i| <= h * omega *
+      scale_i`` for every displacement and velocity entry (and ``rtol`` for force entries), i.e. the
+      time series is periodic to one time step's accuracy.  The Moreau-Jean map moves an impact or a
+      stick-slip switch by whole steps, so its periodicity residual jumps by ``O(h)`` there; near
+      such an orbit the discrete problem often has *no* exact root and Newton stalls at this level
+      from any start, also from the exact event-driven orbit.  Such an attempt gets
+      ``attempt.verdict`` saying so.
+    """
+    F = force_scale(system)
+    D = displacement_scale(system, omega)
+    V = float(omega) * D
+    units = _residual_units(problem)
+    scale = np.where(units == 0, D, np.where(units == 1, V, F))
+    h = _time_step(problem) if getattr(problem, "method", "") in _TIME_METHODS else None
+
+    def accept(attempt):
+        R, _ = problem.residual(attempt.x, jac=False)
+        if not np.all(np.isfinite(R)):
+            return False
+        if attempt.newton.success and np.all(np.abs(R) <= rtol * scale):
+            return True
+        if not step_accuracy or h is None:
+            return False
+        bound = np.where(units == 2, rtol * F, h * float(omega) * scale)
+        if np.all(np.abs(R) <= bound):
+            k = int(np.argmax(np.abs(R) / bound))
+            attempt.verdict = (f"periodic to one time step's accuracy, not to Newton's tolerance: |R| <= h omega "
+                               f"x scale (worst entry {abs(R[k]):.2e} <= {bound[k]:.2e}, h = {h:.3g} s); the "
+                               "Moreau-Jean map moves impacts and stick-slip switches by whole steps, and has no "
+                               "exact periodic point here")
+            return True
+        return False
+
+    return accept
+
+
+# ----------------------------------------------------------------------------------------------
+# starting points
+
+
+def shifted_system(system, t0, omega):
+    """Copy of ``system`` with the forcing advanced by ``t0``: ``f_s(t) = f(t + t0)`` (matrices shared)."""
+    fh = np.array(system.f_hat, dtype=float)
+    out = fh.copy()
+    for k in range(1, (fh.shape[0] - 1) // 2 + 1):
+        phi = k * omega * t0
+        a, b = fh[2 * k - 1], fh[2 * k]
+        out[2 * k - 1] = a * math.cos(phi) + b * math.sin(phi)
+        out[2 * k] = b * math.cos(phi) - a * math.sin(phi)
+    new = system.with_elements(system.elements)
+    new.f_hat = out
+    return new
+
+
+def _shift_hat(q_hat, omega, t0):
+    """Coefficients of ``q(t + t0)`` from those of ``q(t)``, shape (2 n_h + 1, n)."""
+    out = np.array(q_hat, dtype=float)
+    for k in range(1, (q_hat.shape[0] - 1) // 2 + 1):
+        phi = k * omega * t0
+        a, b = q_hat[2 * k - 1], q_hat[2 * k]
+        out[2 * k - 1] = a * math.cos(phi) + b * math.sin(phi)
+        out[2 * k] = b * math.cos(phi) - a * math.sin(phi)
+    return out
+
+
+def clamped_response(system, omega, n_h):
+    """Linear response with the element DOFs held fixed, ``q_hat`` shape (2 n_h + 1, n).
+
+    Friction DOFs stick at their mean linear-response position, contact DOFs are closed at the gap
+    (``q_dof = gap``).  The other DOFs respond to the forcing through the dynamic stiffness of the
+    clamped structure, harmonic by harmonic (singular harmonics are set to zero).
+    """
+    n = system.n
+    fixed = {}
+    lin = linear_response(system, omega, n_h)
+    for el in system.elements:
+        fixed[int(el.dof)] = el.gap if el.kind == "contact" else float(lin[0, el.dof])
+    Nd = np.array(sorted(fixed), dtype=np.int64)
+    Ld = np.setdiff1d(np.arange(n), Nd)
+    q_hat = np.zeros((2 * n_h + 1, n))
+    q_hat[0, Nd] = [fixed[int(d)] for d in Nd]
+    if not Ld.size:
+        return q_hat
+    F = fourier.to_complex(system.forcing_hat(n_h))
+    Z = np.zeros_like(F)
+    for k in range(n_h + 1):
+        rhs = F[k][Ld].astype(complex)
+        H = fourier.dynamic_stiffness(system.M, system.C, system.K, k * omega)
+        H = H.toarray() if sp.issparse(H) else np.asarray(H)
+        if k == 0:
+            rhs = rhs - H[np.ix_(Ld, Nd)] @ q_hat[0, Nd]
+        if not np.any(rhs):
+            continue
+        try:
+            x = np.linalg.solve(H[np.ix_(Ld, Ld)], rhs)
+        except np.linalg.LinAlgError:
+            continue
+        if np.all(np.isfinite(x)):
+            Z[k][Ld] = x
+    q_hat[:, Ld] = fourier.from_complex(Z)[:, Ld]
+    return q_hat
+
+
+def _hat_guess(q_hat, omega):
+    """Guess dict ``{q_hat, q0, u0}`` consistent with the coefficients."""
+    q0 = q_hat[0] + q_hat[1::2].sum(axis=0)
+    u0 = fourier.derivative(q_hat, omega)[1::2].sum(axis=0)
+    return {"q_hat": q_hat, "q0": q0, "u0": u0}
+
+
+def _event_steps(parts, system):
+    """Steps (indices of the time grid) at which an element switches: impacts, contact closing or
+    opening, stick-slip transitions."""
+    P = parts.get("impulses")
+    if P is None or not P.size:
+        return np.zeros(0, dtype=np.int64)
+    N = P.shape[0]
+    h = float(parts["t"][1] - parts["t"][0])
+    ev = []
+    for j, el in enumerate(system.elements):
+        if el.kind == "contact":
+            act = P[:, j] > 0
+        else:
+            act = np.abs(P[:, j]) < (1.0 - 1e-9) * h * el.bound  # sticking
+        change = np.nonzero(act != np.roll(act, 1))[0]
+        ev.extend(change.tolist())
+        if el.kind == "contact":
+            ev.extend(np.nonzero(act)[0].tolist())
+    return np.unique(np.asarray(ev, dtype=np.int64) % max(N, 1))
+
+
+def _section_shift(parts, system, N):
+    """Step ``k`` farthest (circularly) from every event of ``parts``; ``N // 2`` without events."""
+    ev = _event_steps(parts, system) if parts is not None else np.zeros(0, dtype=np.int64)
+    if ev.size == 0:
+        return N // 2
+    grid = np.arange(N)
+    d = np.abs(grid[:, None] - ev[None, :])
+    d = np.minimum(d, N - d).min(axis=1)
+    d[0] = -1  # the present section
+    return int(np.argmax(d))
+
+
+# ----------------------------------------------------------------------------------------------
+# the strategy
+
+
+class _Runner:
+    def __init__(self, problem, method, system, omega, newton_options, accept, solve_options, fallback,
+                 transient_periods, transient_budget, transient_seconds):
+        self.problem, self.method, self.system, self.omega = problem, method, system, float(omega)
+        self.nkw = dict(newton_options)
+        self.accept = accept
+        self.options = {k: v for k, v in dict(solve_options or {}).items()
+                        if k not in ("guess", "progress", "raise_on_failure", "continuation", "blas_threads")}
+        self.fallback = fallback
+        self.transient_periods = tuple(sorted(int(p) for p in transient_periods))
+        self.transient_budget = float(transient_budget)
+        self.transient_seconds = float(transient_seconds)
+        self.attempts = []
+        self.n_h = int(getattr(problem, "n_h", 10))
+
+    # -- helpers
+    def _newton(self, x0):
+        return newton(self.problem.residual, x0, fallback=self.fallback, **self.nkw)
+
+    def _try(self, start, x0, note="", extra_iterations=0, t0=None):
+        t0 = time.perf_counter() if t0 is None else t0
+        res = self._newton(x0)
+        att = Attempt(start, np.array(x0, dtype=float), res, self.problem, note, extra_iterations=extra_iterations)
+        try:
+            att.accepted = bool(self.accept(att))
+        except (FloatingPointError, np.linalg.LinAlgError, ValueError, OverflowError) as exc:
+            att.accepted = False
+            att.note = f"{note}; accept() raised {type(exc).__name__}: {exc}".lstrip("; ")
+        att.wall_time = time.perf_counter() - t0
+        self.attempts.append(att)
+        return att
+
+    def _best(self):
+        ok = [a for a in self.attempts if np.isfinite(a.newton.residual_norm)]
+        return min(ok, key=lambda a: a.newton.residual_norm) if ok else None
+
+    def _x_from_hat(self, q_hat):
+        return self.problem.initial_guess(_hat_guess(q_hat, self.omega))
+
+    # -- the starts; each returns an Attempt, or None if it does not apply
+    def start_guess(self, guess):
+        if guess is None:
+            return None
+        return self._try("guess", self.problem.initial_guess(guess))
+
+    def start_linear(self):
+        return self._try("linear", self.problem.initial_guess("linear"))
+
+    def start_zero(self):
+        return self._try("zero", self.problem.initial_guess("zero"))
+
+    def start_clamped(self):
+        if not self.system.elements:
+            return None
+        return self._try("clamped", self._x_from_hat(clamped_response(self.system, self.omega, self.n_h)))
+
+    def start_regularisation(self):
+        if self.method != "hbm" or not hasattr(self.problem, "homotopy"):
+            return None
+        t0 = time.perf_counter()
+        x = self.problem.initial_guess("linear")
+        path = self.problem.homotopy()[:-1]
+        it = 0
+        for i, sub in enumerate(path):
+            r = newton(sub.residual, x, **self.nkw)
+            it += r.nit
+            if not r.success:
+                return self._try("regularisation", x, f"stage {i + 1}/{len(path)} failed: {r.message}", it, t0)
+            x = r.x
+        return self._try("regularisation", x, f"{len(path)} softened stages", it, t0)
+
+    def start_shifted(self):
+        if self.method not in _TIME_METHODS:
+            return None
+        from . import api
+
+        t0 = time.perf_counter()
+        N = int(_steps(self.problem))
+        best = self._best()
+        parts = None
+        if best is not None:
+            try:
+                parts = best.parts()
+            except (FloatingPointError, np.linalg.LinAlgError, ValueError):
+                parts = None
+        if parts is None or _event_steps(parts, self.system).size == 0:
+            return None  # no event near which the section could lie
+        k = _section_shift(parts, self.system, N)
+        T = 2 * math.pi / self.omega
+        ts = k * T / N
+        sysS = shifted_system(self.system, ts, self.omega)
+        try:
+            probS, _ = api.build_problem(sysS, self.omega, self.method, **self.options)
+        except InputError as exc:
+            return self._try("shifted", self.problem.initial_guess("linear"), f"skipped: {exc}", 0, t0)
+        rS = newton(probS.residual, probS.initial_guess("linear"), **self.nkw)
+        note = f"section at t0 = {k}/{N} T: {rS.message}"
+        if not np.all(np.isfinite(rS.x)):
+            return self._try("shifted", self.problem.initial_guess("linear"), note, rS.nit, t0)
+        pS = probS.solution_parts(rS.x)
+        # q(t) = q_s(t - t0): q(0) = q_s(T - t0), the state at step N - k of the shifted period
+        q_hat = _shift_hat(pS["q_hat"], self.omega, -ts)
+        g = _hat_guess(q_hat, self.omega)
+        td = np.asarray(pS["time_dofs"], dtype=np.int64)
+        g["q0"][td] = pS["q_time"][N - k]
+        g["u0"][td] = pS["u_time"][N - k]
+        if not all(np.all(np.isfinite(v)) for v in g.values()):
+            return self._try("shifted", self.problem.initial_guess("linear"), note, rS.nit, t0)
+        return self._try("shifted", self.problem.initial_guess(g), note, rS.nit, t0)
+
+    def start_exact(self):
+        if len(self.system.elements) != 1 or self.system.n > EXACT_MAX_DOFS:
+            return None
+        from .exact import exact_periodic
+
+        t0 = time.perf_counter()
+        N = int(_steps(self.problem)) if self.method in _TIME_METHODS else 2048
+        guesses = ["linear"]
+        best = self._best()
+        if best is not None:
+            try:
+                p = best.parts()
+                q0 = p["q_hat"][0] + p["q_hat"][1::2].sum(axis=0)
+                u0 = fourier.derivative(p["q_hat"], self.omega)[1::2].sum(axis=0)
+                td = np.asarray(p["time_dofs"], dtype=np.int64)
+                q0[td], u0[td] = p["q_time"][0], p["u_time"][0]
+                if np.all(np.isfinite(q0)) and np.all(np.isfinite(u0)):
+                    guesses.append({"q0": q0, "u0": u0})
+            except (FloatingPointError, np.linalg.LinAlgError, ValueError):
+                pass
+        why = []
+        for g in guesses:
+            try:
+                ex = exact_periodic(self.system, self.omega, guess=g, samples=max(N, 64),
+                                    harmonics=max(self.n_h, 1), blas_threads=None)
+            except (InputError, FloatingPointError, np.linalg.LinAlgError, ValueError) as exc:
+                why.append(f"{type(exc).__name__}: {exc}")
+                continue
+            if ex.success and np.all(np.isfinite(ex.q_hat)):
+                gg = {"q_hat": ex.q_hat, "q0": ex.q[0].copy(), "u0": ex.u[0].copy()}
+                return self._try("exact", self.problem.initial_guess(gg), f"exact orbit: {ex.message}", 0, t0)
+            why.append(ex.message)
+        return self._try("exact", self.problem.initial_guess("linear"),
+                         "exact_periodic failed: " + "; ".join(w[:120] for w in why), 0, t0)
+
+    def start_transient(self):
+        from .stepper import MAX_DENSE_DOFS, MoreauJean
+
+        n = self.system.n
+        steps = int(_steps(self.problem)) if self.method in _TIME_METHODS else 1024
+        total = max(self.transient_periods)
+        if n > MAX_DENSE_DOFS or float(n) * n * steps * total > self.transient_budget:
+            return None
+        t0 = time.perf_counter()
+        best = self._best()
+        g = best.parts() if best is not None and np.isfinite(best.newton.residual_norm) else None
+        if g is not None and all(np.all(np.isfinite(g[k])) for k in ("q_hat", "q_time", "u_time")):
+            q_hat0 = g["q_hat"]
+        else:
+            q_hat0 = linear_response(self.system, self.omega, self.n_h)
+        start = _hat_guess(q_hat0, self.omega)
+        if g is not None:
+            td = np.asarray(g["time_dofs"], dtype=np.int64)
+            if np.all(np.isfinite(g["q_time"])) and np.all(np.isfinite(g["u_time"])):
+                start["q0"][td] = g["q_time"][0]
+                start["u0"][td] = g["u_time"][0]
+        q, u = start["q0"].copy(), start["u0"].copy()
+        T = 2 * math.pi / self.omega
+        theta = float(self.options.get("theta", 0.5)) if self.method != "hbm" else 0.5
+        stepper = MoreauJean(self.system.M, self.system.C, self.system.K, self.system.elements, T / steps, theta,
+                             bool(self.options.get("project", True)))
+        t = np.linspace(0.0, T, steps + 1)
+        B = stepper.increments(self.system.forcing(t, self.omega))
+        done, att, it = 0, None, 0
+        for cp in self.transient_periods:
+            tr = None
+            while done < cp:
+                tr = stepper.run(q, u, B)
+                q, u = tr.q[-1].copy(), tr.u[-1].copy()
+                done += 1
+                if not (np.all(np.isfinite(q)) and np.all(np.isfinite(u))):
+                    return self._try("transient", self.problem.initial_guess("linear"),
+                                     f"the simulation diverged after {done} periods", 0, t0)
+                if time.perf_counter() - t0 > self.transient_seconds:
+                    break
+            if tr is None:
+                break
+            gg = {"q_hat": fourier.fft(tr.q[:-1], self.n_h), "q0": q.copy(), "u0": u.copy()}
+            drift = float(np.max(np.abs(np.concatenate([tr.q[-1] - tr.q[0], tr.u[-1] - tr.u[0]]))))
+            att = self._try("transient", self.problem.initial_guess(gg),
+                            f"{done} periods simulated (period drift {drift:.1e})", it, t0)
+            if att.accepted:
+                return att
+            self.attempts.pop()  # keep one record per start: the last checkpoint
+            it += att.newton.nit
+            if time.perf_counter() - t0 > self.transient_seconds:
+                break
+        if att is not None:
+            self.attempts.append(att)
+            att.note += f"; time box {self.transient_seconds:g} s" if time.perf_counter() - t0 > \
+                self.transient_seconds else ""
+        return att
+
+    def _continuation(self, strategy):
+        from .continuation import solve_with_continuation
+
+        if strategy == "friction" and not any(e.kind == "friction" for e in self.system.elements):
+            return None
+        t0 = time.perf_counter()
+        opts = dict(self.options)
+        for key in ("tol", "max_iter", "line_search"):
+            if key in self.nkw:
+                opts[key] = self.nkw[key]
+        try:
+            sol = solve_with_continuation(self.system, self.omega, self.method, guess="zero",
+                                          strategies=(strategy,), **opts)
+        except InputError as exc:
+            return self._try(strategy, self.problem.initial_guess("linear"), f"skipped: {exc}", 0, t0)
+        info = sol.info.get("continuation", {})
+        att = info.get("attempts") or [{}]
+        note = f"{len(att[-1].get('stages', []))} stages: {att[-1].get('result', '')}"
+        x = np.asarray(sol.x, dtype=float)
+        if x.shape != (self.problem.n_unknowns,) or not np.all(np.isfinite(x)):
+            x = self.problem.initial_guess("linear")
+        return self._try(strategy, x, note, int(info.get("total_iterations", 0)), t0)
+
+    def start_forcing(self):
+        return self._continuation("forcing")
+
+    def start_friction(self):
+        return self._continuation("friction")
+
+
+def solve_from_starts(problem, method, system, omega, newton_options, accept, *, guess=None, starts=DEFAULT_STARTS,
+                      solve_options=None, fallback=True, transient_periods=(10, 40, 160), transient_budget=2e9,
+                      transient_seconds=20.0):
+    """Try the starts in order until ``accept`` accepts a Newton solution of ``problem``.
+
+    Parameters
+    ----------
+    problem : object
+        The method's problem (:func:`mshbm.api.build_problem`): ``residual(x) -> (R, J)``,
+        ``initial_guess(guess)``, ``solution_parts(x)``, ``n_unknowns``.
+    method : str
+        Name of the method (``"shooting"``, ``"hbm"``, ``"mshbm"``, ``"mshbm-intermediate"``).
+    system : System
+    omega : float
+        Forcing frequency (rad/s).
+    newton_options : dict
+        Keyword arguments of :func:`mshbm.newton.newton` (``tol``, ``max_iter``, ``line_search``,
+        ``callback``); used for every Newton solve.
+    accept : callable
+        ``accept(attempt: Attempt) -> bool``; the first attempt it accepts is returned
+        (e.g. :func:`residual_accept`, or the certificate of the result).
+    guess : optional
+        A user guess (as for :func:`mshbm.solve`), tried first as start ``"guess"``.
+    starts : sequence of str
+        Starts in the order tried (default :data:`DEFAULT_STARTS`); inapplicable ones are skipped.
+    solve_options : dict
+        The method's options as given to :func:`mshbm.solve` (``harmonics``, ``steps``, ``theta``,
+        ``partition``...): needed to build the shifted problem, the simulation, the continuations.
+    fallback : bool
+        Allow :func:`mshbm.newton.newton` its problem-specific fallback (HBM's exact path following).
+    transient_periods : sequence of int
+        Checkpoints (periods simulated so far) of the ``"transient"`` start.
+    transient_budget : float
+        Largest ``n^2 x steps x periods`` the ``"transient"`` start simulates (skipped above).
+    transient_seconds : float
+        Wall-time box of the simulation of the ``"transient"`` start.
+
+    Returns
+    -------
+    NewtonResult
+        ``success`` = some attempt was accepted.  ``x``, ``residual_norm``, ``history`` are those of
+        the accepted attempt (on failure: of the attempt with the smallest ``||R||_inf``); ``nit``
+        and ``nfev`` count every attempt (continuation stages and simulation checkpoints
+        included in ``nit``); ``message`` names the start used, or lists every start tried and
+        the best residual; ``info["starts"]`` one record per attempt, ``info["start_used"]``.
+    """
+    unknown = [s for s in starts if s not in DEFAULT_STARTS]
+    if unknown:
+        raise InputError("starts", f"unknown start {unknown[0]!r} (choose from {', '.join(DEFAULT_STARTS)})")
+    run = _Runner(problem, method, system, omega, newton_options, accept, solve_options, fallback,
+                  transient_periods, transient_budget, transient_seconds)
+    won = None
+    with _activated():
+        for name in starts:
+            if name == "guess":
+                att = run.start_guess(guess)
+            else:
+                att = getattr(run, f"start_{name}")()
+            if att is not None and att.accepted:
+                won = att
+                break
+    records = [a.record() for a in run.attempts]
+    nit = sum(a.newton.nit + a.extra_iterations for a in run.attempts)
+    nfev = sum(a.newton.nfev for a in run.attempts)
+    if won is not None:
+        res = won.newton
+        res.success = True
+        more = f" (start '{won.start}'" + (f" after {len(records) - 1} rejected starts: "
+                                             + ", ".join(r["start"] for r in records[:-1]) if len(records) > 1
+                                             else "") + ")"
+        res.message = (f"{won.verdict} (Newton: {res.message}){more}" if won.verdict else f"{res.message}{more}")
+    else:
+        best = run._best() or (run.attempts[-1] if run.attempts else None)
+        if best is None:  # pragma: no cover - "linear" always applies
+            raise InputError("starts", "no start applies")
+        res = best.newton
+        res.success = False
+        tried = "; ".join(f"{a.start}: {'rejected (' + a.newton.message + ')' if a.newton.success else a.newton.message}"
+                          for a in run.attempts)
+        res.message = (f"no start led to an accepted solution; best ||R||_inf = {best.newton.residual_norm:.2e} "
+                       f"from start '{best.start}'; starts tried: {tried}")
+    res.nit, res.nfev = nit, nfev
+    res.info = dict(res.info or {})
+    res.info["starts"] = records
+    res.info["start_used"] = None if won is None else won.start
+    return res
