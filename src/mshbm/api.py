@@ -17,6 +17,7 @@ import numpy as np
 from ._blas import blas_threads, check_threads
 from . import starts
 
+from .certificate import apply_certificate
 from .errors import ConvergenceError, InputError
 from .fourier import SingularHarmonicError
 from .hbm import HBMProblem
@@ -192,8 +193,8 @@ def solve(system, omega, method="mshbm", **options):
         HBM: AFT samples, see :func:`default_steps`), ``guess`` (``None`` or
         ``"linear"``: linear response; ``"zero"``; a PeriodicSolution, e.g. at a
         nearby frequency; a dict with ``q_hat``, ``q0``, ``u0``), ``tol``
-        (Newton tolerance on ``||R||_inf`` relative to ``max(1, ||x0||_inf)``,
-        default 1e-10), ``max_iter`` (default 50), ``line_search`` (default
+        (Newton tolerance on the scaled residual ``||R / s||_inf``, rows scaled
+        by the problem's ``residual_scale``, :mod:`mshbm.scaling`; default 1e-10), ``max_iter`` (default 50), ``line_search`` (default
         True), ``theta`` (Moreau-Jean, default 0.5), ``jacobian`` (``"exact"`` or
         ``"fd"``), ``partition`` (DOFs of N; for ``mshbm-intermediate`` a pair of
         DOF lists for subsystems 1 and 2), ``condense`` (HBM: eliminate linear
@@ -289,6 +290,7 @@ def _solve(system, omega, method, options):
     sol.info["residual_history"] = res.history
     if "starts" in res.info:
         sol.info["starts"], sol.info["start_used"] = res.info["starts"], res.info["start_used"]
-    if not success and sopts.get("raise_on_failure", False):
-        raise ConvergenceError(message)
+    apply_certificate(problem, sol, nkw["tol"])  # success only if certified (mshbm.certificate)
+    if not sol.success and sopts.get("raise_on_failure", False):
+        raise ConvergenceError(sol.message)
     return sol

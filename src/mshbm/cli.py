@@ -55,6 +55,13 @@ def _table(case, summary):
             ("steps", summary["steps"]), ("success", "yes" if summary["success"] else "no"),
             ("iterations", summary["iterations"]), ("residual", f"{summary['residual']:.3e}"),
             ("wall time", f"{summary['wall_time_s']:.3f} s")]
+    if summary.get("certificate") is not None:  # mshbm.certificate: gating checks, and estimates above bound
+        bad = [c["name"] for c in summary["certificate"] if c["gating"] and not c["passed"]]
+        est = [f"{c['name']} {c['value']:.1e}" for c in summary["certificate"] if not c["gating"] and
+               c["value"] is not None and not c["passed"]]
+        rows.append(("certificate", ("failed: " + ", ".join(bad)) if bad else
+                     f"passed ({sum(c['gating'] for c in summary['certificate'])} checks)"
+                     + (f"; above 1e-2: {', '.join(est)}" if est else "")))
     width = max(len(r[0]) for r in rows)
     lines = [f"{k:<{width}}  {v}" for k, v in rows]
     amp = summary["amplitude"]

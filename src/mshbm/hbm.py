@@ -29,8 +29,8 @@ the solution curve exactly, segment by segment, through the folds
    the linear response just touches down to ``lambda = 0``.
 
 The end point is polished by Newton on the unmodified residual, and success is
-declared only by ``||R||_inf <= tol * scale`` of the real problem: no smoothing
-of the law is involved.
+declared only by ``||R / s||_inf <= tol`` of the real problem (``s`` from
+:meth:`HBMProblem.residual_scale`): no smoothing of the law is involved.
 """
 from __future__ import annotations
 
@@ -78,6 +78,13 @@ class HBMProblem:
         Eliminate the linear DOFs exactly (default) or keep all DOFs.
     partition : array of int, optional
         DOFs kept with the nonlinear elements (default: the element DOFs).
+
+    Residual scale
+    --------------
+    :meth:`residual_scale` gives Newton's per-row scale: every row is a balance of
+    forces (condensed or not), measured against the force scale ``F`` of the problem
+    (:func:`mshbm.scaling.force_scale` with ``k_c gap``), independent of the solution
+    and of the guess.
     """
 
     method = "hbm"
@@ -126,6 +133,14 @@ class HBMProblem:
     @property
     def n_unknowns(self):
         return (2 * self.n_h + 1) * self.nR
+
+    def residual_scale(self, x=None):
+        """Per-row scale of the residual, shape ``(n_x,)``: the force scale ``F`` (N) on every row."""
+        from .scaling import force_scale
+
+        if "_F" not in self.__dict__:
+            self._F = force_scale(self.system, penalty=True)
+        return np.full(self.n_unknowns, self._F)
 
     def homotopy(self, factors=(1e-3, 1e-2, 3e-2, 0.1, 0.3)):
         """Problems with softened laws (``kappa`` and ``k_c, d_c`` times each factor), ending with ``self``.
@@ -312,7 +327,8 @@ class HBMProblem:
             The failed result (unused; part of the hook's signature).
         tol, scale, max_iter, callback
             As in :func:`mshbm.newton.newton`; success means
-            ``||R||_inf <= tol * scale`` for the real problem.
+            ``||R / s||_inf <= tol`` for the real problem (default scale
+            :meth:`residual_scale`).
 
         Returns
         -------
@@ -321,10 +337,11 @@ class HBMProblem:
         """
         if not self.piecewise_linear:
             return None
+        from .newton import _scale_function, scaled_norm
+
         x0 = np.asarray(x0, dtype=float)
-        if scale is None:
-            scale = max(1.0, float(np.max(np.abs(x0), initial=0.0)))
-        key = (x0.tobytes(), float(tol), float(scale))
+        scale = _scale_function(self.residual, scale)
+        key = (x0.tobytes(), float(tol))
         cache = self.__dict__.setdefault("_fallback_cache", {})
         if key in cache:  # same start already tried (e.g. by a continuation driver)
             return replace(cache[key], history=list(cache[key].history), info=dict(cache[key].info))
@@ -333,7 +350,7 @@ class HBMProblem:
         except (np.linalg.LinAlgError, RuntimeError):
             return None
         routes = []
-        if not np.allclose(x0, x_lin, rtol=1e-10, atol=1e-12 * scale):
+        if not np.allclose(x0, x_lin, rtol=1e-10, atol=1e-12 * max(1e-300, float(np.max(np.abs(x_lin), initial=0)))):
             routes.append(("Newton homotopy", lambda: self.newton_homotopy_path(x0)))
         routes.append(("gap continuation", self.gap_continuation_path))
         segs, nfev, hist, notes = 0, 0, [], []
@@ -360,7 +377,7 @@ class HBMProblem:
                     if 0 < nclosed.min() < 4:  # measured: the HBM solution is then not unique (sample-level)
                         note = (f"; note: a contact is closed at only {int(nclosed.min())} of {self.Ns} AFT "
                                 "samples: under-resolved, increase steps")
-                    out = NewtonResult(pol.x, True, f"converged: ||R||_inf = {pol.residual_norm:.2e} by exact "
+                    out = NewtonResult(pol.x, True, f"converged: scaled ||R||_inf = {pol.residual_norm:.2e} by exact "
                                        f"piecewise-linear {name} ({path.segments} segments, {path.folds} "
                                        f"folds) and {pol.nit} Newton iterations{note}", segs, nfev,
                                        pol.residual_norm, hist, info)
@@ -370,7 +387,7 @@ class HBMProblem:
         if out is None:
             R, _ = self.residual(x0, jac=False)
             out = NewtonResult(x0, False, "exact piecewise-linear path following failed (" + "; ".join(notes) + ")",
-                               segs, nfev, float(np.max(np.abs(R), initial=0.0)), hist,
+                               segs, nfev, scaled_norm(R, scale(x0)), hist,
                                {"fallback": "failed", "segments": segs})
         cache[key] = replace(out, history=list(out.history), info=dict(out.info))
         return out

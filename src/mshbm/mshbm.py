@@ -126,6 +126,14 @@ class MixedProblem:
     partition : array of int, optional
         DOFs of ``N`` (default: the DOFs carrying elements).
     project : bool
+
+    Residual scale
+    --------------
+    :meth:`residual_scale` gives Newton's per-row scale: all rows are displacement-like
+    (``q_hat_N - FFT(q_N)``, ``q_N(T) - q_N(0)``) except ``u_N(T) - u_N(0)``; they are
+    measured against the size ``D = max(D_0, ||q_hat_N||_inf, ||q_N(0)||_inf,
+    ||u_N(0)||_inf / omega)`` of the current unknowns (floor ``D_0`` of
+    :mod:`mshbm.scaling`) and ``max(omega D, ||u_N(0)||_inf)``.  The guess never enters.
     """
 
     method = "mshbm"
@@ -156,6 +164,11 @@ class MixedProblem:
     def initial_guess(self, guess=None):
         q_hat, q0, u0 = guess_parts(guess, self.system, self.omega, self.n_h)
         return np.concatenate([q_hat[:, self.Nd].reshape(-1), q0[self.Nd], u0[self.Nd]])
+
+    def residual_scale(self, x):
+        """Per-row scale of the residual at unknowns ``x``, shape ``(n_x,)`` (m for the coefficient and
+        ``q`` rows, m/s for the ``u`` rows)."""
+        return _mixed_scale(self, x, self.nc * self.nN, self.nN, force_rows=False)
 
     def _split(self, x):
         a = self.nc * self.nN
@@ -213,6 +226,21 @@ class MixedProblem:
                     lam=lam, impulses=tr.P, harmonics=self.n_h, info=info)
 
 
+def _mixed_scale(problem, x, a, n1, force_rows):
+    """Row scales ``(coefficient rows (a), q rows (n1), u rows (n1))`` of the mixed residuals."""
+    from .scaling import displacement_floor, force_scale
+
+    if "_FD0" not in problem.__dict__:
+        F = force_scale(problem.system)
+        problem._FD0 = (F, displacement_floor(problem.system, problem.omega, F))
+    F, D0 = problem._FD0
+    w = problem.omega
+    p, q0, u0 = np.abs(x[:a]), np.abs(x[a:a + n1]), np.abs(x[a + n1:])
+    umax = float(np.max(u0, initial=0.0))
+    D = max(D0, float(np.max(p, initial=0.0)), float(np.max(q0, initial=0.0)), umax / w)
+    return np.concatenate([np.full(a, F if force_rows else D), np.full(n1, D), np.full(n1, max(w * D, umax))])
+
+
 def auto_intermediate_partition(system):
     """Default subsystems of Section 3.3: 1 = element DOFs, 2 = DOFs coupled to 1, 3 = the rest."""
     I1 = system.nonlinear_dofs
@@ -236,6 +264,14 @@ class IntermediateProblem:
     partition : (array of int, array of int), optional
         DOFs of subsystems 1 and 2 (subsystem 3 is the rest); default
         :func:`auto_intermediate_partition`.
+
+    Residual scale
+    --------------
+    :meth:`residual_scale` gives Newton's per-row scale: the harmonic balance rows of
+    subsystem 2 are forces, measured against the force scale ``F`` of the problem
+    (:func:`mshbm.scaling.force_scale`); the periodicity rows against the size ``D``
+    of the current unknowns (``q_hat_2``, ``q_1(0)``, ``u_1(0) / omega``, floored by
+    ``D_0``) and ``max(omega D, ||u_1(0)||_inf)``.  The guess never enters.
     """
 
     method = "mshbm-intermediate"
@@ -289,6 +325,11 @@ class IntermediateProblem:
     def initial_guess(self, guess=None):
         q_hat, q0, u0 = guess_parts(guess, self.system, self.omega, self.n_h)
         return np.concatenate([q_hat[:, self.I2].reshape(-1), q0[self.I1], u0[self.I1]])
+
+    def residual_scale(self, x):
+        """Per-row scale of the residual at unknowns ``x``, shape ``(n_x,)`` (N for the harmonic balance
+        rows, m for the ``q`` rows, m/s for the ``u`` rows)."""
+        return _mixed_scale(self, x, self.nc * self.n2, self.n1, force_rows=True)
 
     def _split(self, x):
         a = self.nc * self.n2

@@ -5,6 +5,13 @@ Jacobian (dense ``(n_x, n_x)`` or sparse).  Globalisation is an Armijo
 backtracking line search on ``||R||_2``; a non-finite residual or Jacobian ends
 the iteration with a diagnosis instead of a number.
 
+Convergence is measured in the problem's physical units: ``||R / s(x)||_inf <= tol``
+with a per-row scale ``s(x)`` (forces against the problem's force scale, displacements
+against the size of the current iterate; see :mod:`mshbm.scaling`).  When ``fun`` is a
+bound method of a problem object with ``residual_scale(x)``, that scale is used; the
+starting guess never enters it.  The line search uses the same row scaling (at the
+current iterate), so the iteration is independent of the units.
+
 When the line search fails and ``fun`` is a bound method of an object that
 provides ``newton_fallback`` (e.g. :class:`mshbm.hbm.HBMProblem` with penalty
 contacts, whose residual is piecewise linear in ``q_hat``), that method is
@@ -26,7 +33,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-__all__ = ["newton", "NewtonResult", "follow_pl_path", "PathResult"]
+__all__ = ["newton", "NewtonResult", "follow_pl_path", "PathResult", "scaled_norm"]
 
 
 @dataclass
@@ -47,13 +54,30 @@ class NewtonResult:
     info: dict = field(default_factory=dict)
 
 
-def _solve(J, R):
+def _solve(J, R, s=None):
+    """Newton step ``J^-1 R`` on the row-scaled system ``(J / s) dx = R / s``.
+
+    A (numerically) singular ``J`` -- e.g. friction that sticks all period, whose position
+    is then undetermined -- gets the least-squares step of minimal norm; "numerically
+    singular" is decided by LAPACK's estimate of the reciprocal condition number of the
+    row-scaled matrix (< 1e-15), so the choice does not depend on the units of the rows.
+    """
+    if s is not None:
+        s = np.broadcast_to(np.asarray(s, dtype=float), np.shape(R))
+        J = (sp.diags(1.0 / s) @ J) if sp.issparse(J) else J / s[:, None]
+        R = R / s
     if sp.issparse(J):
         return spla.spsolve(sp.csc_matrix(J), R)
-    try:
-        return np.linalg.solve(J, R)
-    except np.linalg.LinAlgError:
-        return np.linalg.lstsq(J, R, rcond=None)[0]
+    J = np.asarray(J, dtype=float)
+    if np.all(np.isfinite(J)):
+        lu, piv, info = sla.lapack.dgetrf(J)
+        if info == 0:
+            anorm = float(np.max(np.abs(J).sum(axis=0), initial=0.0))
+            rcond, _ = sla.lapack.dgecon(lu, anorm, norm="1")
+            if rcond > 1e-15:
+                dx, _ = sla.lapack.dgetrs(lu, piv, R)
+                return dx
+    return np.linalg.lstsq(J, R, rcond=None)[0]
 
 
 def newton(fun, x0, tol=1e-10, max_iter=50, line_search=True, callback=None, scale=None, fallback=True):
@@ -65,28 +89,30 @@ def newton(fun, x0, tol=1e-10, max_iter=50, line_search=True, callback=None, sca
         ``fun(x, jac=True) -> (R, J)``; with ``jac=False`` it may return ``(R, None)``.
     x0 : ndarray, shape (n_x,)
     tol : float
-        Converged when ``||R||_inf <= tol * scale``.
+        Converged when ``||R / s||_inf <= tol`` (``s`` from ``scale``).
     max_iter : int
     line_search : bool
         Armijo backtracking (halving, down to 1/1024).
     callback : callable, optional
         ``callback(it, x, residual_norm)`` after each iteration (progress display).
-    scale : float, optional
-        Residual scale; default ``max(1, ||x0||_inf)``.
+    scale : float, ndarray (n_x,) or callable, optional
+        Residual scale ``s``: a number, per-row scales, or ``scale(x) -> (n_x,)``
+        evaluated at every iterate.  Default: ``fun.__self__.residual_scale`` when
+        ``fun`` is a bound method of a problem that has it, else 1 (absolute test).
     fallback : bool
         If Newton fails and ``fun`` is a bound method of an object with a method
         ``newton_fallback(x0, failed, tol=, scale=, max_iter=, callback=)``
         returning a :class:`NewtonResult`, call it (default True).  The
         fallback's result is returned if it succeeds, with the same
-        convergence test ``||R||_inf <= tol * scale`` on the real problem.
+        convergence test ``||R / s||_inf <= tol`` on the real problem.
 
     Returns
     -------
     NewtonResult
+        ``residual_norm`` and ``history`` hold the scaled ``||R / s||_inf`` (dimensionless).
     """
     x0 = np.array(x0, dtype=float)
-    if scale is None:
-        scale = max(1.0, float(np.max(np.abs(x0), initial=0.0)))
+    scale = _scale_function(fun, scale)
     res = _newton(fun, x0, tol, max_iter, line_search, callback, scale)
     hook = getattr(getattr(fun, "__self__", None), "newton_fallback", None) if fallback else None
     if res.success or hook is None or not callable(hook):
@@ -105,17 +131,37 @@ def newton(fun, x0, tol=1e-10, max_iter=50, line_search=True, callback=None, sca
     return res
 
 
-def _watchdog_step(fun, xt, r2):
+def _scale_function(fun, scale):
+    """``scale`` normalised to a callable ``x -> per-row scales`` (see :func:`newton`)."""
+    if scale is None:
+        scale = getattr(getattr(fun, "__self__", None), "residual_scale", None)
+        if scale is None:
+            return lambda x: 1.0
+    if callable(scale):
+        return scale
+    fixed = np.asarray(scale, dtype=float)
+    return lambda x: fixed
+
+
+def scaled_norm(R, s):
+    """``||R / s||_inf`` (``inf`` if ``R`` is not finite)."""
+    R = np.asarray(R, dtype=float)
+    if not np.all(np.isfinite(R)):
+        return np.inf
+    return float(np.max(np.abs(R / s), initial=0.0))
+
+
+def _watchdog_step(fun, xt, r2, s):
     """Newton step from the provisional point ``xt``; ``(x, R, J)`` if it ends below ``r2``."""
     Rt, Jt = fun(xt)
     if not np.all(np.isfinite(Rt)):
         return None
-    dx = -_solve(Jt, Rt)
+    dx = -_solve(Jt, Rt, s)
     if not np.all(np.isfinite(dx)):
         return None
     x2 = xt + dx
     R2, J2 = fun(x2)
-    if np.all(np.isfinite(R2)) and float(np.linalg.norm(R2)) <= (1.0 - 1e-4) * r2:
+    if np.all(np.isfinite(R2)) and float(np.linalg.norm(R2 / s)) <= (1.0 - 1e-4) * r2:
         return x2, R2, J2
     return None
 
@@ -131,30 +177,32 @@ def _newton(fun, x, tol, max_iter, line_search, callback, scale, watchdog=None):
     for it in range(max_iter + 1):
         if not np.all(np.isfinite(R)):
             return NewtonResult(x, False, f"residual is not finite at iteration {it}", it, nfev, np.inf, hist)
-        r = float(np.max(np.abs(R), initial=0.0))
+        s = scale(x)
+        r = scaled_norm(R, s)
         hist.append(r)
         if callback is not None:
             callback(it, x, r)
-        if r <= tol * scale:
-            return NewtonResult(x, True, f"converged: ||R||_inf = {r:.2e} after {it} iterations", it, nfev, r, hist)
+        if r <= tol:
+            return NewtonResult(x, True, f"converged: scaled ||R||_inf = {r:.2e} after {it} iterations", it, nfev,
+                                r, hist)
         if it == max_iter:
             break
         Jd = J.data if sp.issparse(J) else J
         if not np.all(np.isfinite(Jd)):
             return NewtonResult(x, False, f"Jacobian is not finite at iteration {it}", it, nfev, r, hist)
-        dx = -_solve(J, R)
+        dx = -_solve(J, R, s)
         if not np.all(np.isfinite(dx)):
             return NewtonResult(x, False, f"Jacobian is singular at iteration {it} (||R||_inf = {r:.2e})",
                                 it, nfev, r, hist)
         lam = 1.0
-        r2 = float(np.linalg.norm(R))
+        r2 = float(np.linalg.norm(R / s))
         best = None
         watched = None
         while True:
             xt = x + lam * dx
             Rt, _ = fun(xt, jac=False)
             nfev += 1
-            rt2 = float(np.linalg.norm(Rt)) if np.all(np.isfinite(Rt)) else np.inf
+            rt2 = float(np.linalg.norm(Rt / s)) if np.all(np.isfinite(Rt)) else np.inf
             if best is None or rt2 < best[0]:
                 best = (rt2, lam, xt)
             if not line_search or rt2 <= (1.0 - 1e-4 * lam) * r2 or lam < 1.0 / 1024:
@@ -164,7 +212,7 @@ def _newton(fun, x, tol, max_iter, line_search, callback, scale, watchdog=None):
                 # by one time step) may raise ||R|| although the next Newton step converges.
                 # Take it provisionally with one more Newton step; keep both if that ends lower.
                 watchdog -= 1
-                watched = _watchdog_step(fun, xt, r2)
+                watched = _watchdog_step(fun, xt, r2, s)
                 nfev += 2
                 if watched is not None:
                     break
@@ -177,14 +225,14 @@ def _newton(fun, x, tol, max_iter, line_search, callback, scale, watchdog=None):
             return NewtonResult(x, False, f"residual became NaN/inf along the Newton step at iteration {it}",
                                 it, nfev, r, hist)
         if line_search and rt2 >= r2 and lam < 1.0 / 512:
-            return NewtonResult(x, False, f"line search failed at iteration {it}: ||R||_inf stalls at {r:.2e} "
+            return NewtonResult(x, False, f"line search failed at iteration {it}: scaled ||R||_inf stalls at {r:.2e} "
                                 "(no descent; residual may be nonsmooth here or the start is too far)",
                                 it, nfev, r, hist)
         x = xt
         R, J = fun(x)
         nfev += 1
-    r = float(np.max(np.abs(R), initial=0.0))
-    return NewtonResult(x, False, f"no convergence in {max_iter} iterations: ||R||_inf = {r:.2e}",
+    r = scaled_norm(R, scale(x))
+    return NewtonResult(x, False, f"no convergence in {max_iter} iterations: scaled ||R||_inf = {r:.2e}",
                         max_iter, nfev, r, hist)
 
 

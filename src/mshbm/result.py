@@ -35,7 +35,7 @@ class PeriodicSolution:
     nfev : int
         Residual evaluations (including line search).
     residual : float
-        Final ``||R||_inf``.
+        Final scaled residual ``||R / s||_inf`` (dimensionless; see :mod:`mshbm.scaling`).
     wall_time : float
         Seconds for the whole solve: validation, set-up (condensation,
         factorisations, step matrices), Newton and the time-domain output.
@@ -56,6 +56,9 @@ class PeriodicSolution:
         Final unknowns of the method.
     info : dict
         Method-specific extras (partition, Floquet multipliers, condition numbers...).
+    certificate : mshbm.certificate.Certificate or None
+        Checks made after Newton (:mod:`mshbm.certificate`); ``success`` requires all
+        gating checks to pass.  ``residual`` is the scaled ``||R / s||_inf`` (dimensionless).
     """
 
     method: str
@@ -77,6 +80,7 @@ class PeriodicSolution:
     impulses: np.ndarray | None
     x: np.ndarray
     info: dict = field(default_factory=dict)
+    certificate: object = None
 
     @property
     def period(self):
@@ -154,4 +158,5 @@ class PeriodicSolution:
             "residual": float(self.residual),
             "wall_time_s": float(self.wall_time),
             "amplitude": [float(a) for a in self.amplitude],
+            "certificate": None if self.certificate is None else self.certificate.as_list(),
         }

@@ -1,0 +1,472 @@
+"""Certificate of a periodic solution: checks made after Newton, independently of its bookkeeping.
+
+A result of :func:`mshbm.solve` reports ``success=True`` only when Newton converged *and*
+every gating check below passed.  Each check has a ``name``, a ``value``, a ``bound`` (same
+units), ``passed`` and ``gating``; the list is ``PeriodicSolution.certificate`` and the
+``"certificate"`` entry of ``summary()`` / the CLI JSON.
+
+Notation as in the paper: ``M, C, K``, ``q, u``, ``omega``, ``T = 2 pi / omega``, ``N`` time
+points per period (``h = T / N``), ``n_h`` harmonics, element force ``lambda`` along ``w``.
+Scales (:mod:`mshbm.scaling`): ``F`` the force scale of the problem, ``D = max(D_0,
+max |q|)`` the displacement size of the solution, ``V = max(omega D, max |u|)``.
+
+Checks
+------
+``residual`` (gating)
+    The method's residual re-evaluated at the returned unknowns, row-scaled by the
+    problem's ``residual_scale`` (forces by ``F``, displacements by ``D``); bound: the
+    Newton tolerance ``tol``.
+``periodicity`` (gating)
+    ``max(|q(T) - q(0)| / D, |u(T) - u(0)| / V)`` of the time series of the DOFs that are
+    integrated in time (DOFs given by Fourier series are periodic by construction).
+    Bound: one step's accuracy ``(omega h)^2`` (the relative local error of a step of the
+    second-order Moreau-Jean scheme is of this order), at least ``tol``.
+``friction_cone`` (gating, friction elements)
+    ``max_j max_t |lambda_j| / (mu F_N)_j``; bound ``1 + 1e-9`` (the projected Gauss-Seidel
+    solver resolves the cone to ~1e-14; the arctan law of HBM stays strictly inside).
+``non_penetration`` (gating, contacts)
+    Largest penetration ``max(0, -min_t g_N)`` (m).  Bound, time stepping: ``1e-9 D``
+    with position projection (the projection puts a penetrating contact back on
+    ``g_N = 0`` to rounding), otherwise one step's travel ``h max |u_dof|`` (the
+    velocity-level law can let a contact run into the obstacle for at most one step);
+    HBM: the penetration the penalty law itself needs to carry the contact force,
+    ``(max lambda_N + d_c max |u_dof|) / k_c``, plus ``1e-9 D``.
+``contact_compression`` (gating, contacts, time stepping)
+    ``-min lambda_N / F`` (contact forces push, never pull); bound ``1e-9``.
+``energy_balance`` (gating where it applies)
+    Over one period: input work of the forcing ``W_in = int f . u dt`` equals the
+    dissipation of the dampers ``D_C = int u^T C u dt`` plus that of the elements
+    ``D_el = -int w lambda u_dof dt`` (friction; impacts with ``e_N < 1``; penalty damping).
+    Value: ``|W_in - D_C - D_el| / E`` with ``E`` the sum of the magnitudes of the terms.
+    Time stepping: the discrete work of the Moreau-Jean scheme (``h f_theta . u_theta``,
+    ``h u_theta^T C u_theta``, ``P w . u_theta``, and the work of the position projection of
+    contacts, ``delta^T K q_k+1 - delta^T K delta / 2`` for a projection ``delta``), which
+    balances exactly for ``theta = 1/2`` (bound ``1e-6``; for ``theta != 1/2`` the scheme dissipates numerically and the check does not
+    gate); for MS-HBM the Fourier DOFs enter by the same sums, which adds an ``O((n_h
+    omega h)^2)`` quadrature error (bound ``1e-6 + (n_h omega h)^2``).  HBM: exact
+    quadrature (Parseval for the forcing and dampers, the AFT samples for the elements),
+    bound ``1e-6``.  Not evaluated (does not gate) for systems with more than ``2e7``
+    values of ``q`` on the grid.
+``friction_dissipation`` / ``impact_dissipation`` (gating)
+    Friction never delivers energy: ``W_friction <= bound``; impacts with ``e_N = 1``
+    conserve energy, ``e_N < 1`` (and penalty damping) only dissipate:
+    ``W_contact <= bound`` (and ``|W_contact| <= bound`` for elastic impacts).  Bound
+    ``1e-6 E``, plus for friction and for HBM the work of one step's (one sample's) worth
+    of element force, ``h max|lambda| max|u|`` (Moreau-Jean's friction law acts on the
+    end-of-step velocity, and the AFT quadrature of a nonsmooth force is exact only to
+    that).  Time-stepped contacts get no such allowance: the impact law makes the
+    impulse's work vanish for ``e_N = 1`` exactly.
+``undamped_resonance`` (gating)
+    When no element acts on the solution (no element, friction with ``mu F_N = 0``,
+    contacts that never close), the response is that of the linear structure.  If a
+    forced harmonic ``k omega`` lies within the discretisation error of an undamped
+    natural frequency ``omega_r`` (``|(k omega / omega_r)^2 - 1| <= eps`` with
+    ``eps = 10 (k omega h)^2`` for time stepping, ``1e-9`` for HBM), no resolved periodic
+    solution exists (the discrete answer grows as ``1/eps``, e.g. as ``N^2``).  Value:
+    the smallest relative detuning; bound: ``eps``; passes when the value exceeds it.
+``truncation_solution`` / ``truncation_force`` (HBM and MS-HBM; reported, not gating)
+    Estimates of the harmonic truncation error: the size of the highest retained harmonic
+    ``n_h`` of ``q_hat`` relative to the largest harmonic, and the displacement (relative
+    to ``D``, RMS over harmonics) that the harmonics of the element forces ``lambda(t)``
+    above ``n_h`` would cause at the element DOF through its diagonal dynamic stiffness
+    ``|K_dd - (k omega)^2 M_dd + i k omega C_dd|``.  Bound ``1e-2``.  They do not
+    gate: ``n_h`` is the user's choice of discretisation and the answer is the exact
+    solution of the discretised equations; a value above the bound is named in the
+    message as a warning.
+"""
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+
+from . import fourier
+from .newton import scaled_norm
+from .scaling import displacement_floor, force_scale
+from .system import Contact, Friction
+
+__all__ = ["Check", "Certificate", "certify", "apply_certificate"]
+
+#: largest ``N * len(dofs)`` for which the energy balance is evaluated on the grid
+MAX_GRID_VALUES = 20_000_000
+#: largest system for which undamped natural frequencies are computed (dense eigenproblem)
+MAX_EIG_DOFS = 2000
+TRUNCATION_BOUND = 1e-2
+ENERGY_TOL = 1e-6
+
+
+@dataclass
+class Check:
+    """One check: ``passed`` is ``value <= bound`` (``undamped_resonance``: ``value > bound``)."""
+
+    name: str
+    value: float | None
+    bound: float | None
+    passed: bool
+    gating: bool = True
+    note: str = ""
+
+    def as_dict(self):
+        d = asdict(self)
+        for k in ("value", "bound"):
+            v = d[k]
+            d[k] = None if v is None or not np.isfinite(v) else float(v)
+        d["passed"], d["gating"] = bool(d["passed"]), bool(d["gating"])
+        return d
+
+
+@dataclass
+class Certificate:
+    """The checks of one solution (see the module docstring); ``passed``: every gating check passed."""
+
+    checks: list = field(default_factory=list)
+    info: dict = field(default_factory=dict)
+
+    @property
+    def passed(self):
+        return all(c.passed for c in self.checks if c.gating)
+
+    @property
+    def failed(self):
+        """Names of the gating checks that failed."""
+        return [c.name for c in self.checks if c.gating and not c.passed]
+
+    @property
+    def warnings(self):
+        """Names of the non-gating checks above their bound."""
+        return [c.name for c in self.checks if not c.gating and not c.passed and c.value is not None]
+
+    def __getitem__(self, name):
+        for c in self.checks:
+            if c.name == name:
+                return c
+        raise KeyError(name)
+
+    def __contains__(self, name):
+        return any(c.name == name for c in self.checks)
+
+    def as_list(self):
+        """JSON-ready list of dicts ``{name, value, bound, passed, gating, note}``."""
+        return [c.as_dict() for c in self.checks]
+
+    def describe_failures(self):
+        parts = []
+        for c in self.checks:
+            if c.gating and not c.passed:
+                v = "n/a" if c.value is None else f"{c.value:.3g}"
+                b = "n/a" if c.bound is None else f"{c.bound:.3g}"
+                rel = "<=" if c.name == "undamped_resonance" else ">"
+                parts.append(f"{c.name} ({v} {rel} bound {b}{': ' + c.note if c.note else ''})")
+        return ", ".join(parts)
+
+
+# ----------------------------------------------------------------------------------------------
+def _diag(A):
+    return np.asarray(A.diagonal() if sp.issparse(A) else np.diag(np.asarray(A)), dtype=float)
+
+
+def _time_stepping_info(problem):
+    """``(stepper, time_dofs)`` of a time-stepping method, or ``(None, None)`` for HBM."""
+    st = getattr(problem, "stepper", None)
+    if st is None and hasattr(problem, "td"):
+        st = problem.td.stepper
+    return st, None
+
+
+def certify(problem, sol, tol):
+    """Certificate of ``sol`` (a :class:`mshbm.result.PeriodicSolution` of ``problem``).
+
+    Parameters
+    ----------
+    problem : ShootingProblem, HBMProblem, MixedProblem or IntermediateProblem
+        The problem that produced ``sol`` (provides ``residual`` and ``residual_scale``).
+    sol : PeriodicSolution
+    tol : float
+        Newton tolerance of the solve (bound of the ``residual`` check).
+
+    Returns
+    -------
+    Certificate
+    """
+    cert = Certificate()
+    with np.errstate(all="ignore"):
+        try:
+            _certify(problem, sol, float(tol), cert)
+        except Exception as exc:  # noqa: BLE001 -- a certificate that cannot be computed does not pass
+            cert.checks.append(Check("evaluation", None, None, False, True, f"{type(exc).__name__}: {exc}"))
+    return cert
+
+
+def _certify(problem, sol, tol, cert):
+    system, omega = problem.system, float(sol.omega)
+    is_hbm = problem.method == "hbm"
+    stepper, _ = _time_stepping_info(problem)
+    T = 2.0 * np.pi / omega
+    t = np.asarray(sol.t)
+    N = t.size - 1
+    h = T / N
+    F = force_scale(system, penalty=is_hbm)
+    D0 = displacement_floor(system, omega)
+    els = list(system.elements)
+    el_dofs = np.array(sorted({int(e.dof) for e in els}), dtype=np.int64)
+
+    # 1. residual, re-evaluated
+    x = np.asarray(sol.x, dtype=float)
+    R = problem.residual(x, jac=False)[0]
+    r = scaled_norm(R, problem.residual_scale(x))
+    cert.checks.append(Check("residual", r, tol, bool(np.isfinite(r) and r <= tol)))
+
+    # sizes of the solution (from the Fourier coefficients and the time series)
+    qh = np.asarray(sol.q_hat)
+    amp_h = np.abs(qh[0]) + np.hypot(qh[1::2], qh[2::2]).sum(axis=0) if qh.shape[0] > 1 else np.abs(qh[0])
+    D = max(D0, float(np.max(amp_h, initial=0.0)),
+            float(np.max(np.abs(sol.q_time), initial=0.0)))
+    V = max(omega * D, float(np.max(np.abs(sol.u_time), initial=0.0)))
+    cert.info.update(force_scale=F, displacement_scale=D, velocity_scale=V)
+
+    # 2. periodicity of the time-stepped DOFs
+    if sol.q_time.shape[1]:
+        dq = float(np.max(np.abs(sol.q_time[-1] - sol.q_time[0]))) / D
+        du = float(np.max(np.abs(sol.u_time[-1] - sol.u_time[0]))) / V
+        val = max(dq, du)
+        bound = max(tol, (omega * h) ** 2)
+        cert.checks.append(Check("periodicity", val, bound, bool(val <= bound)))
+    else:
+        cert.checks.append(Check("periodicity", 0.0, tol, True, True, "Fourier series: periodic by construction"))
+
+    # element time series: displacement and velocity of the element DOFs on the grid
+    qe = sol.displacement(el_dofs) if el_dofs.size else np.zeros((N + 1, 0))
+    ue = sol.velocity(el_dofs) if el_dofs.size else np.zeros((N + 1, 0))
+    col = {int(d): i for i, d in enumerate(el_dofs)}
+    lam = np.asarray(sol.lam)
+
+    # 3. element laws
+    fr = [(j, e) for j, e in enumerate(els) if isinstance(e, Friction)]
+    if fr:
+        ratios = []
+        for j, e in fr:
+            lmax = float(np.max(np.abs(lam[:, j]), initial=0.0))
+            ratios.append(lmax / e.bound if e.bound > 0 else (0.0 if lmax == 0 else np.inf))
+        val = max(ratios)
+        cert.checks.append(Check("friction_cone", val, 1.0 + 1e-9, bool(val <= 1.0 + 1e-9),
+                                 note="max |lambda_T| / (mu F_N)"))
+    ct = [(j, e) for j, e in enumerate(els) if isinstance(e, Contact)]
+    if ct:
+        pen, bnd, comp = 0.0, np.inf, 0.0
+        for j, e in ct:
+            g = e.gap - qe[:, col[e.dof]]
+            p = max(0.0, float(-g.min()))
+            umax = float(np.max(np.abs(ue[:, col[e.dof]])))
+            if is_hbm:
+                b = (max(0.0, float(lam[:, j].max())) + e.penalty_damping * umax) / e.penalty_stiffness + 1e-9 * D
+            elif stepper is not None and stepper.project:
+                b = 1e-9 * D
+            else:
+                b = h * umax + 1e-9 * D
+            if p - b > pen - bnd or bnd == np.inf:
+                pen, bnd = p, b
+            comp = max(comp, float(-lam[:, j].min()) / F)
+        cert.checks.append(Check("non_penetration", pen, bnd, bool(pen <= bnd), note="max(0, -min g_N) in m"))
+        if not is_hbm:
+            cert.checks.append(Check("contact_compression", comp, 1e-9, bool(comp <= 1e-9),
+                                     note="-min lambda_N / F"))
+
+    # 4. energy balance
+    _energy(problem, sol, system, omega, h, N, is_hbm, stepper, els, col, qe, ue, lam, cert)
+
+    # 5. undamped resonance
+    _resonance(problem, sol, system, omega, h, is_hbm, els, lam, cert)
+
+    # 6. harmonic truncation (HBM, MS-HBM)
+    if problem.method != "shooting":
+        n_h = int(sol.harmonics)
+        mags = np.hypot(qh[1::2], qh[2::2])  # (n_h, n)
+        top = float(np.max(mags, initial=0.0))
+        eq = float(np.max(mags[-1])) / top if top > 0 and mags.shape[0] else 0.0
+        cert.checks.append(Check("truncation_solution", eq, TRUNCATION_BOUND, bool(eq <= TRUNCATION_BOUND), False,
+                                 f"|q_hat| at harmonic {n_h} / largest harmonic"))
+        if els:
+            # displacement that the element-force harmonics above n_h would cause at the element DOF,
+            # through the diagonal dynamic stiffness |K_dd - (k omega)^2 M_dd + i k omega C_dd|
+            Z = np.fft.rfft(lam[:-1], axis=0) * (2.0 / N)  # (N/2+1, m): complex amplitudes
+            kk = np.arange(Z.shape[0])
+            Kd, Md, Cd = _diag(system.K), _diag(system.M), _diag(system.C)
+            ef = 0.0
+            for j, e in enumerate(els):
+                d = e.dof
+                Hd = np.abs(Kd[d] - (kk * omega) ** 2 * Md[d] + 1j * kk * omega * Cd[d])
+                tail = np.abs(Z[n_h + 1:, j]) / np.maximum(Hd[n_h + 1:], 1e-300)
+                ef = max(ef, float(np.sqrt(np.sum(tail ** 2))) / D)
+            cert.checks.append(Check("truncation_force", ef, TRUNCATION_BOUND, bool(ef <= TRUNCATION_BOUND), False,
+                                     f"displacement of the element-force harmonics above {n_h} "
+                                     "(diagonal dynamic stiffness) / D"))
+
+
+def _energy(problem, sol, system, omega, h, N, is_hbm, stepper, els, col, qe, ue, lam, cert):
+    n = system.n
+    T = 2.0 * np.pi / omega
+    C = system.C
+    sign = np.array([e.sign for e in els])
+    if is_hbm:
+        qh = np.asarray(sol.q_hat)
+        n_h = (qh.shape[0] - 1) // 2
+        fh = system.forcing_hat(n_h)
+        k = np.arange(1, n_h + 1)[:, None]
+        a, b = qh[1::2], qh[2::2]
+        W_in = float(0.5 * T * np.sum(k * omega * (fh[1::2] * b - fh[2::2] * a)))
+        E_in = float(0.5 * T * np.sum(np.abs(k * omega * (fh[1::2] * b - fh[2::2] * a))))
+        ka, kb = k * omega * a, k * omega * b  # (n_h, n): velocity coefficients (sin, cos parts)
+        Cd = C if sp.issparse(C) else np.asarray(C)
+        D_C = float(0.5 * T * (np.sum(ka * (Cd @ ka.T).T) + np.sum(kb * (Cd @ kb.T).T)))
+        Wj = np.array([h * float(np.sum(sign[j] * lam[:-1, j] * ue[:-1, col[e.dof]])) for j, e in enumerate(els)])
+        Ej = np.array([h * float(np.sum(np.abs(lam[:-1, j] * ue[:-1, col[e.dof]]))) for j, e in enumerate(els)])
+        bound_rel, gate, note = ENERGY_TOL, True, "HBM: Parseval and AFT quadrature"
+        step_work = h * float(np.max(np.abs(lam), initial=0.0)) * float(np.max(np.abs(ue), initial=0.0))
+    else:
+        Cnz = C.nnz if sp.issparse(C) else np.count_nonzero(C)
+        forced = np.flatnonzero(np.any(system.f_hat != 0, axis=0))
+        Cr = sp.csr_matrix(C)
+        damped = np.unique(np.concatenate(Cr.nonzero())) if Cnz else np.zeros(0, dtype=np.int64)
+        td = np.asarray(sol.time_dofs, dtype=np.int64)
+        Kr = sp.csr_matrix(system.K)
+        coupled = np.unique(Kr[td].nonzero()[1]) if td.size else np.zeros(0, dtype=np.int64)
+        dofs = np.union1d(np.union1d(forced, damped), np.union1d(td, coupled)).astype(np.int64)
+        if (N + 1) * dofs.size > MAX_GRID_VALUES:
+            cert.checks.append(Check("energy_balance", None, None, True, False,
+                                     f"not evaluated: {dofs.size} DOFs x {N + 1} time points"))
+            return
+        pos = {int(d): i for i, d in enumerate(dofs)}
+        ix = lambda ds: np.array([pos[int(d)] for d in ds], dtype=np.int64)
+        q = sol.displacement(dofs)
+        dq = np.diff(q, axis=0)
+        # u_theta of the scheme: the mean of the step's end velocities for integrated DOFs, dq / h for the
+        # Fourier DOFs; delta = dq - h u_theta is the position projection of contacts (0 elsewhere)
+        v = dq / h
+        itd = ix(td)
+        v[:, itd] = 0.5 * (sol.u_time[:-1] + sol.u_time[1:])
+        delta = dq - h * v
+        f = system.forcing(sol.t, omega, dofs)
+        fm = 0.5 * (f[:-1] + f[1:])
+        W_in = h * float(np.sum(fm * v))
+        E_in = h * float(np.sum(np.abs(fm * v)))
+        if damped.size:
+            vd = v[:, ix(damped)]
+            D_C = h * float(np.sum(vd * (Cr[damped][:, damped] @ vd.T).T))
+        else:
+            D_C = 0.0
+        P = np.asarray(sol.impulses)
+        vj = [v[:, pos[int(e.dof)]] for e in els]
+        Wj = np.array([float(np.sum(sign[j] * P[:, j] * vj[j])) for j in range(len(els))])
+        Ej = np.array([float(np.sum(np.abs(P[:, j] * vj[j]))) for j in range(len(els))])
+        # work of the projection: it moves q by delta after the step, changing the potential energy
+        W_proj = 0.0
+        steps = np.flatnonzero(np.any(delta != 0.0, axis=1))
+        if steps.size:
+            dl = delta[steps][:, itd]
+            Kq = (Kr[td][:, dofs] @ q[steps + 1].T).T
+            W_proj = float(np.sum(dl * Kq) - 0.5 * np.sum(dl * (Kr[td][:, td] @ dl.T).T))
+        Wj = np.append(Wj, W_proj)
+        Ej = np.append(Ej, abs(W_proj))
+        cert.info["projection_work"] = W_proj
+        theta = stepper.theta
+        if problem.method == "shooting":
+            bound_rel, note = ENERGY_TOL, "Moreau-Jean discrete work (exact balance for theta = 1/2)"
+        else:
+            bound_rel = ENERGY_TOL + (int(sol.harmonics) * omega * h) ** 2
+            note = "Moreau-Jean discrete work; Fourier DOFs by the same sums"
+        gate = abs(theta - 0.5) < 1e-12
+        if not gate:
+            note += f"; theta = {theta:g} dissipates numerically: not gating"
+        umax = float(np.max(np.abs(ue), initial=0.0))
+        step_work = float(np.max(np.abs(P), initial=0.0)) * umax if P.size else 0.0
+    E = abs(E_in) + abs(D_C) + float(np.sum(Ej))
+    imbalance = W_in - D_C + float(np.sum(Wj))
+    val = abs(imbalance) / E if E > 0 else 0.0
+    cert.info["energy"] = {"input_work": W_in, "damper_dissipation": D_C,
+                           "element_dissipation": [-float(w) for w in Wj[:len(els)]], "imbalance": imbalance}
+    if len(Wj) > len(els):
+        cert.info["energy"]["projection_dissipation"] = -float(Wj[-1])
+    cert.checks.append(Check("energy_balance", val, bound_rel, bool(val <= bound_rel) or not gate, gate, note))
+    bound = ENERGY_TOL * E + step_work
+    fr = [j for j, e in enumerate(els) if isinstance(e, Friction)]
+    if fr:
+        w = max(float(Wj[j]) for j in fr)
+        cert.checks.append(Check("friction_dissipation", w, bound, bool(w <= bound),
+                                 note="work of the friction forces over a period (must not be positive)"))
+    ct = [j for j, e in enumerate(els) if isinstance(e, Contact)]
+    if ct:
+        if not is_hbm:  # Moreau-Jean: gamma_N+ = -e gamma_N- makes P gamma_N,theta vanish (e = 1) exactly
+            bound = ENERGY_TOL * E
+        worst, ok = -np.inf, True
+        for j in ct:
+            e = els[j]
+            elastic = e.restitution == 1.0 and (not is_hbm or e.penalty_damping == 0.0)
+            w = abs(Wj[j]) if elastic else float(Wj[j])
+            if w > worst:
+                worst = w
+            ok = ok and w <= bound
+        cert.checks.append(Check("impact_dissipation", worst, bound, bool(ok),
+                                 note="work of the contact forces (0 for elastic impacts, <= 0 otherwise)"))
+
+
+def _resonance(problem, sol, system, omega, h, is_hbm, els, lam, cert):
+    acting = []
+    for j, e in enumerate(els):
+        if isinstance(e, Friction):
+            acting.append(e.bound > 0)
+        else:
+            acting.append(bool(np.any(np.abs(lam[:, j]) > 0)))
+    if any(acting):
+        return
+    n = system.n
+    if n > MAX_EIG_DOFS:
+        cert.checks.append(Check("undamped_resonance", None, None, True, False,
+                                 f"not evaluated: {n} DOFs > {MAX_EIG_DOFS}"))
+        return
+    K, M, C = system.dense("K"), system.dense("M"), system.dense("C")
+    w2, Phi = sla.eigh(K, M)
+    c_modal = np.einsum("ir,ij,jr->r", Phi, C, Phi)
+    scaleK = max(float(np.max(np.abs(w2), initial=0.0)), 1e-300)
+    fh = system.f_hat
+    n_f = (fh.shape[0] - 1) // 2
+    worst, worst_bound, where = np.inf, 0.0, ""
+    for k in range(1, n_f + 1):
+        fk = np.hypot(Phi.T @ fh[2 * k - 1], Phi.T @ fh[2 * k])
+        if not np.any(fk):
+            continue
+        eps = 1e-9 if is_hbm else max(1e-9, 10.0 * (k * omega * h) ** 2)
+        for r in range(n):
+            if fk[r] <= 1e-12 * fk.max() or w2[r] <= 1e-14 * scaleK:
+                continue
+            wr = np.sqrt(w2[r])
+            if abs(c_modal[r]) > 1e-12 * (w2[r] + wr):  # damped mode: bounded response
+                continue
+            det = abs((k * omega) ** 2 / w2[r] - 1.0)
+            if det - eps < worst - worst_bound or worst == np.inf:
+                worst, worst_bound = det, eps
+                where = f"harmonic {k} of the forcing, k*omega = {k * omega:.6g} rad/s, undamped mode at {wr:.6g} rad/s"
+    if worst == np.inf:
+        return
+    ok = worst > worst_bound
+    note = where if ok else (where + ": within the discretisation error of an undamped natural frequency and no "
+                             "element acts, so no resolved periodic solution exists (add damping or move omega)")
+    cert.checks.append(Check("undamped_resonance", worst, worst_bound, bool(ok), True, note))
+
+
+def apply_certificate(problem, sol, tol):
+    """Attach ``certify(problem, sol, tol)`` to ``sol.certificate`` and gate ``sol.success`` on it.
+
+    ``success`` stays True only if it was True (Newton converged) and every gating check
+    passed; otherwise the message names the failed checks.  Non-gating checks (the truncation
+    estimates) stay in the certificate and are not named in the message.
+    """
+    cert = certify(problem, sol, tol)
+    sol.certificate = cert
+    if sol.success and not cert.passed:
+        sol.success = False
+        sol.message = f"certificate failed: {cert.describe_failures()} (Newton: {sol.message})"
+    elif not cert.passed:
+        sol.message = f"{sol.message}; certificate failed: {cert.describe_failures()}"
+    return cert

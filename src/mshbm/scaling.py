@@ -1,0 +1,76 @@
+"""Physical scales of a periodic problem: how large a residual may be, in the problem's own units.
+
+Newton's convergence test and the certificate (:mod:`mshbm.certificate`) measure every
+residual row against a scale taken from the *problem* and the *current solution*, never
+from the starting guess:
+
+* force-like rows (harmonic balance, ``H q_hat - f_hat - f_nl_hat``) against the force
+  scale ``F`` of the problem, :func:`force_scale`: the largest force the data impose
+  (peak forcing on a DOF, friction bounds ``mu F_N``, the forces ``k gap`` that close a
+  contact gap, with the penalty stiffness ``k_c`` for HBM);
+* displacement-like rows (periodicity ``q(T) - q(0)``, connectivity ``q_hat - FFT(q)``)
+  against the size ``D`` of the solution, floored by ``D_0 = F / k_0`` (the static
+  displacement of the force scale, ``k_0`` the largest diagonal entry of
+  ``|K| + omega^2 M + omega |C|``);
+* velocity-like rows against ``V = max(omega D, max |u|)``.
+
+Under a change of force unit (``M, C, K, f``, ``mu F_N``, ``k_c``, ``d_c`` all times
+``s``) ``F`` scales by ``s`` and ``D_0`` is unchanged, so the scaled residual and thus
+Newton's path and result are unit-independent.  Under positive homogeneity (forcing,
+``mu F_N`` and gaps times ``s``) every scale is multiplied by ``s``.
+
+Force-like rows are deliberately *not* scaled by the internal forces of the solution
+(``|K q|``): near an undamped resonance these are arbitrarily large, and a huge garbage
+response (the linear response at resonance, 1e16) would otherwise satisfy
+``||R|| <= tol |K q|`` while violating the balance of forces by more than the forcing itself.
+"""
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+from .system import Contact, Friction
+
+__all__ = ["force_scale", "stiffness_scale", "displacement_floor"]
+
+
+def _diag(A):
+    return np.asarray(A.diagonal() if sp.issparse(A) else np.diag(np.asarray(A)), dtype=float)
+
+
+def force_scale(system, penalty=False):
+    """Force scale ``F`` (N) of ``system``.
+
+    ``F = max(peak forcing of a DOF, max mu F_N, max K_dd gap [, max k_c gap if penalty])``;
+    a tiny positive number if all of these vanish (an unforced problem at rest).
+
+    Parameters
+    ----------
+    system : System
+    penalty : bool
+        Include ``k_c gap`` of penalty contacts (HBM's regularised law).
+    """
+    f = np.asarray(system.f_hat, dtype=float)
+    peak = np.abs(f[0]) + np.hypot(f[1::2], f[2::2]).sum(axis=0) if f.shape[0] > 1 else np.abs(f[0])
+    F = float(np.max(peak, initial=0.0))
+    Kd = np.abs(_diag(system.K))
+    for el in system.elements:
+        if isinstance(el, Friction):
+            F = max(F, float(el.bound))
+        elif isinstance(el, Contact):
+            F = max(F, float(Kd[el.dof]) * el.gap)
+            if penalty:
+                F = max(F, el.penalty_stiffness * el.gap)
+    return F if F > 0.0 else 1e-300
+
+
+def stiffness_scale(system, omega):
+    """``k_0 = max_i (|K_ii| + omega^2 M_ii + omega |C_ii|)`` (N/m), > 0 since ``M`` is definite."""
+    return float(np.max(np.abs(_diag(system.K)) + omega ** 2 * _diag(system.M) + omega * np.abs(_diag(system.C))))
+
+
+def displacement_floor(system, omega, F=None, penalty=False):
+    """``D_0 = F / k_0`` (m): the smallest displacement scale of the problem."""
+    if F is None:
+        F = force_scale(system, penalty)
+    return F / stiffness_scale(system, omega)
