@@ -93,7 +93,7 @@ def parameter_table(cfg, table, fill):
         ("effort measure", "", "not given", f"median {cfg['timing']['clock']} time of {cfg['timing']['repeats']} solves "
          f"after {cfg['timing']['warmup']} warm-up, relative to full shooting", note("timing.clock")),
         ("Jacobian", "", "finite differences", num["jacobian"] + (" (step sensitivities)" if num["jacobian"] == "exact" else ""),
-         "same solution, fewer residual evaluations" if num["jacobian"] == "exact" else ""),
+         note("numerics.jacobian") + ("; same solution, fewer residual evaluations" if num["jacobian"] == "exact" else "")),
     ]
     header = ["parameter", "symbol", "paper", "used here", "note"]
     foot = [f"[{marks[c['key']]}] {c['what']}: {fill(' '.join(c['why'].split()))}" for c in choices]

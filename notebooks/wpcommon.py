@@ -47,6 +47,13 @@ def fail_band(ax, rows_all):
 
 
 
+def ref_label(cfg, S):
+    """What the errors are measured against (the exact solution unless it failed)."""
+    if S.get("error_reference") == "exact":
+        return "exact event-driven solution"
+    return f"reference full shooting, N = {cfg['numerics']['reference_steps']}"
+
+
 def plot(cfg, S, out_png, out_pdf):
     """Errors of masses 1 and n, effort and work-precision panels; returns ``(rows, fd_rows)``."""
     scfg = cfg["systems"][S["system"]]
@@ -106,9 +113,9 @@ def plot(cfg, S, out_png, out_pdf):
                 Line2D([], [], marker="s", color="0.3", fillstyle="left", mfcalt="white", ls="none",
                        label="start: linear response at ω (nearby failed)"),
                 Line2D([], [], marker="x", color="0.3", ls="none", label="no convergence from any start"),
-                Line2D([], [], color="k", ls="--", label=f"full shooting, N = {cfg['numerics']['steps']}, vs reference")]
+                Line2D([], [], color="k", ls="--", label=f"full shooting, N = {cfg['numerics']['steps']}, vs {ref_label(cfg, S)}")]
     fig.legend(handles=handles, loc="lower center", ncol=2, fontsize=7, bbox_to_anchor=(0.5, -0.1))
-    fig.suptitle(f"{scfg['title']}: {n} masses, reference full shooting N = {cfg['numerics']['reference_steps']}", fontsize=9)
+    fig.suptitle(f"{scfg['title']}: {n} masses; errors against the {ref_label(cfg, S)}", fontsize=9)
     fig.tight_layout()
     nc.save(fig, out_png, out_pdf)
     return rows, fd_rows
@@ -122,13 +129,15 @@ def points_table(rr, n, CLOCK):
                     r["iterations"] if r["success"] else "-",
                     nc.fmt(r["err_first"], "pct") if r["success"] else "-",
                     nc.fmt(r["err_last"], "pct") if r["success"] else "-",
+                    r.get("nfev") if r["success"] and r.get("nfev") is not None else "-",
+                    nc.fmt(r.get("dof_steps"), "g") if r["success"] else "-",
                     nc.fmt(r["time_median"], "f4") if r["success"] else "-",
                     nc.fmt(r["effort"], "f3") if r["success"] else "-",
                     nc.fmt(r.get("effort_cpu", r.get("effort_wall")), "f3") if r["success"] else "-",
                     (r.get("effort_ref_start") or "-") if r["success"] else "-",
                     "" if r["success"] else (r["message"] or "")[:160]))
     return nc.md_table(["method", "n_H", "converged", "start", "Newton it.", "err. mass 1", f"err. mass {n}",
-                        f"{CLOCK} time (s)", "effort", "effort (other clock)", "shooting start (effort ref.)",
+                        "residual eval.", "DOF-steps", f"{CLOCK} time (s)", "effort", "effort (other clock)", "shooting start (effort ref.)",
                         "failure"], out)
 
 
@@ -136,7 +145,15 @@ def points_table(rr, n, CLOCK):
 def reference_table(cfg, S):
     """The reference and effort-reference solutions with their Floquet multipliers."""
     rows2 = []
-    for key, label in (("reference", f"full shooting, N = {cfg['numerics']['reference_steps']} (error reference)"),
+    ex = S.get("exact") or {}
+    if ex:
+        rows2.append(("exact event-driven solution (mshbm.exact)" + (" (error reference)" if S.get("error_reference") == "exact" else ""),
+                      "yes" if ex.get("success") else "NO", "reference shooting", ex.get("iterations"),
+                      nc.fmt(ex.get("amplitude_first"), "g"), nc.fmt(ex.get("amplitude_last"), "g"),
+                      nc.fmt(ex.get("floquet_max_modulus"), "f6"), nc.fmt(ex.get("stick_or_closed_fraction"), "pct3"),
+                      f"{ex['wall_time']:.3f} s" if ex.get("wall_time") else ""))
+    reflabel = "error reference" if S.get("error_reference") != "exact" else "seed of the exact solution"
+    for key, label in (("reference", f"full shooting, N = {cfg['numerics']['reference_steps']} ({reflabel})"),
                        ("shooting", f"full shooting, N = {cfg['numerics']['steps']} (effort reference)"),
                        ("shooting_fd", f"full shooting, N = {cfg['numerics']['steps']}, FD Jacobian"),
                        ("check", "check system (see Table footnote)")):

@@ -17,9 +17,13 @@
 # $\omega$ (half-filled marker) — full shooting, the effort reference, is timed from both starts
 # and each point is divided by the shooting time *from the same start*.  Effort = median of
 # the timed repeats after an untimed warm-up (numba compilation excluded), whole `mshbm.solve`
-# call.  Errors are against full shooting with the finer reference step; the dashed black line
-# is the error of full shooting with the working step count against that reference (the
-# time-discretisation floor).  Points that did not converge from any start are drawn as ×
+# call.  Errors are against the exact periodic solution of the event-driven flow
+# (`mshbm.exact`, started from full shooting with the finer reference step; no time step, events
+# to machine precision) — not against that shooting reference, whose own discretisation error
+# would otherwise show as the plateau of the paper's diagrams.  The dashed black line is the
+# error of full shooting with the working step count against the exact solution (the
+# time-discretisation floor).  Next to the times, the table lists machine-independent counts
+# (residual evaluations, Moreau–Jean steps times integrated DOFs).  Points that did not converge from any start are drawn as ×
 # at the top of the panels and never as if valid.
 
 # %% tags=["parameters"]
@@ -65,8 +69,9 @@ display(Markdown(wp.points_table(rows + fd_rows, n, CLOCK)))
 # %% [markdown]
 # ## Reference solutions
 #
-# The reference and the effort reference are full shooting solutions reached from the solution at
-# the nearby frequency (Newton).  Their Floquet multipliers (monodromy matrix) are reported; for
+# The exact solution (error reference), the reference full shooting it starts from, and the
+# effort reference (full shooting with the working step), reached from the solution at the nearby
+# frequency (Newton).  Their Floquet multipliers (monodromy matrix) are reported; for
 # the undamped friction chain the largest modulus is close to 1.
 
 # %%

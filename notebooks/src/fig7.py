@@ -11,8 +11,12 @@
 #
 # **Here:** the solutions are those of the Fig. 8 sweep (same solve jobs, same starts).  An
 # impact of the time-stepping methods is a step with a positive contact impulse; consecutive
-# impulse steps form one impact cluster, and an accumulation of impacts would show as many
-# impulse steps/clusters close together, ending in a phase of persistent contact.  HBM uses the
+# impulse steps form one impact cluster.  Whether impacts accumulate is decided by
+# `mshbm.accumulation` (runs of impacts whose intervals shrink geometrically, limit by Aitken's
+# extrapolation; validated on a bouncing ball with $e_N < 1$ against the closed-form accumulation
+# time, `tests/test_accumulation.py`) on the impact times of the exact event-driven solution
+# (`mshbm.exact`, started from the reference shooting), or, if that failed, on the impulse steps
+# of the reference shooting.  HBM uses the
 # penalty spring, so it has contact episodes (intervals with $q_1 > g_{N,0}$) instead of impacts.
 # If HBM did not converge from the Fig. 8 starts it is restarted, for this figure only, from the
 # converged MS-HBM and full-shooting solutions (config `hbm_fallback`); the legend says so.
@@ -102,3 +106,21 @@ display(Markdown(nc.md_table(["method", "n_H", "converged", "start", "impulse st
                               "HBM contact episodes", "max(q1 - g0) (m)", "max. Floquet modulus"], rows)))
 print("impact cluster sizes (reference):", S["reference"].get("impact_cluster_sizes"))
 print("largest Floquet moduli (reference):", ", ".join(f"{x:.4f}" for x in S["reference"].get("floquet_moduli_top") or []))
+
+# %% [markdown]
+# ## Accumulation of impacts
+#
+# The detector's verdict on the exact solution and on the reference full shooting, and the
+# impacts of the exact solution (time, approach velocity, impulse).
+
+# %%
+ex = S.get("exact") or {}
+print("accumulation:", num["accumulation"], "(from", num.get("accumulation_source"), ")",
+      "| on the reference shooting:", num.get("accumulation_shooting"))
+if ex.get("success"):
+    display(Markdown(nc.md_table(["t (s)", "approach velocity (m/s)", "impulse (N s)"],
+                                 [(f"{i['t']:.6f}", f"{i['velocity']:.6f}", f"{i['impulse']:.6f}")
+                                  for i in ex.get("impacts", [])])))
+    print("accumulations found on the exact solution:", ex.get("accumulations"))
+else:
+    print("exact solution:", ex.get("message"))

@@ -201,7 +201,11 @@ class ExactFlow:
         self.eventsA = {m: v @ self.A[m] for m, v in self.events.items()}
         # reference displacement (thresholds of the event search when the state itself is ~0)
         kmax = np.abs(K).max()
-        self.qref = max(np.abs(system.f_hat).max() / kmax if kmax > 0 else 0.0,
+        # (K = 0, e.g. a ball under gravity on a stop at gap 0: the static deflection under the forcing
+        # amplitude at omega instead)
+        mmax = np.abs(M).max()
+        self.qref = max(np.abs(system.f_hat).max() / kmax if kmax > 0 else
+                        np.abs(system.f_hat).max() / (mmax * omega ** 2) if mmax > 0 else 0.0,
                         abs(el.gap) if isinstance(el, Contact) else 0.0, 1e-300)
         # sub-step grid: ||A_xx||_1 h_s <= 1/2
         norm_xx = max(np.abs(A[:2 * n, :2 * n]).sum(axis=0).max() for A in self.A.values())
@@ -321,7 +325,7 @@ class ExactFlow:
             lam = float(self.c_lam @ zz)
             height = (e * gam) ** 2 / (2.0 * self.sw * lam) if lam > 0.0 else np.inf
             if e * abs(gam) <= 1e-10 * self.vscale(z) or \
-                    height <= 1e-10 * max(abs(self.element.gap), np.abs(z[:n]).max(), 1e-300):
+                    height <= 1e-10 * max(abs(self.element.gap), np.abs(z[:n]).max(), self.qref):
                 e = 0.0
         P = -(1.0 + e) * gam / self.sw
         z[n:2 * n] += P * self.mw

@@ -18,6 +18,11 @@ from .system import Contact, Friction
 
 __all__ = ["MoreauJean", "Trajectory"]
 
+#: machine-independent work counters of every :meth:`MoreauJean.run` in this process (reset and read by
+#: callers that report effort): ``runs`` integrations, ``steps`` time steps, ``dof_steps`` time steps times
+#: integrated DOFs, ``sensitivity_steps`` time steps times propagated sensitivity columns
+WORK = {"runs": 0, "steps": 0, "dof_steps": 0, "sensitivity_steps": 0}
+
 #: largest subsystem for which the dense step matrices are built (memory ~ 24 n^2 bytes)
 MAX_DENSE_DOFS = 6000
 
@@ -152,6 +157,11 @@ class MoreauJean:
         N = B.shape[0]
         if dB is None:
             dB = np.zeros((N, self.n, 0))
+        WORK["runs"] += 1
+        WORK["steps"] += N
+        WORK["dof_steps"] += N * self.n
+        if sensitivities or store_q_sensitivities:
+            WORK["sensitivity_steps"] += N * (2 * self.n + dB.shape[2])
         out = kernels.moreau_jean(
             np.ascontiguousarray(q0, dtype=float), np.ascontiguousarray(u0, dtype=float),
             self.Aq, self.Au, self.WG, self.Del, self.MinvG,

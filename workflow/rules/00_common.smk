@@ -88,6 +88,28 @@ def figure_solves(fig, ext="json"):
     return out
 
 
+#: figures whose solutions are compared with the exact event-driven periodic solution (see exact_reference);
+#: Figs. 4 and 8 measure their errors against it, Fig. 7 takes its impact sequence from it
+EXACT_FIGURES = ["fig4", "fig7", "fig8"]
+
+
+def exact_file(case):
+    """Exact event-driven periodic solution of a system (rule ``exact_reference``)."""
+    return f"{R}/solves/{case}/exact.json"
+
+
+def summary_inputs(w):
+    """Named inputs of the summary rule -- the figure's solves and, where used, the exact reference."""
+    out = figure_solves(w.fig)
+    if w.fig in EXACT_FIGURES:
+        out["exact"] = exact_file(config["figures"][w.fig]["system"])
+    return out
+
+
+#: summaries beyond the figures' (other rule files append theirs); the paper reads every one
+EXTRA_SUMMARIES = []
+
+
 def notebook_outputs(name):
     kind = "tables" if name.startswith("table") else "figures"
     outs = {"nb": f"{R}/notebooks/{name}.ipynb", "html": f"{R}/notebooks/{name}.html"}

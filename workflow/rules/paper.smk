@@ -9,7 +9,7 @@ rule paper:
         config=f"{R}/config.json",
         figures=expand(f"{R}/figures/{{name}}.png", name=FIGURES),
         tables=expand(f"{R}/tables/{{name}}.md", name=TABLES),
-        summaries=expand(f"{R}/summary/{{fig}}.json", fig=SUMMARIZED),
+        summaries=expand(f"{R}/summary/{{fig}}.json", fig=SUMMARIZED) + EXTRA_SUMMARIES,
         stress=(f"{R}/stress-quick/summary.md" if config.get("stress_profile", "full") == "quick"
                 else f"{R}/stress/summary.md"),
         # the Performance section (rule bench_report; absent without a `benchmarks` config)

@@ -4,7 +4,7 @@
 
 rule summary:
     input:
-        unpack(lambda w: figure_solves(w.fig)),
+        unpack(summary_inputs),
     output:
         f"{R}/summary/{{fig}}.json",
     params:
@@ -34,3 +34,24 @@ rule config_snapshot:
         runtime=5,
     script:
         "../scripts/config_snapshot.py"
+
+
+# The exact event-driven periodic solution (mshbm.exact) of a figure's system, seeded by the reference
+# full shooting: the error reference of Figs. 4 and 8 and the impact sequence of Fig. 7.
+rule exact_reference:
+    input:
+        seed=lambda w: solve_file(w.case, "shooting", reference=True, ext="npz"),
+    output:
+        f"{R}/solves/{{case}}/exact.json",
+    params:
+        cfg=lambda w: {"omega_over_pi": config["omega_over_pi"], "systems": {w.case: config["systems"][w.case]},
+                       "numerics": {k: NUMERICS[k] for k in ("reference_steps", "theta")}},
+        solver=SOLVER_DIGEST,
+    log:
+        f"{R}/logs/solves/{{case}}/exact.log",
+    threads: 1
+    resources:
+        mem_mb=2000,
+        runtime=30,
+    script:
+        "../scripts/exact_reference.py"

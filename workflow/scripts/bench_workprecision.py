@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import platform
 import sys
 import time
@@ -89,6 +90,7 @@ def main(argv=None):
     nearby = omega * float(bcfg["nearby_factor"])
     n = system.n
 
+    load_start = list(os.getloadavg())
     t0 = time.perf_counter()
     seed = mshbm.solve(system, omega, "shooting", steps=int(bcfg["reference_seed_steps"]))
     ref = exact_periodic(system, omega, guess=seed)
@@ -117,6 +119,7 @@ def main(argv=None):
             "method": method, "harmonics": opts.get("harmonics"), "steps": sol.steps,
             "regularisation_factor": factor if method == "hbm" else None,
             "success": bool(sol.success), "message": sol.message, "iterations": sol.iterations,
+            "nfev": int(sol.nfev), "loadavg_1min": os.getloadavg()[0],
             "nearby_start_converged": bool(nearby_ok),
             "error_mass1": float(err[0]), "error_massn": float(err[1]), "error": float(max(err)),
             "time_s": float(np.median(times)), "times_s": [float(t) for t in times],
@@ -135,7 +138,10 @@ def main(argv=None):
                       "convergence": ref_check,
                       "max_floquet_modulus": float(np.max(np.abs(ref.info["floquet_multipliers"])))
                       if "floquet_multipliers" in ref.info else None},
-        "machine": {"cpus": __import__("os").cpu_count(), "python": platform.python_version(),
+        # the load average (1, 5, 15 min) at the start and end of the benchmark: timings on a loaded
+        # machine measure the scheduler as well
+        "machine": {"cpus": os.cpu_count(), "loadavg_start": load_start, "loadavg_end": list(os.getloadavg()),
+                    "python": platform.python_version(),
                     "numpy": np.__version__, "mshbm": mshbm.__version__},
         "rows": rows, "targets": summary,
     }

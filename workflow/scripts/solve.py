@@ -35,6 +35,8 @@ import time  # noqa: E402
 import numpy as np  # noqa: E402
 
 import mshbm  # noqa: E402
+from mshbm.accumulation import from_impulses  # noqa: E402
+from mshbm.stepper import WORK  # noqa: E402
 from wfcore import build_system, get_key, omega as config_omega, runs, split_method, write_json  # noqa: E402
 
 #: DOFs whose full time series are stored when the system is at most this large
@@ -49,16 +51,29 @@ def solve_once(system, om, method, n_h, steps, guess, numerics):
     if base != "hbm":
         kw.update(theta=float(numerics["theta"]), jacobian=jac or numerics["jacobian"])
     method = base
+    w0 = dict(WORK)
     c0, t0 = time.process_time(), time.perf_counter()
     sol = mshbm.solve(system, om, method, **kw)
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     sol.info["cpu_time"] = cpu
+    # machine-independent effort of the whole call (the time-domain output included)
+    sol.info["work"] = {k: int(WORK[k] - w0[k]) for k in WORK}
     return sol, wall
 
 
 def brief(sol, wall):
     return {"success": bool(sol.success), "message": sol.message, "iterations": int(sol.iterations),
-            "nfev": int(sol.nfev), "residual": float(sol.residual), "wall_time": wall}
+            "nfev": int(sol.nfev), "residual": float(sol.residual), "wall_time": wall,
+            "work": dict(sol.info.get("work") or {})}
+
+
+def machine_state():
+    """CPUs and load averages (1, 5, 15 min) of the machine, recorded with every timing."""
+    try:
+        load = [float(x) for x in os.getloadavg()]
+    except OSError:
+        load = None
+    return {"cpus": os.cpu_count(), "loadavg": load}
 
 
 def guess_from_npz(path):
@@ -103,6 +118,8 @@ def describe(sol, system):
                 jumps.append({"t": float(t[s]), "steps": int(length), "u_before": float(u1[s]),
                               "u_after": float(u1[e])})
             out["impacts"] = jumps
+            out["accumulations"] = [a.as_dict() for a in from_impulses(t[:-1], sol.impulses[:, 0],
+                                                                        period=float(sol.period))]
         else:
             pen = runs(q1[:-1] > gap)
             out["contact_episodes"] = len(pen)
@@ -159,6 +176,7 @@ def run(config, case, method, n_h, steps, stem, fallback=(), reference=False, lo
                 continue
             guess = near
         times, cpus, sol = [], [], None
+        rec["machine_before"] = machine_state()
         for i in range(warmup + repeats):
             s, wall = solve_once(system, om, method, n_h, steps, guess, numerics)
             log(f"  [{start}] solve {i + 1}/{warmup + repeats}: {s.message} ({wall:.4f} s)")
@@ -173,6 +191,7 @@ def run(config, case, method, n_h, steps, stem, fallback=(), reference=False, lo
             if i >= warmup:
                 times.append(wall)
                 cpus.append(s.info["cpu_time"])
+        rec["machine_after"] = machine_state()
         rec["wall_times"] = times if sol.success else []
         rec["wall_time_median"] = statistics.median(times) if (times and sol.success) else None
         rec["cpu_times"] = cpus if sol.success else []
@@ -214,8 +233,14 @@ def run(config, case, method, n_h, steps, stem, fallback=(), reference=False, lo
     }
     last = attempts[-1] if attempts else {}
     main = next((a for a in attempts if a.get("success") and a["start"] == (display[0] if display else None)), last)
-    for key in ("message", "iterations", "residual"):
+    for key in ("message", "iterations", "residual", "nfev"):
         facts[key] = main.get(key)
+    # machine-independent effort of the solve at omega from the start used (Newton iterations above,
+    # residual evaluations `nfev`, Moreau-Jean integrations and steps) and the machine when it was timed
+    facts["work"] = main.get("work") or {}
+    facts["work_by_start"] = {a["start"]: dict(a.get("work") or {}, nfev=a.get("nfev"), iterations=a.get("iterations"))
+                              for a in attempts if not a.get("display_only") and a.get("success")}
+    facts["machine"] = {"before": main.get("machine_before"), "after": main.get("machine_after")}
     if display is None:
         facts["message"] = "; ".join(f"[{a['start']}] {a.get('message')}" for a in attempts)
     chosen_rec = next((a for a in attempts if chosen and a["start"] == chosen[0]), None)

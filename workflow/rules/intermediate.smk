@@ -1,0 +1,31 @@
+# Section 3.3 of the paper (MS-HBM with an intermediate subsystem) on a chain where its condition (31)
+# holds: several friction masses coupled to the rest through one mass.  Parameters: config
+# `intermediate_demo`; one single-threaded job (it times both variants side by side).
+#
+#   <results>/summary/intermediate.json   rows and the numbers of the paper ({{intermediate.<key>}})
+#   <results>/tables/intermediate.md      the table of the paper ({{include:intermediate}})
+
+if config.get("intermediate_demo"):
+
+    rule intermediate_demo:
+        input:
+            config=f"{R}/config.json",
+            script="workflow/scripts/intermediate_demo.py",
+        output:
+            json=f"{R}/summary/intermediate.json",
+            md=f"{R}/tables/intermediate.md",
+        log:
+            f"{R}/logs/intermediate_demo.log",
+        params:
+            solver=SOLVER_DIGEST,
+            python=BENCH_PY,
+        threads: 1
+        resources:
+            mem_mb=2000,
+            runtime=30,
+        shell:
+            "{params.python} {input.script} --config {input.config} --out {output.json} --table {output.md} "
+            "> {log} 2>&1"
+
+    EXTRA_SUMMARIES.append(f"{R}/summary/intermediate.json")
+    EXTRA_SUMMARIES.append(f"{R}/tables/intermediate.md")
