@@ -2,6 +2,7 @@
 # All functions of the workflow live here, the other files hold rules only.
 import hashlib
 import importlib.util
+import os
 import sys
 
 sys.path.insert(0, str(Path(workflow.basedir, "workflow", "scripts")))
@@ -103,6 +104,26 @@ def notebook_outputs(name):
 BENCH = config.get("benchmarks")
 #: the interpreter running Snakemake (the one with mshbm installed), not whatever `python` is on PATH
 BENCH_PY = sys.executable
+
+
+#: pyHarm's own virtual environment, built by rule pyharm_env from workflow/envs/pyharm.txt and reused by
+#: later runs; $PYHARM_PYTHON (an interpreter that imports pyHarm) overrides it and skips the rule
+PYHARM_ENV = "envs/pyharm"
+PYHARM_PYTHON = os.environ.get("PYHARM_PYTHON")
+
+
+def bench_inputs(w):
+    """Extra inputs of a stand-alone benchmark: pyHarm's environment for `pyharm`."""
+    if w.bench == "pyharm" and not PYHARM_PYTHON:
+        return {"pyharm_env": f"{PYHARM_ENV}/installed.txt"}
+    return {}
+
+
+def bench_args(w):
+    """Extra arguments of a stand-alone benchmark script (the interpreter with pyHarm)."""
+    if w.bench == "pyharm":
+        return f"--pyharm-python {PYHARM_PYTHON or PYHARM_ENV + '/bin/python'}"
+    return ""
 
 
 def bench_profile(w):
