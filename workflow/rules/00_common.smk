@@ -122,7 +122,7 @@ def bench_inputs(w):
 def bench_args(w):
     """Extra arguments of a stand-alone benchmark script (the interpreter with pyHarm)."""
     if w.bench == "pyharm":
-        return f"--pyharm-python {PYHARM_PYTHON or PYHARM_ENV + '/bin/python'}"
+        return f"--pyharm-python {PYHARM_PYTHON or os.path.join(PYHARM_ENV, 'bin', 'python')}"
     return ""
 
 

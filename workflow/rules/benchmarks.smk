@@ -47,7 +47,7 @@ if BENCH:
             f"{R}/logs/pyharm_env.log",
         params:
             python=BENCH_PY,
-            venv=PYHARM_ENV,
+            venv=lambda w, output: os.path.dirname(output[0]),
         threads: 1
         resources:
             mem_mb=2000,
