@@ -180,7 +180,9 @@ def solve_params(w):
 
 # ----------------------------------------------------------------------------- notebooks
 #: code the notebooks import (a change reruns the notebooks); not passed as a parameter
-NB_HELPERS = ["notebooks/nbcommon.py", "notebooks/tables.py", "notebooks/wpcommon.py", "workflow/scripts/wfcore.py"]
+NB_HELPERS = ["notebooks/nbcommon.py", "notebooks/tables.py", "notebooks/wpcommon.py", "workflow/scripts/wfcore.py",
+              # the HTML rendering (markdown, math, offline template)
+              "workflow/scripts/mdrender.py", "workflow/scripts/nbexport.py", "workflow/templates/offline/index.html.j2"]
 
 
 def npz_inputs(fig):
