@@ -145,3 +145,32 @@ def test_quick_pages_in_headless_chromium(pages, tmp_path):
                                                                height=6000))
     assert 1000 < nb["height"] < nb["window_height"], nb
     assert nb["ink"] > 0.02, nb
+
+
+# ----------------------------------------------------------------------------- pyHarm in the default run
+def test_default_run_builds_pyharm_environment(workdir):
+    """The full configuration's pyHarm benchmark depends on rule pyharm_env (its own venv from the
+    pinned workflow/envs/pyharm.txt); $PYHARM_PYTHON replaces that environment."""
+    import os
+
+    from workflow_run import run
+
+    target = ["-n", "-p", "--cores", "1", "results/benchmarks/pyharm.json"]
+    env_before = os.environ.pop("PYHARM_PYTHON", None)
+    try:
+        proc = run(target, workdir, timeout=300)
+        out = proc.stdout + proc.stderr
+        assert proc.returncode == 0, out[-3000:]
+        assert "rule pyharm_env:" in out and "pip install --disable-pip-version-check -r workflow/envs/pyharm.txt" in out
+        assert "--pyharm-python envs/pyharm/bin/python" in out
+        os.environ["PYHARM_PYTHON"] = "/opt/elsewhere/bin/python"
+        proc = run(target, workdir, timeout=300)
+        out = proc.stdout + proc.stderr
+        assert proc.returncode == 0, out[-3000:]
+        assert "rule pyharm_env:" not in out and "--pyharm-python /opt/elsewhere/bin/python" in out
+    finally:
+        os.environ.pop("PYHARM_PYTHON", None)
+        if env_before is not None:
+            os.environ["PYHARM_PYTHON"] = env_before
+    pins = (ROOT / "workflow" / "envs" / "pyharm.txt").read_text()
+    assert "pyHarm-os==" in pins and "threadpoolctl==" in pins and "numba==" in pins
