@@ -60,7 +60,11 @@ def save(fig, png, pdf):
         pass
 
 
-md_table = wfcore.md_table
+def md_table(header, rows):
+    """A Markdown table (``wfcore.md_table``) with the paper's symbols as math (``n_H`` -> $n_H$)."""
+    import mdrender
+
+    return mdrender.notation(wfcore.md_table(header, rows))
 
 
 def claims_table(summary):

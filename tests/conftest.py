@@ -1,6 +1,8 @@
-"""Shared fixtures: the paper's systems (parameters as in workflow/config.yaml)."""
+"""Shared fixtures: the paper's systems (parameters as in workflow/config.yaml); the quick workflow,
+run once per session (tests/test_workflow.py, tests/test_render.py)."""
 import numpy as np
 import pytest
+from workflow_run import QUICK, TARGET, copy_workflow, run
 
 from mshbm import Contact, Friction, chain
 
@@ -28,3 +30,17 @@ def friction3():
 @pytest.fixture(scope="session")
 def impact5():
     return impact_chain(5)
+
+
+@pytest.fixture(scope="session")
+def workdir(tmp_path_factory):
+    """A temporary copy of the workflow files (never the working tree's results/)."""
+    return copy_workflow(tmp_path_factory.mktemp("workflow"))
+
+
+@pytest.fixture(scope="session")
+def quick_run(workdir):
+    """Run the quick workflow once per session (a couple of minutes on 2 cores): results/quick/."""
+    proc = run(TARGET + ["--cores", "2"] + QUICK, workdir, timeout=900)
+    assert proc.returncode == 0, proc.stdout[-4000:] + proc.stderr[-4000:]
+    return workdir / "results" / "quick"

@@ -7,54 +7,20 @@ quantity, see tests/reference/README.md); wall times are never asserted.
 """
 import json
 import math
-import os
 import re
-import shutil
 import subprocess
 import sys
-from pathlib import Path
 
 import pytest
+from workflow_run import QUICK, ROOT, TARGET, run
 
-ROOT = Path(__file__).resolve().parents[1]
-SNAKEMAKE = [sys.executable, "-m", "snakemake"]
-WORKFLOW_FILES = ["Snakefile", "workflow", "notebooks", "paper"]
-QUICK = ["--configfile", "workflow/config-quick.yaml"]
-#: the paper's outputs (rule `all` may also hold targets of other rule files, e.g. the stress suite)
-TARGET = ["reproduction"]
 FIGURES = [f"fig{i}" for i in range(1, 9)]
 TABLES = ["table1", "table2"]
 #: the one lint we accept: the software environment is the pinned venv (environment.txt), not conda
 ACCEPTED_LINT = "Specify a conda environment or container for each rule."
 
-
-def copy_workflow(dst):
-    ignore = shutil.ignore_patterns("__pycache__", ".ipynb_checkpoints", "results", ".snakemake")
-    for name in WORKFLOW_FILES:
-        src = ROOT / name
-        if src.is_dir():
-            shutil.copytree(src, dst / name, ignore=ignore)
-        else:
-            shutil.copy2(src, dst / name)
-    return dst
-
-
-def run(args, cwd, timeout=600):
-    env = dict(os.environ, MPLBACKEND="Agg")
-    return subprocess.run(SNAKEMAKE + args, cwd=cwd, capture_output=True, text=True, timeout=timeout, env=env)
-
-
-@pytest.fixture(scope="module")
-def workdir(tmp_path_factory):
-    return copy_workflow(tmp_path_factory.mktemp("workflow"))
-
-
-@pytest.fixture(scope="module")
-def quick_run(workdir):
-    """Run the quick workflow once (a couple of minutes on 2 cores)."""
-    proc = run(TARGET + ["--cores", "2"] + QUICK, workdir, timeout=900)
-    assert proc.returncode == 0, proc.stdout[-4000:] + proc.stderr[-4000:]
-    return workdir / "results" / "quick"
+# fixtures `workdir` (a temporary copy of the workflow) and `quick_run` (the quick workflow, run once
+# per session and shared with tests/test_render.py): tests/conftest.py
 
 
 def test_notebooks_are_built_from_their_sources():
@@ -149,7 +115,8 @@ def test_paper_html_is_self_contained_and_complete(quick_run):
         m = re.search(rf'<figure id="{name}"><img alt="[^"]*" src="data:image/png;base64,([A-Za-z0-9+/=]+)"', page)
         assert m and len(m.group(1)) > 1000, f"figure {name} missing from the paper"
     for name in TABLES:
-        m = re.search(rf'<div class="table" id="{name}">\s*<table>(.*?)</table>', page, re.S)
+        m = re.search(rf'<div class="table" id="{name}">\s*(?:<div class="table-scroll">\s*)?<table>(.*?)</table>',
+                      page, re.S)
         assert m and m.group(1).count("<tr>") >= 5, f"table {name} missing from the paper"
     assert "{{" not in page and "}}" not in page  # every placeholder filled
     assert not re.search(r'(src|href)="(https?:)?//', page)  # nothing loaded from elsewhere

@@ -72,9 +72,8 @@ nc.save(fig, out_png, out_pdf)
 #
 # The shown full-shooting solution was reached from the linear response at $\omega$ by Newton.
 # Its Floquet multipliers (eigenvalues of the monodromy matrix) tell whether it is stable.  A long
-# transient simulation of this chain can settle on a different (period-2) response (see
-# `/work/shared/NOTES.md`): periodic solutions coexist here, and Newton finds the one nearest
-# its start.
+# transient simulation of this chain can settle on a different (period-2) response: periodic
+# solutions coexist here, and Newton finds the one nearest its start.
 
 # %%
 rows = []

@@ -2,6 +2,7 @@
 # All functions of the workflow live here, the other files hold rules only.
 import hashlib
 import importlib.util
+import os
 import sys
 
 sys.path.insert(0, str(Path(workflow.basedir, "workflow", "scripts")))
@@ -127,6 +128,26 @@ BENCH = config.get("benchmarks")
 BENCH_PY = sys.executable
 
 
+#: pyHarm's own virtual environment, built by rule pyharm_env from workflow/envs/pyharm.txt and reused by
+#: later runs; $PYHARM_PYTHON (an interpreter that imports pyHarm) overrides it and skips the rule
+PYHARM_ENV = "envs/pyharm"
+PYHARM_PYTHON = os.environ.get("PYHARM_PYTHON")
+
+
+def bench_inputs(w):
+    """Extra inputs of a stand-alone benchmark: pyHarm's environment for `pyharm`."""
+    if w.bench == "pyharm" and not PYHARM_PYTHON:
+        return {"pyharm_env": f"{PYHARM_ENV}/installed.txt"}
+    return {}
+
+
+def bench_args(w):
+    """Extra arguments of a stand-alone benchmark script (the interpreter with pyHarm)."""
+    if w.bench == "pyharm":
+        return f"--pyharm-python {PYHARM_PYTHON or os.path.join(PYHARM_ENV, 'bin', 'python')}"
+    return ""
+
+
 def bench_profile(w):
     """Profile of the stand-alone benchmark scripts for an output directory (rule bench_standalone)."""
     return "full" if w.bdir == "benchmarks-full" else BENCH.get("profile", "default")
@@ -181,7 +202,9 @@ def solve_params(w):
 
 # ----------------------------------------------------------------------------- notebooks
 #: code the notebooks import (a change reruns the notebooks); not passed as a parameter
-NB_HELPERS = ["notebooks/nbcommon.py", "notebooks/tables.py", "notebooks/wpcommon.py", "workflow/scripts/wfcore.py"]
+NB_HELPERS = ["notebooks/nbcommon.py", "notebooks/tables.py", "notebooks/wpcommon.py", "workflow/scripts/wfcore.py",
+              # the HTML rendering (markdown, math, offline template)
+              "workflow/scripts/mdrender.py", "workflow/scripts/nbexport.py", "workflow/templates/offline/index.html.j2"]
 
 
 def npz_inputs(fig):

@@ -36,8 +36,31 @@ if BENCH:
             "{params.python} {input.script} --config {input.config} --system {wildcards.system} "
             "--profile {params.profile} --out {output} > {log} 2>&1"
 
+    rule pyharm_env:
+        # pyHarm (`pyHarm-os`, pinned with its dependencies) in its own venv, built once and reused;
+        # skipped when $PYHARM_PYTHON names an interpreter with pyHarm.  Needs the package registry.
+        input:
+            requirements="workflow/envs/pyharm.txt",
+        output:
+            f"{PYHARM_ENV}/installed.txt",
+        log:
+            f"{R}/logs/pyharm_env.log",
+        params:
+            python=BENCH_PY,
+            venv=lambda w, output: os.path.dirname(output[0]),
+        threads: 1
+        resources:
+            mem_mb=2000,
+            runtime=30,
+        shell:
+            "({params.python} -m venv --clear {params.venv} "
+            "&& {params.venv}/bin/python -m pip install --disable-pip-version-check -r {input.requirements} "
+            "&& {params.venv}/bin/python -c 'import pyHarm, threadpoolctl, numba, yaml' "
+            "&& {params.venv}/bin/python -m pip freeze > {output}) > {log} 2>&1"
+
     rule bench_standalone:
         input:
+            unpack(bench_inputs),
             script="workflow/scripts/bench_{bench}.py",
             lib="workflow/scripts/benchlib.py",
         output:
@@ -52,11 +75,12 @@ if BENCH:
             profile=bench_profile,
             solver=SOLVER_DIGEST,
             python=BENCH_PY,
+            extra=bench_args,
         threads: 1
         resources:
             mem_mb=6000,
         shell:
-            "{params.python} {input.script} --profile {params.profile} --out {output.json} > {log} 2>&1"
+            "{params.python} {input.script} --profile {params.profile} --out {output.json} {params.extra} > {log} 2>&1"
 
     rule bench_report:
         input:

@@ -6,6 +6,8 @@
 rule paper:
     input:
         md="paper/paper.md",
+        # the markdown renderer (build_paper.py itself is tracked as the rule's script)
+        renderer="workflow/scripts/mdrender.py",
         config=f"{R}/config.json",
         figures=expand(f"{R}/figures/{{name}}.png", name=FIGURES),
         tables=expand(f"{R}/tables/{{name}}.md", name=TABLES),

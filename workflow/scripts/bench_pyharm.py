@@ -4,8 +4,9 @@
 Target: on the same 5- and 50-mass penalty-contact systems at equal n_H and sampling, our HBM
 agrees with pyHarm in the harmonic coefficients to <= 1e-6 (relative) and is >= 5x faster.
 
-pyHarm pins an old jax, so it lives in its own virtual environment (default
-``/tmp/pyharm-venv``, override with ``$PYHARM_PYTHON``).  Run from our environment, this script
+pyHarm pins an old jax, so it lives in its own virtual environment: the workflow builds it (rule
+``pyharm_env``: ``envs/pyharm`` from ``workflow/envs/pyharm.txt``) and passes ``--pyharm-python``;
+``$PYHARM_PYTHON`` overrides both (default without either: ``envs/pyharm/bin/python``).  Run from our environment, this script
 re-runs itself with that interpreter (with this repository's ``src`` on ``sys.path``: mshbm
 needs only numpy, scipy, numba, pyyaml and threadpoolctl, which that environment has or gets
 with ``pip install threadpoolctl``), so that both codes are timed side by side in one process.
@@ -57,7 +58,7 @@ KC = 8000.0
 GAP = 0.1
 TARGET_AGREE = 1e-6
 TARGET_SPEEDUP = 5.0
-DEFAULT_PYHARM_PYTHON = "/tmp/pyharm-venv/bin/python"
+DEFAULT_PYHARM_PYTHON = os.path.join("envs", "pyharm", "bin", "python")
 
 
 def _mshbm_parent():
@@ -333,7 +334,10 @@ def plot(data, png):
 
 
 def main(argv=None):
-    args = bl.parser(__doc__.splitlines()[1], "results/benchmarks/pyharm.json").parse_args(argv)
+    ap = bl.parser(__doc__.splitlines()[1], "results/benchmarks/pyharm.json")
+    ap.add_argument("--pyharm-python", default=None,
+                    help=f"interpreter with pyHarm ($PYHARM_PYTHON overrides; default {DEFAULT_PYHARM_PYTHON})")
+    args = ap.parse_args(argv)
     bl.profile(args)  # no separate full sweep: default and full are the same
     args.out = os.path.abspath(args.out)
     try:
@@ -341,13 +345,13 @@ def main(argv=None):
         return run_here(args)
     except ImportError as exc:
         first_error = f"{type(exc).__name__}: {exc}"
-    py = os.environ.get("PYHARM_PYTHON", DEFAULT_PYHARM_PYTHON)
+    py = os.environ.get("PYHARM_PYTHON") or args.pyharm_python or DEFAULT_PYHARM_PYTHON
     if os.environ.get("_BENCH_PYHARM_CHILD"):
         return unavailable(args.out, f"import pyHarm with {sys.executable}", first_error)
     if not os.path.exists(py):
         return unavailable(args.out, "find a Python with pyHarm", f"{first_error} (in {sys.executable}); "
-                           f"{py} does not exist (create it: python3 -m venv /tmp/pyharm-venv && "
-                           f"/tmp/pyharm-venv/bin/pip install pyHarm-os threadpoolctl, or set $PYHARM_PYTHON)")
+                           f"{py} does not exist (create it: snakemake --cores 1 {os.path.join('envs', 'pyharm', 'installed.txt')}, "
+                           f"or set $PYHARM_PYTHON)")
     env = dict(os.environ, _BENCH_PYHARM_CHILD="1",
                PYTHONPATH=os.pathsep.join([REPO_SRC, _mshbm_parent(), HERE]
                                           + [p for p in [os.environ.get("PYTHONPATH")] if p]))

@@ -15,12 +15,14 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 from pathlib import Path
 
 import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+import matplotlib.ticker  # noqa: E402
 import numpy as np  # noqa: E402
 from wfcore import md_table  # noqa: E402  (the script's directory is on sys.path)
 
@@ -67,6 +69,7 @@ def plot_workprecision(wp, path):
         ax.axhline(d["targets"]["target_error"], color="0.5", ls=":", lw=1)
         ax.set_title(f"{d['system']} (n = {d['n']})", fontsize=10)
         ax.set_xlabel("wall time (s), median")
+        ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())  # minor labels overlap on short ranges
         ax.grid(True, which="both", alpha=0.3)
         ax = axes[1][j]
         levels = [e["error_level"] for e in d["targets"]["equal_error"]]
@@ -163,12 +166,15 @@ def section_scaling(sc, sub):
     tt = s.get("time_table_s", {})
     ns = sorted({int(n) for m in tt.values() for n in m})
     rows = [[m] + [fmt(tt[m].get(str(n)), ".3g") for n in ns] for m in tt]
+    if s.get("time_at_1e5_s") is not None:
+        big = (f"n = 10⁵ solved in {fmt(s.get('time_at_1e5_s'), '.3g')} s (target ≤ 30 s; amplitudes of all DOFs "
+               f"from the solution in a further {fmt(s.get('amplitude_eval_at_1e5_s'), '.3g')} s)")
+    else:
+        big = f"this profile stops at n = {max(ns):,}".replace(",", " ") if ns else "no solve finished"
     lines = ["### Scaling to 10⁵ degrees of freedom", "",
              f"Chain of n masses (light damping 0.01), friction on mass 1, MS-HBM with n_H = 5: fitted cost exponent "
-             f"{fmt(s.get('mshbm_exponent_n_ge_1000'), '.2f')} for n ≥ 1000; n = 10⁵ solved in "
-             f"{fmt(s.get('time_at_1e5_s'), '.3g')} s (target ≤ 30 s; amplitudes of all DOFs from the solution in a "
-             f"further {fmt(s.get('amplitude_eval_at_1e5_s'), '.3g')} s). A method's series ends where one solve "
-             "exceeded the time or memory limit of the benchmark.", "",
+             f"{fmt(s.get('mshbm_exponent_n_ge_1000'), '.2f')} for n ≥ 1000; {big}. A method's series ends where "
+             "one solve exceeded the time or memory limit of the benchmark.", "",
              md_table(["method \\ n"] + [f"{n:,}".replace(",", " ") for n in ns], rows), "",
              "![Wall time of one solve (set-up included) against the number of masses; the FE membrane "
              f"(general sparse M, C, K) takes the same path.]({sub}/scaling.png)", ""]
@@ -176,7 +182,7 @@ def section_scaling(sc, sub):
 
 
 def section_peers(py, sp):
-    lines = ["### Against pyHarm and a SciPy baseline", ""]
+    lines = ["### Against pyHarm and a SciPy baseline" if py else "### Against a SciPy baseline", ""]
     if py and py.get("status") == "ok":
         rows = []
         for n, c in py["cases"].items():
@@ -201,10 +207,9 @@ def section_peers(py, sp):
                   md_table(["masses", "coefficients differ by (rel.)", "end to end, ours / pyHarm",
                             "Newton only, ours / pyHarm", "one residual + Jacobian", "pyHarm's Newton from the linear start"],
                            rows), ""]
-    else:
-        why = (py or {}).get("error") or (py or {}).get("reason") or "not run"
-        lines += [f"pyHarm comparison unavailable on this machine ({why}); see `workflow/scripts/bench_pyharm.py` "
-                  "for how to create its environment.", ""]
+    elif py:  # the reason for a reader; the error text with its machine paths stays in pyharm.json
+        lines += [f"The pyHarm comparison could not be run here (step that failed: {unavailable_reason(py)}); "
+                  "the error is recorded in `benchmarks/pyharm.json`.", ""]
     if sp and "summary" in sp:
         rows = [(name, v.get("n_baseline_points_compared"), fmt(v.get("median_speedup_converged_baselines"), ".0f"),
                  fmt(v.get("min_speedup_converged_baselines"), ".0f"))
@@ -215,6 +220,12 @@ def section_peers(py, sp):
                   "least as accurate (errors against the exact solution).", "",
                   md_table(["system", "baseline points", "median speed-up", "smallest speed-up"], rows), ""]
     return lines
+
+
+def unavailable_reason(py):
+    """What failed in the pyHarm benchmark, without paths (``what_failed`` of pyharm.json)."""
+    what = py.get("what_failed") or py.get("status") or "unknown"
+    return re.sub(r"\s+(?:with|in)\s+\S*/\S*", "", what)
 
 
 def numbers(wp, other, digest):

@@ -1,5 +1,8 @@
 """Execute a parameterised notebook with papermill and render it to HTML (rules fig*/table*).
 
+The HTML is self-contained and offline (nbexport.py: markdown and math through mdrender.py, math as
+MathML, no scripts from the network).
+
 Named inputs other than ``nb`` and ``helpers`` become notebook parameters of the same name; inputs named
 ``npz_<key>`` are passed together as the dict ``npz``; named outputs other than ``nb`` and
 ``html`` become parameters ``out_<name>``.
@@ -11,7 +14,7 @@ os.environ.setdefault("MPLBACKEND", "Agg")
 
 import nbformat  # noqa: E402
 import papermill as pm  # noqa: E402
-from nbconvert import HTMLExporter  # noqa: E402
+from nbexport import export_html  # noqa: E402  (this directory is on sys.path)
 
 
 def as_param(value):
@@ -37,8 +40,7 @@ def main(smk):
     pm.execute_notebook(nb_in, outputs["nb"], parameters=params, kernel_name="python3", progress_bar=False,
                         log_output=True, cwd=os.getcwd())
     nb = nbformat.read(outputs["nb"], as_version=4)
-    exporter = HTMLExporter(template_name="lab")
-    body, _ = exporter.from_notebook_node(nb, resources={"metadata": {"name": os.path.basename(nb_in)}})
+    body = export_html(nb, os.path.splitext(os.path.basename(nb_in))[0])
     with open(outputs["html"], "w", encoding="utf-8") as fh:
         fh.write(body)
     logging.info("wrote %s and %s", outputs["nb"], outputs["html"])
