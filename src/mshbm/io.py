@@ -101,7 +101,8 @@ class _Loader(_BaseLoader):
 
 _Loader.add_implicit_resolver(
     "tag:yaml.org,2002:float",
-    re.compile(r"^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?|\.[0-9][0-9_]*)[eE][-+]?[0-9]+$"),
+    # YAML 1.2 floats that YAML 1.1 reads as strings: 1e3, 1.0e3, +.5 (checked after the int resolver)
+    re.compile(r"^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?|\.[0-9][0-9_]*)(?:[eE][-+]?[0-9]+)?$"),
     list("-+0123456789."))
 
 

@@ -47,13 +47,15 @@ def _plan(path, case=None):
         raise InputError(KEY, "is empty")
     if "\x00" in path:
         raise InputError(KEY, "contains a NUL byte")
-    target = os.path.realpath(path) if os.path.islink(path) else path
     try:
-        st = os.stat(target)
+        st = os.stat(path)  # follows symlinks in the kernel (also /proc/self/fd/N of pipes)
     except FileNotFoundError:
         st = None
     except OSError as exc:
         raise InputError(KEY, f"cannot use {path!r}: {exc.strerror or exc}") from None
+    stream = st is not None and (stat.S_ISFIFO(st.st_mode) or stat.S_ISCHR(st.st_mode))
+    # a regular file (or a new one) behind symlinks is replaced where it lives, keeping the links
+    target = os.path.realpath(path) if not stream and os.path.islink(path) else path
     if case is not None and st is not None:
         try:
             cst = os.stat(case)
