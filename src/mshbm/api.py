@@ -212,8 +212,9 @@ def solve(system, omega, method="mshbm", **options):
     if method in ("mshbm", "mshbm-intermediate") and options.get("continuation") is True:
         from .continuation import solve_with_continuation
 
-        return solve_with_continuation(system, omega, method,
-                                       **{k: v for k, v in options.items() if k != "continuation"})
+        with validate.quiet_floats():
+            return solve_with_continuation(system, omega, method,
+                                           **{k: v for k, v in options.items() if k != "continuation"})
     with blas_threads(check_threads(options.pop("blas_threads", 1))), validate.quiet_floats():
         return _solve(system, omega, method, options)
 

@@ -13,6 +13,8 @@ A case file is a top-level mapping.  A wall-spring-mass chain (see
     friction: {dof: 0, mu: 0.8, normal_force: 9.81, smoothing: 800}
     # or: contact: {dof: 0, gap: 0.1, restitution: 1, penalty_stiffness: 8000, penalty_damping: 0}
     # friction/contact may also be lists of such mappings
+    # a forcing harmonic k needs harmonics >= k (HBM; the harmonic DOFs of MS-HBM) and steps > 2k
+    # (time-stepped DOFs): otherwise the case is refused, never truncated (README: "What mshbm refuses")
     solver: {method: mshbm, harmonics: 3, steps: 4096}   # optional defaults for solve
 
 or a general structure by its matrices (instead of masses/stiffness/damping)::

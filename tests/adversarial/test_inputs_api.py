@@ -278,3 +278,37 @@ def test_no_runtime_warning_from_a_huge_guess(method):
         sol = mshbm.solve(s, 0.7, method, harmonics=2, steps=256, guess={"q_hat": np.full((5, 3), 1e149)})
         amp = sol.amplitude
     assert np.all(np.isfinite(amp))
+
+
+@pytest.mark.parametrize("scale", [1e160, 1e240])
+@pytest.mark.parametrize("method", ["hbm", "mshbm", "shooting"])
+def test_huge_units_give_the_same_answer_or_name_overflow(method, scale):
+    """M, C, K, f and mu F_N of the friction chain times ``scale`` (within the float limit): the
+    displacements are those of scale 1, or the solve fails with a message naming overflow -- never a
+    RuntimeWarning, never "singular"."""
+    def build(sc):
+        return chain([sc, sc, sc], sc, 0.1 * sc, forcing=[{"dof": 2, "amplitude": 5 * sc}],
+                     elements=[Friction(0, 0.8, 1.0 * sc)])
+    ref = mshbm.solve(build(1.0), 0.6, method, harmonics=3, steps=512)
+    assert ref.success
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sol = mshbm.solve(build(scale), 0.6, method, harmonics=3, steps=512)
+    if sol.success:
+        np.testing.assert_allclose(sol.amplitude, ref.amplitude, rtol=1e-8)
+    else:
+        assert sol.message.startswith("overflow") and "singular" not in sol.message
+
+
+@pytest.mark.parametrize("method", ["mshbm", "mshbm-intermediate"])
+def test_continuation_path_checks_inputs_too(method):
+    s = chain3([{"dof": 2, "amplitude": 1.0, "harmonic": 3}])
+    assert key_of(mshbm.solve, s, 0.7, method, harmonics=2, steps=128, continuation=True)[0] == "harmonics"
+
+
+def test_failed_solution_with_nan_is_refused_as_guess():
+    import dataclasses
+
+    good = mshbm.solve(linear3_element(), 0.7, "hbm", harmonics=2)
+    bad = dataclasses.replace(good, q_hat=np.full_like(good.q_hat, np.nan))
+    assert key_of(mshbm.solve, linear3_element(), 0.7, "hbm", harmonics=2, guess=bad)[0] == "guess"
