@@ -7,6 +7,7 @@ import scipy.sparse.linalg as spla
 
 from . import fourier
 from .errors import InputError
+from .validate import check_guess, check_guess_values
 
 __all__ = ["linear_response", "pad_hat", "guess_parts"]
 
@@ -61,24 +62,20 @@ def guess_parts(guess, system, omega, n_h):
     elif isinstance(guess, PeriodicSolution):
         if guess.n != n:
             raise InputError("guess", f"solution has {guess.n} DOFs, system has {n}")
+        check_guess_values("guess", guess.q_hat)
         q_hat = pad_hat(guess.q_hat, n_h)
         q0, u0 = guess.q[0].copy(), guess.u[0].copy()
     elif isinstance(guess, dict):
-        if "q_hat" not in guess:
-            raise InputError("guess", "a dict guess needs 'q_hat'")
-        q_hat = np.asarray(guess["q_hat"], dtype=float)
-        if q_hat.ndim != 2 or q_hat.shape[1] != n or q_hat.shape[0] % 2 != 1:
-            raise InputError("guess.q_hat", f"must have shape (2*n_h+1, {n}), got {q_hat.shape}")
-        q_hat = pad_hat(q_hat, n_h)
-        q0 = None if guess.get("q0") is None else np.asarray(guess["q0"], dtype=float)
-        u0 = None if guess.get("u0") is None else np.asarray(guess["u0"], dtype=float)
+        guess = check_guess(guess, n)
+        q_hat, q0, u0 = pad_hat(guess["q_hat"], n_h), guess["q0"], guess["u0"]
     else:
-        raise InputError("guess", "must be None, 'linear', 'zero', a PeriodicSolution or a dict")
+        raise InputError("guess", "must be None, 'linear', 'zero', a PeriodicSolution or a dict, got "
+                                  f"{guess!r:.40}")
     if q0 is None:
         q0 = q_hat[0] + q_hat[1::2].sum(axis=0)  # V(0)^T q_hat
     if u0 is None:
         u0 = fourier.derivative(q_hat, omega)[1::2].sum(axis=0)
-    for key, a in (("guess.q_hat", q_hat), ("guess.q0", q0), ("guess.u0", u0)):
-        if not np.all(np.isfinite(a)):
-            raise InputError(key, "contains NaN or inf")
+    if guess is not None and not isinstance(guess, str):
+        for key, a in (("guess.q_hat", q_hat), ("guess.q0", q0), ("guess.u0", u0)):
+            check_guess_values(key, a)
     return q_hat, q0, u0

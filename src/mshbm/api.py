@@ -26,6 +26,7 @@ from .newton import newton
 from .result import PeriodicSolution
 from .shooting import ShootingProblem
 from .system import System
+from . import validate
 
 __all__ = ["solve", "build_problem", "residual_omega_derivative", "METHODS", "default_steps"]
 
@@ -120,19 +121,9 @@ def build_problem(system, omega, method="mshbm", **options):
     prob_opts = {k: v for k, v in opts.items() if k not in solver_keys and k in METHODS[method]}
     if method == "hbm":
         prob_opts.pop("theta", None)
-    if "partition" in prob_opts and method != "mshbm-intermediate":
-        try:
-            part = np.asarray(prob_opts["partition"], dtype=np.int64).reshape(-1)
-        except (TypeError, ValueError):
-            raise InputError("partition", "must be a list of DOF indices") from None
-        if part.size and (part.min() < 0 or part.max() >= system.n):
-            raise InputError("partition", f"DOF out of range 0..{system.n - 1}")
-        if np.unique(part).size != part.size:
-            raise InputError("partition", "repeats a DOF")
-        missing = set(int(e.dof) for e in system.elements) - set(part.tolist())
-        if missing:
-            raise InputError("partition", f"must contain the element DOFs {sorted(missing)}")
-        prob_opts["partition"] = part
+    if prob_opts.get("partition") is not None:
+        prob_opts["partition"] = validate.check_partition(system, method, prob_opts["partition"])
+    validate.check_inputs(system, float(omega), method, opts["harmonics"], opts["steps"], prob_opts.get("partition"))
     problem = _PROBLEMS[method](system, float(omega), **prob_opts)
     return problem, {k: v for k, v in opts.items() if k in solver_keys}
 
@@ -223,9 +214,10 @@ def solve(system, omega, method="mshbm", **options):
     if method in ("mshbm", "mshbm-intermediate") and options.get("continuation") is True:
         from .continuation import solve_with_continuation
 
-        return solve_with_continuation(system, omega, method,
-                                       **{k: v for k, v in options.items() if k != "continuation"})
-    with blas_threads(check_threads(options.pop("blas_threads", 1))):
+        with validate.quiet_floats():
+            return solve_with_continuation(system, omega, method,
+                                           **{k: v for k, v in options.items() if k != "continuation"})
+    with blas_threads(check_threads(options.pop("blas_threads", 1))), validate.quiet_floats():
         return _solve(system, omega, method, options)
 
 
@@ -234,7 +226,7 @@ def _solve(system, omega, method, options):
     try:
         problem, sopts = build_problem(system, omega, method, **options)
     except SingularHarmonicError as exc:
-        raise InputError("omega", f"{exc}; move omega away from this resonance or add damping") from None
+        raise validate.singular_harmonic_error(exc) from None
     progress = _Progress(method, sopts.get("progress", False))
     try:
         x0 = problem.initial_guess(sopts.get("guess"))
@@ -267,7 +259,7 @@ def _solve(system, omega, method, options):
             res.nit, res.nfev = total_it, total_fev
         parts = problem.solution_parts(res.x)
     except SingularHarmonicError as exc:
-        raise InputError("omega", f"{exc}; move omega away from this resonance or add damping") from None
+        raise validate.singular_harmonic_error(exc) from None
     finally:
         progress.close()
     wall = time.perf_counter() - t0
@@ -275,6 +267,7 @@ def _solve(system, omega, method, options):
     for key in ("q_time", "u_time", "q_hat", "lam"):
         if not np.all(np.isfinite(parts[key])):
             success, message = False, f"non-finite {key} in the solution ({message})"
+    message = validate.overflow_message(success, message, res.residual_norm)
     rc = getattr(getattr(problem, "cond", None), "rcond", None)
     if not success and rc is not None and rc.size and float(rc.min()) < 1e-4:
         k = int(np.argmin(rc))

@@ -9,9 +9,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import os
 import sys
-import tempfile
 
 __all__ = ["main"]
 
@@ -41,7 +39,9 @@ def _parser():
                    help="solution method (default: the case's solver.method, else mshbm)")
     s.add_argument("--harmonics", type=int, default=None, metavar="N", help="number of harmonics n_h")
     s.add_argument("--steps", type=int, default=None, metavar="N", help="time steps (samples) per period")
-    s.add_argument("--out", default=None, metavar="FILE.json", help="write the result summary as JSON")
+    s.add_argument("--out", default=None, metavar="FILE.json",
+                   help="write the result summary as JSON (keeps the permissions of an existing file, writes "
+                   "through symlinks, FIFOs and character devices; never the case file itself)")
     s.add_argument("--quiet", action="store_true", help="print no table (errors still go to stderr)")
     return p
 
@@ -89,38 +89,10 @@ def _json_safe(obj):
     return x if math.isfinite(x) else None
 
 
-def _check_out(path):
-    """Fail early (before solving) when the output file cannot be written."""
-    from .errors import InputError
+def _write_json(path, payload, case=None):
+    from .outfile import write_text
 
-    if os.path.isdir(path):
-        raise InputError("--out", f"{path!r} is a directory")
-    parent = os.path.dirname(os.path.abspath(path))
-    if not os.path.isdir(parent):
-        raise InputError("--out", f"directory {parent!r} does not exist")
-    if not os.access(parent, os.W_OK):
-        raise InputError("--out", f"directory {parent!r} is not writable")
-
-
-def _write_json(path, payload):
-    from .errors import InputError
-
-    text = json.dumps(_json_safe(payload), indent=2, allow_nan=False) + "\n"
-    parent = os.path.dirname(os.path.abspath(path))
-    try:
-        fd, tmp = tempfile.mkstemp(prefix=".mshbm-", suffix=".json", dir=parent)
-        try:
-            with os.fdopen(fd, "w", encoding="utf-8") as fh:
-                fh.write(text)
-            os.replace(tmp, path)
-        except BaseException:
-            try:
-                os.unlink(tmp)
-            except OSError:
-                pass
-            raise
-    except OSError as exc:
-        raise InputError("--out", f"cannot write {path!r}: {exc.strerror or exc}") from None
+    write_text(path, json.dumps(_json_safe(payload), indent=2, allow_nan=False) + "\n", case)
 
 
 def _solve(args):
@@ -129,7 +101,9 @@ def _solve(args):
     from .io import load_case
 
     if args.out is not None:
-        _check_out(args.out)
+        from .outfile import check_out
+
+        check_out(args.out, args.case)  # --out rules: mshbm.outfile
     case = load_case(args.case)
     cli_opts = {k: getattr(args, k) for k in ("harmonics", "steps") if getattr(args, k) is not None}
     try:
@@ -146,7 +120,7 @@ def _solve(args):
     if args.out is not None:
         payload = {"case": case.name, **summary, "n_dofs": int(case.system.n), "source": case.source,
                    "version": __version__}
-        _write_json(args.out, payload)
+        _write_json(args.out, payload, args.case)
     if not args.quiet:
         print(_table(case, summary))
         if args.out is not None:
@@ -172,8 +146,11 @@ def main(argv=None):
             return EXIT_INPUT
         from .errors import InputError
 
+        from .validate import quiet_floats
+
         try:
-            return _solve(args)
+            with quiet_floats():  # no RuntimeWarnings on the terminal: non-finite numbers are reported
+                return _solve(args)
         except InputError as exc:
             _error(f"{exc.key}: {exc.problem}")
             return EXIT_INPUT

@@ -13,6 +13,8 @@ A case file is a top-level mapping.  A wall-spring-mass chain (see
     friction: {dof: 0, mu: 0.8, normal_force: 9.81, smoothing: 800}
     # or: contact: {dof: 0, gap: 0.1, restitution: 1, penalty_stiffness: 8000, penalty_damping: 0}
     # friction/contact may also be lists of such mappings
+    # a forcing harmonic k needs harmonics >= k (HBM; the harmonic DOFs of MS-HBM) and steps > 2k
+    # (time-stepped DOFs): otherwise the case is refused, never truncated (README: "What mshbm refuses")
     solver: {method: mshbm, harmonics: 3, steps: 4096}   # optional defaults for solve
 
 or a general structure by its matrices (instead of masses/stiffness/damping)::
@@ -20,6 +22,14 @@ or a general structure by its matrices (instead of masses/stiffness/damping)::
     M: [[1, 0], [0, 2]]
     C: [[0.1, 0], [0, 0.1]]          # optional, default 0
     K: [[2, -1], [-1, 1]]
+
+Numbers follow YAML 1.2 as most readers expect: ``1e3`` and ``1.0e+3`` are floats, ``.inf`` and
+``.nan`` are floats (and rejected where a finite value is needed).  The YAML 1.1 traps are input
+errors naming the key, never silently converted: sexagesimal numbers (``1:30``, which YAML 1.1
+reads as 90), numbers with a leading zero (``010``: octal 8 in YAML 1.1, 10 in YAML 1.2) and
+YAML 1.2 octal (``0o10``); ``yes``/``no``/``on``/``off`` (booleans in YAML 1.1) are rejected
+where a number is expected.  Hexadecimal (``0x1A``) and digit separators (``1_000``) are read
+as the numbers they denote.
 
 Every problem is reported as :class:`mshbm.InputError` whose ``key`` is the
 dotted name of the offending entry (``friction.mu``, ``forcing[0].dof``,
@@ -93,8 +103,46 @@ class _Loader(_BaseLoader):
 
 _Loader.add_implicit_resolver(
     "tag:yaml.org,2002:float",
-    re.compile(r"^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?|\.[0-9][0-9_]*)[eE][-+]?[0-9]+$"),
+    # YAML 1.2 floats that YAML 1.1 reads as strings: 1e3, 1.0e3, +.5 (checked after the int resolver)
+    re.compile(r"^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?|\.[0-9][0-9_]*)(?:[eE][-+]?[0-9]+)?$"),
     list("-+0123456789."))
+
+
+_AMBIGUOUS_TAG = "tag:mshbm,2026:yaml11-number"
+_AMBIGUOUS = re.compile(r"""^(?:[-+]?[0-9][0-9_]*(?::[0-5]?[0-9])+(?:\.[0-9_]*)?   # sexagesimal 1:30, 1:30.5
+                          |[-+]?0[0-9_]+                                   # leading zero: YAML 1.1 octal
+                          |[-+]?0o[0-7_]+)$""", re.X)                      # YAML 1.2 octal
+
+
+class _YAML11Number(str):
+    """A plain scalar that YAML 1.1 and 1.2 (and readers) disagree on: ``1:30`` (sexagesimal, 90 in
+    YAML 1.1), ``010`` (octal 8 in YAML 1.1, 10 in YAML 1.2 and to most readers), ``0o10`` (octal 8
+    in YAML 1.2, a string in 1.1).  Kept as its text, so that a numeric key rejects it by name."""
+
+    def describe(self):
+        text = str(self)
+        if ":" in text:
+            return (f"{text!r}, a YAML 1.1 sexagesimal (base-60) number ({text} would be read as "
+                    f"{_sexagesimal(text):g}); write the decimal value")
+        if "0o" in text:
+            return (f"{text!r}, a YAML 1.2 octal number (a string in YAML 1.1); write the decimal value "
+                    f"({int(text.replace('_', ''), 8)})")
+        return (f"{text!r}, a number with a leading zero that YAML 1.1 reads as octal and YAML 1.2 "
+                "as decimal; write it without the leading zero (or in decimal)")
+
+
+def _sexagesimal(text):
+    sign = -1.0 if text.startswith("-") else 1.0
+    value = 0.0
+    for part in text.lstrip("+-").replace("_", "").split(":"):
+        value = 60.0 * value + float(part)
+    return sign * value
+
+
+_Loader.yaml_implicit_resolvers = {k: list(v) for k, v in _Loader.yaml_implicit_resolvers.items()}
+for _first in "-+0123456789":
+    _Loader.yaml_implicit_resolvers.setdefault(_first, []).insert(0, (_AMBIGUOUS_TAG, _AMBIGUOUS))
+_Loader.add_constructor(_AMBIGUOUS_TAG, lambda loader, node: _YAML11Number(loader.construct_scalar(node)))
 
 
 def _yaml_problem(exc):
@@ -195,6 +243,8 @@ _REPR.maxlevel, _REPR.maxlist, _REPR.maxdict, _REPR.maxstring, _REPR.maxother = 
 
 
 def _describe(value):
+    if isinstance(value, _YAML11Number):
+        return value.describe()
     if isinstance(value, str):
         try:
             float(value)

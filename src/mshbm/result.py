@@ -133,15 +133,12 @@ class PeriodicSolution:
 
     @cached_property
     def amplitude(self):
-        """``(max - min) / 2`` of every DOF over one period, shape (n,) (computed in chunks)."""
-        n = self.n
-        amp = np.empty(n)
-        chunk = max(1, int(2e7 // max(self.t.size, 1)))
-        for s in range(0, n, chunk):
-            d = np.arange(s, min(n, s + chunk))
-            x = self.displacement(d)
-            amp[d] = 0.5 * (x.max(axis=0) - x.min(axis=0))
-        return amp
+        """``(max - min) / 2`` of every DOF over one period of its exact representation, shape (n,):
+        the extrema of the Fourier series for harmonic DOFs (found exactly, not on the time grid),
+        of the time series for time-stepped DOFs (:func:`mshbm.extrema.solution_amplitude`)."""
+        from .extrema import solution_amplitude
+
+        return solution_amplitude(self)
 
     def summary(self):
         """Dict of scalar facts for JSON output."""

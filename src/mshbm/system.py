@@ -352,7 +352,8 @@ def chain(masses, stiffness, damping=0.0, forcing=(), elements=(), sparse=None, 
         return sp.diags([off, main, off], [-1, 0, 1], shape=(n, n), format="csr")
 
     M = sp.diags(m, 0, format="csr")
-    K, C = tridiag(k), tridiag(c)
+    with np.errstate(over="ignore"):  # sums beyond the float range become inf: System names the matrix
+        K, C = tridiag(k), tridiag(c)
     if sparse is None:
         sparse = n > 200
     if not sparse:

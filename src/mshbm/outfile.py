@@ -1,0 +1,152 @@
+"""Writing the CLI's ``--out`` file safely.
+
+Rules (``mshbm solve CASE --out PATH``):
+
+* The file is written at ``PATH``.  A **symlink** is written through: its target receives the
+  output and the link stays a link (a dangling link creates its target, when the target's directory
+  exists).
+* An existing **regular file** keeps its permission bits (and, where allowed, its owner and group);
+  a new file gets ``0666 & ~umask`` like any file the user creates.  A file the user may not write
+  is refused, even when its directory is writable.
+* The write is atomic (a temporary file in the same directory, renamed over the target) where that
+  is safe: for new files and regular files with one link.  A file with **several hard links** is
+  rewritten in place, so that every name sees the new content.
+* A **FIFO** or a **character device** (``/dev/stdout``, ``/dev/null``, a terminal) is written
+  through, never replaced by a regular file; a FIFO without a reader is refused instead of blocking.
+  Block devices, sockets and directories are refused.
+* The **case file itself** is never overwritten, however it is named (same path, relative path,
+  symlink or hard link: compared by device and inode).
+
+Every refusal is an :class:`mshbm.InputError` with key ``--out`` (exit code 2), raised before the
+solve when it can be foreseen.
+"""
+from __future__ import annotations
+
+import errno
+import os
+import stat
+import tempfile
+
+from .errors import InputError
+
+__all__ = ["check_out", "write_text"]
+
+KEY = "--out"
+
+
+def _umask():
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def _plan(path, case=None):
+    """``(target, kind, st)``: the path to write, ``"new" | "file" | "stream"`` and its stat (or None)."""
+    path = os.fspath(path)
+    if not path:
+        raise InputError(KEY, "is empty")
+    if "\x00" in path:
+        raise InputError(KEY, "contains a NUL byte")
+    try:
+        st = os.stat(path)  # follows symlinks in the kernel (also /proc/self/fd/N of pipes)
+    except FileNotFoundError:
+        st = None
+    except OSError as exc:
+        raise InputError(KEY, f"cannot use {path!r}: {exc.strerror or exc}") from None
+    stream = st is not None and (stat.S_ISFIFO(st.st_mode) or stat.S_ISCHR(st.st_mode))
+    # a regular file (or a new one) behind symlinks is replaced where it lives, keeping the links
+    target = os.path.realpath(path) if not stream and os.path.islink(path) else path
+    if case is not None and st is not None:
+        try:
+            cst = os.stat(case)
+        except OSError:
+            cst = None
+        if cst is not None and (cst.st_dev, cst.st_ino) == (st.st_dev, st.st_ino):
+            raise InputError(KEY, f"{path!r} is the case file itself; refusing to overwrite it")
+    if st is None:
+        if path.endswith(os.sep):
+            raise InputError(KEY, f"{path!r} names a directory")
+        parent = os.path.dirname(os.path.abspath(target))
+        if not os.path.isdir(parent):
+            raise InputError(KEY, f"directory {parent!r} does not exist")
+        if not os.access(parent, os.W_OK | os.X_OK):
+            raise InputError(KEY, f"directory {parent!r} is not writable")
+        return target, "new", None
+    mode = st.st_mode
+    if stat.S_ISDIR(mode):
+        raise InputError(KEY, f"{path!r} is a directory")
+    if stat.S_ISFIFO(mode) or stat.S_ISCHR(mode):
+        if not os.access(target, os.W_OK):
+            raise InputError(KEY, f"{path!r} is not writable")
+        return target, "stream", st
+    if not stat.S_ISREG(mode):
+        what = "a block device" if stat.S_ISBLK(mode) else "a socket" if stat.S_ISSOCK(mode) else "not a file"
+        raise InputError(KEY, f"{path!r} is {what}; refusing to write JSON there")
+    if not os.access(target, os.W_OK):
+        raise InputError(KEY, f"{path!r} is not writable (permissions {stat.filemode(mode)})")
+    parent = os.path.dirname(os.path.abspath(target))
+    if st.st_nlink == 1 and not os.access(parent, os.W_OK | os.X_OK):
+        return target, "inplace", st  # cannot create a temporary file next to it: rewrite in place
+    return target, ("inplace" if st.st_nlink > 1 else "file"), st
+
+
+def check_out(path, case=None):
+    """Fail early (before solving) when ``path`` cannot or must not be written."""
+    _plan(path, case)
+
+
+def _write_stream(target, text, st):
+    flags = os.O_WRONLY | (os.O_NONBLOCK if stat.S_ISFIFO(st.st_mode) else 0)
+    try:
+        fd = os.open(target, flags)
+    except OSError as exc:
+        if exc.errno == errno.ENXIO:
+            raise InputError(KEY, f"{target!r} is a FIFO without a reader") from None
+        raise
+    try:
+        if flags & os.O_NONBLOCK:
+            os.set_blocking(fd, True)
+        with os.fdopen(fd, "w", encoding="utf-8", closefd=False) as fh:
+            fh.write(text)
+    finally:
+        os.close(fd)
+
+
+def _write_atomic(target, text, st):
+    parent = os.path.dirname(os.path.abspath(target))
+    fd, tmp = tempfile.mkstemp(prefix=".mshbm-", suffix=".json", dir=parent)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            fh.write(text)
+            fh.flush()
+            if st is None:
+                os.fchmod(fh.fileno(), 0o666 & ~_umask())
+            else:
+                os.fchmod(fh.fileno(), stat.S_IMODE(st.st_mode))
+                try:
+                    os.fchown(fh.fileno(), st.st_uid, st.st_gid)
+                except OSError:
+                    pass  # not allowed to give the file away: it stays ours
+        os.replace(tmp, target)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+
+
+def write_text(path, text, case=None):
+    """Write ``text`` to ``path`` by the rules of the module docstring."""
+    target, kind, st = _plan(path, case)
+    try:
+        if kind == "stream":
+            _write_stream(target, text, st)
+        elif kind == "inplace":
+            with open(target, "r+", encoding="utf-8") as fh:
+                fh.truncate(0)
+                fh.write(text)
+        else:
+            _write_atomic(target, text, st)
+    except OSError as exc:
+        raise InputError(KEY, f"cannot write {os.fspath(path)!r}: {exc.strerror or exc}") from None
