@@ -168,12 +168,12 @@ def _diag(A):
     return np.asarray(A.diagonal() if sp.issparse(A) else np.diag(np.asarray(A)), dtype=float)
 
 
-def _time_stepping_info(problem):
-    """``(stepper, time_dofs)`` of a time-stepping method, or ``(None, None)`` for HBM."""
+def _stepper(problem):
+    """The Moreau-Jean stepper of a time-stepping method, ``None`` for HBM."""
     st = getattr(problem, "stepper", None)
     if st is None and hasattr(problem, "td"):
         st = problem.td.stepper
-    return st, None
+    return st
 
 
 def certify(problem, sol, tol):
@@ -203,7 +203,7 @@ def certify(problem, sol, tol):
 def _certify(problem, sol, tol, cert):
     system, omega = problem.system, float(sol.omega)
     is_hbm = problem.method == "hbm"
-    stepper, _ = _time_stepping_info(problem)
+    stepper = _stepper(problem)
     T = 2.0 * np.pi / omega
     t = np.asarray(sol.t)
     N = t.size - 1
