@@ -126,7 +126,7 @@ def test_newton_alone_stalls_and_the_fallback_is_exact():
     prob, _ = build_problem(system, OMEGA, "hbm", harmonics=9)
     x0 = prob.initial_guess(None)
     plain = newton(prob.residual, x0, fallback=False)
-    assert not plain.success and plain.residual_norm > 1e-3  # the reported failure (scaled by F = k_c gap = 800 N)
+    assert not plain.success and plain.residual_norm > 1.0  # the reported failure
     res = newton(prob.residual, x0)
     assert res.success, res.message
     assert res.info["fallback"] == "gap continuation"

@@ -62,7 +62,7 @@ def test_every_row_is_complete_and_finite(quick):
     cats = {r["category"] for r in rows}
     assert cats == {"resonance", "stiff", "starts", "random"}
     for r in rows:
-        assert r["outcome"] in ("converged", "failed-with-diagnosis", "WRONG")
+        assert r["outcome"] in ("converged", "failed-with-diagnosis", "failed-certificate", "WRONG")
         for key in ("case", "method", "options", "outcome", "message", "reference"):
             assert key in r, (key, r)
         for key in ("omega", "residual", "error", "time_s", "tolerance", "residual_recheck", "error_setvalued"):
@@ -75,8 +75,14 @@ def test_every_row_is_complete_and_finite(quick):
                 assert r["error"] <= r["tolerance"] + 0.05 + 1e-12
         if r["outcome"] == "failed-with-diagnosis":
             assert r["message"].strip(), r
+        if r["outcome"] == "failed-certificate":  # names the failed checks
+            assert r["certificate"] and all(c in r["message"] for c in r["certificate"]), r
+        if r["outcome"] == "converged":
+            assert r["certificate"] == [], r
     assert not re.search(r"\b(nan|inf)\b", md, re.I)  # no NaN in the Markdown table either
     assert "| case | omega |" in md and "## Convergence from poor starts" in md
+    assert "## Certificate failures" in md
+    assert set(summary["counts"]) == {"converged", "failed-with-diagnosis", "failed-certificate", "WRONG"}
 
 
 def test_singular_harmonic_is_a_clear_failure(quick):

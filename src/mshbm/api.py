@@ -100,7 +100,8 @@ def _check_options(method, options):
 
 
 def build_problem(system, omega, method="mshbm", **options):
-    """Validated problem object of a method (exposes ``residual(x) -> (R, J)``).
+    """Validated problem object of a method (exposes ``residual(x) -> (R, J)`` and the per-row scale
+    ``residual_scale(x) -> s`` of Newton's test ``||R / s||_inf <= tol``, :mod:`mshbm.scaling`).
 
     Returns
     -------
@@ -205,6 +206,8 @@ def solve(system, omega, method="mshbm", **options):
     Returns
     -------
     PeriodicSolution
+        ``success`` is True only when Newton converged and every gating check of the
+        certificate (``solution.certificate``, :mod:`mshbm.certificate`) passed.
 
     Raises
     ------

@@ -133,7 +133,8 @@ class MixedProblem:
     (``q_hat_N - FFT(q_N)``, ``q_N(T) - q_N(0)``) except ``u_N(T) - u_N(0)``; they are
     measured against the size ``D = max(D_0, ||q_hat_N||_inf, ||q_N(0)||_inf,
     ||u_N(0)||_inf / omega)`` of the current unknowns (floor ``D_0`` of
-    :mod:`mshbm.scaling`) and ``max(omega D, ||u_N(0)||_inf)``.  The guess never enters.
+    :mod:`mshbm.scaling`) and ``D max(1, omega)`` (:func:`mshbm.scaling.velocity_scale`).
+    The guess never enters.
     """
 
     method = "mshbm"
@@ -228,7 +229,7 @@ class MixedProblem:
 
 def _mixed_scale(problem, x, a, n1, force_rows):
     """Row scales ``(coefficient rows (a), q rows (n1), u rows (n1))`` of the mixed residuals."""
-    from .scaling import displacement_floor, force_scale
+    from .scaling import displacement_floor, force_scale, velocity_scale
 
     if "_FD0" not in problem.__dict__:
         F = force_scale(problem.system)
@@ -238,7 +239,7 @@ def _mixed_scale(problem, x, a, n1, force_rows):
     p, q0, u0 = np.abs(x[:a]), np.abs(x[a:a + n1]), np.abs(x[a + n1:])
     umax = float(np.max(u0, initial=0.0))
     D = max(D0, float(np.max(p, initial=0.0)), float(np.max(q0, initial=0.0)), umax / w)
-    return np.concatenate([np.full(a, F if force_rows else D), np.full(n1, D), np.full(n1, max(w * D, umax))])
+    return np.concatenate([np.full(a, F if force_rows else D), np.full(n1, D), np.full(n1, velocity_scale(D, w))])
 
 
 def auto_intermediate_partition(system):
@@ -271,7 +272,7 @@ class IntermediateProblem:
     subsystem 2 are forces, measured against the force scale ``F`` of the problem
     (:func:`mshbm.scaling.force_scale`); the periodicity rows against the size ``D``
     of the current unknowns (``q_hat_2``, ``q_1(0)``, ``u_1(0) / omega``, floored by
-    ``D_0``) and ``max(omega D, ||u_1(0)||_inf)``.  The guess never enters.
+    ``D_0``) and ``D max(1, omega)``.  The guess never enters.
     """
 
     method = "mshbm-intermediate"

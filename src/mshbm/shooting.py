@@ -45,7 +45,7 @@ class ShootingProblem:
     ``q(T) - q(0)`` are measured against the displacement size ``D`` of the current
     unknowns, ``max(D_0, ||q0||_inf, ||u0||_inf / omega)`` with the floor
     ``D_0 = F / k_0`` of :mod:`mshbm.scaling`; the rows ``u(T) - u(0)`` against
-    ``max(omega D, ||u0||_inf)``.  The guess never enters.
+    ``D max(1, omega)`` (:func:`mshbm.scaling.velocity_scale`).  The guess never enters.
     """
 
     method = "shooting"
@@ -66,14 +66,14 @@ class ShootingProblem:
 
     def residual_scale(self, x):
         """Per-row scale of the residual at unknowns ``x``, shape ``(2n,)`` (m, then m/s)."""
-        from .scaling import displacement_floor
+        from .scaling import displacement_floor, velocity_scale
 
         if "_D0" not in self.__dict__:
             self._D0 = displacement_floor(self.system, self.omega)
         n, w = self.n, self.omega
         q0, u0 = np.abs(x[:n]), np.abs(x[n:])
         D = max(self._D0, float(np.max(q0, initial=0.0)), float(np.max(u0, initial=0.0)) / w)
-        V = max(w * D, float(np.max(u0, initial=0.0)))
+        V = velocity_scale(D, w)
         return np.concatenate([np.full(n, D), np.full(n, V)])
 
     def initial_guess(self, guess=None):

@@ -12,6 +12,8 @@ options, outcome, residual, error against the reference, wall time.  Outcomes:
   tolerance (or no reference exists: column ``reference`` says so);
 * ``failed-with-diagnosis`` -- success=False with a message, or :class:`mshbm.InputError` naming a key
   (e.g. ``omega`` on an exactly singular ``H_LL``);
+* ``failed-certificate`` -- Newton converged but the certificate (:mod:`mshbm.certificate`) refused the
+  answer: success=False with a message naming the failed checks (column ``certificate``);
 * ``WRONG`` -- success=True but the error exceeds the tolerance, the residual re-evaluated from the
   unknowns contradicts the claim, NaN/inf or garbage in the solution; or an unexpected exception
   (a crash instead of a diagnosis); or success=False without a message.
@@ -49,7 +51,7 @@ import mshbm  # noqa: E402
 from mshbm import Contact, Friction, InputError, chain  # noqa: E402
 from mshbm.continuation import solve_with_continuation  # noqa: E402
 
-OUTCOMES = ("converged", "failed-with-diagnosis", "WRONG")
+OUTCOMES = ("converged", "failed-with-diagnosis", "failed-certificate", "WRONG")
 SCHEMA = Path(__file__).resolve().parents[1] / "schemas" / "stress.schema.yaml"
 
 
@@ -179,10 +181,12 @@ def recheck_residual(system, omega, method, opts, sol, factor):
         R = problem.residual(np.asarray(sol.x, float), jac=False)[0]
     except Exception as exc:  # noqa: BLE001
         return False, math.nan, f"re-evaluation failed: {type(exc).__name__}: {exc}"
-    r = float(np.max(np.abs(R), initial=0.0))
-    tol = float(opts.get("tol", 1e-10))
-    # newton.py scales the tolerance with max(1, ||x0||_inf); ||x||_inf is a fair proxy at convergence
-    bound = factor * tol * max(1.0, float(np.max(np.abs(sol.x), initial=0.0)))
+    # the same row scaling as Newton's convergence test (problem.residual_scale: forces by the force
+    # scale of the problem, displacements by the size of the solution; mshbm.scaling)
+    from mshbm.newton import scaled_norm
+
+    r = scaled_norm(R, problem.residual_scale(np.asarray(sol.x, float)))
+    bound = factor * float(opts.get("tol", 1e-10))
     return bool(np.isfinite(r) and r <= bound), r, bound
 
 
@@ -326,10 +330,17 @@ def evaluate(ctx, row, system, omega, method, opts, sol, exc, ref_cache):
     row["message"] = " ".join(str(sol.message).split())
     if "continuation" in sol.info:
         row["continuation"] = sol.info["continuation"]["used"]
+    cert = getattr(sol, "certificate", None)
+    row["certificate"] = None if cert is None else cert.failed
     if not sol.success:
         row["outcome"] = "failed-with-diagnosis" if row["message"] else "WRONG"
+        if row["message"].startswith("certificate failed"):  # Newton converged, the certificate refused
+            row["outcome"] = "failed-certificate"
         if not row["message"]:
             row["message"] = "success=False without a message"
+        return row
+    if cert is None or not cert.passed:
+        row.update(outcome="WRONG", message="success=True without a passed certificate: " + row["message"])
         return row
     if not solution_finite(sol):
         row.update(outcome="WRONG", message="success=True with NaN/inf in the solution: " + row["message"])
@@ -719,6 +730,17 @@ def markdown(summary):
             lines.append(f"| {r['case']} | {_fmt(r.get('omega'), '.6g')} | {point} | {r['method']} | {r['options']} | "
                          f"{'**WRONG**' if r['outcome'] == 'WRONG' else r['outcome']} | {_fmt(r.get('residual'))} | "
                          f"{_fmt(r.get('error'))} | {_fmt(r.get('time_s'), '.2f')} | {note} |")
+        lines.append("")
+    cf = [r for r in rows if r["outcome"] == "failed-certificate"]
+    lines += ["## Certificate failures", "",
+              f"{len(cf)} solve(s) where Newton converged but the certificate (mshbm.certificate) refused the answer"
+              + (":" if cf else "."), ""]
+    if cf:
+        from collections import Counter
+
+        by = Counter((r["method"], ", ".join(r.get("certificate") or [])) for r in cf)
+        lines += ["| method | failed checks | solves |", "|---|---|---|"]
+        lines += [f"| {m} | {c} | {k} |" for (m, c), k in sorted(by.items())]
         lines.append("")
     if summary["start_rates"]:
         lines += ["## Convergence from poor starts", "",
