@@ -66,7 +66,8 @@ display(Markdown(wp.points_table(rows + fd_rows, n, CLOCK)))
 # ## Reference solutions
 #
 # The reference and the effort reference are full shooting solutions reached from the solution at
-# the nearby frequency (Newton).  Their Floquet multipliers (monodromy matrix) are reported; for
+# the nearby frequency (Newton).  Their stability comes from the Floquet multipliers of the exact
+# event-driven flow with the saltation terms of the stick-slip transitions (`mshbm.stability`); for
 # the undamped friction chain the largest modulus is close to 1.
 
 # %%

@@ -65,8 +65,9 @@ display(Markdown(wp.points_table(rows + fd_rows, n, CLOCK)))
 # ## Reference solutions
 #
 # The reference and the effort reference are full shooting solutions reached from the solution at
-# the nearby frequency (Newton).  Their Floquet multipliers (monodromy matrix) are reported; for
-# the damped impact chain the largest modulus tells whether the branch is stable.
+# the nearby frequency (Newton).  Their stability comes from the Floquet multipliers of the exact
+# event-driven flow with the saltation matrices of the impacts (`mshbm.stability`); Fig. 7 shows
+# what the chain does from rest next to this orbit.
 
 # %%
 display(Markdown(wp.reference_table(cfg, S)))

@@ -59,6 +59,8 @@ MAX_EXACT_DOFS = 200
 EXACT_TOL = 1e-6
 #: a verdict from the Moreau-Jean step map (smooth motion only) needs ``|max|mu| - 1| >`` this
 STEP_MAP_TOL = 1e-3
+#: most Moreau-Jean steps per period of the step-map estimate (its cost is O(steps n^2))
+STEP_MAP_MAX_STEPS = 16384
 #: the exact periodic orbit must be this close (relative, amplitudes and section state) to the solution
 MAX_ORBIT_DISTANCE = 0.25
 
@@ -114,7 +116,7 @@ def assess(system, sol, stability="auto", steps=None, theta=0.5):
         ``False``: nothing computed.
     steps : int, optional
         Moreau-Jean steps per period of the step-map estimate (default: those of ``sol``,
-        at least 1024).
+        at least 1024, at most :data:`STEP_MAP_MAX_STEPS`).
     theta : float
         Moreau-Jean parameter of the step-map estimate.
 
@@ -131,10 +133,18 @@ def assess(system, sol, stability="auto", steps=None, theta=0.5):
     if not sol.success:
         return _set(sol, None, None, "none: the solve did not converge",
                     "no converged periodic solution to analyse")
-    if n > MAX_EXACT_DOFS and stability != True:  # noqa: E712 -- "auto"
+    if n > MAX_EXACT_DOFS and stability is not True:  # "auto"
         why = (f"n = {n} DOFs > {MAX_EXACT_DOFS}: the exact flow needs dense matrices of the whole system "
                f"(cost ~ n^3, 9.5 s at 400 DOFs), skipped by default; pass stability=True to compute it")
         return _set(sol, None, None, "none: system too large for the default analysis", why)
+    try:
+        return _assess(system, sol, stability, steps, theta, t0)
+    except Exception as exc:  # noqa: BLE001 -- the analysis must never turn a converged solve into a crash
+        return _set(sol, None, None, "none: the stability analysis failed",
+                    f"the stability analysis failed: {type(exc).__name__}: {exc}")
+
+
+def _assess(system, sol, stability, steps, theta, t0):
     reason_exact = ""
     if len(system.elements) <= 1:
         res = _exact(system, sol)
@@ -199,7 +209,7 @@ def _step_map(system, sol, steps, theta, prefix, t0):
     from . import kernels
     from .shooting import ShootingProblem
 
-    N = int(steps) if steps is not None else max(int(sol.steps), 1024)
+    N = int(steps) if steps is not None else min(max(int(sol.steps), 1024), STEP_MAP_MAX_STEPS)
     try:
         prob = ShootingProblem(system, sol.omega, N, theta=theta)
         x = np.concatenate([sol.q[0], sol.u[0]])

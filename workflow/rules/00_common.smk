@@ -88,6 +88,26 @@ def figure_solves(fig, ext="json"):
     return out
 
 
+#: systems of the impact figures whose long simulations from rest are shown next to their periodic orbits
+LONGRUN_CASES = sorted({config["figures"][f]["system"] for f in ("fig5", "fig6", "fig7")})
+#: figures whose summaries read the long simulation of their system (rule longrun)
+LONGRUN_FIGS = ["fig5", "fig6", "fig7"]
+
+
+def longrun_file(case, ext="json"):
+    return f"{R}/longrun/{case}.{ext}"
+
+
+def summary_inputs(fig):
+    """Solve results of a figure, plus the long simulation of its system (impact figures 5-7)."""
+    out = figure_solves(fig)
+    if fig in LONGRUN_FIGS:
+        out["longrun"] = longrun_file(config["figures"][fig]["system"])
+    if fig == "fig6":
+        out["impact_time"] = f"{R}/longrun/impact_time_{config['figures']['fig6']['system']}.json"
+    return out
+
+
 def notebook_outputs(name):
     kind = "tables" if name.startswith("table") else "figures"
     outs = {"nb": f"{R}/notebooks/{name}.ipynb", "html": f"{R}/notebooks/{name}.html"}

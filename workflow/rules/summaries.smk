@@ -4,7 +4,7 @@
 
 rule summary:
     input:
-        unpack(lambda w: figure_solves(w.fig)),
+        unpack(lambda w: summary_inputs(w.fig)),
     output:
         f"{R}/summary/{{fig}}.json",
     params:
