@@ -140,6 +140,6 @@ def longrun_table(S):
         dom = orb["dominant_multiplier"]
         rows.append((f"the {per}T-periodic orbit (exact shooting on the {per}T map)",
                      f"{'stable' if orb['stable'] else 'unstable' if orb['stable'] is False else 'undecided'}, "
-                     f"max |μ| = {orb['max_modulus']:.4f} (dominant {dom[0]:.4f}{dom[1]:+.4f}i), amplitude of "
+                     f"largest multiplier modulus {orb['max_modulus']:.4f} (dominant {dom[0]:.4f}{dom[1]:+.4f}i), amplitude of "
                      f"mass 1 over {per}T {orb['amplitude_first']:.4f}"))
     return md_table(["", "long simulation from rest"], rows)

@@ -139,9 +139,10 @@ if IT:
         o, r = c["periodic_orbit"], c["from_rest"]
         orbit_txt = (", ".join(f"{i['t']:.3f}" for i in o["impacts"]) + " s; " +
                      ("stable" if o["stable"] else "unstable" if o["stable"] is False else "undecided") +
-                     f" (max |μ| {o['max_modulus']:.3f})") if o.get("success") else f"not found ({o['message'][:60]})"
+                     f" (largest multiplier modulus {o['max_modulus']:.3f})") if o.get("success") else f"not found ({o['message'][:60]})"
         rest_txt = (f"period {r['response_period']} T: " if r["response_period"] else "not periodic: ") + \
-            "; ".join(", ".join(f"{i['t']:.3f}" for i in imps) or "none" for imps in r["impacts_last"]) + " s"
+            "; ".join((", ".join(f"{i['t']:.3f}" for i in imps) + " s") if imps else "none"
+                      for imps in r["impacts_last"])
         rows.append((c["name"], c["what"], orbit_txt, rest_txt))
     display(Markdown(nc.md_table(["candidate", "what changes", "T-periodic orbit: impact times, stability",
                                   "response from rest: impact times per period"], rows)))

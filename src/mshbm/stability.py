@@ -138,7 +138,8 @@ def assess(system, sol, stability="auto", steps=None, theta=0.5):
                f"(cost ~ n^3, 9.5 s at 400 DOFs), skipped by default; pass stability=True to compute it")
         return _set(sol, None, None, "none: system too large for the default analysis", why)
     try:
-        return _assess(system, sol, stability, steps, theta, t0)
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):  # failures end in a reason
+            return _assess(system, sol, stability, steps, theta, t0)
     except Exception as exc:  # noqa: BLE001 -- the analysis must never turn a converged solve into a crash
         return _set(sol, None, None, "none: the stability analysis failed",
                     f"the stability analysis failed: {type(exc).__name__}: {exc}")
@@ -185,6 +186,8 @@ def _exact(system, sol):
         return {"ok": False, "message": f"{type(exc).__name__}: {exc}"}
     if not ex.success or "floquet_multipliers" not in ex.info:
         return {"ok": False, "message": ex.message}
+    if not np.all(np.isfinite(ex.info["floquet_multipliers"])):
+        return {"ok": False, "message": "non-finite monodromy matrix"}
     # distance of the exact orbit from the solution: amplitudes, and the state at the section time
     a_ex = np.asarray(ex.info["amplitude_exact"], dtype=float)
     a_sol = np.asarray(sol.amplitude, dtype=float)
@@ -214,7 +217,10 @@ def _step_map(system, sol, steps, theta, prefix, t0):
         prob = ShootingProblem(system, sol.omega, N, theta=theta)
         x = np.concatenate([sol.q[0], sol.u[0]])
         tr = prob.simulate(x)
-        mult = np.linalg.eigvals(prob.stepper.monodromy(tr.status))
+        Phi = prob.stepper.monodromy(tr.status)
+        if not np.all(np.isfinite(Phi)):
+            raise np.linalg.LinAlgError("non-finite monodromy matrix")
+        mult = np.linalg.eigvals(Phi)
     except (InputError, np.linalg.LinAlgError, MemoryError) as exc:
         return _set(sol, None, None, f"none: {prefix}step map failed",
                     f"{prefix}Moreau-Jean step map failed: {type(exc).__name__}: {exc}")
