@@ -107,7 +107,9 @@ def stability_numbers(prefix, r):
 
 def _times(lo, hi):
     words = {0: "never", 1: "once", 2: "twice"}
-    return words.get(lo, f"{lo} times") if lo == hi else f"{lo} to {hi} times"
+    if lo == hi:
+        return words.get(lo, f"{lo} times")
+    return "at most once" if (lo, hi) == (0, 1) else f"{lo} to {hi} times"
 
 
 def longrun_numbers(lr):
