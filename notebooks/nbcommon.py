@@ -96,3 +96,54 @@ def time_figure_solutions(cfg, S, npz):
     label = {"shooting": f"full shooting (N = {cfg['numerics']['steps']})", "mshbm": f"MS-HBM, $n_H$ = {nh_ms}",
              "hbm": f"HBM, $n_H$ = {nh_hbm}, $k_c$ = {scfg['contact']['penalty_stiffness']:g}"}
     return scfg, sol, label
+
+
+def stability_short(num, prefix="reference"):
+    """Stability of an orbit for a figure title, from summary numbers (mshbm.stability via the solve JSON)."""
+    word = num.get(f"{prefix}_stability_word")
+    if word is None:
+        return "stability not assessed"
+    if word == "undecided":
+        return "stability undecided"
+    rho = num.get(f"{prefix}_floquet")
+    return f"{word}: dominant Floquet multiplier {num.get(f'{prefix}_mu')} (|μ| = {rho:.4f})"
+
+
+def stability_cell(m):
+    """Stability of one solve result for a table cell: verdict and largest multiplier modulus."""
+    if not m.get("success"):
+        return "-"
+    st, rho = m.get("stable"), m.get("floquet_max_modulus")
+    word = {True: "stable", False: "UNSTABLE", None: "undecided"}[st]
+    return f"{word} ({rho:.4f})" if rho is not None else word
+
+
+def longrun_table(S):
+    """What the system does next to its periodic orbit: the long simulation from rest (rule longrun)."""
+    lr = S.get("longrun")
+    if not lr:
+        return "(no long simulation for this figure)"
+    per = lr["response_period"]
+    rows = [("simulated", f"{lr['periods']} periods from rest (q = u = 0 at t = 0), exact event-driven flow"),
+            ("response", f"period {per} T" if per else
+             f"not periodic within {lr['periods']} periods (end states of the last {lr['tail']} periods repeat "
+             f"after no p <= 8)"),
+            ("amplitude of mass 1 in the last periods (exact flow)",
+             ", ".join(f"{a:.4f}" for a in lr["amplitude_first_last"])),
+            (f"the same, Moreau–Jean (N = {lr['moreau_jean']['steps']})",
+             ", ".join(f"{a:.4f}" for a in lr["moreau_jean"]["amplitude_first_last"])),
+            ("impacts per period (last periods)", ", ".join(map(str, lr["impacts_per_period_last"]))),
+            ("impact times mod T, u1 before (last periods)",
+             "; ".join(", ".join(f"{i['t_mod_T']:.3f} s ({i['u_before']:.3f} m/s)" for i in imps) or "none"
+                       for imps in lr["impacts_last"]))]
+    if not per:
+        lo, hi = lr["amplitude_first_tail_range"]
+        rows.append((f"range of the mass-1 amplitude over the last {lr['tail']} periods", f"{lo:.4f} – {hi:.4f}"))
+    orb = lr.get("response_orbit")
+    if orb and orb.get("success"):
+        dom = orb["dominant_multiplier"]
+        rows.append((f"the {per}T-periodic orbit (exact shooting on the {per}T map)",
+                     f"{'stable' if orb['stable'] else 'unstable' if orb['stable'] is False else 'undecided'}, "
+                     f"largest multiplier modulus {orb['max_modulus']:.4f} (dominant {dom[0]:.4f}{dom[1]:+.4f}i), amplitude of "
+                     f"mass 1 over {per}T {orb['amplitude_first']:.4f}"))
+    return md_table(["", "long simulation from rest"], rows)

@@ -115,7 +115,9 @@ def plot(cfg, S, out_png, out_pdf):
                 Line2D([], [], marker="x", color="0.3", ls="none", label="no convergence from any start"),
                 Line2D([], [], color="k", ls="--", label=f"full shooting, N = {cfg['numerics']['steps']}, vs {ref_label(cfg, S)}")]
     fig.legend(handles=handles, loc="lower center", ncol=2, fontsize=7, bbox_to_anchor=(0.5, -0.1))
-    fig.suptitle(f"{scfg['title']}: {n} masses; errors against the {ref_label(cfg, S)}", fontsize=9)
+    fig.suptitle(f"{scfg['title']}: {n} masses; errors against the {ref_label(cfg, S)};\n"
+                 f"the periodic orbit of the reference full shooting is {nc.stability_short(S['numbers'], 'reference')}",
+                 fontsize=8.5)
     fig.tight_layout()
     nc.save(fig, out_png, out_pdf)
     return rows, fd_rows
@@ -162,7 +164,8 @@ def reference_table(cfg, S):
             continue
         rows2.append((label, "yes" if m["success"] else "NO", m.get("start_used"), m.get("iterations"),
                       nc.fmt(m.get("amplitude_first"), "g"), nc.fmt(m.get("amplitude_last"), "g"),
-                      nc.fmt(m.get("floquet_max_modulus"), "f6"), nc.fmt(m.get("stick_or_closed_fraction"), "pct3"),
+                      nc.stability_cell(m), nc.fmt(m.get("stick_or_closed_fraction"), "pct3"),
                       ", ".join(f"{k}: {v:.4f} s" for k, v in (m.get("wall_time_median_by_start") or {}).items() if v)))
     return (nc.md_table(["solution", "converged", "start", "Newton it.", "amp. mass 1", f"amp. mass n",
-                                  "max. Floquet modulus", "stick fraction m1 / impulse", "median time by start"], rows2))
+                                  "stability (max. Floquet modulus)", "stick fraction m1 / impulse",
+                                  "median time by start"], rows2))

@@ -75,16 +75,18 @@ for m in ("hbm", "mshbm"):
         axes[0].plot([], [], color=nc.COLORS[m], marker="x", ls="none", label=f"{label[m]}: no convergence, not drawn")
 axes[0].legend(loc="lower left", ncol=1, framealpha=0.9)
 axes[0].set_title(f"3-DOF friction oscillator, T = {d['t'][-1]:.3g} s: grey = stick of mass 1 "
-                  f"({nc.fmt(num['stick_fraction_shooting'], 'pct')} of the period, full shooting)")
+                  f"({nc.fmt(num['stick_fraction_shooting'], 'pct')} of the period, full shooting)\n"
+                  f"periodic orbit {nc.stability_short(num, 'reference')}", fontsize=8)
 nc.save(fig, out_png, out_pdf)
 
 # %% [markdown]
 # ## Solver facts
 #
 # Newton iterations, start, amplitudes and errors of each solution shown (and of the reference).
-# The Floquet multipliers come from the monodromy matrix of full shooting; the undamped chain
-# has no viscous dissipation, so the largest modulus is close to 1 (dry friction is the only
-# dissipation).
+# Stability: the Floquet multipliers of each orbit come from the exact event-driven flow with its
+# saltation terms at the stick-slip transitions and slip reversals (`mshbm.stability`, started from
+# the converged solution of each method); the undamped chain has no viscous dissipation, so the
+# largest modulus is close to 1 (dry friction is the only dissipation).
 
 # %%
 rows = []
@@ -97,9 +99,10 @@ for key in ("reference", "shooting", "mshbm", "hbm"):
                  ", ".join(f"{a:.4f}" for a in amps),
                  nc.fmt(err.get("err_max"), "pct") if err else "(reference)",
                  nc.fmt(m.get("stick_or_closed_fraction"), "pct") if m.get("stick_or_closed_fraction") is not None else "-",
-                 nc.fmt(m.get("floquet_max_modulus"), "f4") if m.get("floquet_max_modulus") is not None else "-"))
+                 nc.stability_cell(m)))
 display(Markdown(nc.md_table(["method", "n_H", "steps", "converged", "start", "Newton it.", "amplitudes m1..m3 (m)",
-                              "max. rel. amplitude error", "stick fraction m1", "max. Floquet modulus"], rows)))
+                              "max. rel. amplitude error", "stick fraction m1", "stability (max. Floquet modulus)"],
+                             rows)))
 for key in ("mshbm", "hbm"):
     m = S["methods"][key]
     if not m["success"]:

@@ -71,7 +71,8 @@ display(Markdown(wp.points_table(rows + fd_rows, n, CLOCK)))
 #
 # The exact solution (error reference), the reference full shooting it starts from, and the
 # effort reference (full shooting with the working step), reached from the solution at the nearby
-# frequency (Newton).  Their Floquet multipliers (monodromy matrix) are reported; for
+# frequency (Newton).  Their stability comes from the Floquet multipliers of the exact
+# event-driven flow with the saltation terms of the stick-slip transitions (`mshbm.stability`); for
 # the undamped friction chain the largest modulus is close to 1.
 
 # %%

@@ -8,9 +8,10 @@
 #
 # **Here:** velocities of mass 1 from the same solves as Fig. 5.  MS-HBM and full shooting
 # integrate mass 1 by Moreau–Jean time-stepping, so their velocity jumps within one step at the
-# impact; the HBM velocity is the derivative of a truncated Fourier series.  The time of the
-# impact depends on the time origin of the forcing ($f = 5\cos\omega t$ here) and on the branch
-# of periodic solutions; we report ours.
+# impact; the HBM velocity is the derivative of a truncated Fourier series.  The T-periodic orbit
+# is unstable (flip, see the title), so the right panel shows what the chain does from rest: the
+# exact event-driven flow after many periods (rule `longrun`).  Why our impact time differs from
+# the paper's is tested at the end (rule `impact_time`).
 
 # %% tags=["parameters"]
 config = "results/config.json"
@@ -40,7 +41,7 @@ scfg, sol, label = nc.time_figure_solutions(cfg, S, npz)
 display(Markdown(nc.claims_table(S)))
 
 # %%
-fig, (ax, axz) = plt.subplots(1, 2, figsize=(7.6, 3.0), gridspec_kw={"width_ratios": [2.2, 1]})
+fig, (ax, axz, axr) = plt.subplots(1, 3, figsize=(9.6, 3.3), gridspec_kw={"width_ratios": [2.2, 1, 2.2]})
 for m in ("hbm", "mshbm", "shooting"):
     d = sol[m]
     if d is None:
@@ -54,7 +55,7 @@ if t_imp is not None:
     ax.axvline(t_imp, color="0.5", lw=0.7, ls=":")
     T = sol["shooting"]["t"][-1]
     axz.set_xlim(t_imp - 0.01 * T, t_imp + 0.01 * T)
-    axz.set_title(f"zoom at the impact, t = {t_imp:.3f} s")
+    axz.set_title(f"zoom, t = {t_imp:.3f} s", fontsize=8)
 if sol["hbm"] is None:
     ax.plot([], [], color=nc.COLORS["hbm"], marker="x", ls="none",
             label=f"HBM ($n_H$ = {S['hbm_harmonics']}): no convergence, not drawn")
@@ -62,7 +63,32 @@ ax.set_xlabel("t (s)"); axz.set_xlabel("t (s)")
 ax.set_ylabel(r"$u_1 = \dot q_1$ (m/s)")
 ax.set_xlim(0, sol["shooting"]["t"][-1])
 ax.legend(loc="upper left", fontsize=7, framealpha=0.9)
-ax.set_title("velocity of mass 1, 5-DOF impact oscillator")
+ax.set_title("velocity of mass 1 on the T-periodic orbit", fontsize=8)
+fig.suptitle(f"5-DOF impact oscillator: the T-periodic orbit is {nc.stability_short(num, 'reference')}", fontsize=8.5)
+# right: the response from rest next to the T-periodic orbit (drawn twice)
+lr = nc.load_npz(npz["longrun"]) if "longrun" in npz else None
+if lr is not None:
+    LR = S["longrun"]
+    T = sol["shooting"]["t"][-1]
+    t0 = lr["t"][0]
+    per = LR["response_period"]
+    axr.plot(lr["t"] - t0, lr["u1"], color="tab:orange", lw=1.3,
+             label=f"from rest, periods {LR['last_periods'][0] + 1}–{LR['last_periods'][-1] + 1} (exact flow)")
+    d = sol["shooting"]
+    k = int(np.ceil((lr["t"][-1] - t0) / T)) + 1
+    tt = np.concatenate([d["t"][:-1] + j * T for j in range(k)])
+    uu = np.concatenate([d["u"][:-1, 0]] * k)
+    sel = tt <= lr["t"][-1] - t0
+    axr.plot(tt[sel], uu[sel], color="k", lw=0.9, ls="--", label="T-periodic orbit (unstable)" if
+             num.get("reference_stable") is False else "T-periodic orbit")
+    axr.set_xlabel(f"t - {t0:.0f} s")
+    axr.set_title((f"from rest: period-{per} response" if per else "from rest: no periodic response") +
+                  (f", mass-1 amplitude {LR['amplitude_first_max']:.2f} / {LR['amplitude_first_min']:.2f} m"
+                   if per and per > 1 else ""), fontsize=8)
+    axr.legend(loc="lower left", fontsize=6.5, framealpha=0.9)
+else:
+    axr.set_visible(False)
+fig.tight_layout()
 nc.save(fig, out_png, out_pdf)
 
 # %% [markdown]
@@ -89,3 +115,38 @@ for key in ("reference", "shooting", "mshbm", "hbm"):
         rows.append((nc.LABELS[key], ", ".join(f"{t:.3f}" for t in m.get("contact_episode_times") or []) or "none",
                      "penalty", "-", "-"))
 display(Markdown(nc.md_table(["method", "impact time (s)", "impulse steps", "u1 before", "u1 after"], rows)))
+
+
+# %% [markdown]
+# ## What the chain does next to the unstable T-periodic orbit
+
+# %%
+display(Markdown(nc.longrun_table(S)))
+
+# %% [markdown]
+# ## Why the impact is not at the paper's t = 0.55 s: candidates
+#
+# Each candidate changes one thing the paper leaves open (the forcing phase, i.e. sin vs cos and
+# the time origin; the chain's supports; the forced mass) and gives the impact times of its
+# T-periodic orbit and of the response reached from rest.  Coexisting T-periodic orbits were
+# searched by exact shooting from many starts.  Numbers: rule `impact_time`.
+
+# %%
+IT = S.get("impact_time")
+if IT:
+    rows = []
+    for c in IT["candidates"]:
+        o, r = c["periodic_orbit"], c["from_rest"]
+        orbit_txt = (", ".join(f"{i['t']:.3f}" for i in o["impacts"]) + " s; " +
+                     ("stable" if o["stable"] else "unstable" if o["stable"] is False else "undecided") +
+                     f" (largest multiplier modulus {o['max_modulus']:.3f})") if o.get("success") else f"not found ({o['message'][:60]})"
+        rest_txt = (f"period {r['response_period']} T: " if r["response_period"] else "not periodic: ") + \
+            "; ".join((", ".join(f"{i['t']:.3f}" for i in imps) + " s") if imps else "none"
+                      for imps in r["impacts_last"])
+        rows.append((c["name"], c["what"], orbit_txt, rest_txt))
+    display(Markdown(nc.md_table(["candidate", "what changes", "T-periodic orbit: impact times, stability",
+                                  "response from rest: impact times per period"], rows)))
+    cl = IT["closest"]
+    print(f"coexisting T-periodic orbits found: {IT['n_coexisting_orbits']} (from {IT['n_coexisting_starts']} starts)")
+    print(f"closest to the paper's {IT['paper_impact_time']} s: {cl['name']}, {cl['which']}: t = {cl['t']:.3f} s "
+          f"({cl['distance']:.3f} s away)")

@@ -52,7 +52,8 @@ ref = nc.load_npz(npz["ref"])
 display(Markdown(nc.claims_table(S)))
 
 # %%
-fig, axes = plt.subplots(1, 2, figsize=(7.6, 3.6), sharey=True)
+fig, axes = plt.subplots(1, 3, figsize=(10.2, 3.6), gridspec_kw={"width_ratios": [1, 1, 0.9]})
+axes, axr = axes[:2], axes[2]
 colors = ["#1f77b4", "#2ca02c", "#9467bd", "#8c564b"]
 for ax, method in zip(axes, ("hbm", "mshbm")):
     ax.plot(ref["q"][:, 0], ref["u"][:, 0], color="k", lw=1.6, label=f"full shooting, N = {cfg['numerics']['reference_steps']}", zorder=2)
@@ -78,8 +79,22 @@ for ax, method in zip(axes, ("hbm", "mshbm")):
     ax.set_title({"hbm": "HBM (penalty contact)", "mshbm": "MS-HBM (set-valued contact)"}[method])
     ax.legend(loc="upper left", fontsize=6.5, framealpha=0.9)
 axes[0].set_ylabel(r"$u_1$ (m/s)")
+axes[1].sharey(axes[0])
+# right: what the chain does from rest next to the T-periodic orbit (rule longrun)
+lr = nc.load_npz(npz["longrun"]) if "longrun" in npz else None
+if lr is not None:
+    LR = S["longrun"]
+    axr.plot(np.arange(1, len(lr["amp"]) + 1), lr["amp"], color="tab:orange", lw=0.7, label="from rest (exact flow)")
+    axr.axhline(num["reference_amp_first"], color="k", ls="--", lw=0.9, label="T-periodic orbit")
+    axr.set_xlabel("period"); axr.set_ylabel("amplitude of mass 1 (m)")
+    axr.set_title(f"from rest: period-{LR['response_period']} response" if LR["response_period"]
+                  else f"from rest: not periodic in {LR['periods']} periods", fontsize=8)
+    axr.legend(fontsize=6.5, loc="lower right", framealpha=0.9)
+else:
+    axr.set_visible(False)
 fig.suptitle(f"mass 1 of the {scfg['n']}-mass impact chain: {num['reference_impulse_steps']} impulse step(s) per period, "
-             f"{'accumulation' if num['accumulation'] else 'no accumulation'} of impacts (full shooting)", fontsize=8.5)
+             f"{'accumulation' if num['accumulation'] else 'no accumulation'} of impacts (full shooting);\n"
+             f"this T-periodic orbit is {nc.stability_short(num, 'reference')}", fontsize=8)
 fig.tight_layout()
 nc.save(fig, out_png, out_pdf)
 
@@ -88,12 +103,14 @@ nc.save(fig, out_png, out_pdf)
 #
 # `max(q1 - g0)` is the largest value of $q_1 - g_{N,0}$ on the time grid: negative or zero means
 # no penetration.  The shooting reference was reached from its own solution at the nearby
-# frequency (Newton); its largest Floquet multiplier modulus tells whether this branch is stable.
+# frequency (Newton).  Stability: Floquet multipliers of the exact event-driven flow with the
+# saltation matrices of the impacts (`mshbm.stability`), for the reference and for every MS-HBM and
+# HBM solution (started from each).
 
 # %%
 rows = [("full shooting (reference)", "-", "yes", num["reference_start"], num["reference_impulse_steps"],
          num["reference_impact_clusters"], "-", nc.fmt(S["reference"].get("max_penetration"), "sci"),
-         nc.fmt(num["reference_floquet"], "f4"))]
+         nc.stability_cell(S["reference"]))]
 for method in ("hbm", "mshbm"):
     for nh in nhs:
         f = S["solves"][f"{method}_nh{nh}"]
@@ -101,9 +118,9 @@ for method in ("hbm", "mshbm"):
                      f.get("impulse_steps", "-") if f["success"] else "-",
                      f.get("impact_clusters", "-") if f["success"] else "-",
                      f.get("contact_episodes", "-") if f["success"] else "-",
-                     nc.fmt(f.get("max_penetration"), "sci") if f["success"] else "-", "-"))
+                     nc.fmt(f.get("max_penetration"), "sci") if f["success"] else "-", nc.stability_cell(f)))
 display(Markdown(nc.md_table(["method", "n_H", "converged", "start", "impulse steps/period", "impact clusters",
-                              "HBM contact episodes", "max(q1 - g0) (m)", "max. Floquet modulus"], rows)))
+                              "HBM contact episodes", "max(q1 - g0) (m)", "stability (max. Floquet modulus)"], rows)))
 print("impact cluster sizes (reference):", S["reference"].get("impact_cluster_sizes"))
 print("largest Floquet moduli (reference):", ", ".join(f"{x:.4f}" for x in S["reference"].get("floquet_moduli_top") or []))
 
@@ -124,3 +141,12 @@ if ex.get("success"):
     print("accumulations found on the exact solution:", ex.get("accumulations"))
 else:
     print("exact solution:", ex.get("message"))
+
+# %% [markdown]
+# ## What the chain does next to its T-periodic orbit: a long simulation from rest
+#
+# The exact event-driven flow from rest (rule `longrun`), with Moreau–Jean as a cross-check; the
+# right panel of the figure shows the amplitude of mass 1 in every period of it.
+
+# %%
+display(Markdown(nc.longrun_table(S)))

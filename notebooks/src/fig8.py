@@ -70,8 +70,9 @@ display(Markdown(wp.points_table(rows + fd_rows, n, CLOCK)))
 #
 # The exact solution (error reference), the reference full shooting it starts from, and the
 # effort reference (full shooting with the working step), reached from the solution at the nearby
-# frequency (Newton).  Their Floquet multipliers (monodromy matrix) are reported; for
-# the damped impact chain the largest modulus tells whether the branch is stable.
+# frequency (Newton).  Their stability comes from the Floquet multipliers of the exact
+# event-driven flow with the saltation matrices of the impacts (`mshbm.stability`); Fig. 7 shows
+# what the chain does from rest next to this orbit.
 
 # %%
 display(Markdown(wp.reference_table(cfg, S)))

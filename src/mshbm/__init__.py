@@ -8,6 +8,7 @@ method of Schreyer & Leine (2016), behind one call::
     sol = mshbm.solve(case.system, case.omega, method="mshbm", harmonics=5)
     sol.amplitude
 """
+from . import stability  # noqa: F401  (mshbm.stability: Floquet multipliers and verdicts)
 from .api import METHODS, build_problem, residual_omega_derivative, solve
 from .errors import ConvergenceError, InputError
 from .exact import exact_periodic

@@ -18,6 +18,7 @@ from ._blas import blas_threads, check_threads
 from . import starts
 
 from .certificate import apply_certificate
+from . import stability as _stability
 from .errors import ConvergenceError, InputError
 from .fourier import SingularHarmonicError
 from .hbm import HBMProblem
@@ -30,7 +31,7 @@ from . import validate
 
 __all__ = ["solve", "build_problem", "residual_omega_derivative", "METHODS", "default_steps"]
 
-_COMMON = {"guess", "tol", "max_iter", "line_search", "progress", "raise_on_failure", "continuation"}
+_COMMON = {"guess", "tol", "max_iter", "line_search", "progress", "raise_on_failure", "continuation", "stability"}
 #: options accepted by each method (besides the common ones)
 METHODS = {
     "shooting": {"steps", "theta", "jacobian", "harmonics", "project"},
@@ -96,6 +97,7 @@ def _check_options(method, options):
         raise InputError("progress", f"must be true, false or 'always', got {opts['progress']!r}")
     if "max_iter" in opts:
         opts["max_iter"] = _int_option("max_iter", opts["max_iter"], 0)
+    opts["stability"] = _stability.check_option(opts.get("stability"))
     return opts
 
 
@@ -201,27 +203,36 @@ def solve(system, omega, method="mshbm", **options):
         continuation fallbacks, :mod:`mshbm.continuation`; HBM: when Newton fails,
         follow the exact piecewise-linear solution path of penalty contacts
         (:meth:`mshbm.hbm.HBMProblem.newton_fallback`), else
-        retry by continuation from softened regularisations; default True).
+        retry by continuation from softened regularisations; default True),
+        ``stability`` (``"auto"``, default: Floquet multipliers and verdict from the exact
+        event-driven flow with saltation terms for systems with at most one element and up to
+        :data:`mshbm.stability.MAX_EXACT_DOFS` DOFs, else a labelled estimate or none;
+        ``True``: also above that size; ``False``: skip.  Not part of ``wall_time``; see
+        :mod:`mshbm.stability`).
 
     Returns
     -------
     PeriodicSolution
         ``success`` is True only when Newton converged and every gating check of the
         certificate (``solution.certificate``, :mod:`mshbm.certificate`) passed.
+        With ``floquet_multipliers``, ``stable``, ``stability_method`` and ``stability_reason``.
 
     Raises
     ------
     InputError
         Invalid system, frequency or option (names the key).
     """
+    stab = _stability.check_option(options.pop("stability", "auto"))
     if method in ("mshbm", "mshbm-intermediate") and options.get("continuation") is True:
         from .continuation import solve_with_continuation
 
         with validate.quiet_floats():
-            return solve_with_continuation(system, omega, method,
-                                           **{k: v for k, v in options.items() if k != "continuation"})
+            sol = solve_with_continuation(system, omega, method, stability=False,
+                                          **{k: v for k, v in options.items() if k != "continuation"})
+            return _stability.assess(system, sol, stab, theta=options.get("theta", 0.5))
     with blas_threads(check_threads(options.pop("blas_threads", 1))), validate.quiet_floats():
-        return _solve(system, omega, method, options)
+        sol = _solve(system, omega, method, options)
+        return _stability.assess(system, sol, stab, theta=options.get("theta", 0.5))
 
 
 def _solve(system, omega, method, options):

@@ -50,11 +50,17 @@ def _fmt_float(x):
     return "nan" if x is None else repr(float(x))
 
 
+def _stable_text(summary):
+    verdict = {True: "yes", False: "no", None: "undecided"}[summary.get("stable")]
+    rho = summary.get("floquet_max_modulus")
+    return f"{verdict} ({summary.get('stability_method')}" + (f", max |mu| = {rho:.6f})" if rho is not None else ")")
+
+
 def _table(case, summary):
     rows = [("case", case.name), ("method", summary["method"]), ("harmonics", summary["harmonics"]),
             ("steps", summary["steps"]), ("success", "yes" if summary["success"] else "no"),
             ("iterations", summary["iterations"]), ("residual", f"{summary['residual']:.3e}"),
-            ("wall time", f"{summary['wall_time_s']:.3f} s")]
+            ("wall time", f"{summary['wall_time_s']:.3f} s"), ("stable", _stable_text(summary))]
     if summary.get("certificate") is not None:  # mshbm.certificate: gating checks, and estimates above bound
         bad = [c["name"] for c in summary["certificate"] if c["gating"] and not c["passed"]]
         est = [f"{c['name']} {c['value']:.1e}" for c in summary["certificate"] if not c["gating"] and

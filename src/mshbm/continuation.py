@@ -282,10 +282,15 @@ def solve_with_continuation(system, omega, method="mshbm", guess=None, *, strate
 
     # the same BLAS pinning as solve() (bit-identical results whatever the thread settings), also
     # around the transient simulation that runs outside solve()
+    from . import stability as _stability
+
+    stab = _stability.check_option(options.pop("stability", "auto"))
+    options["stability"] = False  # intermediate solves: no Floquet analysis; the final solution gets it below
     with blas_threads(check_threads(options.get("blas_threads", 1))):
-        return _solve_with_continuation(system, omega, method, guess, strategies, forcing_start, friction_start,
-                                        max_stages, min_step, stage_max_iter, transient_periods, transient_budget,
-                                        options)
+        sol = _solve_with_continuation(system, omega, method, guess, strategies, forcing_start, friction_start,
+                                       max_stages, min_step, stage_max_iter, transient_periods, transient_budget,
+                                       options)
+        return _stability.assess(system, sol, stab, theta=options.get("theta", 0.5))
 
 
 def _solve_with_continuation(system, omega, method, guess, strategies, forcing_start, friction_start, max_stages,

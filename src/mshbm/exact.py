@@ -693,7 +693,9 @@ def exact_periodic(system, omega, guess=None, samples=4096, tol=1e-11, max_iter=
         ``n_impacts``, ``impulses`` (times and impulses of the impacts),
         ``stick_fraction`` (time fraction in stick or closed contact),
         ``residual_history``, ``floquet_multipliers``, ``section_time`` and
-        ``trajectory`` (:class:`ExactTrajectory` for dense output).
+        ``trajectory`` (:class:`ExactTrajectory` for dense output).  The stability fields
+        (``floquet_multipliers``, ``stable``, ``stability_method``) come from the exact
+        monodromy (:func:`mshbm.stability.set_exact`).
 
     Raises
     ------
@@ -705,7 +707,9 @@ def exact_periodic(system, omega, guess=None, samples=4096, tol=1e-11, max_iter=
         sol = _exact_periodic(system, omega, guess, samples, tol, max_iter, harmonics, jacobian, substeps,
                               max_events)
     sol.wall_time = time.perf_counter() - t_wall
-    return sol
+    from .stability import set_exact
+
+    return set_exact(sol)
 
 
 def _exact_periodic(system, omega, guess, samples, tol, max_iter, harmonics, jacobian, substeps, max_events):

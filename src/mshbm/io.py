@@ -16,6 +16,7 @@ A case file is a top-level mapping.  A wall-spring-mass chain (see
     # a forcing harmonic k needs harmonics >= k (HBM; the harmonic DOFs of MS-HBM) and steps > 2k
     # (time-stepped DOFs): otherwise the case is refused, never truncated (README: "What mshbm refuses")
     solver: {method: mshbm, harmonics: 3, steps: 4096}   # optional defaults for solve
+    # (solver.stability: true, false or "auto" -- Floquet multipliers, see mshbm.stability)
 
 or a general structure by its matrices (instead of masses/stiffness/damping)::
 
@@ -75,7 +76,7 @@ FRICTION_KEYS = {"dof": ..., "mu": ..., "normal_force": ..., "smoothing": 800.0}
 CONTACT_KEYS = {"dof": ..., "gap": ..., "restitution": 1.0, "penalty_stiffness": 8000.0,
                 "penalty_damping": 0.0}
 SOLVER_KEYS = ("method", "harmonics", "steps", "theta", "jacobian", "tol", "max_iter", "partition",
-               "condense", "project", "line_search", "continuation")
+               "condense", "project", "line_search", "continuation", "stability")
 
 
 # ----------------------------------------------------------------------------- YAML reading
@@ -461,6 +462,9 @@ def _solver(value, n):
                 raise InputError(key, f"must be true or false, got {_describe(v)}")
         elif k == "partition":
             v = _partition(key, v, n)
+        elif k == "stability":  # true, false or "auto" (mshbm.stability)
+            if not (isinstance(v, bool) or v == "auto"):
+                raise InputError(key, f"must be true, false or 'auto', got {_describe(v)}")
         out[k] = v
     method = out.get("method")
     if method is not None:

@@ -11,6 +11,7 @@ from functools import cached_property
 import numpy as np
 
 from . import fourier
+from .stability import describe as _stability_describe
 
 __all__ = ["PeriodicSolution"]
 
@@ -55,7 +56,17 @@ class PeriodicSolution:
     x : ndarray
         Final unknowns of the method.
     info : dict
-        Method-specific extras (partition, Floquet multipliers, condition numbers...).
+        Method-specific extras (partition, condition numbers...); ``info["stability"]``: details
+        of the stability analysis.
+    floquet_multipliers : ndarray of complex, shape (2n,) or (0,)
+        Floquet multipliers of the periodic orbit (see :mod:`mshbm.stability`); empty if none.
+    stable : bool or None
+        ``True``/``False`` from multipliers valid for the nonsmooth flow; ``None`` where that
+        cannot be decided (``stability_reason`` says why).
+    stability_method : str
+        How the multipliers were obtained, e.g. ``"exact-flow-saltation"``, or ``"none: ..."``.
+    stability_reason : str
+        Why ``stable`` is ``None`` (empty otherwise).
     certificate : mshbm.certificate.Certificate or None
         Checks made after Newton (:mod:`mshbm.certificate`); ``success`` requires all
         gating checks to pass.  ``residual`` is the scaled ``||R / s||_inf`` (dimensionless).
@@ -81,6 +92,10 @@ class PeriodicSolution:
     x: np.ndarray
     info: dict = field(default_factory=dict)
     certificate: object = None
+    floquet_multipliers: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=complex))
+    stable: bool | None = None
+    stability_method: str = "none: not assessed"
+    stability_reason: str = "no stability analysis was run"
 
     @property
     def period(self):
@@ -156,4 +171,5 @@ class PeriodicSolution:
             "wall_time_s": float(self.wall_time),
             "amplitude": [float(a) for a in self.amplitude],
             "certificate": None if self.certificate is None else self.certificate.as_list(),
+            **_stability_describe(self),
         }

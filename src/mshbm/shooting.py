@@ -117,10 +117,10 @@ class ShootingProblem:
         lam = np.vstack([tr.P, tr.P[:1]]) / self.h
         mult = np.linalg.eigvals(self.monodromy(x))
         impacts = bool(np.any((self.stepper.kind == 1) & np.any(tr.P > 0, axis=0)))
-        info = {"floquet_multipliers": mult, "max_floquet_modulus": float(np.max(np.abs(mult))),
-                # the step Jacobians of Moreau-Jean hold no saltation terms: at impacts the multipliers
-                # are those of the discrete map, not of the flow (mshbm.exact gives the flow's)
-                "floquet_reliable": not impacts,
+        info = {# eigenvalues of the discrete map's monodromy: its step Jacobians hold no saltation terms,
+                # so at impacts they are not the flow's multipliers.  The solution's floquet_multipliers /
+                # stable (mshbm.stability) are the valid ones.
+                "step_map_multipliers": mult, "step_map_impacts": impacts,
                 "time_step": self.h, "stick_or_closed_fraction":
                     [float(np.mean((tr.status[:, j] & 3) >= 2)) for j in range(tr.status.shape[1])]}
         return dict(t=self.t, q_hat=q_hat, time_dofs=np.arange(self.n), q_time=tr.q, u_time=tr.u,

@@ -99,16 +99,31 @@ def exact_file(case):
     return f"{R}/solves/{case}/exact.json"
 
 
-def summary_inputs(w):
-    """Named inputs of the summary rule -- the figure's solves and, where used, the exact reference."""
-    out = figure_solves(w.fig)
-    if w.fig in EXACT_FIGURES:
-        out["exact"] = exact_file(config["figures"][w.fig]["system"])
-    return out
-
-
 #: summaries beyond the figures' (other rule files append theirs); the paper reads every one
 EXTRA_SUMMARIES = []
+
+
+#: systems of the impact figures whose long simulations from rest are shown next to their periodic orbits
+LONGRUN_CASES = sorted({config["figures"][f]["system"] for f in ("fig5", "fig6", "fig7")})
+#: figures whose summaries read the long simulation of their system (rule longrun)
+LONGRUN_FIGS = ["fig5", "fig6", "fig7"]
+
+
+def longrun_file(case, ext="json"):
+    return f"{R}/longrun/{case}.{ext}"
+
+
+def summary_inputs(fig):
+    """Named inputs of the summary rule: the figure's solves, where used the exact reference (Figs. 4, 7, 8),
+    and the long simulation of its system (impact figures 5-7)."""
+    out = figure_solves(fig)
+    if fig in EXACT_FIGURES:
+        out["exact"] = exact_file(config["figures"][fig]["system"])
+    if fig in LONGRUN_FIGS:
+        out["longrun"] = longrun_file(config["figures"][fig]["system"])
+    if fig == "fig6":
+        out["impact_time"] = f"{R}/longrun/impact_time_{config['figures']['fig6']['system']}.json"
+    return out
 
 
 def notebook_outputs(name):

@@ -138,6 +138,7 @@ rule fig6:
         config=f"{R}/config.json",
         summary=f"{R}/summary/fig6.json",
         **npz_inputs("fig6"),
+        npz_longrun=longrun_file(config["figures"]["fig6"]["system"], "npz"),
     output:
         **notebook_outputs("fig6"),
     log:
@@ -157,6 +158,7 @@ rule fig7:
         config=f"{R}/config.json",
         summary=f"{R}/summary/fig7.json",
         **npz_inputs("fig7"),
+        npz_longrun=longrun_file(config["figures"]["fig7"]["system"], "npz"),
     output:
         **notebook_outputs("fig7"),
     log:

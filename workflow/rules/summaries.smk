@@ -4,7 +4,7 @@
 
 rule summary:
     input:
-        unpack(summary_inputs),
+        unpack(lambda w: summary_inputs(w.fig)),
     output:
         f"{R}/summary/{{fig}}.json",
     params:

@@ -35,6 +35,7 @@ from mshbm.hbm import scaled_regularisation  # noqa: E402
 
 
 def timed_solve(system, omega, nearby, method, repeats, warmup=True, **opts):
+    opts.setdefault("stability", False)  # the Floquet analysis is not part of the timed solve
     """Start from the method's own solution at ``nearby``; wall times of ``repeats`` solves.
 
     ``warmup``: one untimed solve first (numba compilation; needed once per method and process).

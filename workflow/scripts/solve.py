@@ -1,7 +1,8 @@
 """One periodic solve of the workflow: a system of the config, one method, n_H and steps.
 
 Writes ``<stem>.json`` (facts: success, message, iterations, residual, every start tried,
-wall times, amplitudes, Floquet multipliers, stick fraction, impacts) and ``<stem>.npz``
+wall times, amplitudes, Floquet multipliers and stability verdict (mshbm.stability, computed
+once, untimed, on the displayed solution), stick fraction, impacts) and ``<stem>.npz``
 (time series of the solution shown in the figures).  Run by the Snakemake rule ``solve``
 (workflow/rules/solves.smk) or stand-alone::
 
@@ -46,8 +47,10 @@ STORE_ALL_DOFS = 10
 def solve_once(system, om, method, n_h, steps, guess, numerics):
     """One call of :func:`mshbm.solve`, timed as a whole (set-up included)."""
     base, jac = split_method(method)
+    # stability=False: the Floquet analysis (mshbm.stability) is not part of the timed solve; it runs
+    # once on the displayed solution (see `run`)
     kw = dict(harmonics=int(n_h), steps=int(steps), guess=guess, tol=float(numerics["tol"]),
-              max_iter=int(numerics["max_iter"]))
+              max_iter=int(numerics["max_iter"]), stability=False)
     if base != "hbm":
         kw.update(theta=float(numerics["theta"]), jacobian=jac or numerics["jacobian"])
     method = base
@@ -91,12 +94,17 @@ def describe(sol, system):
            "amplitude": [float(a) for a in amp] if n <= STORE_ALL_DOFS else None,
            "period": float(sol.period)}
     info = sol.info or {}
-    if "floquet_multipliers" in info:
-        mult = np.asarray(info["floquet_multipliers"])
-        mod = np.sort(np.abs(mult))[::-1]
-        out["floquet_max_modulus"] = float(mod[0])
-        out["floquet_moduli_top"] = [float(m) for m in mod[:6]]
-        out["stable"] = bool(mod[0] < 1.0)
+    # stability of the nonsmooth flow (mshbm.stability): multipliers as [re, im] pairs, verdict or null
+    out.update(mshbm.stability.describe(sol))
+    mult = np.asarray(sol.floquet_multipliers)
+    if mult.size:
+        out["floquet_moduli_top"] = [float(m) for m in np.sort(np.abs(mult))[::-1][:6]]
+        dom = mult[int(np.argmax(np.abs(mult)))]
+        out["floquet_dominant"] = [float(dom.real), float(dom.imag)]
+    if "step_map_multipliers" in info:  # shooting: the discrete map's own multipliers (no saltation terms)
+        out["step_map_max_modulus"] = float(np.max(np.abs(info["step_map_multipliers"])))
+    out["stability_details"] = {k: v for k, v in (info.get("stability") or {}).items()
+                                if isinstance(v, (int, float, str, bool)) or v is None}
     if "stick_or_closed_fraction" in info:
         out["stick_or_closed_fraction"] = float(info["stick_or_closed_fraction"][0])
     el = system.elements[0]
@@ -254,6 +262,9 @@ def run(config, case, method, n_h, steps, stem, fallback=(), reference=False, lo
                                          if not a.get("display_only")}
     data = {"valid": np.array(False)}
     if display is not None:
+        mshbm.stability.assess(system, display[1], "auto", theta=float(numerics.get("theta", 0.5)))
+        log(f"  stability: stable={display[1].stable} ({display[1].stability_method}) "
+            f"{display[1].stability_reason}")
         facts.update(describe(display[1], system))
         data = arrays(display[1], system)
     write_json(f"{stem}.json", facts)

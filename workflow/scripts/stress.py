@@ -222,9 +222,9 @@ def run_solve(ctx, system, omega, method, opts, *, use_continuation=False, cpu_b
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             if use_continuation:
-                sol = solve_with_continuation(system, omega, method, **opts)
+                sol = solve_with_continuation(system, omega, method, stability=False, **opts)
             else:
-                sol = mshbm.solve(system, omega, method, **opts)
+                sol = mshbm.solve(system, omega, method, stability=False, **opts)  # convergence only
         return sol, None, time.perf_counter() - t0
     except TimeoutError:
         raise

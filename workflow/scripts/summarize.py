@@ -66,11 +66,93 @@ def facts_subset(r):
             "impact_cluster_sizes", "impacts", "contact_episodes", "contact_episode_times", "max_penetration",
             "wall_time_median", "wall_times", "wall_time_median_by_start", "cpu_time_median", "cpu_times",
             "cpu_time_median_by_start", "max_friction_force",
-            "friction_bound", "period", "nfev", "work", "work_by_start", "machine", "accumulations"]
+            "friction_bound", "period", "nfev", "work", "work_by_start", "machine", "accumulations",
+            "floquet_multipliers", "floquet_dominant", "stability_method", "stability_reason", "stability_details",
+            "step_map_max_modulus"]
     out = {k: r.get(k) for k in keys if k in r}
     out["attempts"] = [{k: a.get(k) for k in ("start", "success", "message", "iterations", "wall_time_median",
                                                 "display_only", "nearby")} for a in r.get("attempts", [])]
     return out
+
+
+def mu_text(dom):
+    """The dominant Floquet multiplier as text: ``-1.1085`` or ``0.9566 ± 0.3196i``."""
+    if not dom:
+        return "none"
+    re_, im = dom
+    text = f"{re_:.4f}" if abs(im) < 1e-9 else f"{re_:.4f} ± {abs(im):.4f}i"
+    return text.replace("-", "\u2212")
+
+
+def stability_numbers(prefix, r):
+    """Stability of one solve result for the text: verdict, method, dominant multiplier (mshbm.stability)."""
+    st = r.get("stable") if r.get("success") else None
+    method = r.get("stability_method") or "none: not assessed"
+    dom = r.get("floquet_dominant")
+    kind = ""
+    if dom and st is False:
+        kind = ("period-doubling (flip)" if abs(dom[1]) < 1e-9 and dom[0] < 0 else
+                "fold" if abs(dom[1]) < 1e-9 else "Neimark\u2013Sacker (torus)")
+    if st is True:
+        verdict = "stable"
+    elif st is False:
+        verdict = f"unstable: {kind} instability, dominant Floquet multiplier {mu_text(dom)}"
+    else:
+        verdict = "undecided (" + (r.get("stability_reason") or method) + ")"
+    return {f"{prefix}_stable": st, f"{prefix}_stability": verdict, f"{prefix}_stability_word":
+            {True: "stable", False: "unstable", None: "undecided"}[st],
+            f"{prefix}_stability_method": method, f"{prefix}_floquet": r.get("floquet_max_modulus"),
+            f"{prefix}_mu": mu_text(dom), f"{prefix}_instability_kind": kind or "none",
+            f"{prefix}_step_map_floquet": r.get("step_map_max_modulus")}
+
+
+def _times(lo, hi):
+    words = {0: "never", 1: "once", 2: "twice"}
+    if lo == hi:
+        return words.get(lo, f"{lo} times")
+    return "at most once" if (lo, hi) == (0, 1) else f"{lo} to {hi} times"
+
+
+def longrun_numbers(lr):
+    """What the system does from rest (scripts/longrun.py), for the text."""
+    if not lr:
+        return {}
+    num = {"longrun_periods": lr["periods"], "longrun_period": lr["response_period"],
+           "longrun_settled": bool(lr["settled"]),
+           "longrun_mj_steps": lr["moreau_jean"]["steps"], "longrun_wall": lr["wall_time_s"],
+           "longrun_impacts_per_period": ", ".join(map(str, lr["impacts_per_period_last"])),
+           "longrun_tail_impacts_min": lr["impacts_per_period_tail"][0],
+           "longrun_tail_impacts_max": lr["impacts_per_period_tail"][1],
+           "longrun_tail_impacts_text": _times(*lr["impacts_per_period_tail"])}
+    if lr["settled"]:
+        num.update(longrun_amp_max=lr["amplitude_first_max"], longrun_amp_min=lr["amplitude_first_min"],
+                   longrun_mj_amp_max=lr["moreau_jean"]["amplitude_first_max"],
+                   longrun_mj_amp_min=lr["moreau_jean"]["amplitude_first_min"],
+                   longrun_impact_times=", ".join(f"{i['t_mod_T']:.3f}" for imps in
+                                                  lr["impacts_last"][-lr["response_period"]:] for i in imps))
+        orb = lr.get("response_orbit") or {}
+        num.update(longrun_orbit_success=bool(orb.get("success")), longrun_orbit_floquet=orb.get("max_modulus"),
+                   longrun_orbit_stable=orb.get("stable"), longrun_orbit_amp=orb.get("amplitude_first"),
+                   longrun_orbit_mu=mu_text(orb.get("dominant_multiplier")))
+    else:
+        lo, hi = lr["amplitude_first_tail_range"]
+        num.update(longrun_tail=lr["tail"], longrun_tail_amp_min=lo, longrun_tail_amp_max=hi,
+                   longrun_mj_last=", ".join(f"{a:.4f}" for a in lr["moreau_jean"]["amplitude_first_last"]),
+                   longrun_exact_last=", ".join(f"{a:.4f}" for a in lr["amplitude_first_last"]))
+    return num
+
+
+def impact_time_numbers(it):
+    """Candidates for the paper's impact time of Fig. 6 (scripts/impact_time.py), for the text."""
+    if not it:
+        return {}
+    num = {f"it_{k}": v for k, v in it["numbers"].items() if not isinstance(v, list)}
+    num.update({f"it_{k}": ", ".join(f"{t:.3f}" for t in v) for k, v in it["numbers"].items() if isinstance(v, list)})
+    c = it["closest"]
+    num.update(it_paper_time=it["paper_impact_time"], it_closest_name=c["name"], it_closest_which=c["which"],
+               it_closest_t=c["t"], it_closest_distance=c["distance"], it_coexisting=it["n_coexisting_orbits"],
+               it_coexisting_starts=it["n_coexisting_starts"], it_periods=it["periods_from_rest"])
+    return num
 
 
 def amp_errors(r, ref):
@@ -107,8 +189,10 @@ def summarize_timefigure(fig, fcfg, res):
             num[f"{k}_err_max"] = out["errors"][k]["err_max"]
             num[f"{k}_err_first"] = out["errors"][k]["err_first"]
             num[f"{k}_err_last"] = out["errors"][k]["err_last"]
-    for k in ("reference", "shooting"):
-        num[f"{k}_floquet"] = methods[k].get("floquet_max_modulus")
+    for k in ("reference", "shooting", "mshbm", "hbm"):
+        num.update(stability_numbers(k, methods[k]))
+    num.update(longrun_numbers(res.get("longrun")))
+    num.update(impact_time_numbers(res.get("impact_time")))
     claims = []
     if fig == "fig3":
         num["stick_fraction_shooting"] = sh.get("stick_or_closed_fraction")
@@ -161,6 +245,9 @@ def summarize_timefigure(fig, fcfg, res):
                     if t_sh is not None else "no impact found")
             if not hb["success"]:
                 ours += "; HBM did not converge"
+            if num.get("it_closest_name"):
+                ours += (f"; no candidate puts a periodic impact at 0.55 s: closest {num['it_closest_name']}, "
+                         f"{num['it_closest_which']}, t = {num['it_closest_t']:.3f} s")
             claims.append(_claim(fig, "jump", ours, "agrees (jump), time differs" if t_sh is not None
                                  and abs(t_sh - 0.55) > 0.05 else "agrees"))
     out["numbers"] = num
@@ -260,7 +347,6 @@ def summarize_sweep(fig, fcfg, res, clock="wall"):
         [x for x in (_load(sh), _load(res.get("shooting-fd") or {})) if x is not None]
     cpus = ((sh.get("machine") or {}).get("before") or {}).get("cpus")
     num = {"reference_amp_first": shref.get("amplitude_first"), "reference_amp_last": shref.get("amplitude_last"),
-           "reference_floquet": shref.get("floquet_max_modulus"), "shooting_floquet": sh.get("floquet_max_modulus"),
            "reference_start": shref.get("start_used"), "shooting_start": sh.get("start_used"),
            "reference_iterations": shref.get("iterations"), "shooting_iterations": sh.get("iterations"),
            "shooting_err_first": floor["err_first"], "shooting_err_last": floor["err_last"],
@@ -281,13 +367,22 @@ def summarize_sweep(fig, fcfg, res, clock="wall"):
            "reference_stick_fraction": shref.get("stick_or_closed_fraction"),
            "reference_impulse_steps": shref.get("impulse_steps"),
            "reference_impact_clusters": shref.get("impact_clusters")}
+    num.update(stability_numbers("reference", shref))
+    num.update(stability_numbers("shooting", sh))
+    for nh in nhs:
+        num.update(stability_numbers(f"mshbm_nh{nh}", res[f"mshbm_nh{nh}"]))
+    for method in ("hbm", "mshbm"):  # verdicts of the converged solutions of the sweep
+        verdicts = [res[f"{method}_nh{nh}"].get("stable") for nh in nhs if res[f"{method}_nh{nh}"].get("success")]
+        num[f"{method}_stable_count"] = sum(v is True for v in verdicts)
+        num[f"{method}_unstable_count"] = sum(v is False for v in verdicts)
+        num[f"{method}_undecided_count"] = sum(v is None for v in verdicts)
     if "check" in res:
         chk = res["check"]
         out["check"] = facts_subset(chk)
         num.update(check_success=bool(chk["success"]), check_amp_first=chk.get("amplitude_first"),
                    check_amp_last=chk.get("amplitude_last"),
                    check_stick_fraction=chk.get("stick_or_closed_fraction"),
-                   check_floquet=chk.get("floquet_max_modulus"))
+                   check_floquet=chk.get("floquet_max_modulus"), check_stable=chk.get("stable"))
     for row in rows:
         p = f"{row['method']}_nh{row['harmonics']}"
         for k in ("success", "start", "err_first", "err_last", "effort", "time_median", "iterations", "nfev",
@@ -450,8 +545,9 @@ def summarize_fig7(fcfg, res):
     num = {"reference_impulse_steps": ref.get("impulse_steps"),
            "reference_impact_clusters": ref.get("impact_clusters"),
            "reference_max_cluster": max(ref.get("impact_cluster_sizes") or [0]),
-           "reference_floquet": ref.get("floquet_max_modulus"), "reference_start": ref.get("start_used"),
-           "reference_stable": ref.get("stable"), "reference_amp_first": ref.get("amplitude_first")}
+           "reference_start": ref.get("start_used"), "reference_amp_first": ref.get("amplitude_first")}
+    num.update(stability_numbers("reference", ref))
+    num.update(longrun_numbers(res.get("longrun")))
     for method in ("hbm", "mshbm"):
         for nh in fcfg["harmonics"]:
             r = res[f"{method}_nh{nh}"]
@@ -465,6 +561,7 @@ def summarize_fig7(fcfg, res):
             num[f"{p}_contact_episodes"] = r.get("contact_episodes")
             num[f"{p}_max_penetration"] = r.get("max_penetration")
             num[f"{p}_err_first"] = rel_err(r.get("amplitude_first"), ref["amplitude_first"]) if r["success"] else None
+            num.update(stability_numbers(p, r))
     # accumulation of impacts: mshbm.accumulation on the exact event-driven solution (impact times to machine
     # precision) where it converged, else on the impulse steps of the reference full shooting
     ex = res.get("exact") or {}
@@ -512,6 +609,7 @@ def system_numbers(scfg):
 
 def main(fig, fcfg, inputs, out_path, clock="wall", scfg=None):
     res = {name: load_json(path) for name, path in inputs.items()}
+    out_extra = {k: res[k] for k in ("longrun", "impact_time") if k in res}
     if fig in ("fig3", "fig5", "fig6"):
         out = summarize_timefigure(fig, fcfg, res)
     elif fig in ("fig4", "fig8"):
@@ -521,6 +619,10 @@ def main(fig, fcfg, inputs, out_path, clock="wall", scfg=None):
     else:
         raise ValueError(f"no summary for {fig}")
     out["labels"] = METHOD_LABELS
+    if "longrun" in out_extra:  # what the system does from rest (figure panels, notebooks)
+        out["longrun"] = {k: v for k, v in out_extra["longrun"].items() if k != "amplitude_first_all"}
+    if "impact_time" in out_extra:
+        out["impact_time"] = out_extra["impact_time"]
     if scfg is not None:
         out["numbers"].update({f"sys_{k}": v for k, v in system_numbers(scfg).items()})
     for key in ("hbm_harmonics", "mshbm_harmonics"):

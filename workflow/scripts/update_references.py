@@ -36,6 +36,11 @@ TOLERANCES = [
     (r"(^|_)nh_(1pct|2pct)$|^(hbm|mshbm|mshbmfd)_(converged|failed)$|^both_converged$|^mshbm_better_count$",
      "exact", 0, 0, "counts and thresholds in n_H: exact"),
     (r"friction_bound$", "number", 1e-12, 0, "mu F_N from the configuration"),
+    (r"(^|_)stable$", "exact", 0, 0, "stability verdicts of the exact flow (true / false / null): exact"),
+    (r"^longrun_period$|^it_.*rest_period$|^it_coexisting$", "exact", 0, 0,
+     "period of the response from rest, number of coexisting orbits found: exact"),
+    (r"^it_.*impact_time$", "number", 0, 1e-6, "impact times of exact periodic orbits (s): 1e-6 s"),
+    (r"^longrun_(amp_max|amp_min)$", "number", 1e-6, 1e-9, "amplitudes of the settled response from rest"),
 ]
 
 

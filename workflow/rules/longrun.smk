@@ -1,0 +1,38 @@
+# What the impact chains do next to their (unstable) T-periodic orbits: the exact event-driven flow
+# from rest over config `longrun.periods` periods, with a Moreau-Jean cross-check (scripts/longrun.py),
+# and the candidates for the impact time of Fig. 6 (scripts/impact_time.py).
+
+
+rule longrun:
+    output:
+        json=f"{R}/longrun/{{case}}.json",
+        npz=f"{R}/longrun/{{case}}.npz",
+    params:
+        cfg=lambda w: {"omega_over_pi": config["omega_over_pi"], "systems": {w.case: config["systems"][w.case]},
+                       "numerics": {k: NUMERICS[k] for k in ("steps", "theta")}, "longrun": config["longrun"]},
+        solver=SOLVER_DIGEST,
+    log:
+        f"{R}/logs/longrun/{{case}}.log",
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=30,
+    script:
+        "../scripts/longrun.py"
+
+
+rule impact_time:
+    output:
+        json=f"{R}/longrun/impact_time_{{case}}.json",
+    params:
+        cfg=lambda w: {"omega_over_pi": config["omega_over_pi"], "systems": {w.case: config["systems"][w.case]},
+                       "numerics": {k: NUMERICS[k] for k in ("steps", "theta")}, "longrun": config["longrun"]},
+        solver=SOLVER_DIGEST,
+    log:
+        f"{R}/logs/longrun/impact_time_{{case}}.log",
+    threads: 1
+    resources:
+        mem_mb=1000,
+        runtime=30,
+    script:
+        "../scripts/impact_time.py"
