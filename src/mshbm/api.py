@@ -242,7 +242,8 @@ def _solve(system, omega, method, options):
         if sopts.get("guess") is None and sopts.get("continuation", True) and not starts.active():
             # default start: a ladder of starts, the first accepted one wins (mshbm.starts)
             res = starts.solve_from_starts(problem, method, system, omega, nkw,
-                                           starts.residual_accept(problem, system, omega), solve_options=options)
+                                           starts.residual_accept(problem, system, omega, max_iter=nkw["max_iter"]),
+                                           solve_options=options)
         else:
             res = newton(problem.residual, x0, fallback=bool(sopts.get("continuation", True)), **nkw)
         fallback = None

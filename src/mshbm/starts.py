@@ -74,7 +74,8 @@ from .errors import InputError
 from .newton import NewtonResult, newton
 
 __all__ = ["solve_from_starts", "residual_accept", "Attempt", "DEFAULT_STARTS", "active", "shifted_system",
-           "clamped_response", "force_scale", "displacement_scale"]
+           "clamped_response", "force_scale", "displacement_scale",
+           "impact_jump"]
 
 #: default order of the starts (those that do not apply to a method or system are skipped)
 DEFAULT_STARTS = ("guess", "linear", "regularisation", "shifted", "clamped", "zero", "exact", "transient",
@@ -202,25 +203,46 @@ def _time_step(problem):
     return h
 
 
-def residual_accept(problem, system, omega, rtol=1e-8, step_accuracy=True):
+def impact_jump(system, parts):
+    """Largest velocity jump at an impact of the solution, ``|P| / M_dd`` over the contact elements
+    (0 without contacts); ``parts`` from ``problem.solution_parts``."""
+    P = parts.get("impulses")
+    if P is None or not P.size:
+        return 0.0
+    M = system.M
+    mdiag = M.diagonal() if sp.issparse(M) else np.diag(np.asarray(M))
+    J = 0.0
+    for j, el in enumerate(system.elements):
+        if el.kind == "contact" and j < P.shape[1]:
+            J = max(J, float(np.max(np.abs(P[:, j]), initial=0.0)) / float(mdiag[el.dof]))
+    return J
+
+
+def residual_accept(problem, system, omega, rtol=1e-8, step_accuracy=True, max_iter=None):
     """Predicate ``accept(attempt) -> bool`` on the residual in physical units (start-independent).
 
     The residual is re-evaluated at the final unknowns.  Every entry is compared with a scale that
     depends neither on the start nor on the solution: forces (HBM; the harmonic block of
     ``mshbm-intermediate``) with ``F`` = :func:`force_scale` (forcing and ``mu F_N``), displacements
     with ``D`` = :func:`displacement_scale` (``F`` over the stiffness, or the gap), velocities with
-    ``omega D``.  (A garbage answer at a resonance, amplitude 1e7 with ``||R|| = 500``, is rejected.)
+    ``V = omega D``.  (A garbage answer at a resonance, amplitude 1e7 with ``||R|| = 500``, is
+    rejected.)
 
     Accepted when
 
     * Newton converged and ``|R_i| <= rtol * scale_i`` for every entry; or
-    * ``step_accuracy`` and the method steps in time (shooting, MS-HBM): ``|R_i| <= h * omega *
-      scale_i`` for every displacement and velocity entry (and ``rtol`` for force entries), i.e. the
-      time series is periodic to one time step's accuracy.  The Moreau-Jean map moves an impact or a
-      stick-slip switch by whole steps, so its periodicity residual jumps by ``O(h)`` there; near
-      such an orbit the discrete problem often has *no* exact root and Newton stalls at this level
-      from any start, also from the exact event-driven orbit.  Such an attempt gets
-      ``attempt.verdict`` saying so.
+    * ``step_accuracy``, the method steps in time (shooting, MS-HBM), the solution has impacts,
+      and Newton *stalled* (stopped before ``max_iter``: no descent), with every displacement entry
+      ``|R_i| <= g h J`` and every velocity entry ``|R_i| <= g h omega J`` (force entries:
+      ``rtol F``), where ``J`` is the largest velocity jump at an impact (:func:`impact_jump`;
+      more than ``20 V`` is an implausible, run-away orbit and rejected), and ``g = 1 +
+      ||dR/dx||_2`` bounds the growth of a perturbation over the period (``||Phi||`` for
+      shooting, ``dR/dx = Phi - I``).  That is the change of the periodicity residual when the
+      impact moves by one time step: the Moreau-Jean map moves impacts by whole steps, so near
+      such an orbit the discrete problem often has *no* exact root and Newton stalls at this level from any start, also from
+      the exact event-driven orbit.  The time series is then periodic to one step's accuracy, and
+      ``attempt.verdict`` says so.  (Stick-slip switches are continuous in the velocity and make
+      no such jump: friction-only systems need a converged Newton.)
     """
     F = force_scale(system)
     D = displacement_scale(system, omega)
@@ -235,15 +257,24 @@ def residual_accept(problem, system, omega, rtol=1e-8, step_accuracy=True):
             return False
         if attempt.newton.success and np.all(np.abs(R) <= rtol * scale):
             return True
-        if not step_accuracy or h is None:
+        if not step_accuracy or h is None or (max_iter is not None and attempt.newton.nit >= max_iter):
             return False
-        bound = np.where(units == 2, rtol * F, h * float(omega) * scale)
+        J = impact_jump(system, attempt.parts())
+        if not 0.0 < J <= 20.0 * V:  # no impact, or an implausible one (a run-away orbit)
+            return False
+        _, Jac = problem.residual(attempt.x, jac=True)
+        Jac = Jac.toarray() if sp.issparse(Jac) else np.asarray(Jac)
+        if not np.all(np.isfinite(Jac)):
+            return False
+        gain = 1.0 + float(np.linalg.norm(Jac, 2))  # bounds ||Phi|| = ||(Phi - I) + I|| (shooting)
+        bound = np.where(units == 2, rtol * F, gain * h * J * np.where(units == 0, 1.0, float(omega)))
         if np.all(np.abs(R) <= bound):
             k = int(np.argmax(np.abs(R) / bound))
-            attempt.verdict = (f"periodic to one time step's accuracy, not to Newton's tolerance: |R| <= h omega "
-                               f"x scale (worst entry {abs(R[k]):.2e} <= {bound[k]:.2e}, h = {h:.3g} s); the "
-                               "Moreau-Jean map moves impacts and stick-slip switches by whole steps, and has no "
-                               "exact periodic point here")
+            attempt.verdict = (f"periodic to one time step's accuracy, not to Newton's tolerance: worst residual "
+                               f"entry {abs(R[k]):.2e} <= {bound[k]:.2e}, the change when an impact (velocity jump "
+                               f"{J:.3g}) moves by one step h = {h:.3g} s, amplified by at most {gain:.3g} over "
+                               "the period; the Moreau-Jean map moves impacts by "
+                               "whole steps and has no exact periodic point here")
             return True
         return False
 
