@@ -7,7 +7,12 @@ stick-slip) make its basin small and ragged.  The default of
 start but a ladder of starts, tried in a documented order until one of them
 gives a result that the caller's predicate ``accept(attempt) -> bool`` accepts
 (the certificate of the result; :func:`residual_accept` is a start-independent
-residual check used until then):
+residual check used until then).
+
+Notation as in the paper: ``M, C, K`` mass, damping and stiffness matrices, ``q, u``
+displacements and velocities, ``omega`` the forcing frequency (period ``T = 2 pi / omega``),
+``n_h`` harmonics, ``h = T / N`` the Moreau-Jean step, ``x`` a method's unknowns and ``R(x)``
+its residual (:func:`mshbm.api.build_problem`).  The starts, in the default order:
 
 ``"guess"``
     the caller's own guess (only when one is given to :func:`solve_from_starts`);
@@ -18,8 +23,8 @@ residual check used until then):
     times 1e-3 ... 0.3) to the requested ones (:meth:`mshbm.hbm.HBMProblem.homotopy`);
 ``"shifted"`` (time-stepping methods)
     the linear start with the *Poincare section moved*: the problem is solved for the
-    forcing delayed by ``k`` time steps, ``t0 = k h``, and the periodic solution shifted
-    back.  The time-domain unknowns ``q(0), u(0)`` of shooting and MS-HBM are
+    forcing advanced by ``k`` time steps, ``f(t + t0)`` with ``t0 = k h``, and the periodic
+    solution shifted back (only when the best failed attempt has events).  The time-domain unknowns ``q(0), u(0)`` of shooting and MS-HBM are
     discontinuous in the impact time when an impact (or a stick-slip switch) lies at the
     section ``t = 0 = T``; Newton then cycles the event across the section and stalls.
     ``t0`` is chosen as far as possible from the events of the best failed attempt.  The
@@ -35,7 +40,8 @@ residual check used until then):
     from the linear response, then from the best attempt so far;
 ``"transient"``
     Moreau-Jean simulation of the whole system (friction and impacts exact, the
-    method's steps per period) from the best start so far, Newton restarted at the
+    method's steps per period) from the best attempt so far (from rest if that one ran
+    away beyond 1e3 times :func:`displacement_scale`), Newton restarted at the
     checkpoints ``transient_periods``; time-boxed by ``transient_budget``
     (``n^2 x steps x periods``) and ``transient_seconds``.  Finds attracting orbits;
 ``"forcing"``, ``"friction"``
@@ -547,11 +553,16 @@ class _Runner:
             return None
         t0 = time.perf_counter()
         best = self._best()
-        g = best.parts() if best is not None and np.isfinite(best.newton.residual_norm) else None
-        if g is not None and all(np.all(np.isfinite(g[k])) for k in ("q_hat", "q_time", "u_time")):
-            q_hat0 = g["q_hat"]
-        else:
-            q_hat0 = linear_response(self.system, self.omega, self.n_h)
+        try:
+            g = best.parts() if best is not None else None
+        except (FloatingPointError, np.linalg.LinAlgError, ValueError):
+            g = None
+        # from the best attempt so far, unless it is not finite or has run away (then from rest)
+        D = displacement_scale(self.system, self.omega)
+        if g is not None and not (all(np.all(np.isfinite(g[k])) for k in ("q_hat", "q_time", "u_time"))
+                                  and np.max(np.abs(g["q_time"]), initial=0.0) <= 1e3 * D):
+            g = None
+        q_hat0 = g["q_hat"] if g is not None else np.zeros((2 * self.n_h + 1, self.system.n))
         start = _hat_guess(q_hat0, self.omega)
         if g is not None:
             td = np.asarray(g["time_dofs"], dtype=np.int64)
