@@ -314,3 +314,12 @@ def test_unit_scaling_gives_the_same_start_and_answer():
         sol = mshbm.solve(sys_s, W1, "shooting", harmonics=3, steps=512)
         assert sol.success and sol.info["start_used"] == base.info["start_used"]
         assert np.allclose(sol.amplitude, base.amplitude, rtol=1e-9, atol=1e-9 * base.amplitude.max())
+
+
+@pytest.mark.parametrize("method", ["shooting", "mshbm"])
+def test_continuation_true_without_guess_runs_the_start_ladder(method):
+    """continuation=True stalled at iteration 1 before (omega = 1.5, gap 0.1, e = 0.7)."""
+    sol = mshbm.solve(oscillator(0.1, 0.7), 1.5, method, steps=2000, continuation=True)
+    assert sol.success, sol.message
+    ex = exact_periodic(oscillator(0.1, 0.7), 1.5)
+    assert abs(sol.amplitude[0] / ex.info["amplitude_exact"][0] - 1) < 1e-2
