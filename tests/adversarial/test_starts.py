@@ -115,7 +115,7 @@ def _check_against_exact(sol, gap, e, omega):
     ex = exact_periodic(oscillator(gap, e), omega, guess=sol)
     assert ex.success, ex.message
     a_ex = ex.info["amplitude_exact"][0]
-    assert abs(sol.amplitude[0] - a_ex) <= 2e-2 * a_ex, (sol.amplitude[0], a_ex)
+    assert abs(sol.amplitude[0] - a_ex) <= 1e-2 * a_ex, (sol.amplitude[0], a_ex)  # measured: <= 6.1e-3
     # and the stop is respected
     assert np.max(sol.q[:, 0]) <= gap + 1e-9
 
