@@ -224,7 +224,7 @@ def impact_jump(system, parts):
     return J
 
 
-def residual_accept(problem, system, omega, rtol=1e-8, step_accuracy=True, max_iter=None):
+def residual_accept(problem, system, omega, rtol=1e-8, step_accuracy=True, max_iter=None, max_size=1e4):
     """Predicate ``accept(attempt) -> bool`` on the residual in physical units (start-independent).
 
     The residual is re-evaluated at the final unknowns.  Every entry is compared with a scale that
@@ -249,6 +249,13 @@ def residual_accept(problem, system, omega, rtol=1e-8, step_accuracy=True, max_i
       the exact event-driven orbit.  The time series is then periodic to one step's accuracy, and
       ``attempt.verdict`` says so.  (Stick-slip switches are continuous in the velocity and make
       no such jump: friction-only systems need a converged Newton.)
+
+    Rejected in any case: a solution larger than ``max_size * D`` (default 1e4 times the static
+    scale).  Near an undamped resonance of the continuous system (no periodic solution) the
+    time-stepping map, whose resonance is detuned by ``O((omega h)^2)``, has spurious periodic
+    points of amplitude ``~ D / (omega h)^2`` that the residual cannot tell from solutions
+    (e.g. 1e6 for the 3-mass chain at its first eigenfrequency with ``mu F_N = 4``, 1024 steps);
+    the rejection is a clean failure, with ``attempt.verdict`` saying why.
     """
     F = force_scale(system)
     D = displacement_scale(system, omega)
@@ -260,6 +267,13 @@ def residual_accept(problem, system, omega, rtol=1e-8, step_accuracy=True, max_i
     def accept(attempt):
         R, _ = problem.residual(attempt.x, jac=False)
         if not np.all(np.isfinite(R)):
+            return False
+        parts = attempt.parts()
+        size = max(float(np.max(np.abs(parts["q_time"]), initial=0.0)),
+                   float(np.max(np.sum(np.abs(parts["q_hat"]), axis=0), initial=0.0)))
+        if not size <= max_size * D:
+            attempt.verdict = (f"rejected: displacements up to {size:.3g}, more than {max_size:g} times the static "
+                               f"scale {D:.3g} (a spurious large orbit near an undamped resonance?)")
             return False
         if attempt.newton.success and np.all(np.abs(R) <= rtol * scale):
             return True
@@ -713,7 +727,8 @@ def solve_from_starts(problem, method, system, omega, newton_options, accept, *,
             raise InputError("starts", "no start applies")
         res = best.newton
         res.success = False
-        tried = "; ".join(f"{a.start}: {'rejected (' + a.newton.message + ')' if a.newton.success else a.newton.message}"
+        tried = "; ".join(f"{a.start}: " + (a.verdict if a.verdict else ("rejected (" + a.newton.message + ")"
+                                                                      if a.newton.success else a.newton.message))
                           for a in run.attempts)
         res.message = (f"no start led to an accepted solution; best ||R||_inf = {best.newton.residual_norm:.2e} "
                        f"from start '{best.start}'; starts tried: {tried}")

@@ -326,3 +326,31 @@ def test_continuation_true_without_guess_runs_the_start_ladder(method):
     assert sol.success, sol.message
     ex = exact_periodic(oscillator(0.1, 0.7), 1.5)
     assert abs(sol.amplitude[0] / ex.info["amplitude_exact"][0] - 1) < 1e-2
+
+
+# ------------------------------------------------------------------------------------------------
+# the 3-mass friction chain over friction bounds and frequencies (exact event-driven reference)
+
+FRICTION_CASES = [(fn, w) for fn in (5.0, 25.0, 100.0) for w in (0.3, W1, 0.6, 0.9, 1.247, 1.5)]
+
+
+@pytest.mark.parametrize("method", ["shooting", "mshbm", "mshbm-intermediate"])
+@pytest.mark.parametrize("normal_force,omega", FRICTION_CASES)
+def test_friction_chain_default_start(normal_force, omega, method):
+    """Stick, stick-slip and slip; successes are checked against the exact orbit (1024 steps; MS-HBM
+    with 5 harmonics: truncation error up to 0.3 %).  At the first eigenfrequency with mu F_N = 4 the
+    friction cannot balance the resonant forcing: the exact solver finds no periodic orbit and the
+    time-stepping map has only spurious ones (amplitude ~1e6); this must be a clean failure (before:
+    success with amplitudes 5e6..2e7)."""
+    system = chain([1, 1, 1], 1.0, forcing=[{"dof": 2, "amplitude": 5.0}],
+                   elements=[Friction(0, 0.8, normal_force)])
+    sol = mshbm.solve(system, omega, method, harmonics=5, steps=1024)
+    if normal_force == 5.0 and omega == W1:
+        _check_clean_failure(sol)
+        assert not exact_periodic(system, omega, guess=sol, max_iter=10).success
+        return
+    assert sol.success, sol.message
+    ex = exact_periodic(system, omega, guess=sol)
+    assert ex.success, ex.message
+    a_ex = ex.info["amplitude_exact"]
+    assert np.allclose(sol.amplitude, a_ex, rtol=5e-3, atol=1e-6 * a_ex.max()), (sol.amplitude, a_ex)
