@@ -184,7 +184,8 @@ def solve(system, omega, method="mshbm", **options):
     **options
         ``harmonics`` (n_h, default 5; shooting: harmonics of the reported
         ``q_hat``, default 10), ``steps`` (time steps per period; default 4096,
-        HBM: AFT samples, see :func:`default_steps`), ``guess`` (``None`` or
+        HBM: AFT samples, see :func:`default_steps`), ``guess`` (``None``:
+        a ladder of starts, the first accepted one wins, :mod:`mshbm.starts`;
         ``"linear"``: linear response; ``"zero"``; a PeriodicSolution, e.g. at a
         nearby frequency; a dict with ``q_hat``, ``q0``, ``u0``), ``tol``
         (Newton tolerance on the scaled residual ``||R / s||_inf``, rows scaled
@@ -199,8 +200,9 @@ def solve(system, omega, method="mshbm", **options):
         the solve, default 1: the dense matrices are small, and one thread keeps
         results bit-identical across machines and parallel jobs from
         oversubscribing the cores; ``None`` leaves the setting alone),
-        ``continuation`` (mixed methods: ``True`` opts in to restarts and
-        continuation fallbacks, :mod:`mshbm.continuation`; HBM: when Newton fails,
+        ``continuation`` (``False``: Newton from the one start; mixed methods with
+        a guess: ``True`` opts in to restarts and continuation fallbacks,
+        :mod:`mshbm.continuation`; HBM: when Newton fails,
         follow the exact piecewise-linear solution path of penalty contacts
         (:meth:`mshbm.hbm.HBMProblem.newton_fallback`), else
         retry by continuation from softened regularisations; default True),
@@ -223,7 +225,8 @@ def solve(system, omega, method="mshbm", **options):
         Invalid system, frequency or option (names the key).
     """
     stab = _stability.check_option(options.pop("stability", "auto"))
-    if method in ("mshbm", "mshbm-intermediate") and options.get("continuation") is True:
+    if method in ("mshbm", "mshbm-intermediate") and options.get("continuation") is True \
+            and options.get("guess") is not None:  # guess=None: the start ladder (mshbm.starts) covers it
         from .continuation import solve_with_continuation
 
         with validate.quiet_floats():
@@ -249,7 +252,8 @@ def _solve(system, omega, method, options):
         if sopts.get("guess") is None and sopts.get("continuation", True) and not starts.active():
             # default start: a ladder of starts, the first accepted one wins (mshbm.starts)
             res = starts.solve_from_starts(problem, method, system, omega, nkw,
-                                           starts.residual_accept(problem, system, omega), solve_options=options)
+                                           starts.residual_accept(problem, system, omega, max_iter=nkw["max_iter"]),
+                                           solve_options=options)
         else:
             res = newton(problem.residual, x0, fallback=bool(sopts.get("continuation", True)), **nkw)
         fallback = None

@@ -7,7 +7,12 @@ stick-slip) make its basin small and ragged.  The default of
 start but a ladder of starts, tried in a documented order until one of them
 gives a result that the caller's predicate ``accept(attempt) -> bool`` accepts
 (the certificate of the result; :func:`residual_accept` is a start-independent
-residual check used until then):
+residual check used until then).
+
+Notation as in the paper: ``M, C, K`` mass, damping and stiffness matrices, ``q, u``
+displacements and velocities, ``omega`` the forcing frequency (period ``T = 2 pi / omega``),
+``n_h`` harmonics, ``h = T / N`` the Moreau-Jean step, ``x`` a method's unknowns and ``R(x)``
+its residual (:func:`mshbm.api.build_problem`).  The starts, in the default order:
 
 ``"guess"``
     the caller's own guess (only when one is given to :func:`solve_from_starts`);
@@ -18,8 +23,8 @@ residual check used until then):
     times 1e-3 ... 0.3) to the requested ones (:meth:`mshbm.hbm.HBMProblem.homotopy`);
 ``"shifted"`` (time-stepping methods)
     the linear start with the *Poincare section moved*: the problem is solved for the
-    forcing delayed by ``k`` time steps, ``t0 = k h``, and the periodic solution shifted
-    back.  The time-domain unknowns ``q(0), u(0)`` of shooting and MS-HBM are
+    forcing advanced by ``k`` time steps, ``f(t + t0)`` with ``t0 = k h``, and the periodic
+    solution shifted back (only when the best failed attempt has events).  The time-domain unknowns ``q(0), u(0)`` of shooting and MS-HBM are
     discontinuous in the impact time when an impact (or a stick-slip switch) lies at the
     section ``t = 0 = T``; Newton then cycles the event across the section and stalls.
     ``t0`` is chosen as far as possible from the events of the best failed attempt.  The
@@ -35,7 +40,8 @@ residual check used until then):
     from the linear response, then from the best attempt so far;
 ``"transient"``
     Moreau-Jean simulation of the whole system (friction and impacts exact, the
-    method's steps per period) from the best start so far, Newton restarted at the
+    method's steps per period) from the best attempt so far (from rest if that one ran
+    away beyond 1e3 times :func:`displacement_scale`), Newton restarted at the
     checkpoints ``transient_periods``; time-boxed by ``transient_budget``
     (``n^2 x steps x periods``) and ``transient_seconds``.  Finds attracting orbits;
 ``"forcing"``, ``"friction"``
@@ -74,7 +80,8 @@ from .errors import InputError
 from .newton import NewtonResult, newton
 
 __all__ = ["solve_from_starts", "residual_accept", "Attempt", "DEFAULT_STARTS", "active", "shifted_system",
-           "clamped_response", "force_scale", "displacement_scale"]
+           "clamped_response", "force_scale", "displacement_scale",
+           "impact_jump"]
 
 #: default order of the starts (those that do not apply to a method or system are skipped)
 DEFAULT_STARTS = ("guess", "linear", "regularisation", "shifted", "clamped", "zero", "exact", "transient",
@@ -202,25 +209,53 @@ def _time_step(problem):
     return h
 
 
-def residual_accept(problem, system, omega, rtol=1e-8, step_accuracy=True):
+def impact_jump(system, parts):
+    """Largest velocity jump at an impact of the solution, ``|P| / M_dd`` over the contact elements
+    (0 without contacts); ``parts`` from ``problem.solution_parts``."""
+    P = parts.get("impulses")
+    if P is None or not P.size:
+        return 0.0
+    M = system.M
+    mdiag = M.diagonal() if sp.issparse(M) else np.diag(np.asarray(M))
+    J = 0.0
+    for j, el in enumerate(system.elements):
+        if el.kind == "contact" and j < P.shape[1]:
+            J = max(J, float(np.max(np.abs(P[:, j]), initial=0.0)) / float(mdiag[el.dof]))
+    return J
+
+
+def residual_accept(problem, system, omega, rtol=1e-8, step_accuracy=True, max_iter=None, max_size=1e4):
     """Predicate ``accept(attempt) -> bool`` on the residual in physical units (start-independent).
 
     The residual is re-evaluated at the final unknowns.  Every entry is compared with a scale that
     depends neither on the start nor on the solution: forces (HBM; the harmonic block of
     ``mshbm-intermediate``) with ``F`` = :func:`force_scale` (forcing and ``mu F_N``), displacements
     with ``D`` = :func:`displacement_scale` (``F`` over the stiffness, or the gap), velocities with
-    ``omega D``.  (A garbage answer at a resonance, amplitude 1e7 with ``||R|| = 500``, is rejected.)
+    ``V = omega D``.  (A garbage answer at a resonance, amplitude 1e7 with ``||R|| = 500``, is
+    rejected.)
 
     Accepted when
 
     * Newton converged and ``|R_i| <= rtol * scale_i`` for every entry; or
-    * ``step_accuracy`` and the method steps in time (shooting, MS-HBM): ``|R_i| <= h * omega *
-      scale_i`` for every displacement and velocity entry (and ``rtol`` for force entries), i.e. the
-      time series is periodic to one time step's accuracy.  The Moreau-Jean map moves an impact or a
-      stick-slip switch by whole steps, so its periodicity residual jumps by ``O(h)`` there; near
-      such an orbit the discrete problem often has *no* exact root and Newton stalls at this level
-      from any start, also from the exact event-driven orbit.  Such an attempt gets
-      ``attempt.verdict`` saying so.
+    * ``step_accuracy``, the method steps in time (shooting, MS-HBM), the solution has impacts,
+      and Newton *stalled* (stopped before ``max_iter``: no descent), with every displacement entry
+      ``|R_i| <= g h J`` and every velocity entry ``|R_i| <= g h omega J`` (force entries:
+      ``rtol F``), where ``J`` is the largest velocity jump at an impact (:func:`impact_jump`;
+      more than ``20 V`` is an implausible, run-away orbit and rejected), and ``g = 1 +
+      ||dR/dx||_2`` bounds the growth of a perturbation over the period (``||Phi||`` for
+      shooting, ``dR/dx = Phi - I``).  That is the change of the periodicity residual when the
+      impact moves by one time step: the Moreau-Jean map moves impacts by whole steps, so near
+      such an orbit the discrete problem often has *no* exact root and Newton stalls at this level from any start, also from
+      the exact event-driven orbit.  The time series is then periodic to one step's accuracy, and
+      ``attempt.verdict`` says so.  (Stick-slip switches are continuous in the velocity and make
+      no such jump: friction-only systems need a converged Newton.)
+
+    Rejected in any case: a solution larger than ``max_size * D`` (default 1e4 times the static
+    scale).  Near an undamped resonance of the continuous system (no periodic solution) the
+    time-stepping map, whose resonance is detuned by ``O((omega h)^2)``, has spurious periodic
+    points of amplitude ``~ D / (omega h)^2`` that the residual cannot tell from solutions
+    (e.g. 1e6 for the 3-mass chain at its first eigenfrequency with ``mu F_N = 4``, 1024 steps);
+    the rejection is a clean failure, with ``attempt.verdict`` saying why.
     """
     F = force_scale(system)
     D = displacement_scale(system, omega)
@@ -233,17 +268,33 @@ def residual_accept(problem, system, omega, rtol=1e-8, step_accuracy=True):
         R, _ = problem.residual(attempt.x, jac=False)
         if not np.all(np.isfinite(R)):
             return False
+        parts = attempt.parts()
+        size = max(float(np.max(np.abs(parts["q_time"]), initial=0.0)),
+                   float(np.max(np.sum(np.abs(parts["q_hat"]), axis=0), initial=0.0)))
+        if not size <= max_size * D:
+            attempt.verdict = (f"rejected: displacements up to {size:.3g}, more than {max_size:g} times the static "
+                               f"scale {D:.3g} (a spurious large orbit near an undamped resonance?)")
+            return False
         if attempt.newton.success and np.all(np.abs(R) <= rtol * scale):
             return True
-        if not step_accuracy or h is None:
+        if not step_accuracy or h is None or (max_iter is not None and attempt.newton.nit >= max_iter):
             return False
-        bound = np.where(units == 2, rtol * F, h * float(omega) * scale)
+        J = impact_jump(system, attempt.parts())
+        if not 0.0 < J <= 20.0 * V:  # no impact, or an implausible one (a run-away orbit)
+            return False
+        _, Jac = problem.residual(attempt.x, jac=True)
+        Jac = Jac.toarray() if sp.issparse(Jac) else np.asarray(Jac)
+        if not np.all(np.isfinite(Jac)):
+            return False
+        gain = 1.0 + float(np.linalg.norm(Jac, 2))  # bounds ||Phi|| = ||(Phi - I) + I|| (shooting)
+        bound = np.where(units == 2, rtol * F, gain * h * J * np.where(units == 0, 1.0, float(omega)))
         if np.all(np.abs(R) <= bound):
             k = int(np.argmax(np.abs(R) / bound))
-            attempt.verdict = (f"periodic to one time step's accuracy, not to Newton's tolerance: |R| <= h omega "
-                               f"x scale (worst entry {abs(R[k]):.2e} <= {bound[k]:.2e}, h = {h:.3g} s); the "
-                               "Moreau-Jean map moves impacts and stick-slip switches by whole steps, and has no "
-                               "exact periodic point here")
+            attempt.verdict = (f"periodic to one time step's accuracy, not to Newton's tolerance: worst residual "
+                               f"entry {abs(R[k]):.2e} <= {bound[k]:.2e}, the change when an impact (velocity jump "
+                               f"{J:.3g}) moves by one step h = {h:.3g} s, amplified by at most {gain:.3g} over "
+                               "the period; the Moreau-Jean map moves impacts by "
+                               "whole steps and has no exact periodic point here")
             return True
         return False
 
@@ -516,11 +567,16 @@ class _Runner:
             return None
         t0 = time.perf_counter()
         best = self._best()
-        g = best.parts() if best is not None and np.isfinite(best.newton.residual_norm) else None
-        if g is not None and all(np.all(np.isfinite(g[k])) for k in ("q_hat", "q_time", "u_time")):
-            q_hat0 = g["q_hat"]
-        else:
-            q_hat0 = linear_response(self.system, self.omega, self.n_h)
+        try:
+            g = best.parts() if best is not None else None
+        except (FloatingPointError, np.linalg.LinAlgError, ValueError):
+            g = None
+        # from the best attempt so far, unless it is not finite or has run away (then from rest)
+        D = displacement_scale(self.system, self.omega)
+        if g is not None and not (all(np.all(np.isfinite(g[k])) for k in ("q_hat", "q_time", "u_time"))
+                                  and np.max(np.abs(g["q_time"]), initial=0.0) <= 1e3 * D):
+            g = None
+        q_hat0 = g["q_hat"] if g is not None else np.zeros((2 * self.n_h + 1, self.system.n))
         start = _hat_guess(q_hat0, self.omega)
         if g is not None:
             td = np.asarray(g["time_dofs"], dtype=np.int64)
@@ -671,7 +727,8 @@ def solve_from_starts(problem, method, system, omega, newton_options, accept, *,
             raise InputError("starts", "no start applies")
         res = best.newton
         res.success = False
-        tried = "; ".join(f"{a.start}: {'rejected (' + a.newton.message + ')' if a.newton.success else a.newton.message}"
+        tried = "; ".join(f"{a.start}: " + (a.verdict if a.verdict else ("rejected (" + a.newton.message + ")"
+                                                                      if a.newton.success else a.newton.message))
                           for a in run.attempts)
         res.message = (f"no start led to an accepted solution; best ||R||_inf = {best.newton.residual_norm:.2e} "
                        f"from start '{best.start}'; starts tried: {tried}")

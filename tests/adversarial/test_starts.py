@@ -18,7 +18,11 @@ from mshbm.errors import InputError
 from mshbm.exact import exact_periodic
 from mshbm.newton import newton
 
-starts = pytest.importorskip("mshbm.starts")
+try:
+    from mshbm import starts
+except ImportError:  # the package before the start strategy (counting the cases wrong there)
+    starts = None
+needs_starts = pytest.mark.skipif(starts is None, reason="tests a piece of mshbm.starts")
 
 METHODS = ("shooting", "hbm", "mshbm", "mshbm-intermediate")
 
@@ -64,6 +68,7 @@ def test_stick_case_converges_to_the_clamped_chain(method, omega):
     assert "starts" in sol.info and sol.info["start_used"] in {r["start"] for r in sol.info["starts"]}
 
 
+@needs_starts
 @pytest.mark.parametrize("method", METHODS)
 def test_residual_check_rejects_the_garbage_of_the_linear_start(method):
     """At the resonance the linear start (amplitude ~1e7..1e16) 'converges' under the old test
@@ -76,6 +81,7 @@ def test_residual_check_rejects_the_garbage_of_the_linear_start(method):
     assert not starts.residual_accept(problem, system, W1)(att)
 
 
+@needs_starts
 def test_clamped_response_is_the_exact_stick_solution():
     q_hat = starts.clamped_response(stick_chain(), W1, 3)
     amp = np.abs(q_hat[1])  # cos coefficients: the forcing is 5 cos(omega t), no damping
@@ -109,7 +115,7 @@ def _check_against_exact(sol, gap, e, omega):
     ex = exact_periodic(oscillator(gap, e), omega, guess=sol)
     assert ex.success, ex.message
     a_ex = ex.info["amplitude_exact"][0]
-    assert abs(sol.amplitude[0] - a_ex) <= 2e-2 * a_ex, (sol.amplitude[0], a_ex)
+    assert abs(sol.amplitude[0] - a_ex) <= 1e-2 * a_ex, (sol.amplitude[0], a_ex)  # measured: <= 6.1e-3
     # and the stop is respected
     assert np.max(sol.q[:, 0]) <= gap + 1e-9
 
@@ -134,7 +140,7 @@ def test_impact_oscillator_shooting_default_start(gap, e, omega):
 
 def test_impact_oscillator_share_converged():
     """Before the start strategy 16 of these 60 cases converged (10 of 30 at gap 0, 6 of 30 at gap
-    0.1); now at least 48 (50 measured) do, each checked against the exact orbit above."""
+    0.1); now at least 48 (49 measured: 26 + 23) do, each checked against the exact orbit above."""
     ok = sum(_osc_solve(*c).success for c in OSC_CASES)
     assert ok >= 48, ok
 
@@ -200,7 +206,7 @@ def impact50_reference():
     system = impact50()
     w = 0.98 * math.pi / 5
     shoot = mshbm.solve(system, w, "shooting", steps=4096)
-    assert shoot.success and shoot.info["start_used"] == "linear"
+    assert shoot.success and shoot.info.get("start_used", "linear") == "linear"
     return system, w, shoot
 
 
@@ -225,6 +231,7 @@ def test_impact50_at_098_omega(impact50_reference, method, n_h):
 # the pieces of the strategy
 
 
+@needs_starts
 @pytest.mark.parametrize("t0", [0.0, 0.37, 2.5])
 def test_shifted_system_is_the_time_shifted_forcing(t0):
     system = chain([1.0, 2.0], [1.0, 3.0], 0.1, forcing=[{"dof": 1, "amplitude": 2.0, "sin": 0.5},
@@ -238,6 +245,7 @@ def test_shifted_system_is_the_time_shifted_forcing(t0):
     assert np.allclose(q_s, starts._shift_hat(linear_response(system, w, 3), w, t0), rtol=0, atol=1e-12)
 
 
+@needs_starts
 def test_section_shift_avoids_events():
     parts = {"impulses": np.zeros((100, 1)), "t": np.linspace(0, 1, 101)}
     parts["impulses"][[3, 97]] = 1.0
@@ -249,6 +257,7 @@ def test_section_shift_avoids_events():
     assert min(abs(k - 40), 100 - abs(k - 40)) == 50
 
 
+@needs_starts
 def test_failure_reports_best_residual_and_every_start():
     """With a predicate that accepts nothing every applicable start is tried, and the attempt with
     the smallest residual is returned as a failure."""
@@ -265,6 +274,7 @@ def test_failure_reports_best_residual_and_every_start():
     assert res.nit == sum(r["iterations"] + r["extra_iterations"] for r in res.info["starts"])
 
 
+@needs_starts
 def test_explicit_guess_is_tried_first():
     system = stick_chain()
     problem, _ = build_problem(system, W1, "mshbm", harmonics=3, steps=256)
@@ -277,6 +287,7 @@ def test_explicit_guess_is_tried_first():
     assert np.allclose(np.abs(amp), clamped_amplitudes(W1), rtol=1e-4, atol=1e-9)
 
 
+@needs_starts
 def test_unknown_start_is_an_input_error():
     system = stick_chain()
     problem, _ = build_problem(system, W1, "mshbm", harmonics=3, steps=256)
@@ -290,16 +301,56 @@ def test_explicit_guess_and_continuation_false_keep_a_single_start():
         sol = mshbm.solve(system, 0.3, "mshbm", harmonics=3, steps=256, **kw)
         assert "starts" not in sol.info
         assert np.allclose(sol.amplitude[1:], clamped_amplitudes(0.3)[1:], rtol=1e-3)
-    assert not starts.active()
+    assert starts is None or not starts.active()
 
 
-def test_unit_scaling_gives_the_same_start_and_answer():
-    """M, C, K and f times s: the physical scales move with the units, the accepted start and the
-    displacements do not."""
-    base = mshbm.solve(stick_chain(), W1, "shooting", harmonics=3, steps=512)
-    for s in (1e-6, 1e4):
-        sys_s = chain([s] * 3, s, forcing=[{"dof": 2, "amplitude": 5.0 * s}],
-                      elements=[Friction(0, 0.8, 100.0 * s)])
-        sol = mshbm.solve(sys_s, W1, "shooting", harmonics=3, steps=512)
-        assert sol.success and sol.info["start_used"] == base.info["start_used"]
-        assert np.allclose(sol.amplitude, base.amplitude, rtol=1e-9, atol=1e-9 * base.amplitude.max())
+@pytest.mark.parametrize("scale", [1e-12, 1e-6, 1e4, 1e6])
+@pytest.mark.parametrize("method", ["shooting", "mshbm", "mshbm-intermediate"])
+def test_unit_scaling_gives_the_same_start_and_answer(method, scale):
+    """M, C, K, f and mu F_N times s: the physical scales move with the units, the accepted start and
+    the displacements do not.  (HBM is left out: its Newton test ||R|| <= tol max(1, ||x0||) is in
+    force units and not scale-invariant, which the certificate's test replaces.)"""
+    base = mshbm.solve(stick_chain(), W1, method, harmonics=3, steps=512)
+    sys_s = chain([scale] * 3, scale, forcing=[{"dof": 2, "amplitude": 5.0 * scale}],
+                  elements=[Friction(0, 0.8, 100.0 * scale)])
+    sol = mshbm.solve(sys_s, W1, method, harmonics=3, steps=512)
+    assert sol.success and sol.info["start_used"] == base.info["start_used"] == "clamped"
+    assert np.allclose(sol.amplitude, base.amplitude, rtol=1e-9, atol=1e-9 * base.amplitude.max())
+    assert np.allclose(base.amplitude, clamped_amplitudes(W1), rtol=1e-4)
+
+
+@pytest.mark.parametrize("method", ["shooting", "mshbm"])
+def test_continuation_true_without_guess_runs_the_start_ladder(method):
+    """continuation=True stalled at iteration 1 before (omega = 1.5, gap 0.1, e = 0.7)."""
+    sol = mshbm.solve(oscillator(0.1, 0.7), 1.5, method, steps=2000, continuation=True)
+    assert sol.success, sol.message
+    ex = exact_periodic(oscillator(0.1, 0.7), 1.5)
+    assert abs(sol.amplitude[0] / ex.info["amplitude_exact"][0] - 1) < 1e-2
+
+
+# ------------------------------------------------------------------------------------------------
+# the 3-mass friction chain over friction bounds and frequencies (exact event-driven reference)
+
+FRICTION_CASES = [(fn, w) for fn in (5.0, 25.0, 100.0) for w in (0.3, W1, 0.6, 0.9, 1.247, 1.5)]
+
+
+@pytest.mark.parametrize("method", ["shooting", "mshbm", "mshbm-intermediate"])
+@pytest.mark.parametrize("normal_force,omega", FRICTION_CASES)
+def test_friction_chain_default_start(normal_force, omega, method):
+    """Stick, stick-slip and slip; successes are checked against the exact orbit (1024 steps; MS-HBM
+    with 5 harmonics: truncation error up to 0.3 %).  At the first eigenfrequency with mu F_N = 4 the
+    friction cannot balance the resonant forcing: the exact solver finds no periodic orbit and the
+    time-stepping map has only spurious ones (amplitude ~1e6); this must be a clean failure (before:
+    success with amplitudes 5e6..2e7)."""
+    system = chain([1, 1, 1], 1.0, forcing=[{"dof": 2, "amplitude": 5.0}],
+                   elements=[Friction(0, 0.8, normal_force)])
+    sol = mshbm.solve(system, omega, method, harmonics=5, steps=1024)
+    if normal_force == 5.0 and omega == W1:
+        _check_clean_failure(sol)
+        assert not exact_periodic(system, omega, guess=sol, max_iter=10).success
+        return
+    assert sol.success, sol.message
+    ex = exact_periodic(system, omega, guess=sol)
+    assert ex.success, ex.message
+    a_ex = ex.info["amplitude_exact"]
+    assert np.allclose(sol.amplitude, a_ex, rtol=5e-3, atol=1e-6 * a_ex.max()), (sol.amplitude, a_ex)
