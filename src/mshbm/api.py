@@ -17,7 +17,7 @@ import numpy as np
 from ._blas import blas_threads, check_threads
 from . import starts
 
-from .certificate import apply_certificate
+from .certificate import apply_certificate, certify
 from . import stability as _stability
 from .errors import ConvergenceError, InputError
 from .fourier import SingularHarmonicError
@@ -252,7 +252,7 @@ def _solve(system, omega, method, options):
         if sopts.get("guess") is None and sopts.get("continuation", True) and not starts.active():
             # default start: a ladder of starts, the first accepted one wins (mshbm.starts)
             res = starts.solve_from_starts(problem, method, system, omega, nkw,
-                                           starts.residual_accept(problem, system, omega, max_iter=nkw["max_iter"]),
+                                           _certified_accept(problem, method, omega, sopts, nkw, system),
                                            solve_options=options)
         else:
             res = newton(problem.residual, x0, fallback=bool(sopts.get("continuation", True)), **nkw)
@@ -292,16 +292,46 @@ def _solve(system, omega, method, options):
         message += (f"; note: the condensed block is nearly singular at harmonic k={k} (rcond {rc[k]:.1e}): "
                     "k*omega is at a resonance of the linear subsystem, where the periodic solution may be "
                     "non-unique or unbounded (add damping or move omega)")
+    sol = _solution(problem, method, omega, sopts, res, parts, success, message, wall)
+    sol.info["residual_history"] = res.history
+    if "starts" in res.info:
+        sol.info["starts"], sol.info["start_used"] = res.info["starts"], res.info["start_used"]
+    step_accuracy = res.info.get("step_accuracy")
+    if step_accuracy is not None:
+        sol.info["step_accuracy"] = {"ratio": step_accuracy["ratio"], "verdict": step_accuracy["verdict"],
+                                     "bound": np.asarray(step_accuracy["bound"], dtype=float)}
+    # success only if certified (mshbm.certificate)
+    apply_certificate(problem, sol, nkw["tol"], step_accuracy)
+    if not sol.success and sopts.get("raise_on_failure", False):
+        raise ConvergenceError(sol.message)
+    return sol
+
+
+def _solution(problem, method, omega, sopts, res, parts, success, message, wall):
+    """The :class:`PeriodicSolution` of a Newton result ``res`` of ``problem`` (not yet certified)."""
+    parts = dict(parts)
     n_h = parts.pop("harmonics")
     sol = PeriodicSolution(method=method, omega=float(omega), harmonics=n_h,
                            steps=int(sopts.get("steps", getattr(problem, "N", None) or len(parts["t"]) - 1)),
                            success=success, message=message, iterations=res.nit, nfev=res.nfev,
                            residual=res.residual_norm, wall_time=wall, x=res.x, **parts)
     sol.steps = len(sol.t) - 1
-    sol.info["residual_history"] = res.history
-    if "starts" in res.info:
-        sol.info["starts"], sol.info["start_used"] = res.info["starts"], res.info["start_used"]
-    apply_certificate(problem, sol, nkw["tol"])  # success only if certified (mshbm.certificate)
-    if not sol.success and sopts.get("raise_on_failure", False):
-        raise ConvergenceError(sol.message)
     return sol
+
+
+def _certified_accept(problem, method, omega, sopts, nkw, system):
+    """Acceptance test of the start ladder (:func:`mshbm.starts.solve_from_starts`): the ladder's own
+    start-independent residual test (:func:`mshbm.starts.residual_accept`: physical units, no run-away
+    orbits, one step's accuracy at impacts) *and* the certificate of the solution it would return."""
+    first = starts.residual_accept(problem, system, omega, max_iter=nkw["max_iter"])
+
+    def accept(attempt):
+        if not first(attempt):
+            return False
+        sol = _solution(problem, method, omega, sopts, attempt.newton, attempt.parts(), True, "", 0.0)
+        cert = certify(problem, sol, nkw["tol"], attempt.step_accuracy)
+        if not cert.passed:
+            attempt.verdict = f"rejected by the certificate: {cert.describe_failures()}"
+        return cert.passed
+
+    return accept

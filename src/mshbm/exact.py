@@ -72,6 +72,10 @@ MODE_NAMES = {FREE: "free", SLIP_P: "slip+", SLIP_M: "slip-", STICK: "stick", CL
 _FIRST = np.concatenate([2.0 ** -np.arange(40, 6, -1), np.arange(1, 65) / 64.0])
 
 
+#: this many identical transitions at one instant end a simulation with an EventError (no progress)
+STALL_EVENTS = 50
+
+
 class EventError(RuntimeError):
     """The event-driven simulation cannot continue (accumulation, too many events)."""
 
@@ -138,6 +142,8 @@ class ExactFlow:
         self.system, self.omega, self.n, self.nf = system, omega, n, nf
         self.T = 2.0 * np.pi / omega
         self.max_events = int(max_events)
+        #: absolute ``time.perf_counter()`` after which :meth:`simulate` raises an EventError (None: no limit)
+        self.deadline = None
         D = 2 * n + 1 + 2 * nf
         self.D, self.i1 = D, 2 * n
         Mc = sla.cho_factor(M)
@@ -214,9 +220,14 @@ class ExactFlow:
         self.E = {m: sla.expm(A * self.h) for m, A in self.A.items()}
         rho = max(np.abs(A).sum(axis=0).max() for A in self.A.values()) * self.h
         m, term = 1, rho
-        while term > 1e-18 or m < 8:
+        while (term > 1e-18 or m < 8) and m < 400:
             m += 1
             term *= rho / m
+        if not term <= 1e-18:
+            # rho = ||A|| h is enormous only through the forcing columns of A (forcing far larger than the
+            # structure's forces); the Taylor series of the flow over one sub-step would not converge
+            raise EventError(f"the event-driven flow cannot integrate this system: ||A|| h = {rho:.3g} "
+                             "(forcing far larger than M, K times the displacement scale)")
         self.n_taylor = m + 1
 
     # ------------------------------------------------------------------ pieces
@@ -401,6 +412,8 @@ class ExactFlow:
         est = (C_ev @ z) > thr
         E = self.E[mode]
         while a < T_end:
+            if self.deadline is not None and time.perf_counter() > self.deadline:
+                raise EventError("time limit of the event-driven simulation reached")
             rem = T_end - a
             h = self.h if rem > self.h * (1 + 1e-12) else rem
             W = None
@@ -502,6 +515,11 @@ class ExactFlow:
         events.append(Event(t, f"{MODE_NAMES[mode]}->{MODE_NAMES[new]}", P, gam))
         if nodes is not None:
             nodes.append((t, z.copy(), zp.copy(), new))
+        if len(events) >= STALL_EVENTS and events[-1].t - events[-STALL_EVENTS].t <= 1e-12 * self.T \
+                and len({e.kind for e in events[-STALL_EVENTS:]}) == 1:
+            # the same transition again and again at one instant: the event logic makes no progress (e.g. a
+            # slip whose velocity stays at the switching threshold); fail now instead of after max_events
+            raise EventError(f"{STALL_EVENTS} '{events[-1].kind}' events at t = {t:.12g} without progress in time")
         if len(events) > self.max_events:
             last = events[-min(100, len(events)):]
             raise EventError(f"more than {self.max_events} events in one period (accumulation: the last "
@@ -640,7 +658,7 @@ def _start(flow, guess, omega):
 
 
 def exact_periodic(system, omega, guess=None, samples=4096, tol=1e-11, max_iter=30, harmonics=25,
-                   jacobian="saltation", substeps=128, max_events=10000, blas_threads=1):
+                   jacobian="saltation", substeps=128, max_events=10000, blas_threads=1, time_limit=None):
     """Exact periodic solution of a linear structure with one local element.
 
     Shooting on the exact event-driven flow (see the module docstring): the
@@ -677,6 +695,9 @@ def exact_periodic(system, omega, guess=None, samples=4096, tol=1e-11, max_iter=
         Minimal sub-steps per period of the event search grid.
     max_events : int
         Events per period before the flow is declared an accumulation.
+    time_limit : float, optional
+        Seconds of wall time; a simulation still running then ends with an EventError, and the
+        solve fails with that message (``None``, the default: no limit).
     blas_threads : int or None
         OpenBLAS threads during the solve (restored afterwards); ``None``
         leaves them alone.  The matrices are small, so 1 is fastest.
@@ -705,14 +726,15 @@ def exact_periodic(system, omega, guess=None, samples=4096, tol=1e-11, max_iter=
     t_wall = time.perf_counter()
     with _blas_threads(blas_threads):
         sol = _exact_periodic(system, omega, guess, samples, tol, max_iter, harmonics, jacobian, substeps,
-                              max_events)
+                              max_events, None if time_limit is None else t_wall + float(time_limit))
     sol.wall_time = time.perf_counter() - t_wall
     from .stability import set_exact
 
     return set_exact(sol)
 
 
-def _exact_periodic(system, omega, guess, samples, tol, max_iter, harmonics, jacobian, substeps, max_events):
+def _exact_periodic(system, omega, guess, samples, tol, max_iter, harmonics, jacobian, substeps, max_events,
+                    deadline=None):
     t_wall = time.perf_counter()
     if isinstance(omega, bool) or not isinstance(omega, (int, float, np.integer, np.floating)):
         raise InputError("omega", f"must be a number, got {omega!r}")
@@ -723,6 +745,7 @@ def _exact_periodic(system, omega, guess, samples, tol, max_iter, harmonics, jac
     if jacobian not in ("saltation", "fd"):
         raise InputError("jacobian", f"must be 'saltation' or 'fd', got {jacobian!r}")
     flow = ExactFlow(system, omega, substeps=substeps, max_events=max_events)
+    flow.deadline = deadline
     n, D, T = flow.n, flow.D, flow.T
     omega = flow.omega
     t_s, q_s, u_s = _start(flow, guess, omega)

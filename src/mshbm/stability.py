@@ -55,6 +55,10 @@ __all__ = ["assess", "check_option", "describe", "multipliers_json", "set_exact"
 
 #: largest system for which the exact flow is used by default (see the module docstring)
 MAX_EXACT_DOFS = 200
+#: wall-time limit (s) of the exact flow's periodic solve in the stability analysis: the exact flow needs
+#: 0.05-2.3 s up to 200 DOFs; a flow that has not converged by then (an event sequence that makes no progress,
+#: e.g. a slip velocity that stays at its switching threshold) is reported as "exact flow failed", never a hang
+EXACT_TIME_LIMIT = 20.0
 #: a verdict from the exact monodromy needs ``|max|mu| - 1| >`` this
 EXACT_TOL = 1e-6
 #: a verdict from the Moreau-Jean step map (smooth motion only) needs ``|max|mu| - 1| >`` this
@@ -181,7 +185,8 @@ def _exact(system, sol):
     from .exact import EventError, exact_periodic
 
     try:
-        ex = exact_periodic(system, sol.omega, guess=sol, samples=1024, blas_threads=None)
+        ex = exact_periodic(system, sol.omega, guess=sol, samples=1024, blas_threads=None,
+                            time_limit=EXACT_TIME_LIMIT)
     except (EventError, ValueError, np.linalg.LinAlgError, InputError) as exc:
         return {"ok": False, "message": f"{type(exc).__name__}: {exc}"}
     if not ex.success or "floquet_multipliers" not in ex.info:

@@ -135,6 +135,10 @@ class Attempt:
     accepted: bool = False
     extra_iterations: int = 0
     verdict: str = ""
+    #: set by :func:`residual_accept` when it accepts a stalled Newton on an impacting orbit as periodic to
+    #: one time step's accuracy: ``{"ratio": max_i |R_i| / bound_i, "bound": bound (ndarray), "verdict": str}``;
+    #: the certificate then judges the residual and the periodicity by that bound
+    step_accuracy: dict = None
     _parts: dict = field(default=None, repr=False)
 
     @property
@@ -290,6 +294,7 @@ def residual_accept(problem, system, omega, rtol=1e-8, step_accuracy=True, max_i
         bound = np.where(units == 2, rtol * F, gain * h * J * np.where(units == 0, 1.0, float(omega)))
         if np.all(np.abs(R) <= bound):
             k = int(np.argmax(np.abs(R) / bound))
+            attempt.step_accuracy = {"ratio": float(np.max(np.abs(R) / bound)), "bound": bound}
             attempt.verdict = (f"periodic to one time step's accuracy, not to Newton's tolerance: worst residual "
                                f"entry {abs(R[k]):.2e} <= {bound[k]:.2e}, the change when an impact (velocity jump "
                                f"{J:.3g}) moves by one step h = {h:.3g} s, amplified by at most {gain:.3g} over "
@@ -717,6 +722,8 @@ def solve_from_starts(problem, method, system, omega, newton_options, accept, *,
     if won is not None:
         res = won.newton
         res.success = True
+        if won.step_accuracy is not None:
+            res.info["step_accuracy"] = dict(won.step_accuracy, verdict=won.verdict)
         more = f" (start '{won.start}'" + (f" after {len(records) - 1} rejected starts: "
                                              + ", ".join(r["start"] for r in records[:-1]) if len(records) > 1
                                              else "") + ")"

@@ -196,9 +196,6 @@ def test_valid_guesses_reach_the_exact_linear_answer(make_guess):
     np.testing.assert_allclose(sol.q_hat, ref, rtol=0, atol=1e-9 * np.abs(ref).max())
 
 
-@pytest.mark.xfail(strict=True, reason="needs the guess-independent convergence test (issue 10 part 1, "
-                                       "helper certify): today ||R|| <= tol*max(1, ||x0||) accepts the first "
-                                       "Newton step from a huge guess; remove this marker after merging")
 @pytest.mark.parametrize("size", [1e20, 1e140])
 @pytest.mark.parametrize("method", ["hbm", "mshbm", "shooting"])
 def test_huge_but_finite_guess_gives_no_false_success(method, size):

@@ -214,17 +214,21 @@ def impact50_reference():
 @pytest.mark.parametrize("n_h", [3, 9])
 def test_impact50_at_098_omega(impact50_reference, method, n_h):
     """The linear start cycles the impact across the section t = 0 = T (an impact at step 4064,
-    4067, ... 4095, then gone); the shifted section converges.  The answer is the discrete
-    solution that Newton finds from the shooting orbit (same discretisation: equal to 1e-9) and
-    agrees with full shooting to the truncation error of n_h harmonics."""
+    4067, ... 4095, then gone); the shifted section converges, to a strict root of the discrete
+    problem.  The discrete problem can have several roots whose impacts differ by a time step
+    (mshbm-intermediate, n_h = 3: the root from the default start and the one Newton finds from the
+    shooting orbit both have residual ~1e-15 and differ by 2e-3 in mass 1's amplitude), so the
+    answer is checked against full shooting, to the truncation error of n_h harmonics, as is the
+    root found from the shooting orbit."""
     system, w, shoot = impact50_reference
     sol = mshbm.solve(system, w, method, harmonics=n_h, steps=4096)
     assert sol.success, sol.message
+    assert sol.residual < 1e-12 and "step_accuracy" not in sol.info
     ref = mshbm.solve(system, w, method, harmonics=n_h, steps=4096, guess=shoot)
     assert ref.success and ref.residual < 1e-12
-    assert np.allclose(sol.amplitude, ref.amplitude, rtol=1e-9, atol=1e-12)
-    assert abs(sol.amplitude[0] / shoot.amplitude[0] - 1) < (1e-2 if n_h == 3 else 1e-3)
-    assert abs(sol.amplitude[-1] / shoot.amplitude[-1] - 1) < 1e-4
+    for s in (sol, ref):
+        assert abs(s.amplitude[0] / shoot.amplitude[0] - 1) < (1e-2 if n_h == 3 else 1e-3)
+        assert abs(s.amplitude[-1] / shoot.amplitude[-1] - 1) < 1e-4
 
 
 # ------------------------------------------------------------------------------------------------
