@@ -655,6 +655,12 @@ class _Runner:
         return self._continuation("friction")
 
 
+#: time budget of the start ladder: no further start is tried once the ladder has run for
+#: ``max(LADDER_SECONDS, LADDER_FACTOR x the first attempt's wall time)``; the failure names the skipped starts
+LADDER_SECONDS = 30.0
+LADDER_FACTOR = 30.0
+
+
 def solve_from_starts(problem, method, system, omega, newton_options, accept, *, guess=None, starts=DEFAULT_STARTS,
                       solve_options=None, fallback=True, transient_periods=(10, 40, 160), transient_budget=2e9,
                       transient_seconds=20.0):
@@ -706,9 +712,12 @@ def solve_from_starts(problem, method, system, omega, newton_options, accept, *,
         raise InputError("starts", f"unknown start {unknown[0]!r} (choose from {', '.join(DEFAULT_STARTS)})")
     run = _Runner(problem, method, system, omega, newton_options, accept, solve_options, fallback,
                   transient_periods, transient_budget, transient_seconds)
-    won = None
+    won, skipped, t_start = None, [], time.perf_counter()
     with _activated():
         for name in starts:
+            if run.attempts and time.perf_counter() - t_start > max(LADDER_SECONDS, LADDER_FACTOR * run.attempts[0].wall_time):
+                skipped.append(name)  # the ladder's time budget is spent: report, do not try further starts
+                continue
             if name == "guess":
                 att = run.start_guess(guess)
             else:
@@ -741,6 +750,9 @@ def solve_from_starts(problem, method, system, omega, newton_options, accept, *,
                        f"from start '{best.start}'; starts tried: {tried}")
     res.nit, res.nfev = nit, nfev
     res.info = dict(res.info or {})
+    if skipped and won is None:
+        res.message += (f"; time budget of the start ladder (max({LADDER_SECONDS:g} s, {LADDER_FACTOR:g} x the first "
+                        f"attempt)) spent, starts not tried: {', '.join(skipped)}")
     res.info["starts"] = records
     res.info["start_used"] = None if won is None else won.start
     return res
