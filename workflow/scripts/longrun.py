@@ -33,7 +33,7 @@ import mshbm  # noqa: E402
 from mshbm import System  # noqa: E402
 from mshbm.exact import ExactFlow, _extrema, exact_periodic  # noqa: E402
 from mshbm.stepper import MoreauJean  # noqa: E402
-from wfcore import build_system, omega as config_omega, write_json  # noqa: E402
+from wfcore import build_system, omega as config_omega, write_json, run_case_script  # noqa: E402
 
 MAX_PERIOD = 8
 PERIODIC_TOL = 1e-6
@@ -182,17 +182,5 @@ def run(config, case, stem, log=print):
     return facts
 
 
-if __name__ == "__main__" and "snakemake" not in globals():
-    import yaml
-
-    if len(sys.argv) != 4:
-        sys.exit(__doc__)
-    with open(sys.argv[1]) as fh:
-        cfg = yaml.safe_load(fh)
-    run(cfg, sys.argv[2], sys.argv[3])
-elif "snakemake" in globals():
-    smk = snakemake  # noqa: F821
-    with open(smk.log[0], "w") as logf:
-        def _log(msg):
-            print(msg, file=logf, flush=True)
-        run(smk.params.cfg, smk.wildcards.case, smk.output.json[: -len(".json")], log=_log)
+if __name__ == "__main__" or "snakemake" in globals():
+    run_case_script(run, __doc__, globals())

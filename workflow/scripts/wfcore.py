@@ -204,3 +204,27 @@ def fill_placeholders(text, context):
         return format_value(value, fmt)
 
     return _PLACEHOLDER.sub(repl, text)
+
+
+def run_case_script(run, doc, script_globals):
+    """Entry point of a per-case script ``run(cfg, case, stem, log=print)`` (rules ``longrun``, ``impact_time``).
+
+    Under Snakemake (``snakemake`` in the script's globals): the rule's ``params.cfg``, ``wildcards.case``
+    and ``output.json`` without its suffix, with the messages in the rule's log.  Stand-alone:
+    ``python SCRIPT CONFIG.yaml CASE OUT_STEM`` (else print ``doc`` and exit).
+    """
+    smk = script_globals.get("snakemake")
+    if smk is not None:
+        with open(smk.log[0], "w") as logf:
+            def _log(msg):
+                print(msg, file=logf, flush=True)
+            return run(smk.params.cfg, smk.wildcards.case, smk.output.json[: -len(".json")], log=_log)
+    import sys
+
+    import yaml
+
+    if len(sys.argv) != 4:
+        sys.exit(doc)
+    with open(sys.argv[1]) as fh:
+        cfg = yaml.safe_load(fh)
+    return run(cfg, sys.argv[2], sys.argv[3])
