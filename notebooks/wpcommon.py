@@ -149,7 +149,7 @@ def reference_table(cfg, S):
     rows2 = []
     ex = S.get("exact") or {}
     if ex:
-        rows2.append(("exact event-driven solution (mshbm.exact)" + (" (error reference)" if S.get("error_reference") == "exact" else ""),
+        rows2.append(("exact event-driven solution (mshbm.methods.exact)" + (" (error reference)" if S.get("error_reference") == "exact" else ""),
                       "yes" if ex.get("success") else "NO", "reference shooting", ex.get("iterations"),
                       nc.fmt(ex.get("amplitude_first"), "g"), nc.fmt(ex.get("amplitude_last"), "g"),
                       nc.fmt(ex.get("floquet_max_modulus"), "f6"), nc.fmt(ex.get("stick_or_closed_fraction"), "pct3"),

@@ -1,11 +1,11 @@
-"""Exact event-driven periodic reference (mshbm.exact)."""
+"""Exact event-driven periodic reference (mshbm.methods.exact)."""
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
 import mshbm
 from mshbm import Contact, Friction, InputError, chain
-from mshbm.exact import ExactFlow, exact_periodic
+from mshbm.methods.exact import ExactFlow, exact_periodic
 
 from conftest import NORMAL_FORCE, OMEGA, friction_chain, impact_chain
 

@@ -2,7 +2,7 @@
 
 With penalty contact the AFT residual is piecewise linear in q_hat; for stiff k_c its
 solution branch has turning points, so damped Newton stalls at ||R|| ~ 1-10.  The HBM
-solver then follows the branch exactly (mshbm.hbm.HBMProblem.newton_fallback).  These
+solver then follows the branch exactly (mshbm.methods.hbm.HBMProblem.newton_fallback).  These
 tests check convergence on the paper's impact chains from the default (linear) start,
 that the converged q_hat solves the HBM equations with exactly eq. (45) (independent
 implementation below), and the approach to the shooting solution as k_c grows.
@@ -12,9 +12,9 @@ import pytest
 from scipy.integrate import solve_ivp
 
 import mshbm
-from mshbm import fourier
+from mshbm import condensation, fourier
 from mshbm.api import build_problem
-from mshbm.newton import newton
+from mshbm.solvers.newton import newton
 from conftest import OMEGA, friction_chain, impact_chain
 
 
@@ -34,7 +34,7 @@ def full_hbm_residual(system, omega, q_hat, steps):
         f[:, el.dof] -= lam  # the contact pushes the DOF back
     Fn = fourier.to_complex(fourier.fft(f, n_h))
     M, C, K = (np.asarray(A.toarray() if hasattr(A, "toarray") else A) for A in (system.M, system.C, system.K))
-    R = [fourier.dynamic_stiffness(M, C, K, k * omega) @ Q[k] - F[k] - Fn[k] for k in range(n_h + 1)]
+    R = [condensation.dynamic_stiffness(M, C, K, k * omega) @ Q[k] - F[k] - Fn[k] for k in range(n_h + 1)]
     return np.max(np.abs(np.array(R)))
 
 

@@ -18,8 +18,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import mshbm
-from mshbm import Contact, Friction, chain, fourier
-from mshbm.stepper import MoreauJean
+from mshbm import Contact, Friction, chain, condensation, fourier
+from mshbm.integrators.moreau_jean import MoreauJean
 from conftest import OMEGA, friction_chain, impact_chain
 
 SETTINGS = settings(max_examples=40, deadline=None, derandomize=True,
@@ -269,7 +269,7 @@ def test_dynamic_stiffness_eq24(n, k, omega, seed):
     M = A[0] @ A[0].T + n * np.eye(n)
     C = A[1] @ A[1].T
     K = A[2] @ A[2].T
-    Hk = fourier.real_block(fourier.dynamic_stiffness(M, C, K, k * omega), k)
+    Hk = fourier.real_block(condensation.dynamic_stiffness(M, C, K, k * omega), k)
     S = K - (k * omega) ** 2 * M
     expected = S if k == 0 else np.block([[S, C * k * omega], [-C * k * omega, S]])
     assert np.allclose(Hk, expected, rtol=1e-13, atol=1e-13 * np.abs(expected).max())

@@ -2,8 +2,9 @@
 import numpy as np
 import pytest
 
-from mshbm import Contact, Friction, chain, kernels
-from mshbm.stepper import MoreauJean
+from mshbm import Contact, Friction, chain
+from mshbm.integrators import kernels
+from mshbm.integrators.moreau_jean import MoreauJean
 
 
 def _setup(elements, n=4, N=600, theta=0.5, c=0.05):

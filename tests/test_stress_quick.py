@@ -1,5 +1,5 @@
 """The quick profile of the stress suite (workflow/scripts/stress.py, GitHub issue 5) and the
-continuation fallback it measures (mshbm.continuation).
+continuation fallback it measures (mshbm.solvers.continuation).
 
 The quick profile must finish in < 90 s, report no WRONG outcome and no NaN in any number.
 """
@@ -17,7 +17,7 @@ import yaml
 
 import mshbm
 from conftest import OMEGA, friction_chain, impact_chain
-from mshbm.continuation import scaled_system, solve_with_continuation
+from mshbm.solvers.continuation import scaled_system, solve_with_continuation
 
 ROOT = Path(__file__).resolve().parents[1]
 SCRIPT = ROOT / "workflow" / "scripts" / "stress.py"

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from mshbm import Contact, Friction, System, chain
-from mshbm.stepper import MoreauJean
+from mshbm.integrators.moreau_jean import MoreauJean
 
 
 def simulate(sys, omega, t_end, N, q0, u0, theta=0.5):

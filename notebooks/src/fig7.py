@@ -15,7 +15,7 @@
 # `mshbm.accumulation` (runs of impacts whose intervals shrink geometrically, limit by Aitken's
 # extrapolation; validated on a bouncing ball with $e_N < 1$ against the closed-form accumulation
 # time, `tests/test_accumulation.py`) on the impact times of the exact event-driven solution
-# (`mshbm.exact`, started from the reference shooting), or, if that failed, on the impulse steps
+# (`mshbm.methods.exact`, started from the reference shooting), or, if that failed, on the impulse steps
 # of the reference shooting.  HBM uses the
 # penalty spring, so it has contact episodes (intervals with $q_1 > g_{N,0}$) instead of impacts.
 # If HBM did not converge from the Fig. 8 starts it is restarted, for this figure only, from the

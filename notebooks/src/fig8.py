@@ -17,7 +17,7 @@
 # and each point is divided by the shooting time *from the same start*.  Effort = median of
 # the timed repeats after an untimed warm-up (numba compilation excluded), whole `mshbm.solve`
 # call.  Errors are against the exact periodic solution of the event-driven flow
-# (`mshbm.exact`, started from full shooting with the finer reference step; no time step, events
+# (`mshbm.methods.exact`, started from full shooting with the finer reference step; no time step, events
 # to machine precision) — not against that shooting reference, whose own discretisation error
 # would otherwise show as the plateau of the paper's diagrams.  The dashed black line is the
 # error of full shooting with the working step count against the exact solution (the

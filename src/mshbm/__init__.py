@@ -11,7 +11,7 @@ method of Schreyer & Leine (2016), behind one call::
 from . import stability  # noqa: F401  (mshbm.stability: Floquet multipliers and verdicts)
 from .api import METHODS, build_problem, residual_omega_derivative, solve
 from .errors import ConvergenceError, InputError
-from .exact import exact_periodic
+from .methods.exact import exact_periodic
 from .result import PeriodicSolution
 from .system import Contact, Friction, System, chain
 

@@ -25,7 +25,7 @@ data no longer resolve); it extrapolates the geometric tail by Aitken's formula
 ``t_inf = t_{j+2} - tau_{j+1}^2 / (tau_{j+1} - tau_j)`` (exact for a geometric
 sequence), the median over the run.  Inputs:
 
-* :func:`from_events`: the events of :mod:`mshbm.exact` (impacts ``"free->free"``
+* :func:`from_events`: the events of :mod:`mshbm.methods.exact` (impacts ``"free->free"``
   and the closing impact ``"free->closed"`` of a resolved accumulation);
 * :func:`from_impulses`: Moreau-Jean time-stepping (the first step of every run
   of steps with a nonzero impulse is an impact; a run of more than
@@ -136,7 +136,7 @@ def find_accumulations(times, min_impacts=6, max_ratio=0.95, ratio_spread=0.15, 
 
 
 def from_events(events, period=None, **kw):
-    """Accumulations in the events of :mod:`mshbm.exact` (``Event`` objects or dicts).
+    """Accumulations in the events of :mod:`mshbm.methods.exact` (``Event`` objects or dicts).
 
     Impacts are the events out of the open contact with a positive impulse
     (``"free->free"``: a bounce; ``"free->closed"``: the impact that closes a

@@ -2,9 +2,9 @@
 
 Methods (``method=``):
 
-* ``"shooting"`` -- full shooting, Moreau-Jean (:mod:`mshbm.shooting`);
-* ``"hbm"`` -- HBM-AFT with regularised laws (:mod:`mshbm.hbm`);
-* ``"mshbm"`` -- MS-HBM, Section 3.2 (:mod:`mshbm.mshbm`);
+* ``"shooting"`` -- full shooting, Moreau-Jean (:mod:`mshbm.methods.shooting`);
+* ``"hbm"`` -- HBM-AFT with regularised laws (:mod:`mshbm.methods.hbm`);
+* ``"mshbm"`` -- MS-HBM, Section 3.2 (:mod:`mshbm.methods.mixed`);
 * ``"mshbm-intermediate"`` -- MS-HBM, Section 3.3.
 """
 from __future__ import annotations
@@ -15,17 +15,17 @@ import time
 
 import numpy as np
 from ._blas import blas_threads, check_threads
-from . import starts
+from .solvers import starts
 
 from .certificate import apply_certificate, certify
 from . import stability as _stability
 from .errors import ConvergenceError, InputError
-from .fourier import SingularHarmonicError
-from .hbm import HBMProblem
-from .mshbm import IntermediateProblem, MixedProblem
-from .newton import newton
+from .condensation import SingularHarmonicError
+from .methods.hbm import HBMProblem
+from .methods.mixed import IntermediateProblem, MixedProblem
+from .solvers.newton import newton
 from .result import PeriodicSolution
-from .shooting import ShootingProblem
+from .methods.shooting import ShootingProblem
 from .system import System
 from . import validate
 
@@ -185,7 +185,7 @@ def solve(system, omega, method="mshbm", **options):
         ``harmonics`` (n_h, default 5; shooting: harmonics of the reported
         ``q_hat``, default 10), ``steps`` (time steps per period; default 4096,
         HBM: AFT samples, see :func:`default_steps`), ``guess`` (``None``:
-        a ladder of starts, the first accepted one wins, :mod:`mshbm.starts`;
+        a ladder of starts, the first accepted one wins, :mod:`mshbm.solvers.starts`;
         ``"linear"``: linear response; ``"zero"``; a PeriodicSolution, e.g. at a
         nearby frequency; a dict with ``q_hat``, ``q0``, ``u0``), ``tol``
         (Newton tolerance on the scaled residual ``||R / s||_inf``, rows scaled
@@ -202,9 +202,9 @@ def solve(system, omega, method="mshbm", **options):
         oversubscribing the cores; ``None`` leaves the setting alone),
         ``continuation`` (``False``: Newton from the one start; mixed methods with
         a guess: ``True`` opts in to restarts and continuation fallbacks,
-        :mod:`mshbm.continuation`; HBM: when Newton fails,
+        :mod:`mshbm.solvers.continuation`; HBM: when Newton fails,
         follow the exact piecewise-linear solution path of penalty contacts
-        (:meth:`mshbm.hbm.HBMProblem.newton_fallback`), else
+        (:meth:`mshbm.methods.hbm.HBMProblem.newton_fallback`), else
         retry by continuation from softened regularisations; default True),
         ``stability`` (``"auto"``, default: Floquet multipliers and verdict from the exact
         event-driven flow with saltation terms for systems with at most one element and up to
@@ -226,8 +226,8 @@ def solve(system, omega, method="mshbm", **options):
     """
     stab = _stability.check_option(options.pop("stability", "auto"))
     if method in ("mshbm", "mshbm-intermediate") and options.get("continuation") is True \
-            and options.get("guess") is not None:  # guess=None: the start ladder (mshbm.starts) covers it
-        from .continuation import solve_with_continuation
+            and options.get("guess") is not None:  # guess=None: the start ladder (mshbm.solvers.starts) covers it
+        from .solvers.continuation import solve_with_continuation
 
         with validate.quiet_floats():
             sol = solve_with_continuation(system, omega, method, stability=False,
@@ -250,7 +250,7 @@ def _solve(system, omega, method, options):
         nkw = dict(tol=float(sopts.get("tol", 1e-10)), max_iter=int(sopts.get("max_iter", 50)),
                    line_search=bool(sopts.get("line_search", True)), callback=progress)
         if sopts.get("guess") is None and sopts.get("continuation", True) and not starts.active():
-            # default start: a ladder of starts, the first accepted one wins (mshbm.starts)
+            # default start: a ladder of starts, the first accepted one wins (mshbm.solvers.starts)
             res = starts.solve_from_starts(problem, method, system, omega, nkw,
                                            _certified_accept(problem, method, omega, sopts, nkw, system),
                                            solve_options=options)
@@ -320,8 +320,8 @@ def _solution(problem, method, omega, sopts, res, parts, success, message, wall)
 
 
 def _certified_accept(problem, method, omega, sopts, nkw, system):
-    """Acceptance test of the start ladder (:func:`mshbm.starts.solve_from_starts`): the ladder's own
-    start-independent residual test (:func:`mshbm.starts.residual_accept`: physical units, no run-away
+    """Acceptance test of the start ladder (:func:`mshbm.solvers.starts.solve_from_starts`): the ladder's own
+    start-independent residual test (:func:`mshbm.solvers.starts.residual_accept`: physical units, no run-away
     orbits, one step's accuracy at impacts) *and* the certificate of the solution it would return."""
     first = starts.residual_accept(problem, system, omega, max_iter=nkw["max_iter"])
 

@@ -84,7 +84,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from . import fourier
-from .newton import scaled_norm
+from .solvers.newton import scaled_norm
 from .scaling import displacement_floor, force_scale
 from .system import Contact, Friction
 
@@ -167,7 +167,7 @@ class Certificate:
 #: note of the residual and periodicity checks of an orbit accepted as periodic to one step's accuracy
 STEP_ACCURACY_NOTE = ("periodic to one time step's accuracy: the Moreau-Jean map moves impacts by whole steps and "
                       "has no exact periodic point here; bound per entry: the jump of the residual when an impact "
-                      "moves by one step (mshbm.starts.residual_accept)")
+                      "moves by one step (mshbm.solvers.starts.residual_accept)")
 
 
 def _diag(A):
@@ -193,7 +193,7 @@ def certify(problem, sol, tol, step_accuracy=None):
     tol : float
         Newton tolerance of the solve (bound of the ``residual`` check).
     step_accuracy : dict, optional
-        Set when the start ladder (:func:`mshbm.starts.residual_accept`) accepted a stalled Newton on
+        Set when the start ladder (:func:`mshbm.solvers.starts.residual_accept`) accepted a stalled Newton on
         an impacting orbit of a time-stepping method as periodic to one time step's accuracy:
         ``{"bound": ndarray (n_x,)}``, per residual entry the change of the periodicity residual
         when an impact moves by one step (``g h J``, ``g h omega J``).  The ``residual`` and
@@ -255,7 +255,7 @@ def _certify(problem, sol, tol, cert, step_accuracy=None):
         bound = max(tol, (omega * h) ** 2)
         if step_bound is not None:
             # one step's accuracy at an impact: the jumps of q and u when an impact moves by one step
-            from .starts import _residual_units  # residual rows: 0 displacement, 1 velocity, 2 force
+            from .solvers.starts import _residual_units  # residual rows: 0 displacement, 1 velocity, 2 force
 
             units = _residual_units(problem)
             bq = float(np.max(step_bound[units == 0], initial=0.0))

@@ -1,4 +1,5 @@
-"""Fourier conventions of the paper (eqs. 1-5) and the dynamic stiffness (eqs. 23-24).
+"""Fourier conventions of the paper (eqs. 1-5): transforms and DFT matrices only
+(the dynamic stiffness and the condensation are in :mod:`mshbm.condensation`).
 
 A T-periodic signal ``x(t)`` in ``R^n`` truncated to ``n_h`` harmonics is
 
@@ -20,19 +21,11 @@ from __future__ import annotations
 import functools
 
 import numpy as np
-import scipy.linalg as sla
-import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 __all__ = [
     "n_coeffs", "basis", "fft", "ifft", "derivative", "to_complex", "from_complex",
-    "dft_matrix", "idft_matrix", "real_block", "dynamic_stiffness", "Condensation",
-    "SingularHarmonicError",
+    "dft_matrix", "idft_matrix", "real_block",
 ]
-
-
-class SingularHarmonicError(ArithmeticError):
-    """A dynamic stiffness block ``H_k`` is singular (a harmonic hits a resonance)."""
 
 
 def n_coeffs(n_h):
@@ -173,130 +166,3 @@ def real_block(Zk, k):
     out[a:, :b] = -B
     out[a:, b:] = A
     return out
-
-
-def dynamic_stiffness(M, C, K, k_omega):
-    """Complex dynamic stiffness ``K - (k omega)^2 M + i k omega C``."""
-    if sp.issparse(M) or sp.issparse(C) or sp.issparse(K):
-        return (sp.csc_matrix(K, dtype=complex) - k_omega ** 2 * sp.csc_matrix(M)
-                + 1j * k_omega * sp.csc_matrix(C)).tocsc()
-    return np.asarray(K) - k_omega ** 2 * np.asarray(M) + 1j * k_omega * np.asarray(C)
-
-
-def _sub(A, rows, cols):
-    if sp.issparse(A):
-        return A.tocsr()[rows][:, cols]
-    return np.asarray(A)[np.ix_(rows, cols)]
-
-
-class Condensation:
-    """Exact elimination of the DOFs ``E`` from the harmonic equations.
-
-    Per harmonic ``k`` the linear equations ``H_EE,k X_E + H_ER,k X_R = F_E,k``
-    are solved for ``X_E = z_k - Z_k X_R`` with ``z_k = H_EE^-1 F_E`` and
-    ``Z_k = H_EE^-1 H_ER`` (eq. 22).  One (sparse) LU factorisation per harmonic
-    is made once and reused; the cost grows linearly with ``len(E)`` for banded
-    matrices.
-
-    Parameters
-    ----------
-    system : System
-    omega : float
-        Fundamental angular frequency (rad/s).
-    n_h : int
-        Number of harmonics.
-    keep : array of int
-        DOFs ``R`` kept (e.g. the nonlinear subsystem ``N``).
-    eliminate : array of int
-        DOFs ``E`` eliminated (e.g. the linear subsystem ``L``).
-
-    Attributes
-    ----------
-    z : complex ndarray, shape (n_h+1, n_E)
-    Z : complex ndarray, shape (n_h+1, n_E, n_R)
-    T : complex ndarray, shape (n_h+1, n_R, n_R)
-        ``H_RE H_EE^-1 H_ER``.
-    g : complex ndarray, shape (n_h+1, n_R)
-        ``H_RE H_EE^-1 F_E``.
-    rcond : ndarray, shape (n_h+1,)
-        Reciprocal condition estimate of each ``H_EE,k`` (1 for an empty E).
-    name : str
-        Name of ``H_EE`` in error messages (``"H_LL"``, ``"H_33"``).
-    """
-
-    def __init__(self, system, omega, n_h, keep, eliminate, rcond_min=1e-13, name="H_LL"):
-        self.keep = np.asarray(keep, dtype=np.int64)
-        self.elim = np.asarray(eliminate, dtype=np.int64)
-        nR, nE = self.keep.size, self.elim.size
-        F = to_complex(system.forcing_hat(n_h))
-        self.z = np.zeros((n_h + 1, nE), dtype=complex)
-        self.Z = np.zeros((n_h + 1, nE, nR), dtype=complex)
-        self.T = np.zeros((n_h + 1, nR, nR), dtype=complex)
-        self.g = np.zeros((n_h + 1, nR), dtype=complex)
-        self.rcond = np.ones(n_h + 1)
-        if nE == 0:
-            return
-        M, C, K = system.M, system.C, system.K
-        blocks = {}
-        for mat, A in (("M", M), ("C", C), ("K", K)):
-            blocks[mat] = (_sub(A, self.elim, self.elim), _sub(A, self.elim, self.keep),
-                            _sub(A, self.keep, self.elim))
-        sparse = sp.issparse(blocks["M"][0]) and nE > 400
-        for k in range(n_h + 1):
-            w = k * omega
-            H_EE = dynamic_stiffness(blocks["M"][0], blocks["C"][0], blocks["K"][0], w)
-            H_ER = dynamic_stiffness(blocks["M"][1], blocks["C"][1], blocks["K"][1], w)
-            H_RE = dynamic_stiffness(blocks["M"][2], blocks["C"][2], blocks["K"][2], w)
-            rhs = np.empty((nE, nR + 1), dtype=complex)
-            rhs[:, 0] = F[k, self.elim]
-            rhs[:, 1:] = H_ER.toarray() if sp.issparse(H_ER) else H_ER
-            if sparse:
-                try:
-                    # H is complex symmetric: symmetric mode keeps the fill-reducing ordering
-                    # (default pivoting destroys it on 2-D meshes: 30 s instead of 0.03 s a harmonic)
-                    lu = spla.splu(sp.csc_matrix(H_EE), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.1,
-                                   options=dict(SymmetricMode=True))
-                except RuntimeError:
-                    raise SingularHarmonicError(
-                        f"{name} is singular at harmonic k={k} (k*omega={w:.6g})") from None
-                d = np.abs(lu.U.diagonal())
-                self.rcond[k] = d.min() / d.max() if d.max() > 0 else 0.0
-                sol = lu.solve(rhs)
-            else:
-                H = H_EE.toarray() if sp.issparse(H_EE) else H_EE
-                # LAPACK directly: the scipy wrappers' checks cost more than the LU of a small H_EE
-                getrf, getrs = sla.get_lapack_funcs(("getrf", "getrs"), (H,))
-                lu, piv, info = getrf(H)
-                d = np.abs(np.diag(lu))
-                self.rcond[k] = d.min() / d.max() if info == 0 and d.max() > 0 else 0.0
-                if self.rcond[k] < rcond_min:
-                    raise SingularHarmonicError(
-                        f"{name} is singular at harmonic k={k} (k*omega={w:.6g}, rcond~{self.rcond[k]:.1e})")
-                sol, info = getrs(lu, piv, rhs)
-            if not np.all(np.isfinite(sol)) or self.rcond[k] < rcond_min:
-                raise SingularHarmonicError(
-                    f"{name} is singular at harmonic k={k} (k*omega={w:.6g}, rcond~{self.rcond[k]:.1e})")
-            self.z[k] = sol[:, 0]
-            self.Z[k] = sol[:, 1:]
-            HRE = H_RE.toarray() if sp.issparse(H_RE) else H_RE
-            self.T[k] = HRE @ self.Z[k]
-            self.g[k] = HRE @ self.z[k]
-
-    def recover(self, XR):
-        """``X_E`` (complex, shape (n_h+1, n_E)) from ``X_R`` (complex, (n_h+1, n_R))."""
-        return self.z - np.einsum("kij,kj->ki", self.Z, XR)
-
-    def real_matrix(self, Zs):
-        """Block-diagonal real matrix of per-harmonic complex maps ``Zs[k]``.
-
-        Rows and columns follow the flattened real coefficient layout
-        ``[x0, xc_1, xs_1, ...]`` (harmonic-major, DOF-minor).
-        """
-        n_h = Zs.shape[0] - 1
-        a, b = Zs.shape[1], Zs.shape[2]
-        out = np.zeros(((2 * n_h + 1) * a, (2 * n_h + 1) * b))
-        out[:a, :b] = Zs[0].real
-        for k in range(1, n_h + 1):
-            r, c = (2 * k - 1) * a, (2 * k - 1) * b
-            out[r:r + 2 * a, c:c + 2 * b] = real_block(Zs[k], k)
-        return out

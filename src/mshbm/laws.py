@@ -12,7 +12,7 @@ The force on the DOF is ``w lambda`` with ``w = +1`` (friction) or ``-1`` (conta
 
 The penalty law is piecewise linear in ``(q, u)``: continuous for ``d_c = 0``, with
 a jump ``d_c gamma_N`` at ``g_N = 0`` for ``d_c > 0``.  On the AFT samples the HBM
-residual inherits this structure, which :meth:`mshbm.hbm.HBMProblem.newton_fallback`
+residual inherits this structure, which :meth:`mshbm.methods.hbm.HBMProblem.newton_fallback`
 exploits (exact path following instead of smoothing: the law used at convergence is
 always exactly eq. 45).  At ``g_N = 0`` the sample counts as closed (one-sided Jacobian).
 """

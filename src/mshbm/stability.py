@@ -18,7 +18,7 @@ Every result of :func:`mshbm.solve` carries
 How (:func:`assess`):
 
 1. **At most one element, n <= MAX_EXACT_DOFS** (or ``stability=True``): the exact
-   event-driven flow of :mod:`mshbm.exact` is shot to periodicity, started from the
+   event-driven flow of :mod:`mshbm.methods.exact` is shot to periodicity, started from the
    converged solution of whichever method (a few Newton iterations), and the multipliers
    are those of its exact monodromy matrix: the products of the closed-form mode flows and
    the saltation matrices ``S = R + (f+ - R f-) c^T / (c^T f-)`` at every impact
@@ -173,7 +173,7 @@ def _assess(system, sol, stability, steps, theta, t0):
 
 
 def set_exact(sol):
-    """Stability fields of a solution of :func:`mshbm.exact.exact_periodic` from its own monodromy."""
+    """Stability fields of a solution of :func:`mshbm.methods.exact.exact_periodic` from its own monodromy."""
     mult = sol.info.get("floquet_multipliers") if sol.success else None
     if mult is None:
         return _set(sol, None, None, "none: the exact solve did not converge", "no converged periodic orbit")
@@ -182,7 +182,7 @@ def set_exact(sol):
 
 
 def _exact(system, sol):
-    from .exact import EventError, exact_periodic
+    from .methods.exact import EventError, exact_periodic
 
     try:
         ex = exact_periodic(system, sol.omega, guess=sol, samples=1024, blas_threads=None,
@@ -214,8 +214,8 @@ def _exact(system, sol):
 
 
 def _step_map(system, sol, steps, theta, prefix, t0):
-    from . import kernels
-    from .shooting import ShootingProblem
+    from .integrators import kernels
+    from .methods.shooting import ShootingProblem
 
     N = int(steps) if steps is not None else min(max(int(sol.steps), 1024), STEP_MAP_MAX_STEPS)
     try:

@@ -1,7 +1,7 @@
 """Checks of a solve's input that need the method: forcing the method can represent, partitions,
 guesses, free-free structures and the float range.
 
-Called by :func:`mshbm.api.build_problem` (and :func:`mshbm._common.guess_parts`); each raises
+Called by :func:`mshbm.api.build_problem` (and :func:`mshbm.methods.common.guess_parts`); each raises
 :class:`mshbm.InputError` naming the key.  Notation as in :mod:`mshbm.system`: ``n`` DOFs,
 ``n_h`` harmonics, ``N`` time steps (or AFT samples) per period, forcing coefficients
 ``f_hat`` of shape ``(2 n_f + 1, n)``.

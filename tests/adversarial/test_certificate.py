@@ -99,7 +99,7 @@ def test_stick_case_from_zero_is_the_clamped_chain(method):
 def test_resonant_linear_response_as_guess_is_not_accepted(method):
     """The frictionless response at resonance (~1e16) as an explicit guess, no Newton iteration allowed:
     before the change HBM accepted it (||R|| = 100 <= 1e-10 * 1e16)."""
-    from mshbm._common import linear_response
+    from mshbm.methods.common import linear_response
 
     system = stick_system()
     q_hat = linear_response(system, W1, 3)

@@ -1,4 +1,4 @@
-"""Adversarial cases of the default start strategy (issue 10, item 4; :mod:`mshbm.starts`).
+"""Adversarial cases of the default start strategy (issue 10, item 4; :mod:`mshbm.solvers.starts`).
 
 Every case asserts a correct answer against an exact value (closed form, the exact event-driven
 orbit of :func:`mshbm.exact_periodic`, or the same discrete problem solved from a known-good
@@ -12,17 +12,17 @@ import pytest
 
 import mshbm
 from mshbm import Contact, Friction, System, chain
-from mshbm._common import linear_response
+from mshbm.methods.common import linear_response
 from mshbm.api import build_problem
 from mshbm.errors import InputError
-from mshbm.exact import exact_periodic
-from mshbm.newton import newton
+from mshbm.methods.exact import exact_periodic
+from mshbm.solvers.newton import newton
 
 try:
-    from mshbm import starts
+    from mshbm.solvers import starts
 except ImportError:  # the package before the start strategy (counting the cases wrong there)
     starts = None
-needs_starts = pytest.mark.skipif(starts is None, reason="tests a piece of mshbm.starts")
+needs_starts = pytest.mark.skipif(starts is None, reason="tests a piece of mshbm.solvers.starts")
 
 METHODS = ("shooting", "hbm", "mshbm", "mshbm-intermediate")
 

@@ -52,8 +52,8 @@ def _solver_digest():
     the solver reruns every solve, a touched but unchanged file does not."""
     spec = importlib.util.find_spec("mshbm")
     h = hashlib.sha256()
-    for path in sorted(Path(spec.origin).parent.glob("*.py")):
-        h.update(path.name.encode())
+    for path in sorted(Path(spec.origin).parent.rglob("*.py")):
+        h.update(path.relative_to(Path(spec.origin).parent).as_posix().encode())
         h.update(path.read_bytes())
     return h.hexdigest()[:16]
 

@@ -1,6 +1,6 @@
 # Stress suite (GitHub issue 5): numerical stability near resonances, stiff regularisations, many
 # harmonics, tiny steps, poor starts (with and without the continuation fallback of
-# mshbm.continuation) and random chains.  Its own configuration is workflow/stress.yaml (validated
+# mshbm.solvers.continuation) and random chains.  Its own configuration is workflow/stress.yaml (validated
 # inside the script against workflow/schemas/stress.schema.yaml), so it never touches the main config.
 #
 #   snakemake --cores 2 <results>/stress/summary.md          # full profile (< 5 min on 2 cores)
@@ -11,7 +11,7 @@ from pathlib import Path as _StressPath
 
 _STRESS_R = config.get("results_dir", "results").rstrip("/")
 #: the library the results depend on (paths relative to the working directory, the repository)
-_STRESS_SRC = [str(p) for p in sorted(_StressPath("src", "mshbm").glob("*.py"))]
+_STRESS_SRC = [str(p) for p in sorted(_StressPath("src", "mshbm").rglob("*.py"))]
 
 
 rule stress:

@@ -36,7 +36,7 @@ rule config_snapshot:
         "../scripts/config_snapshot.py"
 
 
-# The exact event-driven periodic solution (mshbm.exact) of a figure's system, seeded by the reference
+# The exact event-driven periodic solution (mshbm.methods.exact) of a figure's system, seeded by the reference
 # full shooting: the error reference of Figs. 4 and 8 and the impact sequence of Fig. 7.
 rule exact_reference:
     input:

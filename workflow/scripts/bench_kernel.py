@@ -43,7 +43,7 @@ TARGET_NS = 100.0  # 10^7 steps per second
 
 def _mixed(system, n_steps, sol, partition=None):
     """The time-domain part of MS-HBM with ``n_steps`` steps per period, at the unknowns of ``sol``."""
-    from mshbm.mshbm import MixedProblem
+    from mshbm.methods.mixed import MixedProblem
     prob = MixedProblem(system, bl.OMEGA, 5, n_steps, partition=partition)
     x = prob.initial_guess(sol)
     p, q0, u0 = prob._split(x)
@@ -54,7 +54,7 @@ def _mixed(system, n_steps, sol, partition=None):
 
 def _cases(quick):
     import mshbm
-    from mshbm.shooting import ShootingProblem
+    from mshbm.methods.shooting import ShootingProblem
 
     N = 1 << (16 if quick else 20)
     N_gen_sens = 1 << (14 if quick else 16)  # dB and Sq_traj of the 3-DOF case are (N, 3, 33..39) arrays
@@ -118,7 +118,7 @@ def _cases(quick):
             f"whole {n}-mass chain (shooting's trajectory)")
 
     # compiled vs NumPy twin on the same small problem
-    from mshbm import kernels
+    from mshbm.integrators import kernels
     st, q0, u0, B, dB = _mixed(f3, N_twin, sol_f3)
     args = (q0, u0, st.Aq, st.Au, st.WG, st.Del, st.MinvG, B, st.theta, st.h, st.kind, st.dof, st.sign,
             st.bound, st.gap, st.e)

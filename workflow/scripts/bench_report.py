@@ -108,7 +108,7 @@ def section_workprecision(wp, sub):
                      f"{ref['time_s']:.2f}"))
     lines += [
         "The reference of every system is the exact periodic solution of the event-driven flow "
-        "(`mshbm.exact.exact_periodic`: exact modal flows between stick/slip or impact events, Newton "
+        "(`mshbm.methods.exact.exact_periodic`: exact modal flows between stick/slip or impact events, Newton "
         "with the saltation-corrected monodromy matrix). Its convergence is shown by re-solving it with "
         "a 100× tighter tolerance, a 4× finer event-search grid and a 16× coarser seed: the largest "
         "relative amplitude difference of the variants is listed. The observed order of full shooting "

@@ -103,7 +103,7 @@ def baseline_run(system, omega, reg, method, rtol, budget_s):
     from scipy.integrate import solve_ivp
     from scipy.optimize import root
     from mshbm import fourier
-    from mshbm._common import linear_response
+    from mshbm.methods.common import linear_response
     T = 2.0 * np.pi / omega
     n = system.n
     rhs0, jac = baseline_ode(system, omega, reg)

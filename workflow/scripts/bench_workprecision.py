@@ -4,7 +4,7 @@ For every method and discretisation (n_h, steps, regularisation) the solve at om
 started, as in the paper, from that method's own converged solution at a nearby
 frequency; the timed quantity is the median wall time of repeated solves from that start
 (one untimed warm-up solve per method excludes numba compilation).  The error is the
-relative amplitude error of masses 1 and n against ``mshbm.exact.exact_periodic``, whose
+relative amplitude error of masses 1 and n against ``mshbm.methods.exact.exact_periodic``, whose
 own convergence is checked by independent re-solves (``reference_convergence``).  The grids
 are ``benchmarks`` of the config (``--profile full``: with the overrides of ``benchmarks.full``).
 
@@ -30,8 +30,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import wfcore  # noqa: E402
 
 import mshbm  # noqa: E402
-from mshbm.exact import exact_periodic  # noqa: E402
-from mshbm.hbm import scaled_regularisation  # noqa: E402
+from mshbm.methods.exact import exact_periodic  # noqa: E402
+from mshbm.methods.hbm import scaled_regularisation  # noqa: E402
 
 
 def timed_solve(system, omega, nearby, method, repeats, warmup=True, **opts):

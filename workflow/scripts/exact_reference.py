@@ -1,4 +1,4 @@
-"""Exact event-driven periodic solution of one system (``mshbm.exact``): the error reference of the
+"""Exact event-driven periodic solution of one system (``mshbm.methods.exact``): the error reference of the
 work-precision figures (Figs. 4 and 8) and the impact sequence of Fig. 7.
 
 The time-stepped reference full shooting (``numerics.reference_steps``) has a discretisation error
@@ -26,7 +26,7 @@ import numpy as np  # noqa: E402
 
 import mshbm  # noqa: E402
 from mshbm.accumulation import from_events  # noqa: E402
-from mshbm.exact import exact_periodic  # noqa: E402
+from mshbm.methods.exact import exact_periodic  # noqa: E402
 from wfcore import build_system, omega as config_omega, write_json  # noqa: E402
 
 #: masses whose amplitudes are all stored when the chain is at most this long

@@ -4,7 +4,7 @@ For the impact system of Fig. 6 (config ``figures.fig6.system``) and variants of
 candidate gives the impact times (in ``[0, T)``) of
 
 * its T-periodic orbit: full shooting (Moreau-Jean, ``numerics.steps``, from the linear response),
-  refined on the exact event-driven flow (:func:`mshbm.exact.exact_periodic`), with its Floquet
+  refined on the exact event-driven flow (:func:`mshbm.methods.exact.exact_periodic`), with its Floquet
   multipliers (:mod:`mshbm.stability`);
 * the response reached from rest: the exact flow over ``longrun.periods`` periods, its period
   ``pT`` (end states repeat after ``p`` periods over the last ``longrun.tail`` periods, to 1e-6) and
@@ -33,7 +33,7 @@ import scipy.sparse as sp  # noqa: E402
 
 import mshbm  # noqa: E402
 from mshbm import System  # noqa: E402
-from mshbm.exact import ExactFlow, exact_periodic  # noqa: E402
+from mshbm.methods.exact import ExactFlow, exact_periodic  # noqa: E402
 from wfcore import build_system, omega as config_omega, write_json, run_case_script  # noqa: E402
 
 #: the paper's impact time of Fig. 6 (Sec. 4.2: "the collision time-instant (t = 0.55)")

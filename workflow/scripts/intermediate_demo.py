@@ -49,7 +49,7 @@ import wfcore  # noqa: E402
 
 import mshbm  # noqa: E402
 from mshbm import Friction, chain  # noqa: E402
-from mshbm.stepper import WORK  # noqa: E402
+from mshbm.integrators.moreau_jean import WORK  # noqa: E402
 
 METHODS = ("mshbm", "mshbm-intermediate")
 

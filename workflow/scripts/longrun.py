@@ -1,6 +1,6 @@
 """What the system does next to an unstable periodic orbit: a long simulation from rest.
 
-The exact event-driven flow (:class:`mshbm.exact.ExactFlow`: closed-form flow of the linear
+The exact event-driven flow (:class:`mshbm.methods.exact.ExactFlow`: closed-form flow of the linear
 structure between events, impacts located to machine precision, Newton's impact law) runs from
 ``q = u = 0`` at ``t = 0`` for ``longrun.periods`` periods.  Per period ``[kT, (k+1)T)`` it records
 max, min and amplitude ``(max - min)/2`` of mass 1 (true extrema: the velocity zeros between
@@ -31,8 +31,8 @@ import numpy as np  # noqa: E402
 
 import mshbm  # noqa: E402
 from mshbm import System  # noqa: E402
-from mshbm.exact import ExactFlow, _extrema, exact_periodic  # noqa: E402
-from mshbm.stepper import MoreauJean  # noqa: E402
+from mshbm.methods.exact import ExactFlow, _extrema, exact_periodic  # noqa: E402
+from mshbm.integrators.moreau_jean import MoreauJean  # noqa: E402
 from wfcore import build_system, omega as config_omega, write_json, run_case_script  # noqa: E402
 
 MAX_PERIOD = 8

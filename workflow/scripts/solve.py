@@ -37,7 +37,7 @@ import numpy as np  # noqa: E402
 
 import mshbm  # noqa: E402
 from mshbm.accumulation import from_impulses  # noqa: E402
-from mshbm.stepper import WORK  # noqa: E402
+from mshbm.integrators.moreau_jean import WORK  # noqa: E402
 from wfcore import build_system, get_key, omega as config_omega, runs, split_method, write_json  # noqa: E402
 
 #: DOFs whose full time series are stored when the system is at most this large

@@ -49,7 +49,7 @@ import yaml  # noqa: E402
 
 import mshbm  # noqa: E402
 from mshbm import Contact, Friction, InputError, chain  # noqa: E402
-from mshbm.continuation import solve_with_continuation  # noqa: E402
+from mshbm.solvers.continuation import solve_with_continuation  # noqa: E402
 
 OUTCOMES = ("converged", "failed-with-diagnosis", "failed-certificate", "WRONG")
 SCHEMA = Path(__file__).resolve().parents[1] / "schemas" / "stress.schema.yaml"
@@ -130,7 +130,7 @@ def random_system(rng, index, max_dofs):
     omega = float(w[j] * rng.uniform(0.6, 1.4))
     d_el = int(rng.integers(n))
     # amplitude scale of the element DOF in the linear response (for gaps and friction bounds)
-    from mshbm._common import linear_response
+    from mshbm.methods.common import linear_response
 
     qh = linear_response(probe, omega, 1)
     scale = float(np.hypot(qh[1, d_el], qh[2, d_el])) or 1e-3
@@ -183,11 +183,11 @@ def recheck_residual(system, omega, method, opts, sol, factor):
         return False, math.nan, f"re-evaluation failed: {type(exc).__name__}: {exc}"
     # the same row scaling as Newton's convergence test (problem.residual_scale: forces by the force
     # scale of the problem, displacements by the size of the solution; mshbm.scaling)
-    from mshbm.newton import scaled_norm
+    from mshbm.solvers.newton import scaled_norm
 
     step = sol.info.get("step_accuracy")
     if step is not None:
-        # accepted as periodic to one time step's accuracy (impacts move by whole steps; mshbm.starts): the
+        # accepted as periodic to one time step's accuracy (impacts move by whole steps; mshbm.solvers.starts): the
         # residual entries against the jump of the residual when an impact moves by one step
         r = float(np.max(np.abs(R) / np.asarray(step["bound"], dtype=float)))
         bound = 1.0  # the certificate's own bound: re-evaluation must reproduce it, no factor
@@ -289,7 +289,7 @@ def resonance_distance(system, omega, n_h):
 def linear_scale(system, omega):
     """Largest amplitude of the linear response (elements removed); 0 if it cannot be computed."""
     from mshbm import fourier
-    from mshbm._common import linear_response
+    from mshbm.methods.common import linear_response
 
     try:
         q = fourier.ifft(linear_response(system, omega, 5), 64)
@@ -455,7 +455,7 @@ def same_method_highres(ctx, system, omega, method, opts, sol):
 
 def _garbage(ctx, row, amp, ref_amp, system=None, omega=None):
     if ref_amp is None:
-        from mshbm._common import linear_response
+        from mshbm.methods.common import linear_response
 
         try:
             qh = linear_response(system, omega, 5)

@@ -14,9 +14,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import fourier
-from ._common import guess_parts
-from .stepper import MoreauJean
+from .. import fourier
+from .common import guess_parts
+from ..integrators.moreau_jean import MoreauJean
 
 __all__ = ["ShootingProblem"]
 
@@ -66,7 +66,7 @@ class ShootingProblem:
 
     def residual_scale(self, x):
         """Per-row scale of the residual at unknowns ``x``, shape ``(2n,)`` (m, then m/s)."""
-        from .scaling import displacement_floor, velocity_scale
+        from ..scaling import displacement_floor, velocity_scale
 
         if "_D0" not in self.__dict__:
             self._D0 = displacement_floor(self.system, self.omega)

@@ -54,13 +54,13 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 from scipy.optimize import brentq
-from ._blas import blas_threads as _blas_threads
+from .._blas import blas_threads as _blas_threads
 
-from . import fourier
-from ._common import linear_response
-from .errors import InputError
-from .result import PeriodicSolution
-from .system import Contact, Friction, System
+from .. import fourier
+from .common import linear_response
+from ..errors import InputError
+from ..result import PeriodicSolution
+from ..system import Contact, Friction, System
 
 __all__ = ["exact_periodic", "ExactFlow", "ExactTrajectory", "Event", "EventError"]
 
@@ -728,7 +728,7 @@ def exact_periodic(system, omega, guess=None, samples=4096, tol=1e-11, max_iter=
         sol = _exact_periodic(system, omega, guess, samples, tol, max_iter, harmonics, jacobian, substeps,
                               max_events, None if time_limit is None else t_wall + float(time_limit))
     sol.wall_time = time.perf_counter() - t_wall
-    from .stability import set_exact
+    from ..stability import set_exact
 
     return set_exact(sol)
 

@@ -5,9 +5,9 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from . import fourier
-from .errors import InputError
-from .validate import check_guess, check_guess_values
+from .. import condensation, fourier
+from ..errors import InputError
+from ..validate import check_guess, check_guess_values
 
 __all__ = ["linear_response", "pad_hat", "guess_parts"]
 
@@ -31,7 +31,7 @@ def linear_response(system, omega, n_h):
     for k in range(n_h + 1):
         if not np.any(F[k]):
             continue
-        H = fourier.dynamic_stiffness(system.M, system.C, system.K, k * omega)
+        H = condensation.dynamic_stiffness(system.M, system.C, system.K, k * omega)
         try:
             if sp.issparse(H):
                 x = spla.spsolve(sp.csc_matrix(H), F[k])
@@ -51,7 +51,7 @@ def guess_parts(guess, system, omega, n_h):
     :class:`PeriodicSolution` (e.g. at a nearby frequency) or a dict with keys
     ``q_hat`` and optionally ``q0``, ``u0``.
     """
-    from .result import PeriodicSolution
+    from ..result import PeriodicSolution
 
     n = system.n
     if guess is None or (isinstance(guess, str) and guess == "linear"):

@@ -49,11 +49,11 @@ from dataclasses import replace
 
 import numpy as np
 
-from . import api
-from ._common import linear_response
-from .errors import InputError
-from .result import PeriodicSolution
-from .system import System
+from .. import api
+from ..methods.common import linear_response
+from ..errors import InputError
+from ..result import PeriodicSolution
+from ..system import System
 
 __all__ = ["solve_with_continuation", "scaled_system", "STRATEGIES"]
 
@@ -108,7 +108,7 @@ def _first_touch_scale(system, omega, n_h=10, samples=256):
     if not contacts:
         return math.inf
     q_hat = linear_response(system, omega, n_h)
-    from .fourier import ifft
+    from ..fourier import ifft
 
     q = ifft(q_hat, samples)
     best = math.inf
@@ -183,9 +183,9 @@ def _transient(system, omega, method, guess, options, periods, budget):
 
     Returns ``(solution or None, message, log)``.
     """
-    from . import fourier
-    from ._common import guess_parts
-    from .stepper import MAX_DENSE_DOFS, MoreauJean
+    from .. import fourier
+    from ..methods.common import guess_parts
+    from ..integrators.moreau_jean import MAX_DENSE_DOFS, MoreauJean
 
     log = []
     n = system.n
@@ -278,11 +278,11 @@ def solve_with_continuation(system, omega, method="mshbm", guess=None, *, strate
     unknown = [s for s in strategies if s not in STRATEGIES]
     if unknown:
         raise InputError("strategies", f"unknown strategy {unknown[0]!r} (choose from {', '.join(STRATEGIES)})")
-    from ._blas import blas_threads, check_threads
+    from .._blas import blas_threads, check_threads
 
     # the same BLAS pinning as solve() (bit-identical results whatever the thread settings), also
     # around the transient simulation that runs outside solve()
-    from . import stability as _stability
+    from .. import stability as _stability
 
     stab = _stability.check_option(options.pop("stability", "auto"))
     options["stability"] = False  # intermediate solves: no Floquet analysis; the final solution gets it below
@@ -336,7 +336,7 @@ def _solve_with_continuation(system, omega, method, guess, strategies, forcing_s
     info["wall_time_s"] = time.perf_counter() - t0
     sol.info["continuation"] = info
     if raise_on_failure and not sol.success:
-        from .errors import ConvergenceError
+        from ..errors import ConvergenceError
 
         raise ConvergenceError(sol.message)
     return sol

@@ -3,7 +3,7 @@
 Notation: ``q, u`` displacement and velocity (shape ``(n,)``), ``h`` the step,
 ``theta`` the scheme parameter (1/2: trapezoidal, energy-conserving for the
 linear part), ``P`` contact/friction impulses per step (shape ``(m,)``).
-See :mod:`mshbm.kernels` for the step itself.
+See :mod:`mshbm.integrators.kernels` for the step itself.
 """
 from __future__ import annotations
 
@@ -13,8 +13,8 @@ import numpy as np
 import scipy.sparse as sp
 
 from . import kernels
-from .errors import InputError
-from .system import Contact, Friction
+from ..errors import InputError
+from ..system import Contact, Friction
 
 __all__ = ["MoreauJean", "Trajectory"]
 
@@ -38,7 +38,7 @@ class Trajectory:
     P : ndarray, shape (N, m)
         Impulse of each element over step ``k`` (force ~ ``P / h``).
     status : ndarray, shape (N, m), int8
-        0 open, 1 slip, 2 stick, 3 closed (see :mod:`mshbm.kernels`).
+        0 open, 1 slip, 2 stick, 3 closed (see :mod:`mshbm.integrators.kernels`).
     Sq, Su : ndarray, shape (n, n_s)
         ``d(q_N, u_N)/d(q0, u0, p)`` at the end, if sensitivities were asked for.
     Sq_traj : ndarray, shape (N+1, n, n_s)
@@ -177,7 +177,7 @@ class MoreauJean:
         Parameters
         ----------
         pattern : sequence of int, length m
-            Status codes of the elements in that step (see :mod:`mshbm.kernels`).
+            Status codes of the elements in that step (see :mod:`mshbm.integrators.kernels`).
 
         Returns
         -------

@@ -13,7 +13,7 @@ starting guess never enters it.  The line search uses the same row scaling (at t
 current iterate), so the iteration is independent of the units.
 
 When the line search fails and ``fun`` is a bound method of an object that
-provides ``newton_fallback`` (e.g. :class:`mshbm.hbm.HBMProblem` with penalty
+provides ``newton_fallback`` (e.g. :class:`mshbm.methods.hbm.HBMProblem` with penalty
 contacts, whose residual is piecewise linear in ``q_hat``), that method is
 called as a second globalisation stage; see :func:`newton`.
 

@@ -20,7 +20,7 @@ its residual (:func:`mshbm.api.build_problem`).  The starts, in the default orde
     the linear response without elements (the historical default start);
 ``"regularisation"`` (HBM only)
     the linear start, continued from softened regularised laws (``kappa``, ``k_c``
-    times 1e-3 ... 0.3) to the requested ones (:meth:`mshbm.hbm.HBMProblem.homotopy`);
+    times 1e-3 ... 0.3) to the requested ones (:meth:`mshbm.methods.hbm.HBMProblem.homotopy`);
 ``"shifted"`` (time-stepping methods)
     the linear start with the *Poincare section moved*: the problem is solved for the
     forcing advanced by ``k`` time steps, ``f(t + t0)`` with ``t0 = k h``, and the periodic
@@ -46,7 +46,7 @@ its residual (:func:`mshbm.api.build_problem`).  The starts, in the default orde
     (``n^2 x steps x periods``) and ``transient_seconds``.  Finds attracting orbits;
 ``"forcing"``, ``"friction"``
     natural-parameter continuation in the forcing amplitude / the friction bound
-    (:mod:`mshbm.continuation`), from the side where the linear response is exact.
+    (:mod:`mshbm.solvers.continuation`), from the side where the linear response is exact.
 
 Every start ends in an ordinary Newton solve of the *original* problem, so all
 accepted results are solutions of the requested discretisation; the starts only
@@ -57,8 +57,8 @@ solve the same problem, so their residuals are comparable) is returned with
 
 Interface
 ---------
-:func:`solve_from_starts` returns a :class:`mshbm.newton.NewtonResult` (the type that
-:func:`mshbm.newton.newton` returns), so that :func:`mshbm.api._solve` treats it as
+:func:`solve_from_starts` returns a :class:`mshbm.solvers.newton.NewtonResult` (the type that
+:func:`mshbm.solvers.newton.newton` returns), so that :func:`mshbm.api._solve` treats it as
 before; ``result.info["starts"]`` holds one record per attempt (start, accepted,
 residual, iterations, wall time, message) and ``result.info["start_used"]`` the
 accepted start (``None`` on failure).
@@ -74,9 +74,9 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
-from . import fourier
-from ._common import linear_response
-from .errors import InputError
+from .. import condensation, fourier
+from ..methods.common import linear_response
+from ..errors import InputError
 from .newton import NewtonResult, newton
 
 __all__ = ["solve_from_starts", "residual_accept", "Attempt", "DEFAULT_STARTS", "active", "shifted_system",
@@ -357,7 +357,7 @@ def clamped_response(system, omega, n_h):
     Z = np.zeros_like(F)
     for k in range(n_h + 1):
         rhs = F[k][Ld].astype(complex)
-        H = fourier.dynamic_stiffness(system.M, system.C, system.K, k * omega)
+        H = condensation.dynamic_stiffness(system.M, system.C, system.K, k * omega)
         H = H.toarray() if sp.issparse(H) else np.asarray(H)
         if k == 0:
             rhs = rhs - H[np.ix_(Ld, Nd)] @ q_hat[0, Nd]
@@ -491,7 +491,7 @@ class _Runner:
     def start_shifted(self):
         if self.method not in _TIME_METHODS:
             return None
-        from . import api
+        from .. import api
 
         t0 = time.perf_counter()
         N = int(_steps(self.problem))
@@ -530,7 +530,7 @@ class _Runner:
     def start_exact(self):
         if len(self.system.elements) != 1 or self.system.n > EXACT_MAX_DOFS:
             return None
-        from .exact import exact_periodic
+        from ..methods.exact import exact_periodic
 
         t0 = time.perf_counter()
         N = int(_steps(self.problem)) if self.method in _TIME_METHODS else 2048
@@ -563,7 +563,7 @@ class _Runner:
                          "exact_periodic failed: " + "; ".join(w[:120] for w in why), 0, t0)
 
     def start_transient(self):
-        from .stepper import MAX_DENSE_DOFS, MoreauJean
+        from ..integrators.moreau_jean import MAX_DENSE_DOFS, MoreauJean
 
         n = self.system.n
         steps = int(_steps(self.problem)) if self.method in _TIME_METHODS else 1024
@@ -677,7 +677,7 @@ def solve_from_starts(problem, method, system, omega, newton_options, accept, *,
     omega : float
         Forcing frequency (rad/s).
     newton_options : dict
-        Keyword arguments of :func:`mshbm.newton.newton` (``tol``, ``max_iter``, ``line_search``,
+        Keyword arguments of :func:`mshbm.solvers.newton.newton` (``tol``, ``max_iter``, ``line_search``,
         ``callback``); used for every Newton solve.
     accept : callable
         ``accept(attempt: Attempt) -> bool``; the first attempt it accepts is returned
@@ -690,7 +690,7 @@ def solve_from_starts(problem, method, system, omega, newton_options, accept, *,
         The method's options as given to :func:`mshbm.solve` (``harmonics``, ``steps``, ``theta``,
         ``partition``...): needed to build the shifted problem, the simulation, the continuations.
     fallback : bool
-        Allow :func:`mshbm.newton.newton` its problem-specific fallback (HBM's exact path following).
+        Allow :func:`mshbm.solvers.newton.newton` its problem-specific fallback (HBM's exact path following).
     transient_periods : sequence of int
         Checkpoints (periods simulated so far) of the ``"transient"`` start.
     transient_budget : float

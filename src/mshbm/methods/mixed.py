@@ -33,11 +33,11 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from . import fourier
-from ._common import guess_parts
-from .errors import InputError
-from .fourier import Condensation
-from .stepper import MoreauJean
+from .. import fourier
+from .common import guess_parts
+from ..errors import InputError
+from ..condensation import Condensation
+from ..integrators.moreau_jean import MoreauJean
 
 __all__ = ["MixedProblem", "IntermediateProblem", "auto_intermediate_partition"]
 
@@ -229,7 +229,7 @@ class MixedProblem:
 
 def _mixed_scale(problem, x, a, n1, force_rows):
     """Row scales ``(coefficient rows (a), q rows (n1), u rows (n1))`` of the mixed residuals."""
-    from .scaling import displacement_floor, force_scale, velocity_scale
+    from ..scaling import displacement_floor, force_scale, velocity_scale
 
     if "_FD0" not in problem.__dict__:
         F = force_scale(problem.system)

@@ -8,7 +8,7 @@ with the block-diagonal dynamic stiffness ``H`` (eqs. 23-24) and ``N_s`` time
 samples per period for the AFT.  Because the nonlinear forces act only on the
 DOFs ``N``, the linear DOFs ``L`` are eliminated exactly per harmonic
 (``condense=True``, default; the solution is that of full HBM, see
-:class:`mshbm.fourier.Condensation`).  ``condense=False`` solves the full
+:class:`mshbm.condensation.Condensation`).  ``condense=False`` solves the full
 (sparse) system instead.  The Jacobian is analytic.
 
 Robust solution with penalty contact
@@ -19,9 +19,9 @@ With penalty contacts only (eq. 45, any ``k_c``, ``d_c``), the AFT residual is
 and the solution branch has turning points (the grazing bifurcation of the
 impact oscillator), so damped Newton stalls at ``||R|| ~ O(1)`` from any start
 that is not already in the right region.  :meth:`HBMProblem.newton_fallback`
-(called by :func:`mshbm.newton.newton` when the line search fails) then traces
+(called by :func:`mshbm.solvers.newton.newton` when the line search fails) then traces
 the solution curve exactly, segment by segment, through the folds
-(:func:`mshbm.newton.follow_pl_path`):
+(:func:`mshbm.solvers.newton.follow_pl_path`):
 
 1. a Newton homotopy ``R(q_hat) = (1 - t) R(q_hat_0)``, ``t: 0 -> 1``, from the
    given start (skipped when the start is the linear response);
@@ -41,12 +41,12 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from . import fourier
-from ._common import guess_parts
-from .fourier import Condensation
-from .laws import regularised_forces
-from .newton import NewtonResult, follow_pl_path, newton
-from .system import Contact
+from .. import condensation, fourier
+from .common import guess_parts
+from ..condensation import Condensation
+from ..laws import regularised_forces
+from ..solvers.newton import NewtonResult, follow_pl_path, newton
+from ..system import Contact
 
 __all__ = ["HBMProblem", "scaled_regularisation"]
 
@@ -113,13 +113,13 @@ class HBMProblem:
         if self.condense:  # dense: n_R is the (small) nonlinear subsystem
             Hs = np.empty((self.n_h + 1, nR, nR), dtype=complex)
             for k in range(self.n_h + 1):
-                Hk = fourier.dynamic_stiffness(MRR, CRR, KRR, k * omega)
+                Hk = condensation.dynamic_stiffness(MRR, CRR, KRR, k * omega)
                 Hs[k] = (Hk.toarray() if sp.issparse(Hk) else Hk) - self.cond.T[k]
             self.A = self.cond.real_matrix(Hs)
         else:
             blocks = []
             for k in range(self.n_h + 1):
-                Hk = sp.csr_matrix(fourier.dynamic_stiffness(MRR, CRR, KRR, k * omega))
+                Hk = sp.csr_matrix(condensation.dynamic_stiffness(MRR, CRR, KRR, k * omega))
                 A, Bm = Hk.real, Hk.imag
                 blocks.append(A if k == 0 else sp.bmat([[A, Bm], [-Bm, A]]))
             self.A = sp.block_diag(blocks, format="csr")
@@ -136,7 +136,7 @@ class HBMProblem:
 
     def residual_scale(self, x=None):
         """Per-row scale of the residual, shape ``(n_x,)``: the force scale ``F`` (N) on every row."""
-        from .scaling import force_scale
+        from ..scaling import force_scale
 
         if "_F" not in self.__dict__:
             self._F = force_scale(self.system, penalty=True)
@@ -280,7 +280,7 @@ class HBMProblem:
         """Trace ``R(q_hat) = (1 - t) R(q_hat_0)`` exactly from ``t = 0`` (at ``x0``) to ``t = 1``.
 
         Only for :attr:`piecewise_linear` problems.  Returns a
-        :class:`mshbm.newton.PathResult` (``x`` is the solution if ``success``).
+        :class:`mshbm.solvers.newton.PathResult` (``x`` is the solution if ``success``).
         """
         x0 = np.asarray(x0, dtype=float)
         F0, _ = self.residual(x0, jac=False)
@@ -295,7 +295,7 @@ class HBMProblem:
         Starts at the linear response (``lambda_0`` just above its first touch
         down, no sample closed) and follows the branch through its turning
         points.  Only for :attr:`piecewise_linear` problems.  Returns a
-        :class:`mshbm.newton.PathResult`.
+        :class:`mshbm.solvers.newton.PathResult`.
         """
         x_lin = self._linear_solution()
         g = self._gaps(x_lin)
@@ -311,7 +311,7 @@ class HBMProblem:
         return 10 * self.Ns * len(self.system.elements) + 1000
 
     def newton_fallback(self, x0, failed=None, tol=1e-10, scale=None, max_iter=50, callback=None):
-        """Second globalisation stage for penalty contact, called by :func:`mshbm.newton.newton`.
+        """Second globalisation stage for penalty contact, called by :func:`mshbm.solvers.newton.newton`.
 
         For :attr:`piecewise_linear` problems, tries in turn (1) the exact Newton
         homotopy from ``x0`` (skipped when ``x0`` is the linear response) and
@@ -326,7 +326,7 @@ class HBMProblem:
         failed : NewtonResult, optional
             The failed result (unused; part of the hook's signature).
         tol, scale, max_iter, callback
-            As in :func:`mshbm.newton.newton`; success means
+            As in :func:`mshbm.solvers.newton.newton`; success means
             ``||R / s||_inf <= tol`` for the real problem (default scale
             :meth:`residual_scale`).
 
@@ -337,7 +337,7 @@ class HBMProblem:
         """
         if not self.piecewise_linear:
             return None
-        from .newton import _scale_function, scaled_norm
+        from ..solvers.newton import _scale_function, scaled_norm
 
         x0 = np.asarray(x0, dtype=float)
         scale = _scale_function(self.residual, scale)

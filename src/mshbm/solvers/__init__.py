@@ -1,0 +1,1 @@
+"""Solvers acting on any problem object: Newton, start ladder, continuation."""
