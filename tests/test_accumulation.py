@@ -14,7 +14,8 @@ import pytest
 
 from mshbm import Contact, chain
 from mshbm.accumulation import find_accumulations, from_events, from_impulses
-from mshbm.methods.exact import ExactFlow, exact_periodic
+from mshbm.integrators.exact_flow import ExactFlow
+from mshbm.methods.exact import exact_periodic
 from mshbm.integrators.moreau_jean import MoreauJean
 
 G, H = 9.81, 0.5

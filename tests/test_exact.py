@@ -5,7 +5,8 @@ from scipy.integrate import solve_ivp
 
 import mshbm
 from mshbm import Contact, Friction, InputError, chain
-from mshbm.methods.exact import ExactFlow, exact_periodic
+from mshbm.integrators.exact_flow import ExactFlow
+from mshbm.methods.exact import exact_periodic
 
 from conftest import NORMAL_FORCE, OMEGA, friction_chain, impact_chain
 

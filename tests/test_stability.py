@@ -20,7 +20,8 @@ import mshbm
 from mshbm import Contact, Friction, chain, stability
 from mshbm.errors import InputError
 from mshbm.result import PeriodicSolution
-from mshbm.methods.exact import ExactFlow, exact_periodic
+from mshbm.integrators.exact_flow import ExactFlow
+from mshbm.methods.exact import exact_periodic
 from mshbm.integrators.moreau_jean import MoreauJean
 
 from conftest import OMEGA

@@ -86,7 +86,6 @@ import scipy.sparse as sp
 from . import fourier
 from .solvers.newton import scaled_norm
 from .scaling import displacement_floor, force_scale
-from .system import Contact, Friction
 
 __all__ = ["Check", "Certificate", "certify", "apply_certificate"]
 
@@ -277,7 +276,7 @@ def _certify(problem, sol, tol, cert, step_accuracy=None):
     lam = np.asarray(sol.lam)
 
     # 3. element laws
-    fr = [(j, e) for j, e in enumerate(els) if isinstance(e, Friction)]
+    fr = [(j, e) for j, e in enumerate(els) if e.bounded]
     if fr:
         ratios = []
         for j, e in fr:
@@ -286,7 +285,7 @@ def _certify(problem, sol, tol, cert, step_accuracy=None):
         val = max(ratios)
         cert.checks.append(Check("friction_cone", val, 1.0 + 1e-9, bool(val <= 1.0 + 1e-9),
                                  note="max |lambda_T| / (mu F_N)"))
-    ct = [(j, e) for j, e in enumerate(els) if isinstance(e, Contact)]
+    ct = [(j, e) for j, e in enumerate(els) if e.unilateral]
     if ct:
         pen, bnd, comp = 0.0, np.inf, 0.0
         for j, e in ct:
@@ -449,12 +448,12 @@ def _energy(problem, sol, system, omega, h, N, is_hbm, stepper, els, col, qe, ue
         cert.info["energy"]["stored_energy_change"] = -float(Wj[len(els) + 1])
     cert.checks.append(Check("energy_balance", val, bound_rel, bool(val <= bound_rel) or not gate, gate, note))
     bound = ENERGY_TOL * E + step_work
-    fr = [j for j, e in enumerate(els) if isinstance(e, Friction)]
+    fr = [j for j, e in enumerate(els) if e.bounded]
     if fr:
         w = max(float(Wj[j]) for j in fr)
         cert.checks.append(Check("friction_dissipation", w, bound, bool(w <= bound),
                                  note="work of the friction forces over a period (must not be positive)"))
-    ct = [j for j, e in enumerate(els) if isinstance(e, Contact)]
+    ct = [j for j, e in enumerate(els) if e.unilateral]
     if ct:
         if not is_hbm:  # Moreau-Jean: gamma_N+ = -e gamma_N- makes P gamma_N,theta vanish (e = 1) exactly
             bound = ENERGY_TOL * E
@@ -472,9 +471,9 @@ def _energy(problem, sol, system, omega, h, N, is_hbm, stepper, els, col, qe, ue
 
 def _resonance(problem, sol, system, omega, h, is_hbm, els, lam, cert):
     acting = []
-    for j, e in enumerate(els):
-        if isinstance(e, Friction):
-            acting.append(e.bound > 0)
+    for j, e in enumerate(els):  # a bounded (friction) law acts whenever its bound is positive
+        if e.bounded:
+            acting.append(e.acts)
         else:
             acting.append(bool(np.any(np.abs(lam[:, j]) > 0)))
     if any(acting):

@@ -35,8 +35,6 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from .system import Contact, Friction
-
 __all__ = ["force_scale", "stiffness_scale", "displacement_floor", "velocity_scale"]
 
 
@@ -68,12 +66,7 @@ def force_scale(system, penalty=False):
         return F
     Kd = np.abs(_diag(system.K))
     for el in system.elements:
-        if isinstance(el, Friction):
-            F = max(F, float(el.bound))
-        elif isinstance(el, Contact):
-            F = max(F, float(Kd[el.dof]) * el.gap)
-            if penalty:
-                F = max(F, el.penalty_stiffness * el.gap)
+        F = max(F, el.force_scale(Kd, penalty))
     return F if F > 0.0 else 1e-300
 
 

@@ -231,11 +231,11 @@ def _step_map(system, sol, steps, theta, prefix, t0):
                     f"{prefix}Moreau-Jean step map failed: {type(exc).__name__}: {exc}")
     kind = prob.stepper.kind
     impacts = bool(np.any((kind == kernels.KIND_CONTACT) & np.any(tr.P > 0, axis=0)))
-    acting = np.array([el.kind != "friction" or el.bound > 0.0 for el in system.elements])
+    acting = np.array([el.acts for el in system.elements])
     stick = bool(np.any(((tr.status & 3) == kernels.STATUS_STICK) & (kind == kernels.KIND_FRICTION) & acting))
     reversal = False
     for j, el in enumerate(system.elements):
-        if el.kind == "friction" and el.bound > 0.0:  # mu F_N = 0: the element never acts
+        if el.bounded and el.acts:  # mu F_N = 0: the element never acts
             v = tr.u[:, el.dof]
             reversal |= bool(np.any(v > 0)) and bool(np.any(v < 0))
     rho = float(np.max(np.abs(mult)))

@@ -13,138 +13,23 @@ Fourier coefficients in the paper's real convention (eqs. 1-3)::
 
 stored as ``f_hat`` of shape ``(2 n_f + 1, n)``, rows ``[f0, fc_1, fs_1, ...]``.
 
-Local nonlinear elements act on single DOFs:
-
-* :class:`Friction` -- Coulomb dry friction, slip velocity ``gamma_T = u_dof``,
-  set-valued law ``-lambda_T in mu F_N Sign(gamma_T)`` (eq. 41), regularised
-  for HBM as ``-lambda_T = mu F_N 2/pi arctan(kappa gamma_T)`` (eq. 42).
-* :class:`Contact` -- unilateral contact with gap ``g_N = g0 - q_dof >= 0``,
-  relative velocity ``gamma_N = -u_dof`` and Newton's impact law with
-  restitution ``e_N`` (eqs. 43-44); penalty law for HBM (eq. 45)
-  ``lambda_N = -(k_c g_N + d_c gamma_N)`` while ``g_N <= 0``.
-
-Every element has a direction ``w`` (``+e_dof`` for friction, ``-e_dof`` for
-contact); its force on the DOFs is ``w * lambda``.
+Local nonlinear elements (:mod:`mshbm.elements`: :class:`~mshbm.elements.Friction`,
+:class:`~mshbm.elements.Contact`, re-exported here) act on single DOFs; every element has a
+direction ``w`` (``+e_dof`` for friction, ``-e_dof`` for contact) and its force on the DOFs is
+``w * lambda``.  The elements own their laws (set-valued and regularised).
 
 The DOFs carrying elements form the nonlinear subsystem ``N``; the others the
 linear subsystem ``L`` (eq. 7).
 """
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass, field
-
 import numpy as np
 import scipy.sparse as sp
 
+from .elements import Contact, Element, Friction, _dof, _finite_number
 from .errors import InputError
 
 __all__ = ["Friction", "Contact", "System", "chain"]
-
-
-def _finite_number(key, value, *, positive=False, nonnegative=False):
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise InputError(key, f"must be a number, got {type(value).__name__} {value!r}")
-    value = float(value)
-    if not math.isfinite(value):
-        raise InputError(key, f"must be finite, got {value}")
-    if positive and value <= 0:
-        raise InputError(key, f"must be > 0, got {value:g}")
-    if nonnegative and value < 0:
-        raise InputError(key, f"must be >= 0, got {value:g}")
-    return value
-
-
-def _dof(key, value):
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-        if isinstance(value, float) and value.is_integer():
-            value = int(value)
-        else:
-            raise InputError(key, f"must be an integer DOF index, got {value!r}")
-    return int(value)
-
-
-@dataclass(frozen=True)
-class Friction:
-    """Coulomb friction on one DOF.
-
-    Parameters
-    ----------
-    dof : int
-        0-based DOF index.
-    mu : float
-        Friction coefficient, ``>= 0``.
-    normal_force : float
-        Normal force ``F_N`` (N), ``>= 0``.  The friction bound is ``mu*F_N``.
-    smoothing : float
-        Regularisation ``kappa`` (s/m) of eq. (42), used by HBM only.
-    """
-
-    dof: int
-    mu: float
-    normal_force: float
-    smoothing: float = 800.0
-    kind: str = field(default="friction", init=False)
-
-    def __post_init__(self):
-        object.__setattr__(self, "dof", _dof("friction.dof", self.dof))
-        object.__setattr__(self, "mu", _finite_number("friction.mu", self.mu, nonnegative=True))
-        object.__setattr__(self, "normal_force",
-                           _finite_number("friction.normal_force", self.normal_force, nonnegative=True))
-        object.__setattr__(self, "smoothing",
-                           _finite_number("friction.smoothing", self.smoothing, positive=True))
-
-    @property
-    def sign(self):
-        """Direction ``w = sign * e_dof``."""
-        return 1.0
-
-    @property
-    def bound(self):
-        """Maximal friction force ``mu * F_N``."""
-        return self.mu * self.normal_force
-
-
-@dataclass(frozen=True)
-class Contact:
-    """Unilateral contact ``g_N = gap - q_dof >= 0`` with Newton impact law.
-
-    Parameters
-    ----------
-    dof : int
-        0-based DOF index.
-    gap : float
-        Initial gap ``g_N,0 >= 0`` (m).
-    restitution : float
-        Newton restitution coefficient ``e_N`` in ``[0, 1]``.
-    penalty_stiffness, penalty_damping : float
-        ``k_c > 0`` (N/m) and ``d_c >= 0`` (Ns/m) of the penalty law eq. (45),
-        used by HBM only.
-    """
-
-    dof: int
-    gap: float
-    restitution: float = 1.0
-    penalty_stiffness: float = 8000.0
-    penalty_damping: float = 0.0
-    kind: str = field(default="contact", init=False)
-
-    def __post_init__(self):
-        object.__setattr__(self, "dof", _dof("contact.dof", self.dof))
-        object.__setattr__(self, "gap", _finite_number("contact.gap", self.gap, nonnegative=True))
-        e = _finite_number("contact.restitution", self.restitution)
-        if not 0.0 <= e <= 1.0:
-            raise InputError("contact.restitution", f"must lie in [0, 1], got {e:g}")
-        object.__setattr__(self, "restitution", e)
-        object.__setattr__(self, "penalty_stiffness",
-                           _finite_number("contact.penalty_stiffness", self.penalty_stiffness, positive=True))
-        object.__setattr__(self, "penalty_damping",
-                           _finite_number("contact.penalty_damping", self.penalty_damping, nonnegative=True))
-
-    @property
-    def sign(self):
-        """Direction ``w = sign * e_dof`` (``g_N = gap + sign*q_dof``)."""
-        return -1.0
 
 
 def _as_matrix(key, A, n=None):
@@ -209,8 +94,8 @@ class System:
     f_hat : array_like, shape (2*n_f + 1, n) or (n,)
         Fourier coefficients of the forcing (N) in the order
         ``[f0, fc_1, fs_1, ..., fc_nf, fs_nf]``; a 1-D array is a constant force.
-    elements : sequence of Friction or Contact
-        Local nonlinear elements.
+    elements : sequence of mshbm.elements.Element
+        Local nonlinear elements (Friction, Contact).
     name : str
         Label used in outputs.
     """
@@ -236,8 +121,8 @@ class System:
         self.elements = tuple(elements)
         seen = set()
         for i, el in enumerate(self.elements):
-            if not isinstance(el, (Friction, Contact)):
-                raise InputError(f"elements[{i}]", f"must be Friction or Contact, got {type(el).__name__}")
+            if not isinstance(el, Element):
+                raise InputError(f"elements[{i}]", f"must be an element (Friction, Contact), got {type(el).__name__}")
             if not 0 <= el.dof < n:
                 raise InputError(f"{el.kind}.dof", f"DOF {el.dof} out of range 0..{n - 1}")
             if (el.kind, el.dof) in seen:

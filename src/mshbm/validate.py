@@ -257,7 +257,7 @@ def k_is_singular(K, rcond_min=1e-13):
 
 def check_free_free(system):
     """Raise ``InputError("K")`` for a free-free structure not held by a contact element."""
-    if any(e.kind == "contact" for e in system.elements):
+    if any(e.unilateral for e in system.elements):
         return
     if not k_is_singular(system.K):
         return
@@ -278,10 +278,7 @@ def check_float_range(system, omega, n_h, steps, method):
         terms += [("steps", "max |M| / h^2 (h = T/steps)", mM / (h * h)), ("steps", "max |C| / h", mC / h)]
     terms += [("forcing", "max |f|", float(np.max(np.abs(system.f_hat), initial=0.0)))]
     for e in system.elements:
-        if e.kind == "friction":
-            terms.append((f"{e.kind}.normal_force", "mu F_N", e.mu * e.normal_force))
-        else:
-            terms.append((f"{e.kind}.penalty_stiffness", "k_c gap", e.penalty_stiffness * max(e.gap, 1.0)))
+        terms += e.magnitude_terms()
     for key, what, val in terms:
         if not math.isfinite(val) or val > FLOAT_LIMIT:
             raise InputError(key, f"{what} = {val:.3g} leaves the float range (limit {FLOAT_LIMIT:.0e}): the "

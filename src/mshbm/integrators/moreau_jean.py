@@ -14,7 +14,6 @@ import scipy.sparse as sp
 
 from . import kernels
 from ..errors import InputError
-from ..system import Contact, Friction
 
 __all__ = ["MoreauJean", "Trajectory"]
 
@@ -62,8 +61,9 @@ class MoreauJean:
     ----------
     M, C, K : array_like, shape (n, n)
         Matrices of the integrated (sub)system (dense or sparse).
-    elements : sequence of Friction or Contact
-        Elements whose ``dof`` is an index *into this (sub)system*.
+    elements : sequence of mshbm.elements.Element
+        Elements whose ``dof`` is an index *into this (sub)system*; each gives its kernel
+        parameters (:meth:`~mshbm.elements.Element.kernel_parameters`).
     h : float
         Time step (s).
     theta : float
@@ -98,14 +98,7 @@ class MoreauJean:
         for j, el in enumerate(elements):
             G[el.dof, j] = el.sign
             self.dof[j], self.sign[j] = el.dof, el.sign
-            if isinstance(el, Friction):
-                self.kind[j] = kernels.KIND_FRICTION
-                self.bound[j] = h * el.bound
-            elif isinstance(el, Contact):
-                self.kind[j] = kernels.KIND_CONTACT
-                self.gap[j], self.e[j] = el.gap, el.restitution
-            else:  # pragma: no cover - System validates this
-                raise TypeError(el)
+            self.kind[j], self.bound[j], self.gap[j], self.e[j] = el.kernel_parameters(h)
         self.G = G
         self.WG = np.ascontiguousarray(self.W @ G)
         self.Del = np.ascontiguousarray(G.T @ self.WG)

@@ -44,23 +44,16 @@ import scipy.sparse.linalg as spla
 from .. import condensation, fourier
 from .common import guess_parts
 from ..condensation import Condensation
-from ..laws import regularised_forces
+from ..elements import regularised_forces
 from ..solvers.newton import NewtonResult, follow_pl_path, newton
-from ..system import Contact
 
 __all__ = ["HBMProblem", "scaled_regularisation"]
 
 
 def scaled_regularisation(system, factor):
-    """Copy of ``system`` whose HBM laws are ``factor`` times stiffer (``kappa``; ``k_c`` and ``d_c``)."""
-    els = []
-    for el in system.elements:
-        if el.kind == "friction":
-            els.append(replace(el, smoothing=el.smoothing * factor))
-        else:
-            els.append(replace(el, penalty_stiffness=el.penalty_stiffness * factor,
-                               penalty_damping=el.penalty_damping * factor))
-    return system.with_elements(els)
+    """Copy of ``system`` whose HBM laws are ``factor`` times stiffer (``kappa``; ``k_c`` and ``d_c``:
+    :meth:`mshbm.elements.Element.scaled`)."""
+    return system.with_elements([el.scaled(factor) for el in system.elements])
 
 
 class HBMProblem:
@@ -213,7 +206,7 @@ class HBMProblem:
 
     @property
     def piecewise_linear(self):
-        """True if every element is a penalty contact (eq. 45).
+        """True if every element's regularised law is piecewise linear (penalty contact, eq. 45).
 
         The AFT residual is then piecewise affine in ``q_hat``: affine on each
         region where the set of closed samples ``{(t_j, contact): g_N(t_j) <= 0}``
@@ -224,12 +217,12 @@ class HBMProblem:
         ``d_c = 50`` on the 5-mass chain, ``k_c = 8000``).
         """
         els = self.system.elements
-        return len(els) > 0 and all(isinstance(el, Contact) for el in els)
+        return len(els) > 0 and all(el.piecewise_linear for el in els)
 
     def _contacts(self):
         """``[(i, element)]``: index ``i`` into ``nl_cols`` of each contact's DOF."""
         cols = {int(c): i for i, c in enumerate(self.nl_cols)}
-        return [(cols[d], el) for el, d in zip(self.system.elements, self.local_dof) if isinstance(el, Contact)]
+        return [(cols[d], el) for el, d in zip(self.system.elements, self.local_dof) if el.unilateral]
 
     def _gaps(self, x, offset=0.0):
         """Sampled gaps ``g_N(t_j) + offset`` of the contacts, shape (N_s, n_contacts)."""

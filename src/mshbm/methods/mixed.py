@@ -65,8 +65,7 @@ def _local_elements(system, dofs):
     for el in system.elements:
         if int(el.dof) not in pos:
             raise InputError("partition", f"{el.kind} element on DOF {el.dof} is not in the nonlinear subsystem")
-        kw = {k: getattr(el, k) for k in el.__dataclass_fields__ if k not in ("kind", "dof")}
-        out.append(type(el)(dof=pos[int(el.dof)], **kw))
+        out.append(el.renumbered(pos))
     return out
 
 

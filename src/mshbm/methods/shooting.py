@@ -16,6 +16,7 @@ import numpy as np
 
 from .. import fourier
 from .common import guess_parts
+from ..integrators import kernels
 from ..integrators.moreau_jean import MoreauJean
 
 __all__ = ["ShootingProblem"]
@@ -116,7 +117,7 @@ class ShootingProblem:
         q_hat = fourier.fft(tr.q[:-1], n_h)
         lam = np.vstack([tr.P, tr.P[:1]]) / self.h
         mult = np.linalg.eigvals(self.monodromy(x))
-        impacts = bool(np.any((self.stepper.kind == 1) & np.any(tr.P > 0, axis=0)))
+        impacts = bool(np.any((self.stepper.kind == kernels.KIND_CONTACT) & np.any(tr.P > 0, axis=0)))
         info = {# eigenvalues of the discrete map's monodromy: its step Jacobians hold no saltation terms,
                 # so at impacts they are not the flow's multipliers.  The solution's floquet_multipliers /
                 # stable (mshbm.stability) are the valid ones.

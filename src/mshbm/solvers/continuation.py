@@ -45,7 +45,6 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import replace
 
 import numpy as np
 
@@ -68,8 +67,7 @@ def scaled_system(system, forcing=1.0, friction=1.0):
     """
     if not isinstance(system, System):
         raise InputError("system", f"must be an mshbm.System, got {type(system).__name__}")
-    els = tuple(replace(e, normal_force=e.normal_force * friction) if e.kind == "friction" and friction != 1.0
-                else e for e in system.elements)
+    els = tuple(e.bound_scaled(friction) if friction != 1.0 else e for e in system.elements)
     new = system.with_elements(els)
     new.f_hat = system.f_hat * float(forcing)
     return new
@@ -104,7 +102,7 @@ def _predict(points, lam):
 
 def _first_touch_scale(system, omega, n_h=10, samples=256):
     """Largest forcing scale at which the linear response keeps every contact open (inf if always)."""
-    contacts = [e for e in system.elements if e.kind == "contact"]
+    contacts = [e for e in system.elements if e.unilateral]
     if not contacts:
         return math.inf
     q_hat = linear_response(system, omega, n_h)
@@ -364,7 +362,7 @@ def _make_path(strategy, system, omega, method, guess, options, forcing_start, f
         return _Path(lambda lam: (scaled_system(system, forcing=lam), omega), *args, first_guess="linear",
                      lam0=s0, **kw)
     if strategy == "friction":
-        if not any(e.kind == "friction" for e in system.elements):
+        if not any(e.bounded for e in system.elements):
             return None
         return _Path(lambda lam: (scaled_system(system, friction=lam), omega), *args, first_guess="linear",
                      lam0=float(friction_start), **kw)

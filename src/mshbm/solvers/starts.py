@@ -166,7 +166,7 @@ def force_scale(system):
     """Physical force scale (N): the largest forcing coefficient and element force bound ``mu F_N``."""
     s = float(np.max(np.abs(system.f_hat), initial=0.0))
     for el in system.elements:
-        if el.kind == "friction":
+        if el.bounded:
             s = max(s, el.bound)
     return s if s > 0 else 1.0
 
@@ -179,7 +179,7 @@ def displacement_scale(system, omega):
     if k <= 0:
         k = float(omega) ** 2 * float(np.max(diag(system.M), initial=0.0))
     D = force_scale(system) / k if k > 0 else 1.0
-    gaps = max([el.gap for el in system.elements if el.kind == "contact"], default=0.0)
+    gaps = max([el.gap for el in system.elements if el.unilateral], default=0.0)
     return max(D, gaps)
 
 
@@ -223,7 +223,7 @@ def impact_jump(system, parts):
     mdiag = M.diagonal() if sp.issparse(M) else np.diag(np.asarray(M))
     J = 0.0
     for j, el in enumerate(system.elements):
-        if el.kind == "contact" and j < P.shape[1]:
+        if el.unilateral and j < P.shape[1]:
             J = max(J, float(np.max(np.abs(P[:, j]), initial=0.0)) / float(mdiag[el.dof]))
     return J
 
@@ -346,7 +346,7 @@ def clamped_response(system, omega, n_h):
     fixed = {}
     lin = linear_response(system, omega, n_h)
     for el in system.elements:
-        fixed[int(el.dof)] = el.gap if el.kind == "contact" else float(lin[0, el.dof])
+        fixed[int(el.dof)] = el.gap if el.unilateral else float(lin[0, el.dof])
     Nd = np.array(sorted(fixed), dtype=np.int64)
     Ld = np.setdiff1d(np.arange(n), Nd)
     q_hat = np.zeros((2 * n_h + 1, n))
@@ -390,13 +390,13 @@ def _event_steps(parts, system):
     h = float(parts["t"][1] - parts["t"][0])
     ev = []
     for j, el in enumerate(system.elements):
-        if el.kind == "contact":
+        if el.unilateral:
             act = P[:, j] > 0
         else:
             act = np.abs(P[:, j]) < (1.0 - 1e-9) * h * el.bound  # sticking
         change = np.nonzero(act != np.roll(act, 1))[0]
         ev.extend(change.tolist())
-        if el.kind == "contact":
+        if el.unilateral:
             ev.extend(np.nonzero(act)[0].tolist())
     return np.unique(np.asarray(ev, dtype=np.int64) % max(N, 1))
 
@@ -628,7 +628,7 @@ class _Runner:
     def _continuation(self, strategy):
         from .continuation import solve_with_continuation
 
-        if strategy == "friction" and not any(e.kind == "friction" for e in self.system.elements):
+        if strategy == "friction" and not any(e.bounded for e in self.system.elements):
             return None
         t0 = time.perf_counter()
         opts = dict(self.options)

@@ -1,0 +1,383 @@
+"""Local nonsmooth elements: each element owns its laws.
+
+Notation (Schreyer & Leine 2016, Sec. 4): an element acts on the structure along its direction
+``w`` (``+e_dof`` for friction, ``-e_dof`` for contact; ``w = sign * e_dof``) with the force
+``w lambda``.  Its local kinematics are the relative displacement and velocity along ``w``::
+
+    s = w^T q,        gamma = w^T u
+
+* :class:`Friction` -- Coulomb dry friction, slip velocity ``gamma_T = u_dof``, set-valued law
+  ``-lambda_T in mu F_N Sign(gamma_T)`` (eq. 41), regularised for HBM as
+  ``lambda_T = -mu F_N 2/pi arctan(kappa gamma_T)`` (eq. 42).
+* :class:`Contact` -- unilateral contact with gap ``g_N = g0 + s = g0 - q_dof >= 0``, relative
+  velocity ``gamma_N = -u_dof`` and Newton's impact law with restitution ``e_N`` (eqs. 43-44);
+  penalty law for HBM (eq. 45) ``lambda_N = -(k_c g_N + d_c gamma_N)`` while ``g_N <= 0``.
+
+What every element owns (the contract of :class:`Element`; the methods and the integrators
+ask the element, they do not test its type):
+
+=========================  ==================================================================
+set-valued law             :meth:`Element.project` (prox of an impulse over a step);
+                           :meth:`Element.kernel_parameters` (the numbers the compiled
+                           Moreau-Jean kernel takes, :mod:`mshbm.integrators.kernels`)
+regularised law (HBM)      :meth:`Element.regularised_law`: ``lambda`` and its derivatives;
+                           :func:`regularised_forces` assembles them on the AFT samples
+homotopy                   :meth:`Element.scaled` (regularisation ``factor`` times stiffer, the
+                           set-valued limits kept); :meth:`Element.bound_scaled` (the force
+                           bound times ``s``, continuation in the friction bound)
+scaling                    :meth:`Element.force_scale`, :meth:`Element.magnitude_terms`
+event-driven flow, checks  :attr:`Element.unilateral` (gap ``g_N >= 0``, impacts: ``gap``,
+                           ``restitution``), :attr:`Element.bounded` (``|lambda| <= bound``),
+                           :attr:`Element.acts`, :attr:`Element.piecewise_linear`
+subsystems                 :meth:`Element.renumbered` (the element on renumbered DOFs)
+=========================  ==================================================================
+
+The elements of issue 15 (friction and contact relative to a second DOF, Jenkins friction with a
+tangential stiffness, friction whose normal load comes from a contact) are new subclasses: a
+relative element has ``dofs = (I, J)`` and ``w = sign (e_I - e_J)``; its regularised law is the
+same function of ``(s, gamma)``.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from typing import ClassVar
+
+import numpy as np
+
+from .errors import InputError
+from .integrators.kernels import KIND_CONTACT, KIND_FRICTION
+
+__all__ = ["Element", "Friction", "Contact", "regularised_forces", "ELEMENT_TYPES"]
+
+
+def _finite_number(key, value, *, positive=False, nonnegative=False):
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise InputError(key, f"must be a number, got {type(value).__name__} {value!r}")
+    value = float(value)
+    if not math.isfinite(value):
+        raise InputError(key, f"must be finite, got {value}")
+    if positive and value <= 0:
+        raise InputError(key, f"must be > 0, got {value:g}")
+    if nonnegative and value < 0:
+        raise InputError(key, f"must be >= 0, got {value:g}")
+    return value
+
+
+def _dof(key, value):
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        if isinstance(value, float) and value.is_integer():
+            value = int(value)
+        else:
+            raise InputError(key, f"must be an integer DOF index, got {value!r}")
+    return int(value)
+
+
+class Element:
+    """A local nonsmooth element acting on the structure along ``w = sign * e_dof``.
+
+    Subclasses are frozen dataclasses with a field ``dof`` and the parameters of their laws.
+    Every element owns:
+
+    * its **set-valued law** (time stepping): :meth:`project` maps an impulse ``p`` over a step
+      ``h`` onto the admissible set (friction: ``|p| <= h mu F_N``; contact: ``p >= 0``), and
+      :meth:`kernel_parameters` gives the numbers that the compiled Moreau-Jean kernel uses for
+      the same law (code, bound ``h mu F_N``, gap, restitution);
+    * its **regularised law with Jacobian** (HBM): :meth:`regularised_law` gives ``lambda``,
+      ``d lambda / d s`` and ``d lambda / d gamma`` at samples of the local displacement
+      ``s = w^T q`` and velocity ``gamma = w^T u``;
+    * the **regularisation scaling** used by homotopies: :meth:`scaled` (regularisation times
+      ``factor``, set-valued limits unchanged) and :meth:`bound_scaled` (force bound times ``s``);
+    * its contributions to the **scales** of a problem: :meth:`force_scale`, :meth:`magnitude_terms`;
+    * what the **event-driven flow** and the checks need: :attr:`unilateral` (a gap
+      ``g_N = gap + w^T q >= 0`` with impacts, attributes ``gap`` and ``restitution``),
+      :attr:`bounded` (a force bound ``|lambda| <= bound``), :attr:`acts`;
+    * :meth:`renumbered`: the same element on renumbered DOFs (subsystems).
+
+    Attributes
+    ----------
+    kind : str
+        Name of the element type (case-file key, messages).
+    kernel_code : int
+        Element code of the compiled kernel (:data:`mshbm.integrators.kernels.KIND_FRICTION`, ...).
+    unilateral, bounded : bool
+        Class flags, see above.
+    piecewise_linear : bool
+        The regularised law is piecewise linear in ``(q, u)`` (penalty contact): HBM may then follow
+        its solution path exactly (:meth:`mshbm.methods.hbm.HBMProblem.newton_fallback`).
+    """
+
+    kind: ClassVar[str] = "element"
+    kernel_code: ClassVar[int] = -1
+    unilateral: ClassVar[bool] = False
+    bounded: ClassVar[bool] = False
+    piecewise_linear: ClassVar[bool] = False
+
+    # ------------------------------------------------------------------ geometry
+    @property
+    def sign(self):
+        """Direction ``w = sign * e_dof``."""
+        raise NotImplementedError
+
+    @property
+    def dofs(self):
+        """DOFs the element acts on."""
+        return (self.dof,)
+
+    def renumbered(self, position):
+        """The element with its DOFs renumbered by ``position`` (mapping old DOF -> new index)."""
+        return replace(self, dof=position[int(self.dof)])
+
+    @property
+    def acts(self):
+        """False if the element can never exert a force (friction with ``mu F_N = 0``)."""
+        return True
+
+    # ------------------------------------------------------------------ set-valued law
+    def project(self, p, h):
+        """Impulse ``p`` over a step ``h`` projected onto the admissible set of the set-valued law."""
+        raise NotImplementedError
+
+    def kernel_parameters(self, h):
+        """``(code, bound, gap, e)``: the element's numbers for the Moreau-Jean kernel with step ``h``."""
+        raise NotImplementedError
+
+    # ------------------------------------------------------------------ regularised law
+    def regularised_law(self, s, gamma):
+        """Regularised law at samples of ``s = w^T q`` and ``gamma = w^T u`` (arrays of one shape).
+
+        Returns ``(lam, dlam_ds, dlam_dgamma)``; a derivative that vanishes identically is ``None``.
+        """
+        raise NotImplementedError
+
+    def scaled(self, factor):
+        """The element with its regularisation ``factor`` times stiffer; the set-valued law is unchanged."""
+        return self
+
+    def bound_scaled(self, s):
+        """The element with its force bound times ``s`` (itself if it has no bound)."""
+        return self
+
+    # ------------------------------------------------------------------ scales
+    def force_scale(self, stiffness, penalty=False):
+        """Force (N) of the element in an unforced system; ``stiffness`` is ``|K_ii|`` per DOF.
+
+        ``penalty``: count the regularised (penalty) law too.
+        """
+        return 0.0
+
+    def magnitude_terms(self):
+        """``[(key, what, value)]``: magnitudes that must stay inside the float range."""
+        return []
+
+
+@dataclass(frozen=True)
+class Friction(Element):
+    """Coulomb friction on one DOF.
+
+    Parameters
+    ----------
+    dof : int
+        0-based DOF index.
+    mu : float
+        Friction coefficient, ``>= 0``.
+    normal_force : float
+        Normal force ``F_N`` (N), ``>= 0``.  The friction bound is ``mu*F_N``.
+    smoothing : float
+        Regularisation ``kappa`` (s/m) of eq. (42), used by HBM only.
+    """
+
+    dof: int
+    mu: float
+    normal_force: float
+    smoothing: float = 800.0
+    kind: str = field(default="friction", init=False)
+
+    kernel_code: ClassVar[int] = KIND_FRICTION
+    bounded: ClassVar[bool] = True
+
+    def __post_init__(self):
+        object.__setattr__(self, "dof", _dof("friction.dof", self.dof))
+        object.__setattr__(self, "mu", _finite_number("friction.mu", self.mu, nonnegative=True))
+        object.__setattr__(self, "normal_force",
+                           _finite_number("friction.normal_force", self.normal_force, nonnegative=True))
+        object.__setattr__(self, "smoothing",
+                           _finite_number("friction.smoothing", self.smoothing, positive=True))
+
+    @property
+    def sign(self):
+        """Direction ``w = sign * e_dof``."""
+        return 1.0
+
+    @property
+    def bound(self):
+        """Maximal friction force ``mu * F_N``."""
+        return self.mu * self.normal_force
+
+    @property
+    def acts(self):
+        return self.bound > 0.0
+
+    def project(self, p, h):
+        """``-lambda_T in mu F_N Sign(gamma_T)``: the impulse lies in ``[-h mu F_N, h mu F_N]``."""
+        b = h * self.bound
+        return np.clip(p, -b, b)
+
+    def kernel_parameters(self, h):
+        return KIND_FRICTION, h * self.bound, 0.0, 0.0
+
+    def regularised_law(self, s, gamma):
+        """Eq. (42): ``lambda_T = -mu F_N (2/pi) arctan(kappa gamma_T)``."""
+        a = self.bound * 2.0 / np.pi
+        ku = self.smoothing * gamma
+        return -a * np.arctan(ku), None, -a * self.smoothing / (1.0 + ku * ku)
+
+    def scaled(self, factor):
+        """``kappa`` times ``factor``."""
+        return replace(self, smoothing=self.smoothing * factor)
+
+    def bound_scaled(self, s):
+        """``F_N`` times ``s``."""
+        return replace(self, normal_force=self.normal_force * s)
+
+    def force_scale(self, stiffness, penalty=False):
+        return float(self.bound)
+
+    def magnitude_terms(self):
+        return [(f"{self.kind}.normal_force", "mu F_N", self.mu * self.normal_force)]
+
+
+@dataclass(frozen=True)
+class Contact(Element):
+    """Unilateral contact ``g_N = gap - q_dof >= 0`` with Newton impact law.
+
+    Parameters
+    ----------
+    dof : int
+        0-based DOF index.
+    gap : float
+        Initial gap ``g_N,0 >= 0`` (m).
+    restitution : float
+        Newton restitution coefficient ``e_N`` in ``[0, 1]``.
+    penalty_stiffness, penalty_damping : float
+        ``k_c > 0`` (N/m) and ``d_c >= 0`` (Ns/m) of the penalty law eq. (45),
+        used by HBM only.
+    """
+
+    dof: int
+    gap: float
+    restitution: float = 1.0
+    penalty_stiffness: float = 8000.0
+    penalty_damping: float = 0.0
+    kind: str = field(default="contact", init=False)
+
+    kernel_code: ClassVar[int] = KIND_CONTACT
+    unilateral: ClassVar[bool] = True
+    piecewise_linear: ClassVar[bool] = True
+
+    def __post_init__(self):
+        object.__setattr__(self, "dof", _dof("contact.dof", self.dof))
+        object.__setattr__(self, "gap", _finite_number("contact.gap", self.gap, nonnegative=True))
+        e = _finite_number("contact.restitution", self.restitution)
+        if not 0.0 <= e <= 1.0:
+            raise InputError("contact.restitution", f"must lie in [0, 1], got {e:g}")
+        object.__setattr__(self, "restitution", e)
+        object.__setattr__(self, "penalty_stiffness",
+                           _finite_number("contact.penalty_stiffness", self.penalty_stiffness, positive=True))
+        object.__setattr__(self, "penalty_damping",
+                           _finite_number("contact.penalty_damping", self.penalty_damping, nonnegative=True))
+
+    @property
+    def sign(self):
+        """Direction ``w = sign * e_dof`` (``g_N = gap + sign*q_dof``)."""
+        return -1.0
+
+    def project(self, p, h):
+        """``0 <= g_N _|_ lambda_N >= 0`` on the impulse level: ``P_N >= 0``."""
+        return np.maximum(p, 0.0)
+
+    def kernel_parameters(self, h):
+        return KIND_CONTACT, 0.0, self.gap, self.restitution
+
+    def regularised_law(self, s, gamma):
+        """Eq. (45): ``lambda_N = -(k_c g_N + d_c gamma_N)`` while ``g_N = gap + s <= 0``, else 0.
+
+        At ``g_N = 0`` the sample counts as closed (one-sided derivatives).
+        """
+        g = self.gap + s
+        closed = g <= 0.0
+        lam = np.where(closed, -(self.penalty_stiffness * g + self.penalty_damping * gamma), 0.0)
+        return (lam, np.where(closed, -self.penalty_stiffness, 0.0),
+                np.where(closed, -self.penalty_damping, 0.0))
+
+    def scaled(self, factor):
+        """``k_c`` and ``d_c`` times ``factor``."""
+        return replace(self, penalty_stiffness=self.penalty_stiffness * factor,
+                       penalty_damping=self.penalty_damping * factor)
+
+    def force_scale(self, stiffness, penalty=False):
+        """``K_dd gap`` (and ``k_c gap`` with ``penalty``)."""
+        F = float(stiffness[self.dof]) * self.gap
+        if penalty:
+            F = max(F, self.penalty_stiffness * self.gap)
+        return F
+
+    def magnitude_terms(self):
+        return [(f"{self.kind}.penalty_stiffness", "k_c gap", self.penalty_stiffness * max(self.gap, 1.0))]
+
+
+#: element classes by their ``kind`` (the case-file keys)
+ELEMENT_TYPES = {cls.kind: cls for cls in (Friction, Contact)}
+
+
+def regularised_forces(elements, local_dof, q, u):
+    """Evaluate the regularised laws (:meth:`Element.regularised_law`) on samples.
+
+    Friction (eq. 42), slip velocity ``gamma_T = u_d``::
+
+        lambda_T = -mu F_N (2/pi) arctan(kappa gamma_T)
+
+    Penalty contact (eq. 45), ``g_N = g0 - q_d``, ``gamma_N = -u_d``::
+
+        lambda_N = -(k_c g_N + d_c gamma_N)   if g_N <= 0,   0 otherwise
+
+    The force on the DOF is ``w lambda`` with ``w = +1`` (friction) or ``-1`` (contact).
+
+    The penalty law is piecewise linear in ``(q, u)``: continuous for ``d_c = 0``, with
+    a jump ``d_c gamma_N`` at ``g_N = 0`` for ``d_c > 0``.  On the AFT samples the HBM
+    residual inherits this structure, which :meth:`mshbm.methods.hbm.HBMProblem.newton_fallback`
+    exploits (exact path following instead of smoothing: the law used at convergence is
+    always exactly eq. 45).  At ``g_N = 0`` the sample counts as closed (one-sided Jacobian).
+
+    Parameters
+    ----------
+    elements : sequence of Element
+    local_dof : sequence of int
+        Column of ``q``/``u`` that each element acts on.
+    q, u : ndarray, shape (N_s, n_N)
+        Displacements and velocities of the nonlinear DOFs at the samples.
+
+    Returns
+    -------
+    lam : ndarray, shape (N_s, m)
+        Element forces ``lambda_j``.
+    f : ndarray, shape (N_s, n_N)
+        Generalised forces on the DOFs, ``sum_j w_j lambda_j``.
+    dfdq, dfdu : ndarray, shape (N_s, n_N)
+        Diagonal derivatives ``d f_i / d q_i`` and ``d f_i / d u_i`` (``w w^T`` times the
+        element's derivatives; single-DOF elements only have diagonal terms).
+    """
+    Ns, nN = q.shape
+    lam = np.zeros((Ns, len(elements)))
+    f = np.zeros((Ns, nN))
+    dfdq = np.zeros((Ns, nN))
+    dfdu = np.zeros((Ns, nN))
+    for j, (el, d) in enumerate(zip(elements, local_dof)):
+        w = el.sign
+        lam[:, j], dl_ds, dl_dg = el.regularised_law(w * q[:, d], w * u[:, d])
+        f[:, d] += w * lam[:, j]
+        if dl_ds is not None:
+            dfdq[:, d] += (w * w) * dl_ds
+        if dl_dg is not None:
+            dfdu[:, d] += (w * w) * dl_dg
+    return lam, f, dfdq, dfdu
