@@ -18,7 +18,7 @@ Every result of :func:`mshbm.solve` carries
 How (:func:`assess`):
 
 1. **At most one element, n <= MAX_EXACT_DOFS** (or ``stability=True``): the exact
-   event-driven flow of :mod:`mshbm.methods.exact` is shot to periodicity, started from the
+   event-driven flow (:mod:`mshbm.integrators.exact_flow`) is shot to periodicity, started from the
    converged solution of whichever method (a few Newton iterations), and the multipliers
    are those of its exact monodromy matrix: the products of the closed-form mode flows and
    the saltation matrices ``S = R + (f+ - R f-) c^T / (c^T f-)`` at every impact
@@ -182,7 +182,8 @@ def set_exact(sol):
 
 
 def _exact(system, sol):
-    from .methods.exact import EventError, exact_periodic
+    from .integrators.exact_flow import EventError
+    from .methods.exact import exact_periodic
 
     try:
         ex = exact_periodic(system, sol.omega, guess=sol, samples=1024, blas_threads=None,
