@@ -184,3 +184,19 @@ def test_bound_scaled_and_renumbered():
     assert fr.renumbered({3: 0}) == Friction(0, 0.5, 2.0, 40.0)
     assert ct.renumbered({2: 1}) == Contact(1, 0.1, 0.7, 100.0, 1.0)
     assert Friction(0, 0.0, 1.0).acts is False and fr.acts and ct.acts
+
+
+def test_homotopies_of_a_system_delegate_to_the_elements():
+    """``hbm.scaled_regularisation`` and ``continuation.scaled_system`` change each element as its own
+    :meth:`scaled` / :meth:`bound_scaled` says; the matrices are shared."""
+    from mshbm.methods.hbm import scaled_regularisation
+    from mshbm.solvers.continuation import scaled_system
+
+    els = [Friction(0, 0.5, 2.0, 40.0), Contact(1, 0.1, 0.7, 100.0, 1.0)]
+    system = mshbm.chain([1.0, 2.0], 1.0, 0.1, forcing=[{"dof": 1, "amplitude": 1.0}], elements=els)
+    soft = scaled_regularisation(system, 0.01)
+    assert soft.elements == tuple(e.scaled(0.01) for e in els) and soft.K is system.K
+    assert soft.elements[0].smoothing == pytest.approx(0.4) and soft.elements[1].penalty_damping == pytest.approx(0.01)
+    light = scaled_system(system, forcing=0.5, friction=0.25)
+    assert light.elements == (els[0].bound_scaled(0.25), els[1]) and light.M is system.M
+    assert np.array_equal(light.f_hat, 0.5 * system.f_hat)

@@ -32,10 +32,16 @@ event-driven flow, checks  :attr:`Element.unilateral` (gap ``g_N >= 0``, impacts
 subsystems                 :meth:`Element.renumbered` (the element on renumbered DOFs)
 =========================  ==================================================================
 
-The elements of issue 15 (friction and contact relative to a second DOF, Jenkins friction with a
-tangential stiffness, friction whose normal load comes from a contact) are new subclasses: a
-relative element has ``dofs = (I, J)`` and ``w = sign (e_I - e_J)``; its regularised law is the
-same function of ``(s, gamma)``.
+The elements of issue 15 are meant to be new subclasses:
+
+* friction and contact *relative* to a second DOF: ``dofs = (I, J)``, ``w = sign (e_I - e_J)``; the
+  laws are the same functions of ``(s, gamma)``, and :func:`regularised_forces` then adds the
+  off-diagonal terms ``w w^T`` of the Jacobian (today single-DOF elements give diagonal terms only);
+* *Jenkins* friction (tangential stiffness ``k_t`` in series with the slider): a law with an internal
+  state (the slider position), so its kernel parameters gain a state and its regularised law is
+  evaluated along the period's history (AFT over two periods);
+* friction whose *normal load* comes from a contact on the same point: its bound is
+  ``mu lambda_N`` of another element, a coupling the kernel's local solve has to know.
 """
 from __future__ import annotations
 

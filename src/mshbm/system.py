@@ -148,7 +148,7 @@ class System:
     @property
     def nonlinear_dofs(self):
         """Sorted DOFs carrying nonlinear elements (the default subsystem N)."""
-        return np.array(sorted({el.dof for el in self.elements}), dtype=np.int64)
+        return np.array(sorted({d for el in self.elements for d in el.dofs}), dtype=np.int64)
 
     def dense(self, name):
         A = getattr(self, name)
