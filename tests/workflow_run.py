@@ -1,8 +1,9 @@
 """Running the workflow from the tests: a temporary copy of its files, Snakemake as a subprocess.
 
 The quick workflow (workflow/config-quick.yaml) runs once per test session (fixture ``quick_run``
-in conftest.py), in a temporary copy of the workflow files (Snakefile, workflow/, notebooks/,
-paper/), so it never touches results/ or .snakemake/ of the working tree.
+in conftest.py), in a temporary copy of the workflow files (workflow/ with its Snakefile, notebooks/,
+paper/), so it never touches results/ or .snakemake/ of the working tree.  Snakemake runs from the
+copy's root and finds workflow/Snakefile there, as it does in the repository.
 """
 import os
 import shutil
@@ -12,7 +13,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 SNAKEMAKE = [sys.executable, "-m", "snakemake"]
-WORKFLOW_FILES = ["Snakefile", "workflow", "notebooks", "paper"]
+WORKFLOW_FILES = ["workflow", "notebooks", "paper"]
 QUICK = ["--configfile", "workflow/config-quick.yaml"]
 #: the paper's outputs (rule `all` may also hold targets of other rule files, e.g. the stress suite)
 TARGET = ["reproduction"]
