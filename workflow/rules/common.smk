@@ -55,8 +55,12 @@ _check_config()
 
 
 def _solver_digest():
-    """Digest of the source of the installed solver package (without importing it): a change of
-    the solver reruns every solve, a touched but unchanged file does not."""
+    """Digest of the source of the installed solver package (without importing it).
+
+    The workflow's one way of tracking solver changes: every rule whose script runs the solver (solve,
+    exact_reference, longrun, impact_time, intermediate_demo, stress, the benchmarks) has the parameter
+    ``solver=SOLVER_DIGEST``, and Snakemake reruns a job whose parameters changed.  A change of the
+    solver reruns those jobs, a touched but unchanged file does not."""
     spec = importlib.util.find_spec("mshbm")
     h = hashlib.sha256()
     for path in sorted(Path(spec.origin).parent.rglob("*.py")):
