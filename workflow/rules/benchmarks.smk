@@ -34,6 +34,8 @@ if BENCH:
         threads: 1
         resources:
             mem_mb=2000,
+        message:
+            "python {input.script} {params.argv}"
         script:
             "../scripts/cli_job.py"
 
@@ -78,6 +80,8 @@ if BENCH:
         threads: 1
         resources:
             mem_mb=6000,
+        message:
+            "python {input.script} {params.argv}"
         script:
             "../scripts/cli_job.py"
 
@@ -99,6 +103,8 @@ if BENCH:
         threads: 1
         resources:
             mem_mb=1000,
+        message:
+            "python {input.script} {params.argv}"
         script:
             "../scripts/cli_job.py"
 

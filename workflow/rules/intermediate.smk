@@ -23,6 +23,8 @@ if config.get("intermediate_demo"):
         resources:
             mem_mb=2000,
             runtime=30,
+        message:
+            "python {input.script} {params.argv}"
         script:
             "../scripts/cli_job.py"
 

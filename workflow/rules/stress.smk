@@ -30,6 +30,8 @@ rule stress:
     threads: 2
     resources:
         runtime=15,
+    message:
+        "python {input.script} {params.argv}"
     script:
         "../scripts/cli_job.py"
 

@@ -8,7 +8,7 @@ benchmarks).  Under Snakemake the rule names the script as
 imports the script as a module and calls ``main(params.argv)`` in the job's own interpreter (the one
 running Snakemake, with mshbm installed: no ``{python}`` parameter, no shell).  Everything the script
 and its child processes print goes to the rule's log; an exception or an integer return value other
-than 0 fails the job.
+than 0 fails the job.  The rules' ``message`` is the equivalent command line (shown by ``snakemake -n``).
 """
 import importlib.util
 import os
