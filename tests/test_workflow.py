@@ -1,18 +1,15 @@
 """The Snakemake workflow: lint, dry run of the full workflow, the quick workflow end to end.
 
 The quick workflow (workflow/config-quick.yaml) runs in a temporary copy of the workflow files
-(Snakefile, workflow/, notebooks/, paper/), so it never touches results/ or .snakemake/ of the
+(workflow/, notebooks/, paper/), so it never touches results/ or .snakemake/ of the
 working tree.  Its summaries are compared with tests/reference/quick.json (tolerances per
 quantity, see tests/reference/README.md); wall times are never asserted.
 """
 import json
-import math
 import re
-import subprocess
-import sys
 
 import pytest
-from workflow_run import QUICK, ROOT, TARGET, run
+from workflow_run import QUICK, ROOT, TARGET, copy_workflow, reference_failures, run
 
 FIGURES = [f"fig{i}" for i in range(1, 9)]
 TABLES = ["table1", "table2"]
@@ -23,10 +20,20 @@ ACCEPTED_LINT = "Specify a conda environment or container for each rule."
 # per session and shared with tests/test_render.py): tests/conftest.py
 
 
-def test_notebooks_are_built_from_their_sources():
-    proc = subprocess.run([sys.executable, "notebooks/build_notebooks.py", "--check"], cwd=ROOT,
-                          capture_output=True, text=True)
-    assert proc.returncode == 0, proc.stdout + proc.stderr
+def test_every_notebook_source_is_a_parameterised_percent_notebook():
+    """notebooks/<name>.py is the only source of a figure's notebook (jupytext percent format, converted
+    by the notebook rule at run time) with one papermill parameters cell
+    that declares the configuration and the figure's or table's outputs."""
+    import jupytext
+
+    for name in FIGURES + TABLES:
+        nb = jupytext.read(ROOT / "notebooks" / f"{name}.py", fmt="py:percent")
+        tagged = [c for c in nb.cells if "parameters" in c.metadata.get("tags", [])]
+        assert len(tagged) == 1 and tagged[0].cell_type == "code", name
+        outs = ("out_png", "out_pdf") if name in FIGURES else ("out_md", "out_csv")
+        for param in ("config",) + outs:
+            assert re.search(rf"^{param} = ", tagged[0].source, re.M), (name, param)
+        assert nb.cells[0].cell_type == "markdown" and nb.cells[0].source.startswith("# "), name
 
 
 def test_lint(workdir):
@@ -42,8 +49,11 @@ def test_dry_run_of_the_full_workflow(workdir):
     proc = run(["-n", "--cores", "2"], workdir, timeout=120)
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
     out = proc.stdout + proc.stderr
-    for name in ["solve", "summary", "paper", "all", "config_snapshot"] + FIGURES + TABLES:
+    for name in ["solve", "summary", "paper", "all", "config_snapshot"]:
         assert re.search(rf"^{re.escape(name)}\s+\d+\s*$", out, re.M), f"no {name} job in the dry run"
+    # one job of rule `notebook` per figure, of `notebook_table` per table
+    assert re.search(rf"^notebook\s+{len(FIGURES)}\s*$", out, re.M), out[-3000:]
+    assert re.search(rf"^notebook_table\s+{len(TABLES)}\s*$", out, re.M), out[-3000:]
     n_solves = int(re.search(r"^solve\s+(\d+)\s*$", out, re.M).group(1))
     assert n_solves >= 60  # 2 sweeps x 13 n_H x 2 methods + references + Figs. 3, 5
 
@@ -63,6 +73,17 @@ def test_config_schema_rejects_invalid_values():
     bad["numerics"]["stepz"] = bad["numerics"].pop("steps")
     with pytest.raises(WorkflowError):
         validate(bad, str(ROOT / "workflow" / "schemas" / "config.schema.yaml"))
+
+
+def test_the_workflow_validates_the_stress_config(tmp_path):
+    """workflow/stress.yaml is validated by Snakemake when the workflow is parsed (not only by the
+    script, at the end of a run): an invalid value stops even a dry run, naming the key."""
+    wd = copy_workflow(tmp_path)
+    cfg = wd / "workflow" / "stress.yaml"
+    cfg.write_text(cfg.read_text().replace("\ntolerance:\n", "\ntolerance:\n  hbm-typo: 0.1\n", 1))
+    proc = run(TARGET + ["-n", "--cores", "1"] + QUICK, wd, timeout=120)
+    out = proc.stdout + proc.stderr
+    assert proc.returncode != 0 and "hbm-typo" in out, out[-3000:]
 
 
 @pytest.mark.slow
@@ -89,21 +110,7 @@ def test_quick_workflow_outputs(quick_run):
 
 @pytest.mark.slow
 def test_quick_workflow_matches_references(quick_run):
-    ref = json.loads((ROOT / "tests" / "reference" / "quick.json").read_text())
-    failures = []
-    for item in ref["values"]:
-        summary = json.loads((quick_run / "summary" / f"{item['figure']}.json").read_text())["numbers"]
-        if item["key"] not in summary:
-            failures.append(f"{item['figure']}.{item['key']}: missing")
-            continue
-        got, want = summary[item["key"]], item["value"]
-        if item["kind"] == "exact" or want is None or got is None or isinstance(want, (bool, str)):
-            ok = got == want
-        else:
-            ok = math.isclose(got, want, rel_tol=item["rtol"], abs_tol=item["atol"])
-        if not ok:
-            failures.append(f"{item['figure']}.{item['key']}: got {got!r}, reference {want!r} "
-                            f"(rtol {item['rtol']}, atol {item['atol']})")
+    failures = reference_failures(quick_run / "summary")
     assert not failures, "\n".join(failures) + (
         "\n(if the change is intended, regenerate: python workflow/scripts/update_references.py)")
 
@@ -126,6 +133,27 @@ def test_paper_html_is_self_contained_and_complete(quick_run):
 def test_rerun_with_nothing_changed_does_nothing(quick_run, workdir):
     proc = run(TARGET + ["-n", "--cores", "2"] + QUICK, workdir, timeout=120)
     assert proc.returncode == 0, proc.stderr[-3000:]
+    assert "Nothing to be done" in proc.stdout + proc.stderr, (proc.stdout + proc.stderr)[-3000:]
+
+
+@pytest.mark.slow
+def test_editing_a_notebook_reruns_that_figure_and_the_paper_only(quick_run, workdir):
+    """The notebook's source is the rule's input: an edited notebooks/fig3.py reruns the fig3 job and
+    the paper, nothing else; restored, nothing (Snakemake compares the content, not only the time)."""
+    src = workdir / "notebooks" / "fig3.py"
+    text = src.read_bytes()
+    src.write_bytes(text + b"\n# %%\nprint('an edit')\n")
+    try:
+        proc = run(TARGET + ["-n", "--cores", "2"] + QUICK, workdir, timeout=120)
+    finally:
+        src.write_bytes(text)
+    out = proc.stdout + proc.stderr
+    assert proc.returncode == 0, out[-3000:]
+    table = out[out.index("Job stats:"):out.index("total")]
+    jobs = dict(re.findall(r"^(\w+)\s+(\d+)\s*$", table, re.M))
+    assert jobs == {"notebook": "1", "paper": "1", "reproduction": "1"}, out[-3000:]
+    assert "wildcards: name=fig3" in out, out[-3000:]
+    proc = run(TARGET + ["-n", "--cores", "2"] + QUICK, workdir, timeout=120)
     assert "Nothing to be done" in proc.stdout + proc.stderr, (proc.stdout + proc.stderr)[-3000:]
 
 

@@ -1,9 +1,12 @@
 """Running the workflow from the tests: a temporary copy of its files, Snakemake as a subprocess.
 
 The quick workflow (workflow/config-quick.yaml) runs once per test session (fixture ``quick_run``
-in conftest.py), in a temporary copy of the workflow files (Snakefile, workflow/, notebooks/,
-paper/), so it never touches results/ or .snakemake/ of the working tree.
+in conftest.py), in a temporary copy of the workflow files (workflow/ with its Snakefile, notebooks/,
+paper/), so it never touches results/ or .snakemake/ of the working tree.  Snakemake runs from the
+copy's root and finds workflow/Snakefile there, as it does in the repository.
 """
+import json
+import math
 import os
 import shutil
 import subprocess
@@ -12,7 +15,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 SNAKEMAKE = [sys.executable, "-m", "snakemake"]
-WORKFLOW_FILES = ["Snakefile", "workflow", "notebooks", "paper"]
+WORKFLOW_FILES = ["workflow", "notebooks", "paper"]
 QUICK = ["--configfile", "workflow/config-quick.yaml"]
 #: the paper's outputs (rule `all` may also hold targets of other rule files, e.g. the stress suite)
 TARGET = ["reproduction"]
@@ -32,3 +35,26 @@ def copy_workflow(dst):
 def run(args, cwd, timeout=600):
     env = dict(os.environ, MPLBACKEND="Agg")
     return subprocess.run(SNAKEMAKE + args, cwd=cwd, capture_output=True, text=True, timeout=timeout, env=env)
+
+
+def reference_failures(summary_dir, figures=None):
+    """Differences of the summaries in ``summary_dir`` from tests/reference/quick.json (tolerances per
+    quantity, see tests/reference/README.md), for all figures of the reference or only ``figures``."""
+    ref = json.loads((ROOT / "tests" / "reference" / "quick.json").read_text())
+    failures = []
+    for item in ref["values"]:
+        if figures is not None and item["figure"] not in figures:
+            continue
+        summary = json.loads((Path(summary_dir) / f"{item['figure']}.json").read_text())["numbers"]
+        if item["key"] not in summary:
+            failures.append(f"{item['figure']}.{item['key']}: missing")
+            continue
+        got, want = summary[item["key"]], item["value"]
+        if item["kind"] == "exact" or want is None or got is None or isinstance(want, (bool, str)):
+            ok = got == want
+        else:
+            ok = math.isclose(got, want, rel_tol=item["rtol"], abs_tol=item["atol"])
+        if not ok:
+            failures.append(f"{item['figure']}.{item['key']}: got {got!r}, reference {want!r} "
+                            f"(rtol {item['rtol']}, atol {item['atol']})")
+    return failures

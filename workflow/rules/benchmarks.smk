@@ -7,7 +7,8 @@
 #                               profile): `snakemake --cores 2 benchmarks_full` (long; see README)
 #
 # Every benchmark is one single-threaded process; ratios are measured side by side inside it.
-# (BENCH, BENCH_PY and bench_profile are defined in 00_common.smk)
+# The scripts have a command line (run them by hand too); under Snakemake scripts/cli_job.py calls
+# their main(params.argv).  (BENCH, bench_args and bench_profile are defined in common.smk)
 
 if BENCH:
     _BDIRS = "benchmarks|benchmarks-full"
@@ -26,15 +27,17 @@ if BENCH:
         wildcard_constraints:
             bdir=_BDIRS,
         params:
-            profile=lambda w: "full" if w.bdir == "benchmarks-full" else "default",
+            argv=lambda w, input, output: ["--config", input.config, "--system", w.system,
+                                           "--profile", "full" if w.bdir == "benchmarks-full" else "default",
+                                           "--out", output[0]],
             solver=SOLVER_DIGEST,
-            python=BENCH_PY,
         threads: 1
         resources:
             mem_mb=2000,
-        shell:
-            "{params.python} {input.script} --config {input.config} --system {wildcards.system} "
-            "--profile {params.profile} --out {output} > {log} 2>&1"
+        message:
+            "python {input.script} {params.argv}"
+        script:
+            "../scripts/cli_job.py"
 
     rule pyharm_env:
         # pyHarm (`pyHarm-os`, pinned with its dependencies) in its own venv, built once and reused;
@@ -72,15 +75,15 @@ if BENCH:
             bench="kernel|scaling|scipy|pyharm",
             bdir=_BDIRS,
         params:
-            profile=bench_profile,
+            argv=lambda w, output: ["--profile", bench_profile(w), "--out", output.json] + bench_args(w),
             solver=SOLVER_DIGEST,
-            python=BENCH_PY,
-            extra=bench_args,
         threads: 1
         resources:
             mem_mb=6000,
-        shell:
-            "{params.python} {input.script} --profile {params.profile} --out {output.json} {params.extra} > {log} 2>&1"
+        message:
+            "python {input.script} {params.argv}"
+        script:
+            "../scripts/cli_job.py"
 
     rule bench_report:
         input:
@@ -96,10 +99,14 @@ if BENCH:
         wildcard_constraints:
             bdir=_BDIRS,
         params:
-            python=BENCH_PY,
-            outdir=lambda w, output: str(Path(output.md).parent),
-        shell:
-            "{params.python} {input.script} --out-dir {params.outdir} {input.wp} {input.other} > {log} 2>&1"
+            argv=lambda w, input, output: ["--out-dir", str(Path(output.md).parent), *input.wp, *input.other],
+        threads: 1
+        resources:
+            mem_mb=1000,
+        message:
+            "python {input.script} {params.argv}"
+        script:
+            "../scripts/cli_job.py"
 
     rule benchmarks:
         input:

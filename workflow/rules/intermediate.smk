@@ -17,15 +17,16 @@ if config.get("intermediate_demo"):
         log:
             f"{R}/logs/intermediate_demo.log",
         params:
+            argv=lambda w, input, output: ["--config", input.config, "--out", output.json, "--table", output.md],
             solver=SOLVER_DIGEST,
-            python=BENCH_PY,
         threads: 1
         resources:
             mem_mb=2000,
             runtime=30,
-        shell:
-            "{params.python} {input.script} --config {input.config} --out {output.json} --table {output.md} "
-            "> {log} 2>&1"
+        message:
+            "python {input.script} {params.argv}"
+        script:
+            "../scripts/cli_job.py"
 
     EXTRA_SUMMARIES.append(f"{R}/summary/intermediate.json")
     EXTRA_SUMMARIES.append(f"{R}/tables/intermediate.md")

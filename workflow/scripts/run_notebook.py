@@ -1,4 +1,8 @@
-"""Execute a parameterised notebook with papermill and render it to HTML (rules fig*/table*).
+"""Execute a figure's or a table's notebook with papermill and render it to HTML (rule notebook).
+
+The notebook's only source is ``notebooks/<name>.py`` in jupytext's percent format (``# %%`` code
+cells, ``# %% [markdown]`` cells, ``# %% tags=["parameters"]`` the papermill parameters); it is
+converted here, at run time, so that editing the source reruns the job.
 
 The HTML is self-contained and offline (nbexport.py: markdown and math through mdrender.py, math as
 MathML, no scripts from the network).
@@ -12,6 +16,7 @@ import os
 
 os.environ.setdefault("MPLBACKEND", "Agg")
 
+import jupytext  # noqa: E402
 import nbformat  # noqa: E402
 import papermill as pm  # noqa: E402
 from nbexport import export_html  # noqa: E402  (this directory is on sys.path)
@@ -19,6 +24,18 @@ from nbexport import export_html  # noqa: E402  (this directory is on sys.path)
 
 def as_param(value):
     return str(value) if isinstance(value, str) else [str(v) for v in value]
+
+
+def read_source(path):
+    """The notebook of a percent-format source, with the kernel set and stable cell ids (reproducible files)."""
+    nb = jupytext.read(path, fmt="py:percent")
+    nb.metadata.pop("jupytext", None)
+    nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3", "language": "python"}
+    nb.metadata["language_info"] = {"name": "python"}
+    stem = os.path.splitext(os.path.basename(path))[0]
+    for i, cell in enumerate(nb.cells):
+        cell["id"] = f"{stem}-{i}"
+    return nb
 
 
 def main(smk):
@@ -37,7 +54,7 @@ def main(smk):
     logging.basicConfig(filename=smk.log[0], filemode="w", level=logging.INFO,
                         format="%(asctime)s %(name)s %(message)s")
     logging.info("parameters: %s", params)
-    pm.execute_notebook(nb_in, outputs["nb"], parameters=params, kernel_name="python3", progress_bar=False,
+    pm.execute_notebook(read_source(nb_in), outputs["nb"], parameters=params, kernel_name="python3", progress_bar=False,
                         log_output=True, cwd=os.getcwd())
     nb = nbformat.read(outputs["nb"], as_version=4)
     body = export_html(nb, os.path.splitext(os.path.basename(nb_in))[0])

@@ -1,20 +1,27 @@
-# Helpers shared by the rule files; included first (files are included sorted by name).
+# Helpers shared by the rule files; included first by workflow/Snakefile.
 # All functions of the workflow live here, the other files hold rules only.
 import hashlib
 import importlib.util
 import os
 import sys
 
-sys.path.insert(0, str(Path(workflow.basedir, "workflow", "scripts")))
+import yaml
+
+sys.path.insert(0, str(Path(workflow.basedir, "scripts")))
 import wfcore  # noqa: E402
 
 R = config["results_dir"].rstrip("/")
 NUMERICS = config["numerics"]
-FIGURES = ["fig1", "fig2", "fig3", "fig4", "fig5", "fig6", "fig7", "fig8"]
-TABLES = ["table1", "table2"]
-NOTEBOOKS = FIGURES + TABLES
+#: figure/table -> rules -> notebook -> method modules (workflow/manifest.yaml, rendered in README.md)
+with open("workflow/manifest.yaml", encoding="utf-8") as _fh:
+    MANIFEST = yaml.safe_load(_fh)
+validate(MANIFEST, "../schemas/manifest.schema.yaml")
+#: one notebook notebooks/<name>.py per figure and table (rule `notebook`)
+NOTEBOOKS = list(MANIFEST)
+FIGURES = [n for n in NOTEBOOKS if n.startswith("fig")]
+TABLES = [n for n in NOTEBOOKS if n.startswith("table")]
 #: figures whose data come from solves (summary rule)
-SUMMARIZED = ["fig3", "fig4", "fig5", "fig6", "fig7", "fig8"]
+SUMMARIZED = [n for n in NOTEBOOKS if "summary" in MANIFEST[n]["data"]]
 
 
 def _check_config():
@@ -48,8 +55,12 @@ _check_config()
 
 
 def _solver_digest():
-    """Digest of the source of the installed solver package (without importing it): a change of
-    the solver reruns every solve, a touched but unchanged file does not."""
+    """Digest of the source of the installed solver package (without importing it).
+
+    The workflow's one way of tracking solver changes: every rule whose script runs the solver (solve,
+    exact_reference, longrun, impact_time, intermediate_demo, stress, the benchmarks) has the parameter
+    ``solver=SOLVER_DIGEST``, and Snakemake reruns a job whose parameters changed.  A change of the
+    solver reruns those jobs, a touched but unchanged file does not."""
     spec = importlib.util.find_spec("mshbm")
     h = hashlib.sha256()
     for path in sorted(Path(spec.origin).parent.rglob("*.py")):
@@ -127,9 +138,9 @@ def summary_inputs(fig):
 
 
 def notebook_outputs(name):
-    kind = "tables" if name.startswith("table") else "figures"
+    """Outputs of the notebook job of a figure (rule notebook) or a table (rule notebook_table)."""
     outs = {"nb": f"{R}/notebooks/{name}.ipynb", "html": f"{R}/notebooks/{name}.html"}
-    if kind == "figures":
+    if name in FIGURES:
         outs.update(png=f"{R}/figures/{name}.png", pdf=f"{R}/figures/{name}.pdf")
     else:
         outs.update(md=f"{R}/tables/{name}.md", csv=f"{R}/tables/{name}.csv")
@@ -139,7 +150,8 @@ def notebook_outputs(name):
 # ----------------------------------------------------------------------------- benchmarks
 #: the `benchmarks` section of the config (None: no benchmarks, no Performance section)
 BENCH = config.get("benchmarks")
-#: the interpreter running Snakemake (the one with mshbm installed), not whatever `python` is on PATH
+#: the interpreter running Snakemake (the one with mshbm installed), not whatever `python` is on PATH:
+#: rule pyharm_env builds pyHarm's venv with it
 BENCH_PY = sys.executable
 
 
@@ -159,8 +171,8 @@ def bench_inputs(w):
 def bench_args(w):
     """Extra arguments of a stand-alone benchmark script (the interpreter with pyHarm)."""
     if w.bench == "pyharm":
-        return f"--pyharm-python {PYHARM_PYTHON or os.path.join(PYHARM_ENV, 'bin', 'python')}"
-    return ""
+        return ["--pyharm-python", PYHARM_PYTHON or os.path.join(PYHARM_ENV, "bin", "python")]
+    return []
 
 
 def bench_profile(w):
@@ -224,3 +236,18 @@ NB_HELPERS = ["notebooks/nbcommon.py", "notebooks/tables.py", "notebooks/wpcommo
 
 def npz_inputs(fig):
     return {f"npz_{k}": v for k, v in figure_solves(fig, ext="npz").items()}
+
+
+def notebook_inputs(name):
+    """The data inputs of a notebook job as declared in workflow/manifest.yaml (`data`)."""
+    data = MANIFEST[name]["data"]
+    out = {}
+    if "summaries" in data:
+        out["summaries"] = expand(f"{R}/summary/{{fig}}.json", fig=SUMMARIZED)
+    if "summary" in data:
+        out["summary"] = f"{R}/summary/{name}.json"
+    if "npz" in data:
+        out.update(npz_inputs(name))
+    if "longrun" in data:
+        out["npz_longrun"] = longrun_file(config["figures"][name]["system"], "npz")
+    return out
