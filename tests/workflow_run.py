@@ -2,7 +2,7 @@
 
 The quick workflow (workflow/config-quick.yaml) runs once per test session (fixture ``quick_run``
 in conftest.py), in a temporary copy of the workflow files (Snakefile, workflow/, notebooks/,
-paper/), so it never touches results/ or .snakemake/ of the working tree.
+paper/, examples/), so it never touches results/ or .snakemake/ of the working tree.
 """
 import os
 import shutil
@@ -12,7 +12,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 SNAKEMAKE = [sys.executable, "-m", "snakemake"]
-WORKFLOW_FILES = ["Snakefile", "workflow", "notebooks", "paper"]
+WORKFLOW_FILES = ["Snakefile", "workflow", "notebooks", "paper", "examples"]
 QUICK = ["--configfile", "workflow/config-quick.yaml"]
 #: the paper's outputs (rule `all` may also hold targets of other rule files, e.g. the stress suite)
 TARGET = ["reproduction"]
