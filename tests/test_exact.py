@@ -7,7 +7,7 @@ import mshbm
 from mshbm import Contact, Friction, InputError, chain
 from mshbm.methods.exact import ExactFlow, exact_periodic
 
-from conftest import NORMAL_FORCE, OMEGA, friction_chain, impact_chain
+from paper_systems import NORMAL_FORCE, OMEGA, friction_chain, impact_chain
 
 BOUND = 0.8 * NORMAL_FORCE
 

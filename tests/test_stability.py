@@ -23,7 +23,7 @@ from mshbm.result import PeriodicSolution
 from mshbm.methods.exact import ExactFlow, exact_periodic
 from mshbm.integrators.moreau_jean import MoreauJean
 
-from conftest import OMEGA
+from paper_systems import OMEGA
 
 
 # ----------------------------------------------------------------------------- closed form (Budd & Dux)

@@ -179,26 +179,31 @@ def pyplot():
 
 
 # ----------------------------------------------------------------------------- the paper's systems
-#: forcing frequency of the paper's examples (rad/s)
-OMEGA = math.pi / 5
-#: friction normal force of tests/conftest.py (mu F_N = 4)
-NORMAL_FORCE = 5.0
+# The systems are the case files of examples/ (wfcore.load_case); the chains of other lengths are
+# the same parameters with n masses (wfcore.chain_case), the families of the scaling benchmarks.
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import wfcore  # noqa: E402
+
+#: forcing frequency of the paper's examples (rad/s), from examples/friction3.yaml
+OMEGA = wfcore.load_case("friction3").omega
+#: friction normal force of the paper's friction systems (mu F_N = 4), from examples/friction3.yaml
+NORMAL_FORCE = wfcore.load_case("friction3").system.elements[0].normal_force
 
 
-def friction_chain(n, kappa=800.0, damping=0.0, sparse=None):
-    """``n`` unit masses, unit springs, friction (mu 0.8, F_N 5) on mass 1, 5 cos(omega t) on mass n
-    (as ``tests/conftest.py``)."""
-    from mshbm import Friction, chain
-    return chain([1.0] * n, 1.0, damping, forcing=[{"dof": n - 1, "amplitude": 5.0}],
-                 elements=[Friction(0, 0.8, NORMAL_FORCE, kappa)], sparse=sparse, name=f"friction{n}")
+def paper_system(name):
+    """A paper system by its case file name (``"friction3"``, ``"impact50"``, ...; examples/)."""
+    return wfcore.load_case(name).system
 
 
-def impact_chain(n, gap=0.1, kc=8000.0, e=1.0):
-    """Mass 10 then ``n-1`` unit masses, unit springs, dampers 0.3, contact (gap 0.1) on mass 1
-    (as ``tests/conftest.py``)."""
-    from mshbm import Contact, chain
-    return chain([10.0] + [1.0] * (n - 1), 1.0, 0.3, forcing=[{"dof": n - 1, "amplitude": 5.0}],
-                 elements=[Contact(0, gap, e, kc, 0.0)], name=f"impact{n}")
+def friction_chain(n, kappa=None):
+    """examples/friction3.yaml with ``n`` masses (its kappa replaced by ``kappa`` if given)."""
+    return wfcore.chain_case("friction3", n, **({} if kappa is None else {"smoothing": kappa}))
+
+
+def impact_chain(n, gap=None, kc=None, e=None):
+    """examples/impact5.yaml with ``n`` masses (gap, penalty stiffness, restitution replaced if given)."""
+    el = {k: v for k, v in (("gap", gap), ("penalty_stiffness", kc), ("restitution", e)) if v is not None}
+    return wfcore.chain_case("impact5", n, **el)
 
 
 # ----------------------------------------------------------------------------- memory
