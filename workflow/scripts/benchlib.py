@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import datetime as _dt
 import json
-import math
 import os
 import platform
 import sys
@@ -22,6 +21,8 @@ import time
 from pathlib import Path
 
 import numpy as np
+
+from mshbm.outfile import jsonable  # noqa: F401 (the one JSON conversion; re-exported)
 
 __all__ = ["machine_info", "interleaved", "timed", "stats", "write_json", "plot_path", "parser", "profile",
            "jsonable", "fit_exponent"]
@@ -114,26 +115,6 @@ def fit_exponent(n, t):
     if ok.sum() < 2:
         return float("nan")
     return float(np.polyfit(np.log(n[ok]), np.log(t[ok]), 1)[0])
-
-
-def jsonable(obj):
-    """Convert numpy scalars/arrays (and non-finite floats, as ``None``) for ``json``."""
-    if isinstance(obj, dict):
-        return {str(k): jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [jsonable(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return jsonable(obj.tolist())
-    if isinstance(obj, (np.bool_, bool)):
-        return bool(obj)
-    if isinstance(obj, (np.integer,)):
-        return int(obj)
-    if isinstance(obj, (np.floating, float)):
-        v = float(obj)
-        return v if math.isfinite(v) else None
-    if isinstance(obj, complex):
-        return [obj.real, obj.imag]
-    return obj
 
 
 def write_json(path, data):

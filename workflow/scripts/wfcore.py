@@ -168,24 +168,16 @@ def load_json(path):
 
 
 def write_json(path, data):
+    """Write ``data`` (numpy values converted by :func:`mshbm.outfile.jsonable`; non-finite floats are
+    kept as ``NaN``/``Infinity``, which the summaries read back) atomically."""
+    from mshbm.outfile import jsonable
+
     Path(path).parent.mkdir(parents=True, exist_ok=True)
     tmp = f"{path}.tmp{os.getpid()}"
     with open(tmp, "w") as fh:
-        json.dump(data, fh, indent=1, sort_keys=False, default=_json_default)
+        json.dump(jsonable(data, allow_nan=True), fh, indent=1, sort_keys=False)
         fh.write("\n")
     os.replace(tmp, path)
-
-
-def _json_default(obj):
-    if isinstance(obj, (np.integer,)):
-        return int(obj)
-    if isinstance(obj, (np.floating,)):
-        return float(obj)
-    if isinstance(obj, np.ndarray):
-        return obj.tolist()
-    if isinstance(obj, (np.bool_,)):
-        return bool(obj)
-    raise TypeError(f"not JSON serialisable: {type(obj).__name__}")
 
 
 def runs(mask):
