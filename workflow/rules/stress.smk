@@ -19,6 +19,9 @@ rule stress:
         config="workflow/stress.yaml",
         schema="workflow/schemas/stress.schema.yaml",
         script="workflow/scripts/stress.py",
+        modules=["workflow/scripts/stress_cases.py", "workflow/scripts/stress_judge.py",
+                 "workflow/scripts/stress_report.py", "workflow/scripts/wfcore.py"],
+        cases=sorted(str(p) for p in _StressPath("examples").glob("*.yaml")),
         src=_STRESS_SRC,
     output:
         json=f"{_STRESS_R}/stress/summary.json",

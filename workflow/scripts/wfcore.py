@@ -134,23 +134,28 @@ def resolve_systems(config):
     return config
 
 
-def chain_case(case, n, name=None, **element):
-    """The chain of a paper case file with ``n`` masses instead of its own (masses 2..n as its mass 2,
-    the forcing moved to mass n), its element's parameters replaced by ``element`` (keys of the case
-    file's ``friction``/``contact`` mapping, e.g. ``smoothing=``, ``penalty_stiffness=``, ``gap=``):
-    the parameterised families of the scaling benchmarks and tests."""
+def chain_case(case, n=None, name=None, **element):
+    """The system of a paper case file with ``n`` masses instead of its own (``None``: its own; masses
+    2..n as its mass 2, the forcing moved to mass n), its element's parameters replaced by ``element``
+    (keys of the case file's ``friction``/``contact`` mapping, e.g. ``smoothing=``,
+    ``penalty_stiffness=``, ``gap=``): the parameterised families of the scaling benchmarks, the
+    stress suite and the tests."""
     from mshbm.io import parse_case
     from mshbm.io.yaml import load_yaml, read_text
 
     path = case_path(case)
     data = load_yaml(read_text(path))
-    masses = list(data["masses"])
-    data["masses"] = masses[:1] + [masses[1] if len(masses) > 1 else masses[0]] * (n - 1)
-    data["forcing"] = [dict(f, dof=n - 1) for f in data["forcing"]]
     kind = "friction" if "friction" in data else "contact"
-    data[kind] = dict(data[kind], **element)
+    if n is not None:
+        masses = list(data["masses"])
+        data["masses"] = masses[:1] + [masses[1] if len(masses) > 1 else masses[0]] * (n - 1)
+        data["forcing"] = [dict(f, dof=n - 1) for f in data["forcing"]]
+        data.pop("name", None)
+    if element:
+        data[kind] = dict(data[kind], **element)
+    name = name or data.get("name") or f"{kind if kind == 'friction' else 'impact'}{n}"
     data.pop("name", None)
-    return parse_case(data, name=name or f"{kind if kind == 'friction' else 'impact'}{n}", source=str(path)).system
+    return parse_case(data, name=name, source=str(path)).system
 
 
 def get_key(config, dotted):
