@@ -182,21 +182,18 @@ def run(config, case, method, n_h, steps, stem, fallback=(), reference=False, lo
     attempts, chosen = [], None
     for name in starts:
         rec = {"start": name, "timed": timed}
-        if name == "nearby":
-            factor = float(config["starts"]["nearby_factor"])
-            start = strategies.nearby_start(system, om, base, factor, solve=timed_solve, **kw)
-            near = start.source
-            wall = near.info["call_wall_time"]
-            rec["nearby"] = dict(brief(near, wall), omega=start.omega, factor=factor,
+        start = strategies.make_start(name, system, om, base, factor=float(config["starts"]["nearby_factor"]),
+                                      solve=timed_solve, **kw)
+        if start.source is not None:  # the nearby-frequency solution it starts from
+            near, wall = start.source, start.source.info["call_wall_time"]
+            rec["nearby"] = dict(brief(near, wall), omega=start.omega, factor=start.factor,
                                  amplitude_first=float(near.amplitude[0]) if near.success else None,
                                  amplitude_last=float(near.amplitude[-1]) if near.success else None)
-            log(f"  [{name}] solution at {factor} omega: {near.message} ({wall:.3f} s)")
-            if not start.ok:
-                rec.update(success=False, message=start.message, wall_times=[], wall_time_median=None)
-                attempts.append(rec)
-                continue
-        else:
-            start = strategies.linear_start()
+            log(f"  [{name}] solution at {start.factor} omega: {near.message} ({wall:.3f} s)")
+        if not start.ok:
+            rec.update(success=False, message=start.message, wall_times=[], wall_time_median=None)
+            attempts.append(rec)
+            continue
         times, cpus, sol = [], [], None
         rec["machine_before"] = machine_state()
         for i in range(warmup + repeats):

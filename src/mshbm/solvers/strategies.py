@@ -26,7 +26,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-__all__ = ["Start", "linear_start", "nearby_start", "restart_start", "solve_from", "NEARBY_FACTOR", "STRATEGIES"]
+__all__ = ["Start", "linear_start", "nearby_start", "restart_start", "make_start", "solve_from", "NEARBY_FACTOR",
+           "STRATEGIES"]
 
 #: default nearby frequency ``factor * omega`` (the workflow's ``starts.nearby_factor``)
 NEARBY_FACTOR = 0.98
@@ -97,6 +98,16 @@ def restart_start(source, label="restart"):
     if source is None or getattr(source, "success", True) is False:
         return Start(label, None, False, f"{label}: the source solution did not converge")
     return Start(label, source)
+
+
+def make_start(name, system, omega, method, *, factor=NEARBY_FACTOR, solve=None, **options):
+    """The start named ``name``: ``"linear"`` (:func:`linear_start`) or ``"nearby"`` (:func:`nearby_start`
+    at ``factor * omega``); a restart needs its source solution (:func:`restart_start`)."""
+    if name == "linear":
+        return linear_start()
+    if name == "nearby":
+        return nearby_start(system, omega, method, factor, solve=solve, **options)
+    raise ValueError(f"unknown start {name!r} (named starts: linear, nearby; restarts: restart_start)")
 
 
 def solve_from(start, system, omega, method, *, solve=None, **options):
