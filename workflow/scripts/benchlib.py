@@ -13,7 +13,6 @@ Ratios of medians measured this way are what the benchmarks' conclusions rest on
 from __future__ import annotations
 
 import datetime as _dt
-import json
 import os
 import platform
 import sys
@@ -118,14 +117,8 @@ def fit_exponent(n, t):
 
 
 def write_json(path, data):
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(path.suffix + ".tmp")
-    with open(tmp, "w") as fh:
-        json.dump(jsonable(data), fh, indent=1)
-        fh.write("\n")
-    os.replace(tmp, path)
-    return path
+    """Write ``data`` as JSON (non-finite floats as ``null``; :func:`wfcore.write_json`); returns the path."""
+    return wfcore.write_json(path, data, allow_nan=False)
 
 
 def plot_path(out):

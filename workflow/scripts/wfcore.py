@@ -172,17 +172,18 @@ def load_json(path):
         return json.load(fh)
 
 
-def write_json(path, data):
-    """Write ``data`` (numpy values converted by :func:`mshbm.outfile.jsonable`; non-finite floats are
-    kept as ``NaN``/``Infinity``, which the summaries read back) atomically."""
+def write_json(path, data, allow_nan=True):
+    """Write ``data`` atomically, converted by :func:`mshbm.outfile.jsonable`.  ``allow_nan``: non-finite
+    floats stay ``NaN``/``Infinity`` (the solve facts, which the summaries read back); else ``null``."""
     from mshbm.outfile import jsonable
 
     Path(path).parent.mkdir(parents=True, exist_ok=True)
     tmp = f"{path}.tmp{os.getpid()}"
     with open(tmp, "w") as fh:
-        json.dump(jsonable(data, allow_nan=True), fh, indent=1, sort_keys=False)
+        json.dump(jsonable(data, allow_nan=allow_nan), fh, indent=1, sort_keys=False, allow_nan=allow_nan)
         fh.write("\n")
     os.replace(tmp, path)
+    return Path(path)
 
 
 def runs(mask):
