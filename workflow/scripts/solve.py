@@ -182,8 +182,8 @@ def run(config, case, method, n_h, steps, stem, fallback=(), reference=False, lo
     attempts, chosen = [], None
     for name in starts:
         rec = {"start": name, "timed": timed}
-        start = strategies.make_start(name, system, om, base, factor=float(config["starts"]["nearby_factor"]),
-                                      solve=timed_solve, **kw)
+        near_kw = {"factor": float(config["starts"]["nearby_factor"])} if name == "nearby" else {}
+        start = strategies.make_start(name, system, om, base, solve=timed_solve, **near_kw, **kw)
         if start.source is not None:  # the nearby-frequency solution it starts from
             near, wall = start.source, start.source.info["call_wall_time"]
             rec["nearby"] = dict(brief(near, wall), omega=start.omega, factor=start.factor,
