@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 import mshbm
-from conftest import NORMAL_FORCE, OMEGA, friction_chain, impact_chain
+from paper_systems import NORMAL_FORCE, OMEGA, friction_chain, impact_chain
 
 
 @pytest.fixture(scope="module")

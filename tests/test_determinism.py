@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 import mshbm
-from conftest import OMEGA, friction_chain, impact_chain
+from paper_systems import OMEGA, friction_chain, impact_chain
 
 ROOT = Path(__file__).resolve().parents[1]
 THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS")
@@ -42,7 +42,7 @@ SCRIPT = textwrap.dedent("""
     sys.path.insert(0, {tests!r})
     import numpy as np
     import mshbm
-    from conftest import OMEGA, friction_chain, impact_chain
+    from paper_systems import OMEGA, friction_chain, impact_chain
     out = {{}}
     for name, expr, method, opts in {cases!r}:
         sol = mshbm.solve(eval(expr), OMEGA, method, **opts)

@@ -8,7 +8,7 @@ from mshbm import Contact, Friction, InputError, chain
 from mshbm.integrators.exact_flow import ExactFlow
 from mshbm.methods.exact import exact_periodic
 
-from conftest import NORMAL_FORCE, OMEGA, friction_chain, impact_chain
+from paper_systems import NORMAL_FORCE, OMEGA, friction_chain, impact_chain
 
 BOUND = 0.8 * NORMAL_FORCE
 

@@ -15,7 +15,7 @@ import mshbm
 from mshbm import condensation, fourier
 from mshbm.api import build_problem
 from mshbm.solvers.newton import newton
-from conftest import OMEGA, friction_chain, impact_chain
+from paper_systems import OMEGA, friction_chain, impact_chain
 
 
 def full_hbm_residual(system, omega, q_hat, steps):

@@ -20,7 +20,7 @@ from hypothesis import strategies as st
 import mshbm
 from mshbm import Contact, Friction, chain, condensation, fourier
 from mshbm.integrators.moreau_jean import MoreauJean
-from conftest import OMEGA, friction_chain, impact_chain
+from paper_systems import OMEGA, friction_chain, impact_chain
 
 SETTINGS = settings(max_examples=40, deadline=None, derandomize=True,
                     suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])

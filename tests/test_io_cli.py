@@ -90,7 +90,7 @@ def test_friction3_example_content():
     assert case.omega == pytest.approx(np.pi / 5, rel=1e-15)
     assert case.solver == {"method": "mshbm", "harmonics": 3, "steps": 4096}
     (fr,) = case.system.elements
-    assert (fr.kind, fr.dof, fr.mu, fr.normal_force, fr.smoothing) == ("friction", 0, 0.8, 9.81, 800.0)
+    assert (fr.kind, fr.dof, fr.mu, fr.normal_force, fr.smoothing) == ("friction", 0, 0.8, 5.0, 800.0)
     np.testing.assert_array_equal(case.system.f_hat[1], [0, 0, 5])
     imp = load_case(EXAMPLES / "impact5.yaml")
     (ct,) = imp.system.elements

@@ -24,7 +24,7 @@ from mshbm.integrators.exact_flow import ExactFlow
 from mshbm.methods.exact import exact_periodic
 from mshbm.integrators.moreau_jean import MoreauJean
 
-from conftest import OMEGA
+from paper_systems import OMEGA
 
 
 # ----------------------------------------------------------------------------- closed form (Budd & Dux)

@@ -16,7 +16,7 @@ import pytest
 import yaml
 
 import mshbm
-from conftest import OMEGA, friction_chain, impact_chain
+from paper_systems import OMEGA, friction_chain, impact_chain
 from mshbm.solvers.continuation import scaled_system, solve_with_continuation
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -66,7 +66,11 @@ def test_config_schema_rejects_invalid_values():
     cfg = yaml.safe_load((ROOT / "workflow" / "config.yaml").read_text())
     validate(cfg, str(ROOT / "workflow" / "schemas" / "config.schema.yaml"))
     bad = json.loads(json.dumps(cfg))
-    bad["systems"]["impact5"]["contact"]["restitution"] = 1.5
+    bad["systems"]["impact5"]["case"] = "impact5.yaml"  # case files are named examples/<name>.yaml
+    with pytest.raises(WorkflowError):
+        validate(bad, str(ROOT / "workflow" / "schemas" / "config.schema.yaml"))
+    bad = json.loads(json.dumps(cfg))
+    bad["systems"]["impact5"]["timed"] = "yes"
     with pytest.raises(WorkflowError):
         validate(bad, str(ROOT / "workflow" / "schemas" / "config.schema.yaml"))
     bad = json.loads(json.dumps(cfg))

@@ -2,8 +2,8 @@
 
 The quick workflow (workflow/config-quick.yaml) runs once per test session (fixture ``quick_run``
 in conftest.py), in a temporary copy of the workflow files (workflow/ with its Snakefile, notebooks/,
-paper/), so it never touches results/ or .snakemake/ of the working tree.  Snakemake runs from the
-copy's root and finds workflow/Snakefile there, as it does in the repository.
+paper/, examples/), so it never touches results/ or .snakemake/ of the working tree.  Snakemake runs
+from the copy's root and finds workflow/Snakefile there, as it does in the repository.
 """
 import json
 import math
@@ -15,7 +15,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 SNAKEMAKE = [sys.executable, "-m", "snakemake"]
-WORKFLOW_FILES = ["workflow", "notebooks", "paper"]
+WORKFLOW_FILES = ["workflow", "notebooks", "paper", "examples"]
 QUICK = ["--configfile", "workflow/config-quick.yaml"]
 #: the paper's outputs (rule `all` may also hold targets of other rule files, e.g. the stress suite)
 TARGET = ["reproduction"]

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 
 __all__ = ["main"]
@@ -80,25 +79,10 @@ def _table(case, summary):
     return "\n".join(lines)
 
 
-def _json_safe(obj):
-    """Replace non-finite floats by None (JSON has no NaN/inf) and numpy scalars by Python ones."""
-    if isinstance(obj, dict):
-        return {str(k): _json_safe(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_json_safe(v) for v in obj]
-    if isinstance(obj, bool) or obj is None or isinstance(obj, (str, int)):
-        return obj
-    try:
-        x = float(obj)
-    except (TypeError, ValueError):
-        return str(obj)
-    return x if math.isfinite(x) else None
-
-
 def _write_json(path, payload, case=None):
-    from .outfile import write_text
+    from .outfile import jsonable, write_text
 
-    write_text(path, json.dumps(_json_safe(payload), indent=2, allow_nan=False) + "\n", case)
+    write_text(path, json.dumps(jsonable(payload), indent=2, allow_nan=False) + "\n", case)
 
 
 def _solve(args):

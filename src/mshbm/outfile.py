@@ -19,19 +19,55 @@ Rules (``mshbm solve CASE --out PATH``):
 
 Every refusal is an :class:`mshbm.InputError` with key ``--out`` (exit code 2), raised before the
 solve when it can be foreseen.
+
+:func:`jsonable` is the one conversion of results to JSON values, used by the CLI and by every
+script of the workflow (solves, benchmarks, stress suite).
 """
 from __future__ import annotations
 
 import errno
+import math
 import os
 import stat
 import tempfile
 
+import numpy as np
+
 from .errors import InputError
 
-__all__ = ["check_out", "write_text"]
+__all__ = ["check_out", "write_text", "jsonable"]
 
 KEY = "--out"
+
+
+def jsonable(obj, allow_nan=False):
+    """``obj`` as plain JSON values (for :func:`json.dumps`).
+
+    Mappings become dicts with string keys, lists/tuples/arrays become lists, numpy scalars become
+    Python ``bool``/``int``/``float``, a complex number ``z`` becomes ``[z.real, z.imag]``.  A
+    non-finite float becomes ``None`` (JSON has no NaN/inf), unless ``allow_nan`` (then it stays, and
+    ``json`` writes the non-standard ``NaN``/``Infinity``).  Anything else becomes ``float(obj)`` if it
+    converts, else ``str(obj)``.
+    """
+    if isinstance(obj, dict):
+        return {str(k): jsonable(v, allow_nan) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [jsonable(v, allow_nan) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return jsonable(obj.tolist(), allow_nan)
+    if obj is None or isinstance(obj, str):
+        return obj
+    if isinstance(obj, (bool, np.bool_)):
+        return bool(obj)
+    if isinstance(obj, (int, np.integer)):
+        return int(obj)
+    if isinstance(obj, (complex, np.complexfloating)):
+        return [jsonable(float(obj.real), allow_nan), jsonable(float(obj.imag), allow_nan)]
+    try:
+        x = float(obj)
+    except (TypeError, ValueError):
+        return str(obj)
+    return x if (allow_nan or math.isfinite(x)) else None
 
 
 def _umask():

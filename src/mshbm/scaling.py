@@ -35,7 +35,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["force_scale", "stiffness_scale", "displacement_floor", "velocity_scale"]
+__all__ = ["force_scale", "stiffness_scale", "displacement_floor", "velocity_scale", "residual_norm"]
 
 
 def _diag(A):
@@ -85,3 +85,18 @@ def displacement_floor(system, omega, F=None, penalty=False):
 def velocity_scale(D, omega):
     """Scale ``V = D max(1, omega)`` (m/s) of velocity-like residual rows (see the module docstring)."""
     return D * max(1.0, float(omega))
+
+
+def residual_norm(problem, x, R=None):
+    """The scaled residual ``||R(x) / s(x)||_inf`` of Newton's convergence test (and of the certificate),
+    ``s = problem.residual_scale(x)`` (``inf`` when ``R`` is not finite).
+
+    ``problem`` is a method's problem (:func:`mshbm.build_problem`); ``R`` the residual at ``x`` when
+    already evaluated.  A solution claimed converged with tolerance ``tol`` has ``residual_norm <= tol``.
+    """
+    from .solvers.newton import scaled_norm
+
+    x = np.asarray(x, dtype=float)
+    if R is None:
+        R = problem.residual(x, jac=False)[0]
+    return scaled_norm(R, problem.residual_scale(x))

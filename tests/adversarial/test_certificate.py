@@ -16,6 +16,7 @@ import pytest
 
 import mshbm
 from mshbm import Contact, Friction, InputError, System, chain
+from paper_systems import system as paper_system
 
 METHODS = ["shooting", "hbm", "mshbm", "mshbm-intermediate"]
 OMEGA = np.pi / 5
@@ -42,13 +43,11 @@ def stick_system():
 
 
 def friction3():
-    return chain([1.0] * 3, 1.0, 0.0, forcing=[{"dof": 2, "amplitude": 5.0}],
-                 elements=[Friction(0, 0.8, 5.0)])
+    return paper_system("friction3")
 
 
 def impact5():
-    return chain([10.0] + [1.0] * 4, 1.0, 0.3, forcing=[{"dof": 4, "amplitude": 5.0}],
-                 elements=[Contact(0, 0.1, 1.0, 8000.0, 0.0)])
+    return paper_system("impact5")
 
 
 # ------------------------------------------------------------------------- the example

@@ -17,6 +17,7 @@ from mshbm.api import build_problem
 from mshbm.errors import InputError
 from mshbm.methods.exact import exact_periodic
 from mshbm.solvers.newton import newton
+from paper_systems import system as paper_system
 
 try:
     from mshbm.solvers import starts
@@ -197,8 +198,7 @@ def test_impact_oscillator_garbage_orbit_is_not_success():
 
 
 def impact50():
-    return chain([10.0] + [1.0] * 49, 1.0, 0.3, forcing=[{"dof": 49, "amplitude": 5.0}],
-                 elements=[Contact(0, 0.1, 1.0, 8000.0, 0.0)], name="impact50")
+    return paper_system("impact50")
 
 
 @pytest.fixture(scope="module")

@@ -10,6 +10,8 @@ import yaml
 sys.path.insert(0, str(Path(workflow.basedir, "scripts")))
 import wfcore  # noqa: E402
 
+# the systems are defined by their case files (examples/*.yaml); fill in their parameters once
+wfcore.resolve_systems(config)
 R = config["results_dir"].rstrip("/")
 NUMERICS = config["numerics"]
 #: figure/table -> rules -> notebook -> method modules (workflow/manifest.yaml, rendered in README.md)
@@ -202,11 +204,13 @@ def _is_reference(w):
 
 
 def solve_inputs(w):
-    """HBM that fails from every start is restarted from these converged solutions (display only)."""
+    """The system's case file; for HBM, which is restarted from these converged solutions when it fails
+    from every start (display only), the fallback solutions."""
     scfg = config["systems"][w.case]
     if w.method != "hbm":
-        return {}
-    return {"fallback": [solve_file(w.case, m, int(w.nh), ext="npz") for m in scfg["hbm_fallback"]]}
+        return {"case": scfg["case"]}
+    return {"case": scfg["case"],
+            "fallback": [solve_file(w.case, m, int(w.nh), ext="npz") for m in scfg["hbm_fallback"]]}
 
 
 def solve_params(w):

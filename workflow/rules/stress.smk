@@ -18,6 +18,9 @@ rule stress:
         config="workflow/stress.yaml",
         schema="workflow/schemas/stress.schema.yaml",
         script="workflow/scripts/stress.py",
+        modules=["workflow/scripts/stress_cases.py", "workflow/scripts/stress_judge.py",
+                 "workflow/scripts/stress_report.py", "workflow/scripts/wfcore.py"],
+        cases=sorted(str(p) for p in Path("examples").glob("*.yaml")),
     output:
         json=f"{R}/stress/summary.json",
         md=f"{R}/stress/summary.md",

@@ -63,9 +63,9 @@ def _cases(quick):
     cases, meta = {}, {}
     states = {}
 
-    f3 = bl.friction_chain(3)
-    i5 = bl.impact_chain(5)
-    f30 = bl.friction_chain(30)
+    f3 = bl.paper_system("friction3")
+    i5 = bl.paper_system("impact5")
+    f30 = bl.paper_system("friction30")
     f50 = bl.friction_chain(50)
     sol_f3 = mshbm.solve(f3, bl.OMEGA, "mshbm", harmonics=5, steps=4096)
     sol_i5 = mshbm.solve(i5, bl.OMEGA, "mshbm", harmonics=5, steps=4096)

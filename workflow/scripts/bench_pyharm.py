@@ -12,7 +12,7 @@ needs only numpy, scipy, numba, pyyaml and threadpoolctl, which that environment
 with ``pip install threadpoolctl``), so that both codes are timed side by side in one process.
 If pyHarm cannot be run, the JSON gets ``"status": "unavailable"`` with the error text.
 
-Systems: ``impact_chain(n)`` of tests/conftest.py (mass 10 then unit masses, unit springs,
+Systems: ``benchlib.impact_chain(n)``: examples/impact5.yaml with n masses (mass 10 then unit masses, unit springs,
 dampers 0.3, 5 cos(omega t) on mass n, contact on mass 1 with gap 0.1), penalty law
 k_c = 8000, d_c = 0, omega = pi/5, n_H = 5, 512 AFT samples (pyHarm ``nti = 512``); pyHarm input:
 one ``substructure`` with our M, C, K (1 DOF per node), a ``CosinusForcing`` and a

@@ -291,7 +291,7 @@ def main(argv=None):
         ours_cfg.update({f"mshbm/nh={h}/steps={N}": ("mshbm", dict(harmonics=h, steps=N))
                          for h in (3, 5) for N in (1024, 4096)})
         fr = dict(regs=(100.0, 1000.0), base_methods=("LSODA",), rtols=(1e-8,), budget_s=8.0, max_our_rounds=3)
-        systems = {"friction3": (bl.friction_chain(3), fr)}
+        systems = {"friction3": (bl.paper_system("friction3"), fr)}
     elif profile == "default":
         ours_cfg = {f"shooting/steps={N}": ("shooting", dict(steps=N)) for N in (256, 1024, 4096, 16384)}
         ours_cfg.update({f"mshbm/nh={h}/steps={N}": ("mshbm", dict(harmonics=h, steps=N))
@@ -300,7 +300,7 @@ def main(argv=None):
                   budget_s=20.0, max_our_rounds=5)
         im = dict(regs=(8000.0,), base_methods=("LSODA", "Radau"), rtols=(1e-6, 1e-8), budget_s=20.0,
                   max_our_rounds=5)
-        systems = {"friction3": (bl.friction_chain(3), fr), "impact5": (bl.impact_chain(5), im)}
+        systems = {"friction3": (bl.paper_system("friction3"), fr), "impact5": (bl.paper_system("impact5"), im)}
     else:
         ours_cfg = {f"shooting/steps={N}": ("shooting", dict(steps=N)) for N in (256, 1024, 4096, 16384)}
         ours_cfg.update({f"mshbm/nh={h}/steps={N}": ("mshbm", dict(harmonics=h, steps=N))
@@ -309,7 +309,7 @@ def main(argv=None):
                   rtols=(1e-6, 1e-8, 1e-10), budget_s=120.0, max_our_rounds=7)
         im = dict(regs=(8000.0,), base_methods=("LSODA", "Radau", "RK45"), rtols=(1e-6, 1e-8, 1e-10),
                   budget_s=120.0, max_our_rounds=5)
-        systems = {"friction3": (bl.friction_chain(3), fr), "impact5": (bl.impact_chain(5), im)}
+        systems = {"friction3": (bl.paper_system("friction3"), fr), "impact5": (bl.paper_system("impact5"), im)}
     results = {}
     for name, (system, cfg) in systems.items():
         results[name] = run_system(name, system, ours_cfg=ours_cfg, log=log, **cfg)

@@ -32,24 +32,28 @@ import wfcore  # noqa: E402
 import mshbm  # noqa: E402
 from mshbm.methods.exact import exact_periodic  # noqa: E402
 from mshbm.methods.hbm import scaled_regularisation  # noqa: E402
+from mshbm.solvers import strategies  # noqa: E402
 
 
-def timed_solve(system, omega, nearby, method, repeats, warmup=True, **opts):
-    opts.setdefault("stability", False)  # the Floquet analysis is not part of the timed solve
-    """Start from the method's own solution at ``nearby``; wall times of ``repeats`` solves.
+def timed_solve(system, omega, factor, method, repeats, warmup=True, **opts):
+    """Start from the method's own solution at ``factor * omega`` (the nearby strategy of
+    :mod:`mshbm.solvers.strategies`; the linear start when that one did not converge); wall times of
+    ``repeats`` solves at ``omega`` from that start.
 
     ``warmup``: one untimed solve first (numba compilation; needed once per method and process).
     """
-    start = mshbm.solve(system, nearby, method, **opts)
-    guess = start if start.success else None
+    opts.setdefault("stability", False)  # the Floquet analysis is not part of the timed solve
+    start = strategies.nearby_start(system, omega, method, factor, **opts)
+    if not start.ok:
+        start = strategies.linear_start()
     if warmup:
-        mshbm.solve(system, omega, method, guess=guess, **opts)
+        strategies.solve_from(start, system, omega, method, **opts)
     times = []
     for _ in range(repeats):
         t0 = time.perf_counter()
-        sol = mshbm.solve(system, omega, method, guess=guess, **opts)
+        sol = strategies.solve_from(start, system, omega, method, **opts)
         times.append(time.perf_counter() - t0)
-    return sol, times, start.success
+    return sol, times, start.name == "nearby"
 
 
 def points(bcfg):
@@ -88,7 +92,8 @@ def main(argv=None):
         bcfg.update(bcfg.get("full") or {})
     system = wfcore.build_system(config["systems"][args.system], args.system)
     omega = wfcore.omega(config)
-    nearby = omega * float(bcfg["nearby_factor"])
+    factor_nearby = float(bcfg["nearby_factor"])
+    nearby = omega * factor_nearby
     n = system.n
 
     load_start = list(os.getloadavg())
@@ -110,7 +115,7 @@ def main(argv=None):
         if method == "hbm":
             opts["steps"] = hbm_samples(bcfg, config, opts["harmonics"])
         sys_m = scaled_regularisation(system, factor) if method == "hbm" else system
-        sol, times, nearby_ok = timed_solve(sys_m, omega, nearby, method, int(bcfg["repeats"]),
+        sol, times, nearby_ok = timed_solve(sys_m, omega, factor_nearby, method, int(bcfg["repeats"]),
                                             warmup=method not in warmed, **opts)
         warmed.add(method)
         amp = sol.amplitude

@@ -13,8 +13,6 @@ Ratios of medians measured this way are what the benchmarks' conclusions rest on
 from __future__ import annotations
 
 import datetime as _dt
-import json
-import math
 import os
 import platform
 import sys
@@ -22,6 +20,8 @@ import time
 from pathlib import Path
 
 import numpy as np
+
+from mshbm.outfile import jsonable  # noqa: F401 (the one JSON conversion; re-exported)
 
 __all__ = ["machine_info", "interleaved", "timed", "stats", "write_json", "plot_path", "parser", "profile",
            "jsonable", "fit_exponent"]
@@ -116,35 +116,9 @@ def fit_exponent(n, t):
     return float(np.polyfit(np.log(n[ok]), np.log(t[ok]), 1)[0])
 
 
-def jsonable(obj):
-    """Convert numpy scalars/arrays (and non-finite floats, as ``None``) for ``json``."""
-    if isinstance(obj, dict):
-        return {str(k): jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [jsonable(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return jsonable(obj.tolist())
-    if isinstance(obj, (np.bool_, bool)):
-        return bool(obj)
-    if isinstance(obj, (np.integer,)):
-        return int(obj)
-    if isinstance(obj, (np.floating, float)):
-        v = float(obj)
-        return v if math.isfinite(v) else None
-    if isinstance(obj, complex):
-        return [obj.real, obj.imag]
-    return obj
-
-
 def write_json(path, data):
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(path.suffix + ".tmp")
-    with open(tmp, "w") as fh:
-        json.dump(jsonable(data), fh, indent=1)
-        fh.write("\n")
-    os.replace(tmp, path)
-    return path
+    """Write ``data`` as JSON (non-finite floats as ``null``; :func:`wfcore.write_json`); returns the path."""
+    return wfcore.write_json(path, data, allow_nan=False)
 
 
 def plot_path(out):
@@ -179,26 +153,31 @@ def pyplot():
 
 
 # ----------------------------------------------------------------------------- the paper's systems
-#: forcing frequency of the paper's examples (rad/s)
-OMEGA = math.pi / 5
-#: friction normal force of tests/conftest.py (mu F_N = 4)
-NORMAL_FORCE = 5.0
+# The systems are the case files of examples/ (wfcore.load_case); the chains of other lengths are
+# the same parameters with n masses (wfcore.chain_case), the families of the scaling benchmarks.
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import wfcore  # noqa: E402
+
+#: forcing frequency of the paper's examples (rad/s), from examples/friction3.yaml
+OMEGA = wfcore.load_case("friction3").omega
+#: friction normal force of the paper's friction systems (mu F_N = 4), from examples/friction3.yaml
+NORMAL_FORCE = wfcore.load_case("friction3").system.elements[0].normal_force
 
 
-def friction_chain(n, kappa=800.0, damping=0.0, sparse=None):
-    """``n`` unit masses, unit springs, friction (mu 0.8, F_N 5) on mass 1, 5 cos(omega t) on mass n
-    (as ``tests/conftest.py``)."""
-    from mshbm import Friction, chain
-    return chain([1.0] * n, 1.0, damping, forcing=[{"dof": n - 1, "amplitude": 5.0}],
-                 elements=[Friction(0, 0.8, NORMAL_FORCE, kappa)], sparse=sparse, name=f"friction{n}")
+def paper_system(name):
+    """A paper system by its case file name (``"friction3"``, ``"impact50"``, ...; examples/)."""
+    return wfcore.load_case(name).system
 
 
-def impact_chain(n, gap=0.1, kc=8000.0, e=1.0):
-    """Mass 10 then ``n-1`` unit masses, unit springs, dampers 0.3, contact (gap 0.1) on mass 1
-    (as ``tests/conftest.py``)."""
-    from mshbm import Contact, chain
-    return chain([10.0] + [1.0] * (n - 1), 1.0, 0.3, forcing=[{"dof": n - 1, "amplitude": 5.0}],
-                 elements=[Contact(0, gap, e, kc, 0.0)], name=f"impact{n}")
+def friction_chain(n, kappa=None):
+    """examples/friction3.yaml with ``n`` masses (its kappa replaced by ``kappa`` if given)."""
+    return wfcore.chain_case("friction3", n, **({} if kappa is None else {"smoothing": kappa}))
+
+
+def impact_chain(n, gap=None, kc=None, e=None):
+    """examples/impact5.yaml with ``n`` masses (gap, penalty stiffness, restitution replaced if given)."""
+    el = {k: v for k, v in (("gap", gap), ("penalty_stiffness", kc), ("restitution", e)) if v is not None}
+    return wfcore.chain_case("impact5", n, **el)
 
 
 # ----------------------------------------------------------------------------- memory

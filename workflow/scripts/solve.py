@@ -8,11 +8,16 @@ once, untimed, on the displayed solution), stick fraction, impacts) and ``<stem>
 
     python workflow/scripts/solve.py workflow/config.yaml impact5 mshbm 3 4096 results/solves/impact5/mshbm_nh3_N4096
 
-Start protocol (config ``systems.<case>.starts``, tried in order until one converges):
+Start protocol (config ``systems.<case>.starts``, tried in order until one converges): the named
+strategies of :mod:`mshbm.solvers.strategies`,
 
 * ``linear``: Newton at omega from the linear response at omega;
 * ``nearby``: Newton at omega from the method's own converged solution at
-  ``nearby_factor * omega`` (which itself starts from the linear response there).
+  ``nearby_factor * omega`` (which itself starts from the linear response there);
+* HBM that fails from every start: restarted from another method's solution (``hbm_fallback``).
+
+This script loads the system (its case file), solves, times and writes; it decides nothing about
+how a solve starts beyond the order of the configured starts.
 
 Wall time (``time.perf_counter``) and the process CPU time (``time.process_time``; robust when
 other processes load the machine) of every timed call are recorded.
@@ -36,6 +41,7 @@ import time  # noqa: E402
 import numpy as np  # noqa: E402
 
 import mshbm  # noqa: E402
+from mshbm.solvers import strategies  # noqa: E402
 from mshbm.accumulation import from_impulses  # noqa: E402
 from mshbm.integrators.moreau_jean import WORK  # noqa: E402
 from wfcore import build_system, get_key, omega as config_omega, runs, split_method, write_json  # noqa: E402
@@ -44,24 +50,30 @@ from wfcore import build_system, get_key, omega as config_omega, runs, split_met
 STORE_ALL_DOFS = 10
 
 
-def solve_once(system, om, method, n_h, steps, guess, numerics):
-    """One call of :func:`mshbm.solve`, timed as a whole (set-up included)."""
+def solve_options(method, n_h, steps, numerics):
+    """``(method, options)`` of every solve of this job; a ``-fd`` suffix selects FD Jacobians."""
     base, jac = split_method(method)
     # stability=False: the Floquet analysis (mshbm.stability) is not part of the timed solve; it runs
     # once on the displayed solution (see `run`)
-    kw = dict(harmonics=int(n_h), steps=int(steps), guess=guess, tol=float(numerics["tol"]),
+    kw = dict(harmonics=int(n_h), steps=int(steps), tol=float(numerics["tol"]),
               max_iter=int(numerics["max_iter"]), stability=False)
     if base != "hbm":
         kw.update(theta=float(numerics["theta"]), jacobian=jac or numerics["jacobian"])
-    method = base
+    return base, kw
+
+
+def timed_solve(system, omega, method, **options):
+    """:func:`mshbm.solve`, timed as a whole (set-up included): ``info["call_wall_time"]``,
+    ``info["cpu_time"]`` and the machine-independent effort ``info["work"]`` of the call."""
     w0 = dict(WORK)
     c0, t0 = time.process_time(), time.perf_counter()
-    sol = mshbm.solve(system, om, method, **kw)
+    sol = mshbm.solve(system, omega, method, **options)
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    sol.info["call_wall_time"] = wall
     sol.info["cpu_time"] = cpu
     # machine-independent effort of the whole call (the time-domain output included)
     sol.info["work"] = {k: int(WORK[k] - w0[k]) for k in WORK}
-    return sol, wall
+    return sol
 
 
 def brief(sol, wall):
@@ -166,28 +178,28 @@ def run(config, case, method, n_h, steps, stem, fallback=(), reference=False, lo
     log(f"{case} ({system!r}) method={method} n_h={n_h} steps={steps} omega={om:.6g} "
         f"starts={starts} timed={timed} warmup={warmup} repeats={repeats}")
 
+    base, kw = solve_options(method, n_h, steps, numerics)
     attempts, chosen = [], None
-    for start in starts:
-        rec = {"start": start, "timed": timed}
-        guess = None
-        if start == "nearby":
-            factor = float(config["starts"]["nearby_factor"])
-            near, wall = solve_once(system, factor * om, method, n_h, steps, None, numerics)
-            rec["nearby"] = dict(brief(near, wall), omega=factor * om, factor=factor,
+    for name in starts:
+        rec = {"start": name, "timed": timed}
+        near_kw = {"factor": float(config["starts"]["nearby_factor"])} if name == "nearby" else {}
+        start = strategies.make_start(name, system, om, base, solve=timed_solve, **near_kw, **kw)
+        if start.source is not None:  # the nearby-frequency solution it starts from
+            near, wall = start.source, start.source.info["call_wall_time"]
+            rec["nearby"] = dict(brief(near, wall), omega=start.omega, factor=start.factor,
                                  amplitude_first=float(near.amplitude[0]) if near.success else None,
                                  amplitude_last=float(near.amplitude[-1]) if near.success else None)
-            log(f"  [{start}] solution at {factor} omega: {near.message} ({wall:.3f} s)")
-            if not near.success:
-                rec.update(success=False, message=f"no converged solution at {factor} omega to start from: "
-                                                  f"{near.message}", wall_times=[], wall_time_median=None)
-                attempts.append(rec)
-                continue
-            guess = near
+            log(f"  [{name}] solution at {start.factor} omega: {near.message} ({wall:.3f} s)")
+        if not start.ok:
+            rec.update(success=False, message=start.message, wall_times=[], wall_time_median=None)
+            attempts.append(rec)
+            continue
         times, cpus, sol = [], [], None
         rec["machine_before"] = machine_state()
         for i in range(warmup + repeats):
-            s, wall = solve_once(system, om, method, n_h, steps, guess, numerics)
-            log(f"  [{start}] solve {i + 1}/{warmup + repeats}: {s.message} ({wall:.4f} s)")
+            s = strategies.solve_from(start, system, om, base, solve=timed_solve, **kw)
+            wall = s.info["call_wall_time"]
+            log(f"  [{name}] solve {i + 1}/{warmup + repeats}: {s.message} ({wall:.4f} s)")
             if i == 0:
                 sol = s
                 rec.update(brief(s, wall))
@@ -206,7 +218,7 @@ def run(config, case, method, n_h, steps, stem, fallback=(), reference=False, lo
         rec["cpu_time_median"] = statistics.median(cpus) if (cpus and sol.success) else None
         attempts.append(rec)
         if sol.success and chosen is None:
-            chosen = (start, sol)
+            chosen = (name, sol)
             if not all_starts:
                 break
 
@@ -214,14 +226,15 @@ def run(config, case, method, n_h, steps, stem, fallback=(), reference=False, lo
     display_only = False
     if chosen is None and method == "hbm":
         for path in fallback:
-            g = guess_from_npz(path)
             src = os.path.basename(path).split("_nh")[0]
-            rec = {"start": f"{src} solution at omega", "timed": False, "display_only": True, "source": str(path)}
-            if g is None:
+            start = strategies.restart_start(guess_from_npz(path), f"{src} solution at omega")
+            rec = {"start": start.name, "timed": False, "display_only": True, "source": str(path)}
+            if not start.ok:
                 rec.update(success=False, message=f"{src} did not converge either")
                 attempts.append(rec)
                 continue
-            s, wall = solve_once(system, om, method, n_h, steps, g, numerics)
+            s = strategies.solve_from(start, system, om, base, solve=timed_solve, **kw)
+            wall = s.info["call_wall_time"]
             rec.update(brief(s, wall))
             attempts.append(rec)
             log(f"  [fallback from {src}] {s.message} ({wall:.3f} s)")

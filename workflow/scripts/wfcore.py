@@ -59,23 +59,103 @@ def solve_stem(config, case, method, n_h=None, reference=False):
     return f"{config['results_dir']}/solves/{case}/{method}_nh{nh}_N{steps}"
 
 
-def build_system(scfg, name="system"):
-    """:class:`mshbm.System` of one ``systems.<name>`` entry of the config."""
-    from mshbm import Contact, Friction, chain
+#: the repository root (case files are named relative to it) and the case files of the paper's systems
+ROOT = Path(__file__).resolve().parents[2]
+EXAMPLES = ROOT / "examples"
+#: keys of a ``systems.<name>`` entry that :func:`resolve_systems` derives from its case file (for the
+#: tables, notebooks and the footnote keys of ``choices``); the case file is their only source
+DERIVED_KEYS = ("n", "mass_first", "mass_other", "stiffness", "damping", "forcing_amplitude", "friction", "contact")
 
-    n = int(scfg["n"])
-    masses = [float(scfg["mass_first"])] + [float(scfg["mass_other"])] * (n - 1)
-    elements = []
-    if "friction" in scfg:
-        f = scfg["friction"]
-        elements.append(Friction(0, float(f["mu"]), float(f["normal_force"]), float(f["kappa"])))
-    if "contact" in scfg:
-        c = scfg["contact"]
-        elements.append(Contact(0, float(c["gap"]), float(c["restitution"]), float(c["penalty_stiffness"]),
-                                float(c["penalty_damping"])))
-    return chain(masses, float(scfg["stiffness"]), float(scfg["damping"]),
-                 forcing=[{"dof": n - 1, "amplitude": float(scfg["forcing_amplitude"])}],
-                 elements=elements, name=name)
+
+def case_path(case):
+    """Path of a case file: ``"examples/impact5.yaml"`` (relative to the repository root), an absolute
+    path, or a bare name (``"impact5"`` -> ``examples/impact5.yaml``)."""
+    path = Path(case)
+    if path.suffix not in (".yaml", ".yml") and len(path.parts) == 1:
+        path = EXAMPLES / f"{case}.yaml"
+    return path if path.is_absolute() else ROOT / path
+
+
+def load_case(case, **overrides):
+    """:func:`mshbm.load_case` of a case file named as in :func:`case_path`."""
+    import mshbm
+
+    return mshbm.load_case(case_path(case), **overrides)
+
+
+def build_system(scfg, name="system"):
+    """:class:`mshbm.System` of one ``systems.<name>`` entry of the config: its case file (``case``)."""
+    system = load_case(scfg["case"]).system
+    system.name = name
+    return system
+
+
+def chain_parameters(system):
+    """The chain parameters of a paper system (wall - k - m_1 - k - ... - m_n, one element on mass 1,
+    ``A cos(omega t)`` on mass n): ``{n, mass_first, mass_other, stiffness, damping, forcing_amplitude,
+    friction: {mu, normal_force, kappa} | contact: {gap, restitution, penalty_stiffness,
+    penalty_damping}}``.  Raises ``ValueError`` for a system of another form."""
+    from mshbm import chain
+
+    n = system.n
+    M, C, K = (np.asarray(system.dense(k), dtype=float) for k in "MCK")
+    f_hat = np.asarray(system.f_hat, dtype=float)
+    masses = np.diag(M)
+    out = {"n": int(n), "mass_first": float(masses[0]), "mass_other": float(masses[-1]),
+           "stiffness": float(K[-1, -1]), "damping": float(C[-1, -1]),
+           "forcing_amplitude": float(f_hat[1, n - 1]) if f_hat.shape[0] > 1 else 0.0}
+    if len(system.elements) != 1 or system.elements[0].dof != 0:
+        raise ValueError(f"{system.name}: a paper system has one element, on mass 1")
+    el = system.elements[0]
+    if el.kind == "friction":
+        out["friction"] = {"mu": float(el.mu), "normal_force": float(el.normal_force), "kappa": float(el.smoothing)}
+    else:
+        out["contact"] = {"gap": float(el.gap), "restitution": float(el.restitution),
+                          "penalty_stiffness": float(el.penalty_stiffness), "penalty_damping": float(el.penalty_damping)}
+    same = chain([out["mass_first"]] + [out["mass_other"]] * (n - 1), out["stiffness"], out["damping"],
+                 forcing=[{"dof": n - 1, "amplitude": out["forcing_amplitude"]}], elements=system.elements)
+    if not all(np.array_equal(np.asarray(same.dense(k)), A) for k, A in zip("MCK", (M, C, K))) \
+            or not np.array_equal(np.asarray(same.f_hat), f_hat):
+        raise ValueError(f"{system.name}: not a chain of the paper's form (uniform springs and dampers, "
+                         "masses 2..n equal, forcing A cos(omega t) on the last mass only)")
+    return out
+
+
+def resolve_systems(config):
+    """Fill the parameters of every ``systems.<name>`` entry from its case file, in place.
+
+    The case files (``examples/*.yaml``) are the one definition of the paper's systems; the derived
+    keys (:data:`DERIVED_KEYS`) are what the tables, notebooks and ``choices`` read.  Returns ``config``.
+    """
+    for name, scfg in config["systems"].items():
+        for key in DERIVED_KEYS:
+            scfg.pop(key, None)
+        scfg.update(chain_parameters(load_case(scfg["case"]).system))
+    return config
+
+
+def chain_case(case, n=None, name=None, **element):
+    """The system of a paper case file with ``n`` masses instead of its own (``None``: its own; masses
+    2..n as its mass 2, the forcing moved to mass n), its element's parameters replaced by ``element``
+    (keys of the case file's ``friction``/``contact`` mapping, e.g. ``smoothing=``,
+    ``penalty_stiffness=``, ``gap=``): the parameterised families of the scaling benchmarks, the
+    stress suite and the tests."""
+    from mshbm.io import parse_case
+    from mshbm.io.yaml import load_yaml, read_text
+
+    path = case_path(case)
+    data = load_yaml(read_text(path))
+    kind = "friction" if "friction" in data else "contact"
+    if n is not None:
+        masses = list(data["masses"])
+        data["masses"] = masses[:1] + [masses[1] if len(masses) > 1 else masses[0]] * (n - 1)
+        data["forcing"] = [dict(f, dof=n - 1) for f in data["forcing"]]
+        data.pop("name", None)
+    if element:
+        data[kind] = dict(data[kind], **element)
+    name = name or data.get("name") or f"{kind if kind == 'friction' else 'impact'}{n}"
+    data.pop("name", None)
+    return parse_case(data, name=name, source=str(path)).system
 
 
 def get_key(config, dotted):
@@ -92,25 +172,18 @@ def load_json(path):
         return json.load(fh)
 
 
-def write_json(path, data):
+def write_json(path, data, allow_nan=True):
+    """Write ``data`` atomically, converted by :func:`mshbm.outfile.jsonable`.  ``allow_nan``: non-finite
+    floats stay ``NaN``/``Infinity`` (the solve facts, which the summaries read back); else ``null``."""
+    from mshbm.outfile import jsonable
+
     Path(path).parent.mkdir(parents=True, exist_ok=True)
     tmp = f"{path}.tmp{os.getpid()}"
     with open(tmp, "w") as fh:
-        json.dump(data, fh, indent=1, sort_keys=False, default=_json_default)
+        json.dump(jsonable(data, allow_nan=allow_nan), fh, indent=1, sort_keys=False, allow_nan=allow_nan)
         fh.write("\n")
     os.replace(tmp, path)
-
-
-def _json_default(obj):
-    if isinstance(obj, (np.integer,)):
-        return int(obj)
-    if isinstance(obj, (np.floating,)):
-        return float(obj)
-    if isinstance(obj, np.ndarray):
-        return obj.tolist()
-    if isinstance(obj, (np.bool_,)):
-        return bool(obj)
-    raise TypeError(f"not JSON serialisable: {type(obj).__name__}")
+    return Path(path)
 
 
 def runs(mask):
