@@ -228,17 +228,46 @@ def test_contact_against_exact(impact_exact):
     for n_h in (5, 25):
         sol = mshbm.solve(s, omega, "dlft", harmonics=n_h, stability=False)
         assert sol.success, sol.message
-        err[n_h] = abs(sol.amplitude[0] / A - 1.0)
+        err[n_h] = 1.0 - sol.amplitude[0] / A
         cert = sol.certificate
         pen[n_h] = cert["non_penetration"].value
         assert not cert["non_penetration"].gating
         en = cert.info["energy"]
-        assert abs(en["element_dissipation"][0]) < 0.02 * en["input_work"]
+        assert abs(en["element_dissipation"][0]) < 0.01 * en["input_work"]  # measured 0.24 %, 0.74 %
         assert sol.info["closed_samples"][0] >= 20  # the impact is spread, no impulse
         assert np.all(sol.lam >= 0.0)
-    # measured: amplitude 17 % and 8.0 % above the exact one; penetration 0.14 and 0.03 (gap 0.5)
-    assert 0.1 < err[5] < 0.25 and 0.03 < err[25] < 0.12
+    # measured: amplitude 16 % and 4.5 % below the exact one; penetration 0.14 and 0.04 (gap 0.5)
+    assert 0.1 < err[5] < 0.2 and 0.02 < err[25] < 0.06
     assert pen[5] > pen[25] > 0.0
+
+
+def test_impact_chain_by_exact_path_following():
+    """impact5: damped Newton stalls from the linear start; the exact piecewise-linear gap continuation
+    (DLFTProblem.newton_fallback) reaches the DLFT solution. Measured amplitude error against the exact
+    e_N = 1 orbit: 25 % at n_h = 25 (HBM: 24 %, MS-HBM: 0.3 %)."""
+    c = mshbm.load_case(EXAMPLES / "impact5.yaml")
+    ms = mshbm.solve(c.system, c.omega, "mshbm", harmonics=5, stability=False)
+    A = exact_periodic(c.system, c.omega, guess=ms).info["amplitude_exact"]
+    sol = c.solve("dlft", harmonics=25, stability=False, guess="linear")
+    assert sol.success and "gap continuation" in sol.message
+    err = float(np.max(np.abs(sol.amplitude - A) / A))
+    assert 0.2 < err < 0.3
+    # the region Jacobian of the path equals the residual's Jacobian, and dR/d offset the differences
+    prob, _ = mshbm.build_problem(c.system, c.omega, "dlft", harmonics=25)
+    y = prob._y(sol.x)
+    J, h = prob._pl_residual_jac(y > 0.0)
+    np.testing.assert_allclose(J, prob.residual(sol.x)[1], rtol=0, atol=1e-12 * np.max(np.abs(J)))
+    d = 1e-9
+    shift = lambda off: prob.A @ sol.x - prob.r - _contact_force(prob, sol.x, off)
+    np.testing.assert_allclose(h, (shift(d) - shift(-d)) / (2 * d), rtol=1e-5, atol=1e-6 * np.max(np.abs(h)))
+
+
+def _contact_force(prob, x, offset):
+    f = np.zeros(prob.n_unknowns)
+    y = prob._y(x, offset)
+    for k, (el, j, rows, cols, sel, w, Q) in enumerate(prob._el):
+        f[rows] += w * (prob.E @ np.maximum(y[:, k], 0.0))
+    return f
 
 
 # ----------------------------------------------------------------------------- input and failure
