@@ -97,11 +97,10 @@ from the linear start.  :meth:`DLFTProblem.newton_fallback` then follows the sol
 exactly from the linear response, all gaps offset by ``lambda`` from the first touch-down to
 ``lambda = 0`` (:func:`mshbm.solvers.newton.follow_pl_path`), and polishes by Newton.
 
-The certificate gates the friction cone and the energy balance, and reports the penetration of the truncated series without gating it.
+The certificate gates the friction cone and the energy balance, and reports the penetration of
+the truncated series without gating it.
 """
 from __future__ import annotations
-
-import functools
 
 import numpy as np
 import scipy.sparse as sp
