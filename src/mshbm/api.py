@@ -5,7 +5,8 @@ Methods (``method=``):
 * ``"shooting"`` -- full shooting, Moreau-Jean (:mod:`mshbm.methods.shooting`);
 * ``"hbm"`` -- HBM-AFT with regularised laws (:mod:`mshbm.methods.hbm`);
 * ``"mshbm"`` -- MS-HBM, Section 3.2 (:mod:`mshbm.methods.mixed`);
-* ``"mshbm-intermediate"`` -- MS-HBM, Section 3.3.
+* ``"mshbm-intermediate"`` -- MS-HBM, Section 3.3;
+* ``"dlft"`` -- dynamic Lagrangian frequency-time method, set-valued laws (:mod:`mshbm.methods.dlft`).
 """
 from __future__ import annotations
 
@@ -21,6 +22,7 @@ from .certificate import apply_certificate, certify
 from . import stability as _stability
 from .errors import ConvergenceError, InputError
 from .condensation import SingularHarmonicError
+from .methods.dlft import DLFTProblem
 from .methods.hbm import HBMProblem
 from .methods.mixed import IntermediateProblem, MixedProblem
 from .solvers.newton import newton
@@ -38,15 +40,16 @@ METHODS = {
     "hbm": {"harmonics", "steps", "condense", "partition"},
     "mshbm": {"harmonics", "steps", "theta", "jacobian", "partition", "project"},
     "mshbm-intermediate": {"harmonics", "steps", "theta", "jacobian", "partition", "project"},
+    "dlft": {"harmonics", "steps", "condense", "partition", "dlft_penalty"},
 }
 _PROBLEMS = {"shooting": ShootingProblem, "hbm": HBMProblem, "mshbm": MixedProblem,
-             "mshbm-intermediate": IntermediateProblem}
+             "mshbm-intermediate": IntermediateProblem, "dlft": DLFTProblem}
 
 
 def default_steps(method, n_h):
     """Default time points per period: 4096 for time-stepping, ``max(512, 16 (2 n_h + 1))`` rounded
-    up to a power of two for the AFT of HBM."""
-    if method == "hbm":
+    up to a power of two for the AFT of HBM and DLFT."""
+    if method in ("hbm", "dlft"):
         return 1 << max(9, math.ceil(math.log2(16 * (2 * n_h + 1))))
     return 4096
 
@@ -97,6 +100,12 @@ def _check_options(method, options):
         raise InputError("progress", f"must be true, false or 'always', got {opts['progress']!r}")
     if "max_iter" in opts:
         opts["max_iter"] = _int_option("max_iter", opts["max_iter"], 0)
+    if opts.get("dlft_penalty") is not None:
+        ep = opts["dlft_penalty"]
+        if isinstance(ep, bool) or not isinstance(ep, (int, float, np.integer, np.floating)) \
+                or not math.isfinite(float(ep)) or not 0.0 < float(ep) <= 1e100:
+            raise InputError("dlft_penalty", f"must be a finite number > 0 (N/m), got {ep!r}")
+        opts["dlft_penalty"] = float(ep)
     opts["stability"] = _stability.check_option(opts.get("stability"))
     return opts
 
@@ -180,7 +189,7 @@ def solve(system, omega, method="mshbm", **options):
     system : System
     omega : float
         Angular frequency (rad/s) of the forcing; period ``T = 2 pi / omega``.
-    method : {"shooting", "hbm", "mshbm", "mshbm-intermediate"}
+    method : {"shooting", "hbm", "mshbm", "mshbm-intermediate", "dlft"}
     **options
         ``harmonics`` (n_h, default 5; shooting: harmonics of the reported
         ``q_hat``, default 10), ``steps`` (time steps per period; default 4096,
@@ -194,7 +203,8 @@ def solve(system, omega, method="mshbm", **options):
         ``"fd"``), ``partition`` (DOFs of N; for ``mshbm-intermediate`` a pair of
         DOF lists for subsystems 1 and 2), ``condense`` (HBM: eliminate linear
         DOFs exactly, default True), ``project`` (position projection of
-        contacts, default True), ``progress`` (print Newton progress to a
+        contacts, default True), ``dlft_penalty`` (DLFT: the parameter ``eps`` in N/m of every
+        element, default from the condensed dynamic stiffness, :mod:`mshbm.methods.dlft`), ``progress`` (print Newton progress to a
         terminal), ``raise_on_failure`` (raise ConvergenceError instead of
         returning ``success=False``), ``blas_threads`` (BLAS threads during
         the solve, default 1: the dense matrices are small, and one thread keeps

@@ -13,7 +13,7 @@ import sys
 __all__ = ["main"]
 
 EXIT_OK, EXIT_NOT_CONVERGED, EXIT_INPUT, EXIT_INTERNAL, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
-METHOD_CHOICES = ("shooting", "hbm", "mshbm", "mshbm-intermediate")
+METHOD_CHOICES = ("shooting", "hbm", "mshbm", "mshbm-intermediate", "dlft")
 
 
 def _one_line(text):

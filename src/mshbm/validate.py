@@ -78,7 +78,7 @@ def check_forcing(system, method, n_h, steps, time_dofs):
     if bad.size:
         d = int(bad[np.argmax(top[bad])])
         k = int(top[d])
-        where = "HBM" if method == "hbm" else f"the harmonic part of {method}"
+        where = {"hbm": "HBM", "dlft": "DLFT"}.get(method) or f"the harmonic part of {method}"
         raise InputError("harmonics", f"the forcing has harmonic {k} (on DOF {d}), above harmonics={n_h}: "
                                       f"{where} cannot represent it and would drop it; use harmonics >= {k}")
     bad = np.flatnonzero(timed & (2 * top >= steps))
@@ -273,7 +273,7 @@ def check_float_range(system, omega, n_h, steps, method):
     w = n_h * omega
     terms = [("K", "max |K|", mK), ("omega", f"({n_h} omega)^2 max |M|", w * w * mM),
              ("omega", f"{n_h} omega max |C|", w * mC)]
-    if method != "hbm":
+    if method not in ("hbm", "dlft"):
         h = 2 * math.pi / omega / steps
         terms += [("steps", "max |M| / h^2 (h = T/steps)", mM / (h * h)), ("steps", "max |C| / h", mC / h)]
     terms += [("forcing", "max |f|", float(np.max(np.abs(system.f_hat), initial=0.0)))]
@@ -292,7 +292,7 @@ def check_inputs(system, omega, method, n_h, steps, partition=None):
     check_free_free(system)
     if method == "shooting":
         time_dofs = np.arange(system.n)
-    elif method == "hbm":
+    elif method in ("hbm", "dlft"):
         time_dofs = np.zeros(0, dtype=np.int64)
     elif method == "mshbm":
         time_dofs = system.nonlinear_dofs if partition is None else partition

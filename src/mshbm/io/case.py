@@ -29,7 +29,7 @@ FRICTION_KEYS = {"dof": ..., "mu": ..., "normal_force": ..., "smoothing": 800.0}
 CONTACT_KEYS = {"dof": ..., "gap": ..., "restitution": 1.0, "penalty_stiffness": 8000.0,
                 "penalty_damping": 0.0}
 SOLVER_KEYS = ("method", "harmonics", "steps", "theta", "jacobian", "tol", "max_iter", "partition",
-               "condense", "project", "line_search", "continuation", "stability")
+               "condense", "project", "line_search", "continuation", "stability", "dlft_penalty")
 
 
 
@@ -236,6 +236,10 @@ def _solver(value, n):
                 raise InputError(key, f"must be true or false, got {_describe(v)}")
         elif k == "partition":
             v = _partition(key, v, n)
+        elif k == "dlft_penalty":
+            v = _number(key, v)
+            if not v > 0.0:
+                raise InputError(key, f"must be a number > 0 (N/m), got {v:g}")
         elif k == "stability":  # true, false or "auto" (mshbm.stability)
             if not (isinstance(v, bool) or v == "auto"):
                 raise InputError(key, f"must be true, false or 'auto', got {_describe(v)}")

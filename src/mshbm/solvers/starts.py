@@ -188,7 +188,7 @@ def _residual_units(problem):
     name = getattr(problem, "method", "")
     n_x = problem.n_unknowns
     units = np.zeros(n_x, dtype=np.int8)
-    if name == "hbm":
+    if name in ("hbm", "dlft"):
         units[:] = 2
     elif name == "shooting":
         units[problem.n:] = 1

@@ -1,0 +1,440 @@
+"""Dynamic Lagrangian frequency-time method (DLFT), set-valued laws without regularisation.
+
+Nacivet, Pierre, Thouverez, Jezequel (2003), J. Sound Vib. 265, 201-219 (the paper's ref. [10]).
+
+Unknowns and condensation
+-------------------------
+As in :mod:`mshbm.methods.hbm`: the Fourier coefficients ``X`` (eqs. 1-3) of the DOFs ``R``
+kept (default: the element DOFs ``N``); the linear DOFs ``L`` are eliminated exactly per
+harmonic (:class:`mshbm.condensation.Condensation`, ``condense=True``), or all DOFs are kept
+(``condense=False``).  The harmonic balance of the kept DOFs is::
+
+    R(X) = A X - r - F_nl(X) = 0,     A = H_RR - H_RL H_LL^-1 H_LR (per harmonic),
+
+``r`` the (condensed) forcing and ``F_nl`` the Fourier coefficients of the element forces
+``w_j lambda_j(t)`` (``w = +e_dof`` friction, ``-e_dof`` contact, :mod:`mshbm.system`).
+
+The DLFT element force (prediction, correction)
+-----------------------------------------------
+The force the linear part demands of element ``j`` is ``lambda_L(t) = w^T IDFT[A X - r]``
+(the contact force the harmonic balance needs).  DLFT adds a Lagrangian penalty-like term on
+the displacement and corrects it in the time domain, on the ``N_s`` AFT samples:
+
+* **Unilateral contact** (``g_N = gap - q_dof``): prediction
+  ``lambda_pred(t_n) = lambda_L(t_n) - eps g_N(t_n)``; correction
+  ``lambda_N = max(0, lambda_pred)`` (closed: ``lambda_N = lambda_pred``, open: 0).
+* **Coulomb friction** (slip displacement ``xi = q_dof``): prediction assuming stick since the
+  previous sample, ``lambda_pred(t_n) = lambda_L(t_n) - eps (xi(t_n) - xi_r(t_{n-1}))`` with the
+  Lagrangian slip displacement ``xi_r`` (the memory of the law); correction:
+  ``|lambda_pred| <= mu F_N``: stick, ``lambda = lambda_pred``, ``xi_r`` unchanged; otherwise
+  slip, ``lambda = mu F_N sign(lambda_pred)`` and ``xi_r`` such that
+  ``lambda = lambda_L - eps (xi - xi_r)``.  The march runs twice over the period (the first pass
+  builds the memory, started from ``xi_r = xi(0)``; the second is used), so the state at
+  ``t = 0`` is the one left by the last slip of the period
+  (:mod:`mshbm.methods.dlft_kernels`).
+
+Then ``F_nl = DFT[w lambda]``.  Since ``DFT[IDFT[A X - r]] = A X - r``, the residual is
+``R = w DFT[lambda_L - lambda]``: on closed/stick samples ``lambda_L - lambda = eps (w q -
+w q_r)`` is the penalty on the violation of the constraint, on open/slip samples the excess
+of the demanded force over the admissible one.  ``R = 0`` means that the harmonics
+``0..n_h`` of the displacement equal those of the corrected (Lagrangian) displacement, which
+satisfies the set-valued law exactly on every sample; no regularisation enters the law.
+
+Jacobian (analytic, exact on each region of fixed sample states): with
+``y_n = lambda_L(t_n) - eps w q(t_n)`` (affine in ``X``), closed contact
+``d lambda_n = d y_n``, open 0; friction stick ``d lambda_n = d y_n - d y_m`` with ``m`` the last
+slip sample (the memory), slip 0 (the bound is constant; only its sign switches).
+
+The DLFT parameter ``eps``
+--------------------------
+``eps`` (N/m) scales the Lagrangian prediction.  It is *not* only a convergence parameter: the
+residual weighs the constraint violation on stick/closed samples by ``eps`` and the force
+excess on slip/open samples by 1, so with a truncated series the solution depends on it at the
+level of the truncation error.  Measured (friction chain ``examples/friction3.yaml``,
+``n_h = 25``, ``N_s = 4096``; relative amplitude error against the exact orbit):
+``eps = 2.3``: 4.2 %, ``22.8``: 3.6 %, ``228``: 1.5 %, ``2280``: 2.7 % with spurious
+stick-slip alternations.  A small ``eps`` lets the band-limited demanded force hold the
+element in a spurious stick at every slip reversal (about ``T / n_h`` long); a large one turns
+the wiggles of the truncated displacement during a true stick into spurious slips.
+
+Default, per element: ``eps = max_k |A_dd(k omega)|``, ``k = 0..n_h``, the largest diagonal
+entry of the condensed dynamic stiffness at its DOF over the harmonics -- the stiffness at the
+resolution of the series (``~ (n_h omega)^2 M_dd``), which keeps the spurious stick at a slip
+reversal within a few samples and the contact force of an impact on ~20 samples
+(:func:`default_penalty`).  Measured with the static / forcing-harmonic stiffness
+``max(|A_dd(0)|, |A_dd(omega)|)`` instead, the errors are larger at every ``n_h`` (impact chain,
+``n_h = 25``: 55 % instead of 25 %; friction chain: 3.6 % instead of 1.6 %).  If the rule gives
+0, ``(n_h omega)^2 M_dd``.  Option ``dlft_penalty``: one value (N/m, > 0) for all elements.
+
+Accuracy (measured; see ``workflow/scripts/bench_dlft.py`` and ``tests/test_dlft.py``)
+------------------------------------------------------------------------------------
+Friction converges like ``1/n_h`` in the amplitude: Den Hartog's undamped Coulomb oscillator
+(``beta = 0.6``, ``mu F_N / P = 0.3``, no stick) -0.85 % at ``n_h = 25`` (HBM with the arctan law
+``kappa = 800``: -0.31 %); the friction chain 1.6 % at ``n_h = 25``, 0.6 % at 50.  The stick
+onset (slip -> stick) falls on the AFT sample after the exact one; the slip onset
+(stick -> slip) comes early by about ``T / (2 n_h)`` (0.2 s of ``T = 10`` s at ``n_h = 25``),
+and from ``n_h = 50`` the truncated series chatters there (short spurious stick intervals).
+
+What DLFT represents for a gap (restitution)
+-------------------------------------------
+DLFT is a harmonic balance method: the displacement is a truncated Fourier series, so the
+periodic solution has no velocity jumps and no impulses.  An impact of the exact flow appears
+as a contact force spread over tens of AFT samples (closed samples per period:
+``info["closed_samples"]``), acting on a smooth series that runs into the obstacle around them
+by about the amplitude error (the gap is enforced on the Lagrangian displacement at the
+samples, not on the truncated series).  The law has no restitution coefficient: ``e_N`` is not
+used.  Measured against the exact ``e_N = 1`` orbit (1-DOF oscillator ``x'' + 0.1 x' + x =
+cos(0.8 t)``, gap 0.5): the DLFT contact force does almost no work over a period
+(``|W_contact| / W_in`` below 1 %: a nearly elastic, persistent soft contact over ~20-50
+samples); the amplitude is *below* the exact one by 16 % (``n_h = 5``), 9.9 % (10), 4.5 % (25),
+2.3 % (50) (HBM with the penalty law ``k_c = 8000``: 16 %, 9.0 %, 3.7 %, 2.1 %), and the series
+penetrates the obstacle by 0.14, 0.08, 0.04, 0.02 (gap 0.5).  On the impact chain
+(``examples/impact5.yaml``): 95 %, 63 %, 25 %, 12 % (HBM: 72 %, 42 %, 24 %, 20 %; MS-HBM 0.3 %).
+
+Newton on contacts: the DLFT contact residual is continuous and piecewise linear in ``X`` (affine
+on each region of fixed closed samples), like HBM's penalty law, and damped Newton stalls on it
+from the linear start.  :meth:`DLFTProblem.newton_fallback` then follows the solution branch
+exactly from the linear response, all gaps offset by ``lambda`` from the first touch-down to
+``lambda = 0`` (:func:`mshbm.solvers.newton.follow_pl_path`), and polishes by Newton.
+
+The certificate gates the friction cone and the energy balance, and reports the penetration of
+the truncated series without gating it.
+"""
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from .. import condensation, fourier
+from ..condensation import Condensation
+from ..errors import InputError
+from ..system import Contact, Friction
+from .common import guess_parts
+from .dlft_kernels import friction_march
+
+__all__ = ["DLFTProblem", "default_penalty"]
+
+
+def spla_solve(A, b):
+    return spla.spsolve(sp.csc_matrix(A), b) if sp.issparse(A) else np.linalg.solve(A, b)
+
+
+def default_penalty(A_dd, m_dd, omega):
+    """Default DLFT parameter ``eps`` (N/m) of one element (see the module docstring).
+
+    ``A_dd``: the diagonal entry of the condensed dynamic stiffness at the element DOF for the
+    harmonics ``k = 0..n_h`` (complex, shape (n_h + 1,)).  ``eps = max_k |A_dd(k omega)|``; if that
+    vanishes, ``(n_h omega)^2 M_dd``.
+    """
+    A_dd = np.abs(np.asarray(A_dd))
+    eps = float(np.max(A_dd))
+    if not np.isfinite(eps) or eps <= 0.0:
+        eps = (max(1, A_dd.size - 1) * omega) ** 2 * m_dd
+    return eps
+
+
+class DLFTProblem:
+    """DLFT periodic problem (see the module docstring).
+
+    Parameters
+    ----------
+    system : System
+    omega : float
+    harmonics : int
+        ``n_h``.
+    steps : int
+        AFT samples per period ``N_s`` (``> 2 n_h``).
+    condense : bool
+        Eliminate the linear DOFs exactly (default) or keep all DOFs.
+    partition : array of int, optional
+        DOFs kept with the nonlinear elements (default: the element DOFs).
+    dlft_penalty : float, optional
+        ``eps`` (N/m) for every element; default: per element from the dynamic stiffness.
+    """
+
+    method = "dlft"
+
+    def __init__(self, system, omega, harmonics, steps, condense=True, partition=None, dlft_penalty=None):
+        self.system, self.omega = system, float(omega)
+        self.n_h, self.Ns = int(harmonics), int(steps)
+        n = system.n
+        dofs = [el.dof for el in system.elements]
+        if len(set(dofs)) != len(dofs):
+            d = next(d for d in dofs if dofs.count(d) > 1)
+            raise InputError("elements", f"DLFT needs one element per DOF (DOF {d} carries a friction and a "
+                                         "contact element: the demanded force cannot be split between them)")
+        N_dofs = system.nonlinear_dofs if partition is None else np.asarray(partition, dtype=np.int64)
+        self.condense = bool(condense)
+        self.keep = np.asarray(N_dofs, dtype=np.int64) if self.condense else np.arange(n)
+        self.elim = np.setdiff1d(np.arange(n), self.keep)
+        self.cond = Condensation(system, omega, self.n_h, self.keep, self.elim)
+        nR = self.nR = self.keep.size
+        nc = 2 * self.n_h + 1
+        pos = {int(d): i for i, d in enumerate(self.keep)}
+        sub = lambda A: A.tocsr()[self.keep][:, self.keep] if sp.issparse(A) else np.asarray(A)[np.ix_(self.keep, self.keep)]
+        MRR, CRR, KRR = sub(system.M), sub(system.C), sub(system.K)
+        F = fourier.to_complex(system.forcing_hat(self.n_h))
+        if self.condense:  # dense: n_R is the (small) nonlinear subsystem
+            Hs = np.empty((self.n_h + 1, nR, nR), dtype=complex)
+            for k in range(self.n_h + 1):
+                Hk = condensation.dynamic_stiffness(MRR, CRR, KRR, k * omega)
+                Hs[k] = (Hk.toarray() if sp.issparse(Hk) else Hk) - self.cond.T[k]
+            self.A = self.cond.real_matrix(Hs)
+        else:
+            blocks = []
+            for k in range(self.n_h + 1):
+                Hk = sp.csr_matrix(condensation.dynamic_stiffness(MRR, CRR, KRR, k * omega))
+                blocks.append(Hk.real if k == 0 else sp.bmat([[Hk.real, Hk.imag], [-Hk.imag, Hk.real]]))
+            self.A = sp.block_diag(blocks, format="csr")
+        # the penalty rule: diagonal of the dynamic stiffness condensed onto the element DOFs N
+        nl = system.nonlinear_dofs
+        if self.condense and np.array_equal(self.keep, nl):
+            Hd = Hs
+        else:
+            c = Condensation(system, omega, self.n_h, nl, np.setdiff1d(np.arange(n), nl))
+            sub_nl = lambda A: A.tocsr()[nl][:, nl].toarray() if sp.issparse(A) else np.asarray(A)[np.ix_(nl, nl)]
+            Hd = np.array([condensation.dynamic_stiffness(sub_nl(system.M), sub_nl(system.C), sub_nl(system.K),
+                                                          k * omega) - c.T[k] for k in range(self.n_h + 1)])
+        pn = {int(d): i for i, d in enumerate(nl)}
+        diag = {el.dof: Hd[:, pn[el.dof], pn[el.dof]] for el in system.elements}
+        self.r = fourier.from_complex(F[:, self.keep] - self.cond.g).reshape(-1)
+        self.E = fourier.dft_matrix(self.Ns, self.n_h)
+        self.Vs = fourier.idft_matrix(self.Ns, self.n_h)
+        self.Om = fourier.derivative(np.eye(nc), self.omega)
+        Md = np.asarray(system.M.diagonal() if sp.issparse(system.M) else np.diag(system.M), dtype=float)
+        if dlft_penalty is None:
+            self.eps = np.array([default_penalty(diag[el.dof], Md[el.dof], self.omega) for el in system.elements])
+        else:
+            self.eps = np.full(len(system.elements), float(dlft_penalty))
+        # per element: rows of its DOF in the unknowns, the columns its demanded force depends on,
+        # and Q = d y / d x on those columns (y = lambda_L - eps w q, affine in x)
+        self._el = []
+        A = self.A
+        for j, el in enumerate(system.elements):
+            i = pos[el.dof]
+            rows = np.arange(nc) * nR + i
+            Ai = A[rows].toarray() if sp.issparse(A) else A[rows]
+            cols = np.flatnonzero(np.any(Ai != 0.0, axis=0) | np.isin(np.arange(A.shape[1]), rows))
+            w = el.sign
+            Q = w * (self.Vs @ Ai[:, cols])
+            sel = np.searchsorted(cols, rows)
+            Q[:, sel] -= self.eps[j] * w * self.Vs
+            self._el.append((el, j, rows, cols, sel, w, Q))
+
+    # ------------------------------------------------------------------ the problem interface
+    @property
+    def n_unknowns(self):
+        return (2 * self.n_h + 1) * self.nR
+
+    def residual_scale(self, x=None):
+        """Per-row scale of the residual, shape ``(n_x,)``: the force scale ``F`` (N) on every row."""
+        from ..scaling import force_scale
+
+        if "_F" not in self.__dict__:
+            self._F = force_scale(self.system)
+        return np.full(self.n_unknowns, self._F)
+
+    def initial_guess(self, guess=None):
+        q_hat, _, _ = guess_parts(guess, self.system, self.omega, self.n_h)
+        return q_hat[:, self.keep].reshape(-1)
+
+    def _march(self, x, linear=None):
+        """Per element: ``(lam (N_s,), state (N_s,), ref (N_s,))`` on the AFT samples.
+
+        ``state``: 1 where the element carries its constraint force (friction stick, contact
+        closed), 0 where it does not (slip, open).  ``ref`` (friction): the memory sample.
+        """
+        if linear is None:
+            linear = self.A @ x - self.r
+        out = []
+        for el, j, rows, cols, sel, w, Q in self._el:
+            lamL = w * (self.Vs @ linear[rows])
+            wq = w * (self.Vs @ x[rows])
+            y = lamL - self.eps[j] * wq
+            if isinstance(el, Contact):
+                y = y - self.eps[j] * el.gap
+                closed = y > 0.0
+                out.append((np.where(closed, y, 0.0), closed.astype(np.int8), None, lamL))
+            else:
+                lam = np.empty(self.Ns)
+                slip = np.empty(self.Ns, dtype=np.int8)
+                ref = np.empty(self.Ns, dtype=np.int64)
+                friction_march(y, float(el.bound), float(lamL[0] - y[0]), lam, slip, ref)
+                out.append((lam, (1 - slip).astype(np.int8), ref, lamL))
+        return out
+
+    def residual(self, x, jac=True):
+        """``(R, J)`` with shapes ``(n_x,)`` and ``(n_x, n_x)`` (dense if condensed, else sparse)."""
+        x = np.asarray(x, dtype=float)
+        linear = self.A @ x - self.r
+        R = linear.copy()
+        marched = self._march(x, linear)
+        for (el, j, rows, cols, sel, w, Q), (lam, state, ref, lamL) in zip(self._el, marched):
+            R[rows] -= w * (self.E @ lam)
+        if not jac:
+            return R, None
+        blocks = []
+        for (el, j, rows, cols, sel, w, Q), (lam, state, ref, lamL) in zip(self._el, marched):
+            act = state.astype(bool)
+            dlam = np.zeros_like(Q)
+            dlam[act] = Q[act]
+            if ref is not None:  # friction stick: minus the derivative of the memory
+                r = ref[act]
+                mem = np.zeros((r.size, Q.shape[1]))
+                has = r >= 0
+                mem[has] = Q[r[has]]
+                # no slip in the period: the memory is s0 = lambda_L(0) - y(0) = eps w q(0)
+                if (~has).any():
+                    d0 = np.zeros(Q.shape[1])
+                    d0[sel] = self.eps[j] * w * self.Vs[0]
+                    mem[~has] = -d0
+                dlam[act] -= mem
+            blocks.append((rows, cols, w * (self.E @ dlam)))
+        if sp.issparse(self.A):
+            rr = [np.repeat(rows, cols.size) for rows, cols, _ in blocks]
+            cc = [np.tile(cols, rows.size) for rows, cols, _ in blocks]
+            vv = [B.ravel() for _, _, B in blocks]
+            J = self.A - sp.csr_matrix((np.concatenate(vv), (np.concatenate(rr), np.concatenate(cc))),
+                                       shape=self.A.shape)
+        else:
+            J = self.A.copy()
+            for rows, cols, B in blocks:
+                J[np.ix_(rows, cols)] -= B
+        return R, J
+
+    # ------------------------------------------------------------------ contacts only: exact path following
+    @property
+    def piecewise_linear(self):
+        """True if every element is a contact: ``lambda = max(0, y)`` with ``y`` affine in ``X``, so the
+        residual is continuous and affine on each region of fixed closed samples (as HBM's penalty law)."""
+        els = self.system.elements
+        return len(els) > 0 and all(isinstance(el, Contact) for el in els)
+
+    def _y(self, x, offset=0.0):
+        """Predictions ``y`` of the contacts with every gap offset by ``offset``, shape (N_s, m)."""
+        linear = self.A @ x - self.r
+        cols = []
+        for el, j, rows, _, _, w, _ in self._el:
+            cols.append(w * (self.Vs @ linear[rows]) - self.eps[j] * (w * (self.Vs @ x[rows]) + el.gap + offset))
+        return np.stack(cols, axis=1)
+
+    def _pl_residual_jac(self, closed):
+        """``(dR/dx, dR/d offset)`` on the region ``closed`` (N_s, m)."""
+        if sp.issparse(self.A):
+            J = self.A.tolil(copy=True)
+        else:
+            J = self.A.copy()
+        h = np.zeros(self.n_unknowns)
+        for k, (el, j, rows, cols, _, w, Q) in enumerate(self._el):
+            S = np.flatnonzero(closed[:, k])
+            if S.size:
+                B = w * (self.E[:, S] @ Q[S])
+                if sp.issparse(self.A):
+                    J[np.ix_(rows, cols)] = J[np.ix_(rows, cols)].toarray() - B
+                else:
+                    J[np.ix_(rows, cols)] -= B
+                h[rows] += w * self.eps[j] * self.E[:, S].sum(axis=1)  # d lambda / d offset = -eps
+        return (J.tocsr() if sp.issparse(self.A) else J), h
+
+    def _pl_crossing(self, x, dx, closed, offset, doffset):
+        y = self._y(x, offset)
+        dy = self._y(dx, 0.0) - self._y(np.zeros_like(x), 0.0)  # linear part of y along dx
+        for k, (_, j, *_rest) in enumerate(self._el):
+            dy[:, k] -= self.eps[j] * doffset
+        moving = np.where(closed, dy < 0.0, dy > 0.0)
+        if not moving.any():
+            return np.inf, closed
+        sv = np.full(y.shape, np.inf)
+        sv[moving] = np.maximum(-y[moving] / dy[moving], 0.0)
+        smin = float(sv.min())
+        return smin, closed ^ (moving & (sv <= smin * (1.0 + 1e-12)))
+
+    def newton_fallback(self, x0, failed=None, tol=1e-10, scale=None, max_iter=50, callback=None):
+        """Contacts only: exact piecewise-linear gap continuation from the linear response.
+
+        All gaps are offset by ``lambda``, from just above the first touch-down of the linear response
+        (no sample closed) down to ``lambda = 0``, through the turning points
+        (:func:`mshbm.solvers.newton.follow_pl_path`); the end point is polished by Newton on the
+        unmodified residual.  Hook of :func:`mshbm.solvers.newton.newton`; ``None`` for friction.
+        """
+        if not self.piecewise_linear:
+            return None
+        from ..solvers.newton import NewtonResult, _scale_function, follow_pl_path, newton, scaled_norm
+
+        scale = _scale_function(self.residual, scale)
+        key = float(tol)
+        cache = self.__dict__.setdefault("_fallback_cache", {})
+        if key in cache:
+            return cache[key]
+        try:
+            x_lin = np.asarray(spla_solve(self.A, self.r), dtype=float)
+        except (np.linalg.LinAlgError, RuntimeError):
+            return None
+        y = self._y(x_lin)
+        lam0 = float(np.max(y / self.eps[None, :]))  # offset at which the first sample touches
+        lam0 += max(1e-9, 1e-6 * abs(lam0))
+        closed0 = np.zeros(y.shape, dtype=bool)
+        path = follow_pl_path(lambda x, lam, c: self._pl_residual_jac(c),
+                              lambda x, lam, dx, dlam, c: self._pl_crossing(x, dx, c, lam, dlam),
+                              x_lin, lam0, 0.0, closed0, direction=-1.0,
+                              max_segments=10 * self.Ns * len(self.system.elements) + 1000)
+        out = None
+        if path.success:
+            pol = newton(self.residual, path.x, tol, max_iter, True, callback, scale, fallback=False)
+            if pol.success:
+                out = NewtonResult(pol.x, True, f"converged: scaled ||R||_inf = {pol.residual_norm:.2e} by exact "
+                                   f"piecewise-linear gap continuation ({path.segments} segments, {path.folds} "
+                                   f"folds) and {pol.nit} Newton iterations", path.segments + pol.nit,
+                                   pol.nfev, pol.residual_norm, pol.history,
+                                   {"fallback": "gap continuation", "segments": path.segments, "folds": path.folds})
+            note = "" if pol.success else f", but Newton polishing failed: {pol.message}"
+        else:
+            note = ""
+        if out is None:
+            R, _ = self.residual(np.asarray(x0, dtype=float), jac=False)
+            out = NewtonResult(np.asarray(x0, dtype=float), False, f"exact piecewise-linear gap continuation failed "
+                               f"({path.message}{note})", path.segments, 0, scaled_norm(R, scale(x0)), [],
+                               {"fallback": "failed", "segments": path.segments})
+        cache[key] = out
+        return out
+
+    def element_states(self, x):
+        """Per element, on the AFT samples ``t_n = n T / N_s``: ``(lambda, constrained)``.
+
+        ``constrained`` is True on friction-stick / contact-closed samples.
+        """
+        return [(lam, state.astype(bool)) for lam, state, _, _ in self._march(np.asarray(x, dtype=float))]
+
+    def full_coefficients(self, x):
+        """``q_hat`` of all DOFs, shape (2 n_h + 1, n)."""
+        X = np.asarray(x, dtype=float).reshape(2 * self.n_h + 1, self.nR)
+        q_hat = np.zeros((2 * self.n_h + 1, self.system.n))
+        q_hat[:, self.keep] = X
+        if self.elim.size:
+            q_hat[:, self.elim] = fourier.from_complex(self.cond.recover(fourier.to_complex(X)))
+        return q_hat
+
+    def solution_parts(self, x):
+        x = np.asarray(x, dtype=float)
+        q_hat = self.full_coefficients(x)
+        T = 2 * np.pi / self.omega
+        t = np.linspace(0.0, T, self.Ns + 1)
+        marched = self._march(x)
+        m = len(self.system.elements)
+        lam = np.zeros((self.Ns + 1, m))
+        for j, (l, _, _, _) in enumerate(marched):
+            lam[:-1, j] = l
+        lam[-1] = lam[0]
+        info = {"partition": self.keep.tolist(), "condensed": self.condense,
+                "min_rcond_H_LL": float(self.cond.rcond.min()),
+                "dlft_penalty": [float(e) for e in self.eps]}
+        fr = [j for j, el in enumerate(self.system.elements) if isinstance(el, Friction)]
+        ct = [j for j, el in enumerate(self.system.elements) if isinstance(el, Contact)]
+        if fr:
+            info["stick_samples"] = [int(marched[j][1].sum()) for j in fr]
+        if ct:
+            info["closed_samples"] = [int(marched[j][1].sum()) for j in ct]
+        return dict(t=t, q_hat=q_hat, time_dofs=np.zeros(0, dtype=np.int64),
+                    q_time=np.zeros((self.Ns + 1, 0)), u_time=np.zeros((self.Ns + 1, 0)),
+                    lam=lam, impulses=None, harmonics=self.n_h, info=info)
