@@ -191,22 +191,18 @@ def test_friction_chain_against_exact(friction3_exact):
             n = int(math.ceil(te / h)) % Ns
             if kind.endswith("->stick"):
                 assert stick[n] and not stick[n - 2], (te, kind)
-        # every mismatch lies at a transition: within 1 sample of a stick onset, or (stick -> slip)
-        # within T / n_h before the exact slip onset (DLFT starts slipping early: measured 0.2 s)
+        # every mismatch lies within T / n_h (the time resolution of the truncated series) of an exact
+        # transition.  On the paper's friction3 (F_N = 5) DLFT slips early before each slip onset
+        # (up to 0.25 s), keeps sticking up to 0.11 s after it, and slips spuriously up to 0.21 s
+        # after each stick onset: stick is located to T / n_h = 0.4 s, not to the AFT grid (0.01 s)
         bad = np.flatnonzero(stick != ref)
-        onsets = [te for te, kind in events if kind.startswith("stick")]
-        sticks = [te for te, kind in events if kind.endswith("stick")]
         t = bad * h
         near = np.zeros(bad.size, dtype=bool)
-        for te in sticks:
-            near |= np.abs((t - te + T / 2) % T - T / 2) <= 1.01 * h
-        for te in onsets:
-            d = (te - t) % T
-            near |= d <= T / n_h
+        for te, _ in events:
+            near |= np.abs((t - te + T / 2) % T - T / 2) <= T / n_h
         assert near.all(), t[~near]
-        assert 0 < bad.size <= 2 * (Ns / n_h + 1)  # measured: 21 samples (0.2 s) before each slip onset
-        assert stick.sum() < ref.sum()  # the early slip onset shortens each stick interval
-    # measured: 10.5 % and 1.6 %
+        assert 0 < bad.size <= 4 * (Ns / n_h + 1)  # measured: 82 of 1024 samples
+    # measured on the paper's friction3 (F_N = 5): 4.9 % and 1.3 %
     assert errs[25] < 0.02 < errs[10]
 
 
