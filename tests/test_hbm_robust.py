@@ -14,7 +14,7 @@ from scipy.integrate import solve_ivp
 import mshbm
 from mshbm import condensation, fourier
 from mshbm.api import build_problem
-from mshbm.solvers.newton import newton
+from mshbm.solvers.newton import solve_problem
 from paper_systems import OMEGA, friction_chain, impact_chain
 
 
@@ -125,9 +125,9 @@ def test_newton_alone_stalls_and_the_fallback_is_exact():
     system = impact_chain(5, kc=8000.0)
     prob, _ = build_problem(system, OMEGA, "hbm", harmonics=9)
     x0 = prob.initial_guess(None)
-    plain = newton(prob.residual, x0, fallback=False)
+    plain = solve_problem(prob, x0, fallback=False)
     assert not plain.success and plain.residual_norm > 1.0  # the reported failure
-    res = newton(prob.residual, x0)
+    res = solve_problem(prob, x0)
     assert res.success, res.message
     assert res.info["fallback"] == "gap continuation"
     # the branch has turning points (why a line search on ||R|| cannot get there)

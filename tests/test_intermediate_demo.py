@@ -32,7 +32,7 @@ def test_intermediate_variant_same_solution_less_work():
         by = {r["method"]: r for r in rows if r["friction_masses"] == n1}
         a, b = by["mshbm"], by["mshbm-intermediate"]
         assert a["unknowns"] == n1 * nc + 2 * n1 and b["unknowns"] == nc + 2 * n1
-        assert b["partition"]["1"] == list(range(n1)) and b["partition"]["2"] == [n1]
+        assert b["partition"]["time"] == list(range(n1)) and b["partition"]["harmonic"] == [n1]
         # sensitivity columns per step: 2 n_1 (state) + harmonic unknowns, same number of runs
         ratio = a["work"]["sensitivity_steps"] / b["work"]["sensitivity_steps"]
         assert np.isclose(ratio, (2 * n1 + n1 * nc) / (2 * n1 + nc), rtol=1e-12)

@@ -17,7 +17,8 @@ import yaml
 
 import mshbm
 from paper_systems import OMEGA, friction_chain, impact_chain
-from mshbm.solvers.continuation import scaled_system, solve_with_continuation
+from mshbm.api import solve_with_continuation
+from mshbm.solvers.continuation import scaled_system
 
 ROOT = Path(__file__).resolve().parents[1]
 SCRIPT = ROOT / "workflow" / "scripts" / "stress.py"

@@ -175,10 +175,7 @@ def _diag(A):
 
 def _stepper(problem):
     """The Moreau-Jean stepper of a time-stepping method, ``None`` for HBM."""
-    st = getattr(problem, "stepper", None)
-    if st is None and hasattr(problem, "td"):
-        st = problem.td.stepper
-    return st
+    return problem.time_stepper()
 
 
 def certify(problem, sol, tol, step_accuracy=None):
@@ -255,9 +252,7 @@ def _certify(problem, sol, tol, cert, step_accuracy=None):
         bound = max(tol, (omega * h) ** 2)
         if step_bound is not None:
             # one step's accuracy at an impact: the jumps of q and u when an impact moves by one step
-            from .solvers.starts import _residual_units  # residual rows: 0 displacement, 1 velocity, 2 force
-
-            units = _residual_units(problem)
+            units = problem.residual_units()  # residual rows: 0 displacement, 1 velocity, 2 force
             bq = float(np.max(step_bound[units == 0], initial=0.0))
             bu = float(np.max(step_bound[units == 1], initial=0.0))
             sq = float(np.max(np.abs(sol.q_time[-1] - sol.q_time[0])))

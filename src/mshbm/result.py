@@ -11,7 +11,6 @@ from functools import cached_property
 import numpy as np
 
 from . import fourier
-from .stability import describe as _stability_describe
 
 __all__ = ["PeriodicSolution"]
 
@@ -67,6 +66,13 @@ class PeriodicSolution:
         How the multipliers were obtained, e.g. ``"exact-flow-saltation"``, or ``"none: ..."``.
     stability_reason : str
         Why ``stable`` is ``None`` (empty otherwise).
+    partition : mshbm.methods.base.Partition or None
+        The method's DOF sets as index arrays (``time``, ``harmonic``, ``condensed``), the same
+        fields for every method.
+    conditioning : ndarray, shape (n_h + 1,), or None
+        Reciprocal condition numbers of the condensed per-harmonic blocks (``H_LL``; 3.3: ``H_33``).
+    time_step : float or None
+        Moreau-Jean step ``h = T / N`` (s) of the time-stepped DOFs; ``None`` for HBM/DLFT.
     certificate : mshbm.certificate.Certificate or None
         Checks made after Newton (:mod:`mshbm.certificate`); ``success`` requires all
         gating checks to pass.  ``residual`` is the scaled ``||R / s||_inf`` (dimensionless).
@@ -91,6 +97,9 @@ class PeriodicSolution:
     impulses: np.ndarray | None
     x: np.ndarray
     info: dict = field(default_factory=dict)
+    partition: object = None
+    conditioning: np.ndarray | None = None
+    time_step: float | None = None
     certificate: object = None
     floquet_multipliers: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=complex))
     stable: bool | None = None
@@ -170,6 +179,27 @@ class PeriodicSolution:
             "residual": float(self.residual),
             "wall_time_s": float(self.wall_time),
             "amplitude": [float(a) for a in self.amplitude],
+            "partition": None if self.partition is None else self.partition.as_dict(),
+            "time_step": None if self.time_step is None else float(self.time_step),
+            "min_rcond": None if self.conditioning is None or not np.size(self.conditioning)
+            else float(np.min(self.conditioning)),
             "certificate": None if self.certificate is None else self.certificate.as_list(),
-            **_stability_describe(self),
+            **describe_stability(self),
         }
+
+
+def multipliers_json(mult):
+    """``[[re, im], ...]`` of complex multipliers (JSON has no complex numbers)."""
+    return [[float(np.real(m)), float(np.imag(m))] for m in np.asarray(mult, dtype=complex).reshape(-1)]
+
+
+def describe_stability(sol):
+    """JSON-ready stability fields of a solution (``floquet_multipliers`` as ``[re, im]`` pairs;
+    :mod:`mshbm.stability` sets them)."""
+    mult = getattr(sol, "floquet_multipliers", None)
+    mult = np.asarray(mult if mult is not None else [], dtype=complex)
+    return {"floquet_multipliers": multipliers_json(mult),
+            "floquet_max_modulus": float(np.max(np.abs(mult))) if mult.size else None,
+            "stable": getattr(sol, "stable", None),
+            "stability_method": getattr(sol, "stability_method", "none: not assessed"),
+            "stability_reason": getattr(sol, "stability_reason", "")}

@@ -50,6 +50,8 @@ import time
 import numpy as np
 
 from .errors import InputError
+from .floquet import EXACT, EXACT_TOL, STEP_MAP, STEP_MAP_TOL, _set, _verdict, check_option, set_exact  # noqa: F401
+from .result import describe_stability as describe, multipliers_json
 
 __all__ = ["assess", "check_option", "describe", "multipliers_json", "set_exact", "MAX_EXACT_DOFS", "EXACT", "STEP_MAP"]
 
@@ -59,52 +61,10 @@ MAX_EXACT_DOFS = 200
 #: 0.05-2.3 s up to 200 DOFs; a flow that has not converged by then (an event sequence that makes no progress,
 #: e.g. a slip velocity that stays at its switching threshold) is reported as "exact flow failed", never a hang
 EXACT_TIME_LIMIT = 20.0
-#: a verdict from the exact monodromy needs ``|max|mu| - 1| >`` this
-EXACT_TOL = 1e-6
-#: a verdict from the Moreau-Jean step map (smooth motion only) needs ``|max|mu| - 1| >`` this
-STEP_MAP_TOL = 1e-3
 #: most Moreau-Jean steps per period of the step-map estimate (its cost is O(steps n^2))
 STEP_MAP_MAX_STEPS = 16384
 #: the exact periodic orbit must be this close (relative, amplitudes and section state) to the solution
 MAX_ORBIT_DISTANCE = 0.25
-
-EXACT = "exact-flow-saltation"
-STEP_MAP = "moreau-step-map (estimate; verdict for smooth motion only)"
-
-
-def check_option(value):
-    """Validate the ``stability`` option: ``"auto"`` (default, also ``None``), ``True`` or ``False``."""
-    if value is None or (isinstance(value, str) and value == "auto"):
-        return "auto"
-    if isinstance(value, (bool, np.bool_)):
-        return bool(value)
-    raise InputError("stability", f"must be true, false or 'auto', got {value!r}")
-
-
-def multipliers_json(mult):
-    """``[[re, im], ...]`` of complex multipliers (JSON has no complex numbers)."""
-    return [[float(np.real(m)), float(np.imag(m))] for m in np.asarray(mult, dtype=complex).reshape(-1)]
-
-
-def _set(sol, mult, stable, method, reason="", **details):
-    mult = np.asarray(mult if mult is not None else [], dtype=complex).reshape(-1)
-    sol.floquet_multipliers = mult
-    sol.stable = stable
-    sol.stability_method = method
-    sol.stability_reason = reason
-    if mult.size:
-        details.setdefault("max_modulus", float(np.max(np.abs(mult))))
-    sol.info["stability"] = details
-    return sol
-
-
-def _verdict(rho, tol):
-    if rho < 1.0 - tol:
-        return True, ""
-    if rho > 1.0 + tol:
-        return False, ""
-    return None, f"the largest multiplier modulus {rho:.9f} is within {tol:g} of 1 (marginal)"
-
 
 def assess(system, sol, stability="auto", steps=None, theta=0.5):
     """Set the stability fields of ``sol`` (in place) and return it.
@@ -170,15 +130,6 @@ def _assess(system, sol, stability, steps, theta, t0):
     else:
         reason_exact = f"{len(system.elements)} elements (the exact flow handles at most one); "
     return _step_map(system, sol, steps, theta, reason_exact, t0)
-
-
-def set_exact(sol):
-    """Stability fields of a solution of :func:`mshbm.methods.exact.exact_periodic` from its own monodromy."""
-    mult = sol.info.get("floquet_multipliers") if sol.success else None
-    if mult is None:
-        return _set(sol, None, None, "none: the exact solve did not converge", "no converged periodic orbit")
-    stable, reason = _verdict(float(np.max(np.abs(mult))), EXACT_TOL)
-    return _set(sol, mult, stable, EXACT, reason, tolerance=EXACT_TOL, orbit_distance=0.0)
 
 
 def _exact(system, sol):
@@ -251,14 +202,4 @@ def _step_map(system, sol, steps, theta, prefix, t0):
     stable, reason = _verdict(rho, STEP_MAP_TOL)
     return _set(sol, mult, stable, STEP_MAP, (prefix + reason) if reason else "", **details)
 
-
-def describe(sol):
-    """JSON-ready stability fields of a solution (``floquet_multipliers`` as ``[re, im]`` pairs)."""
-    mult = getattr(sol, "floquet_multipliers", None)
-    mult = np.asarray(mult if mult is not None else [], dtype=complex)
-    return {"floquet_multipliers": multipliers_json(mult),
-            "floquet_max_modulus": float(np.max(np.abs(mult))) if mult.size else None,
-            "stable": getattr(sol, "stable", None),
-            "stability_method": getattr(sol, "stability_method", "none: not assessed"),
-            "stability_reason": getattr(sol, "stability_reason", "")}
 

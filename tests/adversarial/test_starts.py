@@ -16,7 +16,8 @@ from mshbm.methods.common import linear_response
 from mshbm.api import build_problem
 from mshbm.errors import InputError
 from mshbm.methods.exact import exact_periodic
-from mshbm.solvers.newton import newton
+from mshbm.solvers import driver
+from mshbm.solvers.newton import solve_problem
 from paper_systems import system as paper_system
 
 try:
@@ -76,7 +77,7 @@ def test_residual_check_rejects_the_garbage_of_the_linear_start(method):
     ||R|| <= tol max(1, ||x0||); the physical-units check of :func:`starts.residual_accept` rejects it."""
     system = stick_chain()
     problem, _ = build_problem(system, W1, method, harmonics=3, steps=1024)
-    res = newton(problem.residual, problem.initial_guess(None), tol=1e-10, max_iter=50)
+    res = solve_problem(problem, problem.initial_guess(None), tol=1e-10, max_iter=50)
     att = starts.Attempt("linear", problem.initial_guess(None), res, problem)
     assert np.max(np.abs(problem.solution_parts(res.x)["q_hat"])) > 1e6  # the garbage
     assert not starts.residual_accept(problem, system, W1)(att)
@@ -167,7 +168,7 @@ def test_no_exact_periodic_point_of_the_discrete_map():
     levels = []
     for N in (2000, 8000):
         p, _ = build_problem(system, 1.5, "shooting", steps=N)
-        r = newton(p.residual, np.array([ex.q[0, 0], ex.u[0, 0]]), tol=1e-12, fallback=False)
+        r = solve_problem(p, np.array([ex.q[0, 0], ex.u[0, 0]]), tol=1e-12, fallback=False)
         assert not r.success
         levels.append(r.residual_norm)
     assert 1e-4 < levels[0] < 2 * 2 * np.pi / 1.5 / 2000 * 1.5  # ~ h omega
@@ -269,7 +270,7 @@ def test_failure_reports_best_residual_and_every_start():
     problem, _ = build_problem(system, W1, "mshbm", harmonics=3, steps=256)
     res = starts.solve_from_starts(problem, "mshbm", system, W1, dict(tol=1e-10, max_iter=20),
                                    lambda a: False, solve_options=dict(harmonics=3, steps=256),
-                                   transient_periods=(2,))
+                                   transient_periods=(2,), solve=driver.solve)
     tried = [r["start"] for r in res.info["starts"]]
     assert tried == ["linear", "clamped", "zero", "exact", "transient", "forcing", "friction"]
     assert not res.success and res.info["start_used"] is None

@@ -182,7 +182,7 @@ def run_case(n, quick, log):
     # --- same start near the solution, interleaved.  End to end: from the system matrices to
     # the solution (our solve() builds the condensed problem; pyHarm builds its Maestro model).
     # Newton only: both problems built beforehand, only the Newton solve from the start is timed.
-    from mshbm.solvers.newton import newton
+    from mshbm.solvers.newton import solve_problem
     repeats = 2 if quick else 7
     outs = {}
     prob, _ = build_problem(system, omega, "hbm", **hbm_opts)
@@ -196,7 +196,7 @@ def run_case(n, quick, log):
         outs["pyharm"] = pyharm_solve(ana_new, n, start_near)
 
     def ours_newton_fn():
-        outs["ours_newton"] = newton(prob.residual, x_near, tol=1e-10, max_iter=50)
+        outs["ours_newton"] = solve_problem(prob, x_near, tol=1e-10, max_iter=50)
 
     def py_newton_fn():
         outs["pyharm_newton"] = pyharm_solve(ana, n, start_near)
@@ -213,7 +213,7 @@ def run_case(n, quick, log):
         "pyharm": dict(st["pyharm"], **pinfo, what="pyHarm.Maestro(input) + first FRF point (NewtonRaphson)"),
         "ours_newton_only": dict(st["ours_newton"], success=bool(outs["ours_newton"].success),
                                  iterations=int(outs["ours_newton"].nit),
-                                 what="mshbm.solvers.newton.newton(problem.residual, x0) on a prebuilt HBMProblem"),
+                                 what="mshbm.solvers.newton.solve_problem(problem, x0) on a prebuilt HBMProblem"),
         "pyharm_newton_only": dict(st["pyharm_newton"], what="FRF first point (analysis.initialise) on a "
                                                               "prebuilt Maestro"),
         "both_converged": bool(so.success and pinfo["success"]),

@@ -120,7 +120,7 @@ def run(config, log=print):
                     sol, times, cpus, work = measure(system, omega, method, int(n_h), int(steps), repeats, tol,
                                                      max_iter)
                     sols[method] = sol
-                    part = sol.info.get("partition") or {}
+                    part = sol.partition.as_dict() if sol.partition is not None else {}
                     row = {"friction_masses": int(n1), "method": method, "harmonics": int(n_h), "steps": int(steps),
                            "success": bool(sol.success), "message": sol.message,
                            "unknowns": int(sol.x.size), "iterations": int(sol.iterations), "nfev": int(sol.nfev),

@@ -18,7 +18,7 @@ import numpy as np
 import mshbm
 from mshbm import InputError
 from mshbm.scaling import residual_norm
-from mshbm.solvers.continuation import solve_with_continuation
+from mshbm.api import solve_with_continuation
 from stress_cases import linear_resonances
 
 OUTCOMES = ("converged", "failed-with-diagnosis", "failed-certificate", "WRONG")

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import api
+from .. import options as options_
 from ..errors import InputError
 from ..system import Contact, Friction, System, chain
 from .yaml import _REPR, MAX_FILE_BYTES, describe as _describe, load_yaml as _load_yaml, read_text as _read_text
@@ -212,8 +213,8 @@ def _solver(value, n):
     for k, v in value.items():
         key = f"solver.{k}"
         if k == "method":
-            if not isinstance(v, str) or v not in api.METHODS:
-                raise InputError(key, f"unknown method {_REPR.repr(v)} (choose from {', '.join(api.METHODS)})")
+            if not isinstance(v, str) or v not in options_.METHODS:
+                raise InputError(key, f"unknown method {_REPR.repr(v)} (choose from {', '.join(options_.METHODS)})")
         elif k == "harmonics":
             v = _integer(key, v, 1, 2000)
         elif k == "steps":
@@ -246,7 +247,7 @@ def _solver(value, n):
         out[k] = v
     method = out.get("method")
     if method is not None:
-        allowed = api.METHODS[method] | api._COMMON
+        allowed = options_.allowed(method)
         for k in out:
             if k != "method" and k not in allowed:
                 raise InputError(f"solver.{k}", f"is not an option of method {method!r} "
@@ -300,8 +301,8 @@ class Case:
         """
         method = method or self.method
         defaults = {k: v for k, v in self.solver.items() if k != "method"}
-        if method in api.METHODS:
-            allowed = api.METHODS[method] | api._COMMON
+        if method in options_.METHODS:
+            allowed = options_.allowed(method)
             defaults = {k: v for k, v in defaults.items() if k in allowed}
         opts = {**defaults, **options}
         from_file = set(defaults) - set(options)

@@ -109,7 +109,7 @@ import scipy.sparse.linalg as spla
 from .. import condensation, fourier
 from ..condensation import Condensation
 from ..errors import InputError
-from ..system import Contact, Friction
+from .base import Partition, PeriodicProblem
 from .common import guess_parts
 from .dlft_kernels import friction_march
 
@@ -134,7 +134,7 @@ def default_penalty(A_dd, m_dd, omega):
     return eps
 
 
-class DLFTProblem:
+class DLFTProblem(PeriodicProblem):
     """DLFT periodic problem (see the module docstring).
 
     Parameters
@@ -227,6 +227,22 @@ class DLFTProblem:
     def n_unknowns(self):
         return (2 * self.n_h + 1) * self.nR
 
+    @property
+    def steps(self):
+        return self.Ns
+
+    def partition(self):
+        return Partition(time=np.zeros(0, np.int64), harmonic=self.keep.copy(), condensed=self.elim.copy())
+
+    def residual_units(self):
+        return np.full(self.n_unknowns, 2, dtype=np.int8)
+
+    def conditioning(self):
+        return self.cond.rcond
+
+    def path_fallback(self):
+        return self.newton_fallback
+
     def residual_scale(self, x=None):
         """Per-row scale of the residual, shape ``(n_x,)``: the force scale ``F`` (N) on every row."""
         from ..scaling import force_scale
@@ -252,7 +268,7 @@ class DLFTProblem:
             lamL = w * (self.Vs @ linear[rows])
             wq = w * (self.Vs @ x[rows])
             y = lamL - self.eps[j] * wq
-            if isinstance(el, Contact):
+            if el.unilateral:
                 y = y - self.eps[j] * el.gap
                 closed = y > 0.0
                 out.append((np.where(closed, y, 0.0), closed.astype(np.int8), None, lamL))
@@ -309,7 +325,7 @@ class DLFTProblem:
         """True if every element is a contact: ``lambda = max(0, y)`` with ``y`` affine in ``X``, so the
         residual is continuous and affine on each region of fixed closed samples (as HBM's penalty law)."""
         els = self.system.elements
-        return len(els) > 0 and all(isinstance(el, Contact) for el in els)
+        return len(els) > 0 and all(el.unilateral for el in els)
 
     def _y(self, x, offset=0.0):
         """Predictions ``y`` of the contacts with every gap offset by ``offset``, shape (N_s, m)."""
@@ -362,7 +378,7 @@ class DLFTProblem:
             return None
         from ..solvers.newton import NewtonResult, _scale_function, follow_pl_path, newton, scaled_norm
 
-        scale = _scale_function(self.residual, scale)
+        scale = _scale_function(self.residual, self.residual_scale if scale is None else scale)
         key = float(tol)
         cache = self.__dict__.setdefault("_fallback_cache", {})
         if key in cache:
@@ -381,7 +397,7 @@ class DLFTProblem:
                               max_segments=10 * self.Ns * len(self.system.elements) + 1000)
         out = None
         if path.success:
-            pol = newton(self.residual, path.x, tol, max_iter, True, callback, scale, fallback=False)
+            pol = newton(self.residual, path.x, tol, max_iter, True, callback, scale)
             if pol.success:
                 out = NewtonResult(pol.x, True, f"converged: scaled ||R||_inf = {pol.residual_norm:.2e} by exact "
                                    f"piecewise-linear gap continuation ({path.segments} segments, {path.folds} "
@@ -429,8 +445,8 @@ class DLFTProblem:
         info = {"partition": self.keep.tolist(), "condensed": self.condense,
                 "min_rcond_H_LL": float(self.cond.rcond.min()),
                 "dlft_penalty": [float(e) for e in self.eps]}
-        fr = [j for j, el in enumerate(self.system.elements) if isinstance(el, Friction)]
-        ct = [j for j, el in enumerate(self.system.elements) if isinstance(el, Contact)]
+        fr = [j for j, el in enumerate(self.system.elements) if el.bounded]
+        ct = [j for j, el in enumerate(self.system.elements) if el.unilateral]
         if fr:
             info["stick_samples"] = [int(marched[j][1].sum()) for j in fr]
         if ct:

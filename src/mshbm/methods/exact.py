@@ -163,7 +163,7 @@ def exact_periodic(system, omega, guess=None, samples=4096, tol=1e-11, max_iter=
         sol = _exact_periodic(system, omega, guess, samples, tol, max_iter, harmonics, jacobian, substeps,
                               max_events, None if time_limit is None else t_wall + float(time_limit))
     sol.wall_time = time.perf_counter() - t_wall
-    from ..stability import set_exact
+    from ..floquet import set_exact
 
     return set_exact(sol)
 

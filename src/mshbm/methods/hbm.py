@@ -42,6 +42,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from .. import condensation, fourier
+from .base import Partition, PeriodicProblem
 from .common import guess_parts
 from ..condensation import Condensation
 from ..elements import regularised_forces
@@ -56,7 +57,7 @@ def scaled_regularisation(system, factor):
     return system.with_elements([el.scaled(factor) for el in system.elements])
 
 
-class HBMProblem:
+class HBMProblem(PeriodicProblem):
     """HBM-AFT periodic problem.
 
     Parameters
@@ -126,6 +127,22 @@ class HBMProblem:
     @property
     def n_unknowns(self):
         return (2 * self.n_h + 1) * self.nR
+
+    @property
+    def steps(self):
+        return self.Ns
+
+    def partition(self):
+        return Partition(time=np.zeros(0, np.int64), harmonic=self.keep.copy(), condensed=self.elim.copy())
+
+    def residual_units(self):
+        return np.full(self.n_unknowns, 2, dtype=np.int8)
+
+    def conditioning(self):
+        return self.cond.rcond
+
+    def path_fallback(self):
+        return self.newton_fallback
 
     def residual_scale(self, x=None):
         """Per-row scale of the residual, shape ``(n_x,)``: the force scale ``F`` (N) on every row."""
@@ -333,7 +350,7 @@ class HBMProblem:
         from ..solvers.newton import _scale_function, scaled_norm
 
         x0 = np.asarray(x0, dtype=float)
-        scale = _scale_function(self.residual, scale)
+        scale = _scale_function(self.residual, self.residual_scale if scale is None else scale)
         key = (x0.tobytes(), float(tol))
         cache = self.__dict__.setdefault("_fallback_cache", {})
         if key in cache:  # same start already tried (e.g. by a continuation driver)
@@ -353,12 +370,12 @@ class HBMProblem:
             segs += path.segments
             note = f"{name}: {path.message}"
             if path.success:
-                pol = newton(self.residual, path.x, tol, max_iter, True, callback, scale, fallback=False)
+                pol = newton(self.residual, path.x, tol, max_iter, True, callback, scale)
                 if not pol.success:  # end point off by rounding across a kink: short exact path from there
                     path2 = self.newton_homotopy_path(pol.x)
                     segs += path2.segments
                     if path2.success:
-                        pol = newton(self.residual, path2.x, tol, max_iter, True, callback, scale, fallback=False)
+                        pol = newton(self.residual, path2.x, tol, max_iter, True, callback, scale)
                 segs += pol.nit
                 nfev += pol.nfev
                 hist += pol.history

@@ -34,6 +34,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .. import fourier
+from .base import Partition, PeriodicProblem, forward_difference_jacobian
 from .common import guess_parts
 from ..errors import InputError
 from ..condensation import Condensation
@@ -109,7 +110,100 @@ class _TimeDomainPart:
         return self.stepper.run(q0, u0, B, self.dB, sensitivities=sens, store_q_sensitivities=sens)
 
 
-class MixedProblem:
+class _MixedBase(PeriodicProblem):
+    """What both MS-HBM variants share: unknowns ``x = (p, q_1(0), u_1(0))`` with the harmonic
+    unknowns ``p`` (coefficients of the DOFs ``_harm``) and the states of the time-stepped DOFs
+    ``_time``; residual ``(balance(FFT(q_1), p), q_1(T) - q_1(0), u_1(T) - u_1(0))``.  Subclasses set
+    ``_time``, ``_harm``, ``_cond_dofs``, ``td``, ``cond``, ``nc`` and the balance hooks."""
+
+    @property
+    def n_unknowns(self):
+        return self.nc * self._harm.size + 2 * self._time.size
+
+    @property
+    def steps(self):
+        return self.td.N
+
+    @property
+    def time_step(self):
+        return self.td.h
+
+    def time_stepper(self):
+        return self.td.stepper
+
+    def partition(self):
+        return Partition(time=self._time.copy(), harmonic=self._harm.copy(), condensed=self._cond_dofs.copy())
+
+    def conditioning(self):
+        return self.cond.rcond
+
+    def residual_units(self):
+        a, nt = self.nc * self._harm.size, self._time.size
+        units = np.zeros(self.n_unknowns, dtype=np.int8)
+        units[:a] = 2 if self._force_rows else 0
+        units[a + nt:] = 1
+        return units
+
+    def initial_guess(self, guess=None):
+        q_hat, q0, u0 = guess_parts(guess, self.system, self.omega, self.n_h)
+        return np.concatenate([q_hat[:, self._harm].reshape(-1), q0[self._time], u0[self._time]])
+
+    def residual_scale(self, x):
+        """Per-row scale of the residual at unknowns ``x``, shape ``(n_x,)``: m (3.2) or N (3.3) for
+        the harmonic-balance rows, m for the ``q`` rows, m/s for the ``u`` rows."""
+        return _mixed_scale(self, x, self.nc * self._harm.size, self._time.size, force_rows=self._force_rows)
+
+    def _split(self, x):
+        a, nt = self.nc * self._harm.size, self._time.size
+        return x[:a], x[a:a + nt], x[a + nt:]
+
+    def _eval(self, x, sens):
+        p, q0, u0 = self._split(x)
+        tr = self.td.run(q0, u0, p, sens)
+        qh = self.td.project(tr.q[:-1]).reshape(-1)
+        R = np.concatenate([self._balance(qh, p), tr.q[-1] - q0, tr.u[-1] - u0])
+        return R, tr
+
+    def residual(self, x, jac=True):
+        """``(R, J)``, shapes ``(n_x,)`` and ``(n_x, n_x)``."""
+        if not jac:
+            return self._eval(x, False)[0], None
+        if self.jacobian == "fd":
+            R, _ = self._eval(x, False)
+            return R, forward_difference_jacobian(lambda xp: self._eval(xp, False)[0], x, R)
+        R, tr = self._eval(x, True)
+        nt, a = self._time.size, self.nc * self._harm.size
+        # kernel columns: [q0 (nt), u0 (nt), p (a)] -> reorder to x = [p, q0, u0]
+        perm = np.concatenate([np.arange(2 * nt, 2 * nt + a), np.arange(2 * nt)])
+        dqh = self.td.project(tr.Sq_traj[:-1]).reshape(self.nc * nt, -1)[:, perm]
+        J = np.zeros((x.size, x.size))
+        J[:a] = self._balance_dq(dqh)
+        J[:a, :a] += self._balance_dp()
+        J[a:a + nt] = tr.Sq[:, perm]
+        J[a + nt:] = tr.Su[:, perm]
+        J[a:a + nt, a:a + nt] -= np.eye(nt)
+        J[a + nt:, a + nt:] -= np.eye(nt)
+        return R, J
+
+    def solution_parts(self, x):
+        p, q0, u0 = self._split(x)
+        tr = self.td.run(q0, u0, p, sens=False)
+        X = p.reshape(self.nc, self._harm.size)
+        q_hat = np.zeros((self.nc, self.system.n))
+        q_hat[:, self._time] = fourier.fft(tr.q[:-1], self.n_h)
+        if not self._harmonic_dofs_are_time_dofs:
+            q_hat[:, self._harm] = X
+        if self._cond_dofs.size:
+            q_hat[:, self._cond_dofs] = fourier.from_complex(self.cond.recover(fourier.to_complex(X)))
+        lam = np.vstack([tr.P, tr.P[:1]]) / self.td.h
+        info = {**self._info(p, q_hat),
+                "stick_or_closed_fraction": [float(np.mean((tr.status[:, j] & 3) >= 2))
+                                             for j in range(tr.status.shape[1])]}
+        return dict(t=self.td.t, q_hat=q_hat, time_dofs=self._time, q_time=tr.q, u_time=tr.u,
+                    lam=lam, impulses=tr.P, harmonics=self.n_h, info=info)
+
+
+class MixedProblem(_MixedBase):
     """MS-HBM with a linear and a nonlinear subsystem (Section 3.2).
 
     Parameters
@@ -156,74 +250,23 @@ class MixedProblem:
         self.td = _TimeDomainPart(system, self.Nd, omega, self.n_h, steps, theta, project, c0, Tr)
         self.nN = self.Nd.size
         self.nc = 2 * self.n_h + 1
+        self._time, self._harm, self._cond_dofs = self.Nd, self.Nd, self.Ld
 
-    @property
-    def n_unknowns(self):
-        return self.nc * self.nN + 2 * self.nN
+    # the mixed residual (27): harmonic-balance rows of N are the connectivity q_hat_N - FFT(q_N)
+    _force_rows = False
+    _harmonic_dofs_are_time_dofs = True
 
-    def initial_guess(self, guess=None):
-        q_hat, q0, u0 = guess_parts(guess, self.system, self.omega, self.n_h)
-        return np.concatenate([q_hat[:, self.Nd].reshape(-1), q0[self.Nd], u0[self.Nd]])
+    def _balance(self, qh, p):
+        return p - qh
 
-    def residual_scale(self, x):
-        """Per-row scale of the residual at unknowns ``x``, shape ``(n_x,)`` (m for the coefficient and
-        ``q`` rows, m/s for the ``u`` rows)."""
-        return _mixed_scale(self, x, self.nc * self.nN, self.nN, force_rows=False)
+    def _balance_dq(self, dqh):
+        return -dqh
 
-    def _split(self, x):
-        a = self.nc * self.nN
-        return x[:a], x[a:a + self.nN], x[a + self.nN:]
+    def _balance_dp(self):
+        return np.eye(self.nc * self.nN)
 
-    def _eval(self, x, sens):
-        p, q0, u0 = self._split(x)
-        tr = self.td.run(q0, u0, p, sens)
-        qh = self.td.project(tr.q[:-1]).reshape(-1)
-        R = np.concatenate([p - qh, tr.q[-1] - q0, tr.u[-1] - u0])
-        return R, tr
-
-    def residual(self, x, jac=True):
-        """``(R, J)``, shapes ``(n_x,)`` and ``(n_x, n_x)``."""
-        if not jac:
-            return self._eval(x, False)[0], None
-        if self.jacobian == "fd":
-            R, _ = self._eval(x, False)
-            J = np.empty((x.size, x.size))
-            for i in range(x.size):
-                d = 1e-7 * max(1.0, abs(x[i]))
-                xp = x.copy()
-                xp[i] += d
-                J[:, i] = (self._eval(xp, False)[0] - R) / d
-            return R, J
-        R, tr = self._eval(x, True)
-        nN, a = self.nN, self.nc * self.nN
-        # kernel columns: [q0 (nN), u0 (nN), p (a)] -> reorder to x = [p, q0, u0]
-        perm = np.concatenate([np.arange(2 * nN, 2 * nN + a), np.arange(2 * nN)])
-        dqh = self.td.project(tr.Sq_traj[:-1]).reshape(a, -1)[:, perm]
-        J = np.zeros((x.size, x.size))
-        J[:a] = -dqh
-        J[:a, :a] += np.eye(a)
-        J[a:a + nN] = tr.Sq[:, perm]
-        J[a + nN:] = tr.Su[:, perm]
-        J[a:a + nN, a:a + nN] -= np.eye(nN)
-        J[a + nN:, a + nN:] -= np.eye(nN)
-        return R, J
-
-    def solution_parts(self, x):
-        p, q0, u0 = self._split(x)
-        tr = self.td.run(q0, u0, p, sens=False)
-        XN = p.reshape(self.nc, self.nN)
-        q_hat = np.zeros((self.nc, self.system.n))
-        q_hat[:, self.Nd] = fourier.fft(tr.q[:-1], self.n_h)
-        if self.Ld.size:
-            q_hat[:, self.Ld] = fourier.from_complex(self.cond.recover(fourier.to_complex(XN)))
-        lam = np.vstack([tr.P, tr.P[:1]]) / self.td.h
-        info = {"partition": {"N": self.Nd.tolist(), "L_size": int(self.Ld.size)},
-                "min_rcond_H_LL": float(self.cond.rcond.min()), "time_step": self.td.h,
-                "connectivity_defect": float(np.max(np.abs(p - q_hat[:, self.Nd].reshape(-1)), initial=0.0)),
-                "stick_or_closed_fraction": [float(np.mean((tr.status[:, j] & 3) >= 2))
-                                             for j in range(tr.status.shape[1])]}
-        return dict(t=self.td.t, q_hat=q_hat, time_dofs=self.Nd, q_time=tr.q, u_time=tr.u,
-                    lam=lam, impulses=tr.P, harmonics=self.n_h, info=info)
+    def _info(self, p, q_hat):
+        return {"connectivity_defect": float(np.max(np.abs(p - q_hat[:, self.Nd].reshape(-1)), initial=0.0))}
 
 
 def _mixed_scale(problem, x, a, n1, force_rows):
@@ -252,7 +295,7 @@ def auto_intermediate_partition(system):
     return I1, I2
 
 
-class IntermediateProblem:
+class IntermediateProblem(_MixedBase):
     """MS-HBM with an intermediate subsystem (Section 3.3).
 
     Parameters
@@ -317,70 +360,20 @@ class IntermediateProblem:
         F = fourier.to_complex(system.forcing_hat(self.n_h))
         self.rhs = fourier.from_complex(F[:, I2] - self.cond.g).reshape(-1)
         self.nc, self.n1, self.n2 = nc, I1.size, I2.size
+        self._time, self._harm, self._cond_dofs = I1, I2, I3
 
-    @property
-    def n_unknowns(self):
-        return self.nc * self.n2 + 2 * self.n1
+    # residual (39): harmonic-balance rows of subsystem 2 are forces
+    _force_rows = True
+    _harmonic_dofs_are_time_dofs = False
 
-    def initial_guess(self, guess=None):
-        q_hat, q0, u0 = guess_parts(guess, self.system, self.omega, self.n_h)
-        return np.concatenate([q_hat[:, self.I2].reshape(-1), q0[self.I1], u0[self.I1]])
+    def _balance(self, qh, p):
+        return self.H21r @ qh + self.Sr @ p - self.rhs
 
-    def residual_scale(self, x):
-        """Per-row scale of the residual at unknowns ``x``, shape ``(n_x,)`` (N for the harmonic balance
-        rows, m for the ``q`` rows, m/s for the ``u`` rows)."""
-        return _mixed_scale(self, x, self.nc * self.n2, self.n1, force_rows=True)
+    def _balance_dq(self, dqh):
+        return self.H21r @ dqh
 
-    def _split(self, x):
-        a = self.nc * self.n2
-        return x[:a], x[a:a + self.n1], x[a + self.n1:]
+    def _balance_dp(self):
+        return self.Sr
 
-    def _eval(self, x, sens):
-        p, q0, u0 = self._split(x)
-        tr = self.td.run(q0, u0, p, sens)
-        q1h = self.td.project(tr.q[:-1]).reshape(-1)
-        R = np.concatenate([self.H21r @ q1h + self.Sr @ p - self.rhs, tr.q[-1] - q0, tr.u[-1] - u0])
-        return R, tr
-
-    def residual(self, x, jac=True):
-        """``(R, J)``, shapes ``(n_x,)`` and ``(n_x, n_x)``."""
-        if not jac:
-            return self._eval(x, False)[0], None
-        if self.jacobian == "fd":
-            R, _ = self._eval(x, False)
-            J = np.empty((x.size, x.size))
-            for i in range(x.size):
-                d = 1e-7 * max(1.0, abs(x[i]))
-                xp = x.copy()
-                xp[i] += d
-                J[:, i] = (self._eval(xp, False)[0] - R) / d
-            return R, J
-        R, tr = self._eval(x, True)
-        n1, a = self.n1, self.nc * self.n2
-        perm = np.concatenate([np.arange(2 * n1, 2 * n1 + a), np.arange(2 * n1)])
-        dq1h = self.td.project(tr.Sq_traj[:-1]).reshape(self.nc * n1, -1)[:, perm]
-        J = np.zeros((x.size, x.size))
-        J[:a] = self.H21r @ dq1h
-        J[:a, :a] += self.Sr
-        J[a:a + n1] = tr.Sq[:, perm]
-        J[a + n1:] = tr.Su[:, perm]
-        J[a:a + n1, a:a + n1] -= np.eye(n1)
-        J[a + n1:, a + n1:] -= np.eye(n1)
-        return R, J
-
-    def solution_parts(self, x):
-        p, q0, u0 = self._split(x)
-        tr = self.td.run(q0, u0, p, sens=False)
-        X2 = p.reshape(self.nc, self.n2)
-        q_hat = np.zeros((self.nc, self.system.n))
-        q_hat[:, self.I1] = fourier.fft(tr.q[:-1], self.n_h)
-        q_hat[:, self.I2] = X2
-        if self.I3.size:
-            q_hat[:, self.I3] = fourier.from_complex(self.cond.recover(fourier.to_complex(X2)))
-        lam = np.vstack([tr.P, tr.P[:1]]) / self.td.h
-        info = {"partition": {"1": self.I1.tolist(), "2": self.I2.tolist(), "3_size": int(self.I3.size)},
-                "min_rcond_H_33": float(self.cond.rcond.min()), "time_step": self.td.h,
-                "stick_or_closed_fraction": [float(np.mean((tr.status[:, j] & 3) >= 2))
-                                             for j in range(tr.status.shape[1])]}
-        return dict(t=self.td.t, q_hat=q_hat, time_dofs=self.I1, q_time=tr.q, u_time=tr.u,
-                    lam=lam, impulses=tr.P, harmonics=self.n_h, info=info)
+    def _info(self, p, q_hat):
+        return {}

@@ -15,6 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import fourier
+from .base import Partition, PeriodicProblem, forward_difference_jacobian
 from .common import guess_parts
 from ..integrators import kernels
 from ..integrators.moreau_jean import MoreauJean
@@ -22,7 +23,7 @@ from ..integrators.moreau_jean import MoreauJean
 __all__ = ["ShootingProblem"]
 
 
-class ShootingProblem:
+class ShootingProblem(PeriodicProblem):
     """Periodicity problem of the full system.
 
     Parameters
@@ -65,6 +66,23 @@ class ShootingProblem:
     def n_unknowns(self):
         return 2 * self.n
 
+    @property
+    def steps(self):
+        return self.N
+
+    @property
+    def time_step(self):
+        return self.h
+
+    def time_stepper(self):
+        return self.stepper
+
+    def partition(self):
+        return Partition(time=np.arange(self.n), harmonic=np.zeros(0, np.int64), condensed=np.zeros(0, np.int64))
+
+    def residual_units(self):
+        return np.repeat(np.array([0, 1], dtype=np.int8), self.n)
+
     def residual_scale(self, x):
         """Per-row scale of the residual at unknowns ``x``, shape ``(2n,)`` (m, then m/s)."""
         from ..scaling import displacement_floor, velocity_scale
@@ -96,14 +114,13 @@ class ShootingProblem:
         if self.jacobian == "exact":
             Phi = self.stepper.monodromy(tr.status)
         else:
-            Phi = np.empty((2 * n, 2 * n))
             xe = np.concatenate([tr.q[-1], tr.u[-1]])
-            for i in range(2 * n):
-                d = 1e-7 * max(1.0, abs(x[i]))
-                xp = x.copy()
-                xp[i] += d
+
+            def end_state(xp):
                 tp = self.simulate(xp)
-                Phi[:, i] = (np.concatenate([tp.q[-1], tp.u[-1]]) - xe) / d
+                return np.concatenate([tp.q[-1], tp.u[-1]])
+
+            Phi = forward_difference_jacobian(end_state, x, xe)
         return R, Phi - np.eye(2 * n)
 
     def monodromy(self, x):

@@ -48,7 +48,6 @@ import time
 
 import numpy as np
 
-from .. import api
 from ..methods.common import linear_response
 from ..errors import InputError
 from ..result import PeriodicSolution
@@ -121,8 +120,8 @@ def _first_touch_scale(system, omega, n_h=10, samples=256):
 class _Path:
     """Adaptive natural-parameter continuation ``lam: lam0 -> 1`` of ``solve(problem(lam))``."""
 
-    def __init__(self, make, method, options, first_guess, lam0, max_stages, min_step, stage_max_iter):
-        self.make, self.method, self.options = make, method, options
+    def __init__(self, make, method, options, first_guess, lam0, max_stages, min_step, stage_max_iter, solve):
+        self.make, self.method, self.options, self.solve = make, method, options, solve
         self.first_guess, self.lam0 = first_guess, float(lam0)
         self.max_stages, self.min_step, self.stage_max_iter = max_stages, min_step, stage_max_iter
         self.log = []
@@ -135,7 +134,7 @@ class _Path:
         opts["raise_on_failure"] = False
         t0 = time.perf_counter()
         try:
-            sol = api.solve(system, omega, self.method, guess=guess, **opts)
+            sol = self.solve(system, omega, self.method, guess=guess, **opts)
         except InputError as exc:  # e.g. an intermediate omega on a resonance of H_LL
             self.log.append({"lam": float(lam), "omega": float(omega), "success": False,
                              "message": str(exc), "iterations": 0,
@@ -176,7 +175,7 @@ class _Path:
                     f"step fell below {self.min_step:g} at lambda={lam:.4g}", False
 
 
-def _transient(system, omega, method, guess, options, periods, budget):
+def _transient(solve, system, omega, method, guess, options, periods, budget):
     """Simulate the full system from ``guess`` and restart Newton at each checkpoint of ``periods``.
 
     Returns ``(solution or None, message, log)``.
@@ -215,7 +214,7 @@ def _transient(system, omega, method, guess, options, periods, budget):
         drift = float(np.max(np.abs(np.concatenate([tr.q[-1] - tr.q[0], tr.u[-1] - tr.u[0]]))))
         g = {"q_hat": fourier.fft(tr.q[:-1], n_h), "q0": q, "u0": u}
         t0 = time.perf_counter()
-        sol = api.solve(system, omega, method, guess=g, **opts)
+        sol = solve(system, omega, method, guess=g, **opts)
         log.append({"lam": 1.0, "periods": done, "period_drift": drift, "omega": float(omega),
                     "success": bool(sol.success), "message": sol.message, "iterations": int(sol.iterations),
                     "wall_time_s": time.perf_counter() - t0})
@@ -224,7 +223,7 @@ def _transient(system, omega, method, guess, options, periods, budget):
     return sol, f"no convergence after {done} simulated periods", log
 
 
-def solve_with_continuation(system, omega, method="mshbm", guess=None, *, strategies=STRATEGIES,
+def solve_with_continuation(system, omega, method="mshbm", guess=None, *, solve, strategies=STRATEGIES,
                             forcing_start=0.05, friction_start=0.02, max_stages=30, min_step=1e-3,
                             stage_max_iter=20, transient_periods=(10, 40, 160), transient_budget=2e9,
                             **options):
@@ -232,6 +231,11 @@ def solve_with_continuation(system, omega, method="mshbm", guess=None, *, strate
 
     Parameters
     ----------
+    solve : callable
+        The full solver, ``solve(system, omega, method, **options) -> PeriodicSolution``
+        (:func:`mshbm.solvers.driver.solve`): every stage is a complete solve.  Passed in, so that this
+        module does not import the driver that calls it (:func:`mshbm.api.solve_with_continuation`
+        binds it).
     system : System
     omega : float
         Requested forcing frequency (rad/s).
@@ -285,17 +289,17 @@ def solve_with_continuation(system, omega, method="mshbm", guess=None, *, strate
     stab = _stability.check_option(options.pop("stability", "auto"))
     options["stability"] = False  # intermediate solves: no Floquet analysis; the final solution gets it below
     with blas_threads(check_threads(options.get("blas_threads", 1))):
-        sol = _solve_with_continuation(system, omega, method, guess, strategies, forcing_start, friction_start,
-                                       max_stages, min_step, stage_max_iter, transient_periods, transient_budget,
-                                       options)
+        sol = _solve_with_continuation(solve, system, omega, method, guess, strategies, forcing_start,
+                                       friction_start, max_stages, min_step, stage_max_iter, transient_periods,
+                                       transient_budget, options)
         return _stability.assess(system, sol, stab, theta=options.get("theta", 0.5))
 
 
-def _solve_with_continuation(system, omega, method, guess, strategies, forcing_start, friction_start, max_stages,
-                             min_step, stage_max_iter, transient_periods, transient_budget, options):
+def _solve_with_continuation(solve, system, omega, method, guess, strategies, forcing_start, friction_start,
+                             max_stages, min_step, stage_max_iter, transient_periods, transient_budget, options):
     raise_on_failure = bool(options.pop("raise_on_failure", False))
     t0 = time.perf_counter()
-    sol = api.solve(system, omega, method, guess=guess, **_inner(method, options))  # InputError propagates
+    sol = solve(system, omega, method, guess=guess, **_inner(method, options))  # InputError propagates
     info = {"used": None, "direct": sol.message, "attempts": [], "stages": 0}
     total_it = int(sol.iterations)
     direct = sol
@@ -303,7 +307,7 @@ def _solve_with_continuation(system, omega, method, guess, strategies, forcing_s
         omega = float(omega)
         for strategy in strategies:
             if strategy == "transient":
-                final, why, log = _transient(system, omega, method, guess, options, transient_periods,
+                final, why, log = _transient(solve, system, omega, method, guess, options, transient_periods,
                                              transient_budget)
                 info["attempts"].append({"strategy": strategy, "result": why, "stages": log})
                 info["stages"] += len(log)
@@ -312,8 +316,8 @@ def _solve_with_continuation(system, omega, method, guess, strategies, forcing_s
                     sol, info["used"] = final, strategy
                     break
                 continue
-            path = _make_path(strategy, system, omega, method, guess, options, forcing_start, friction_start,
-                              max_stages, min_step, stage_max_iter)
+            path = _make_path(solve, strategy, system, omega, method, guess, options, forcing_start,
+                              friction_start, max_stages, min_step, stage_max_iter)
             if path is None:
                 continue
             final, why, reached = path.run()
@@ -340,10 +344,10 @@ def _solve_with_continuation(system, omega, method, guess, strategies, forcing_s
     return sol
 
 
-def _make_path(strategy, system, omega, method, guess, options, forcing_start, friction_start, max_stages,
+def _make_path(solve, strategy, system, omega, method, guess, options, forcing_start, friction_start, max_stages,
                min_step, stage_max_iter):
     args = (method, options)
-    kw = dict(max_stages=max_stages, min_step=min_step, stage_max_iter=stage_max_iter)
+    kw = dict(max_stages=max_stages, min_step=min_step, stage_max_iter=stage_max_iter, solve=solve)
     if strategy == "linear":
         if guess is None or (isinstance(guess, str) and guess == "linear"):
             return None

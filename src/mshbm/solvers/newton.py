@@ -33,7 +33,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-__all__ = ["newton", "NewtonResult", "follow_pl_path", "PathResult", "scaled_norm"]
+__all__ = ["solve_problem", "newton", "NewtonResult", "follow_pl_path", "PathResult", "scaled_norm"]
 
 
 @dataclass
@@ -80,7 +80,7 @@ def _solve(J, R, s=None):
     return np.linalg.lstsq(J, R, rcond=None)[0]
 
 
-def newton(fun, x0, tol=1e-10, max_iter=50, line_search=True, callback=None, scale=None, fallback=True):
+def newton(fun, x0, tol=1e-10, max_iter=50, line_search=True, callback=None, scale=None, fallback=None):
     """Solve ``R(x) = 0``.
 
     Parameters
@@ -97,14 +97,12 @@ def newton(fun, x0, tol=1e-10, max_iter=50, line_search=True, callback=None, sca
         ``callback(it, x, residual_norm)`` after each iteration (progress display).
     scale : float, ndarray (n_x,) or callable, optional
         Residual scale ``s``: a number, per-row scales, or ``scale(x) -> (n_x,)``
-        evaluated at every iterate.  Default: ``fun.__self__.residual_scale`` when
-        ``fun`` is a bound method of a problem that has it, else 1 (absolute test).
-    fallback : bool
-        If Newton fails and ``fun`` is a bound method of an object with a method
-        ``newton_fallback(x0, failed, tol=, scale=, max_iter=, callback=)``
-        returning a :class:`NewtonResult`, call it (default True).  The
-        fallback's result is returned if it succeeds, with the same
-        convergence test ``||R / s||_inf <= tol`` on the real problem.
+        evaluated at every iterate.  Default 1 (absolute test); :func:`solve_problem` passes the
+        problem's ``residual_scale``.
+    fallback : callable, optional
+        ``fallback(x0, failed, tol=, scale=, max_iter=, callback=) -> NewtonResult or None``, called
+        when Newton fails (e.g. a problem's :meth:`path_fallback`).  Its result is returned if it
+        succeeds, with the same convergence test ``||R / s||_inf <= tol`` on the real problem.
 
     Returns
     -------
@@ -114,8 +112,8 @@ def newton(fun, x0, tol=1e-10, max_iter=50, line_search=True, callback=None, sca
     x0 = np.array(x0, dtype=float)
     scale = _scale_function(fun, scale)
     res = _newton(fun, x0, tol, max_iter, line_search, callback, scale)
-    hook = getattr(getattr(fun, "__self__", None), "newton_fallback", None) if fallback else None
-    if res.success or hook is None or not callable(hook):
+    hook = fallback
+    if res.success or not hook:
         return res
     alt = hook(x0, res, tol=tol, scale=scale, max_iter=max_iter, callback=callback)
     if alt is None:
@@ -131,12 +129,18 @@ def newton(fun, x0, tol=1e-10, max_iter=50, line_search=True, callback=None, sca
     return res
 
 
+def solve_problem(problem, x0, *, fallback=True, **newton_options):
+    """Newton on a :class:`mshbm.methods.base.PeriodicProblem`: its residual, its physical-unit
+    scale ``residual_scale`` and, if ``fallback``, its exact path follower (``path_fallback()``).
+    ``newton_options``: ``tol``, ``max_iter``, ``line_search``, ``callback`` of :func:`newton`."""
+    hook = problem.path_fallback() if fallback else None
+    return newton(problem.residual, x0, scale=problem.residual_scale, fallback=hook, **newton_options)
+
+
 def _scale_function(fun, scale):
     """``scale`` normalised to a callable ``x -> per-row scales`` (see :func:`newton`)."""
     if scale is None:
-        scale = getattr(getattr(fun, "__self__", None), "residual_scale", None)
-        if scale is None:
-            return lambda x: 1.0
+        return lambda x: 1.0
     if callable(scale):
         return scale
     fixed = np.asarray(scale, dtype=float)

@@ -77,7 +77,9 @@ import scipy.sparse as sp
 from .. import condensation, fourier
 from ..methods.common import linear_response
 from ..errors import InputError
-from .newton import NewtonResult, newton
+from .continuation import solve_with_continuation
+from .newton import NewtonResult, solve_problem
+from ..methods.registry import build_problem
 
 __all__ = ["solve_from_starts", "residual_accept", "Attempt", "DEFAULT_STARTS", "active", "shifted_system",
            "clamped_response", "force_scale", "displacement_scale",
@@ -90,7 +92,6 @@ DEFAULT_STARTS = ("guess", "linear", "regularisation", "shifted", "clamped", "ze
 #: largest system for which the ``"exact"`` start runs the event-driven solver
 EXACT_MAX_DOFS = 100
 
-_TIME_METHODS = ("shooting", "mshbm", "mshbm-intermediate")
 _ACTIVE = contextvars.ContextVar("mshbm_starts_active", default=False)
 
 
@@ -183,36 +184,6 @@ def displacement_scale(system, omega):
     return max(D, gaps)
 
 
-def _residual_units(problem):
-    """Per-entry unit of the method's residual: 0 displacement, 1 velocity, 2 force."""
-    name = getattr(problem, "method", "")
-    n_x = problem.n_unknowns
-    units = np.zeros(n_x, dtype=np.int8)
-    if name in ("hbm", "dlft"):
-        units[:] = 2
-    elif name == "shooting":
-        units[problem.n:] = 1
-    elif name == "mshbm":
-        units[problem.nc * problem.nN + problem.nN:] = 1
-    elif name == "mshbm-intermediate":
-        a = problem.nc * problem.n2
-        units[:a] = 2
-        units[a + problem.n1:] = 1
-    return units
-
-
-def _steps(problem):
-    """Time steps per period of a time-stepping problem."""
-    return problem.N if hasattr(problem, "N") else problem.td.N
-
-
-def _time_step(problem):
-    h = getattr(problem, "h", None)
-    if h is None and hasattr(problem, "td"):
-        h = problem.td.h
-    return h
-
-
 def impact_jump(system, parts):
     """Largest velocity jump at an impact of the solution, ``|P| / M_dd`` over the contact elements
     (0 without contacts); ``parts`` from ``problem.solution_parts``."""
@@ -264,9 +235,9 @@ def residual_accept(problem, system, omega, rtol=1e-8, step_accuracy=True, max_i
     F = force_scale(system)
     D = displacement_scale(system, omega)
     V = float(omega) * D
-    units = _residual_units(problem)
+    units = problem.residual_units()
     scale = np.where(units == 0, D, np.where(units == 1, V, F))
-    h = _time_step(problem) if getattr(problem, "method", "") in _TIME_METHODS else None
+    h = problem.time_step
 
     def accept(attempt):
         R, _ = problem.residual(attempt.x, jac=False)
@@ -419,8 +390,9 @@ def _section_shift(parts, system, N):
 
 class _Runner:
     def __init__(self, problem, method, system, omega, newton_options, accept, solve_options, fallback,
-                 transient_periods, transient_budget, transient_seconds):
+                 transient_periods, transient_budget, transient_seconds, solve):
         self.problem, self.method, self.system, self.omega = problem, method, system, float(omega)
+        self.solve = solve
         self.nkw = dict(newton_options)
         self.accept = accept
         self.options = {k: v for k, v in dict(solve_options or {}).items()
@@ -430,11 +402,11 @@ class _Runner:
         self.transient_budget = float(transient_budget)
         self.transient_seconds = float(transient_seconds)
         self.attempts = []
-        self.n_h = int(getattr(problem, "n_h", 10))
+        self.n_h = int(problem.n_h)
 
     # -- helpers
     def _newton(self, x0):
-        return newton(self.problem.residual, x0, fallback=self.fallback, **self.nkw)
+        return solve_problem(self.problem, x0, fallback=self.fallback, **self.nkw)
 
     def _try(self, start, x0, note="", extra_iterations=0, t0=None):
         t0 = time.perf_counter() if t0 is None else t0
@@ -474,14 +446,14 @@ class _Runner:
         return self._try("clamped", self._x_from_hat(clamped_response(self.system, self.omega, self.n_h)))
 
     def start_regularisation(self):
-        if self.method != "hbm" or not hasattr(self.problem, "homotopy"):
-            return None
         t0 = time.perf_counter()
+        path = self.problem.homotopy()[:-1]  # softened laws (HBM); [] for the other methods
+        if not path:
+            return None
         x = self.problem.initial_guess("linear")
-        path = self.problem.homotopy()[:-1]
         it = 0
         for i, sub in enumerate(path):
-            r = newton(sub.residual, x, **self.nkw)
+            r = solve_problem(sub, x, **self.nkw)
             it += r.nit
             if not r.success:
                 return self._try("regularisation", x, f"stage {i + 1}/{len(path)} failed: {r.message}", it, t0)
@@ -489,12 +461,10 @@ class _Runner:
         return self._try("regularisation", x, f"{len(path)} softened stages", it, t0)
 
     def start_shifted(self):
-        if self.method not in _TIME_METHODS:
+        if self.problem.time_step is None:
             return None
-        from .. import api
-
         t0 = time.perf_counter()
-        N = int(_steps(self.problem))
+        N = int(self.problem.steps)
         best = self._best()
         parts = None
         if best is not None:
@@ -509,10 +479,10 @@ class _Runner:
         ts = k * T / N
         sysS = shifted_system(self.system, ts, self.omega)
         try:
-            probS, _ = api.build_problem(sysS, self.omega, self.method, **self.options)
+            probS, _ = build_problem(sysS, self.omega, self.method, **self.options)
         except InputError as exc:
             return self._try("shifted", self.problem.initial_guess("linear"), f"skipped: {exc}", 0, t0)
-        rS = newton(probS.residual, probS.initial_guess("linear"), **self.nkw)
+        rS = solve_problem(probS, probS.initial_guess("linear"), **self.nkw)
         note = f"section at t0 = {k}/{N} T: {rS.message}"
         if not np.all(np.isfinite(rS.x)):
             return self._try("shifted", self.problem.initial_guess("linear"), note, rS.nit, t0)
@@ -533,7 +503,7 @@ class _Runner:
         from ..methods.exact import exact_periodic
 
         t0 = time.perf_counter()
-        N = int(_steps(self.problem)) if self.method in _TIME_METHODS else 2048
+        N = int(self.problem.steps) if self.problem.time_step is not None else 2048
         guesses = ["linear"]
         best = self._best()
         if best is not None:
@@ -566,7 +536,7 @@ class _Runner:
         from ..integrators.moreau_jean import MAX_DENSE_DOFS, MoreauJean
 
         n = self.system.n
-        steps = int(_steps(self.problem)) if self.method in _TIME_METHODS else 1024
+        steps = int(self.problem.steps) if self.problem.time_step is not None else 1024
         total = max(self.transient_periods)
         if n > MAX_DENSE_DOFS or float(n) * n * steps * total > self.transient_budget:
             return None
@@ -626,8 +596,8 @@ class _Runner:
         return att
 
     def _continuation(self, strategy):
-        from .continuation import solve_with_continuation
-
+        if self.solve is None:
+            return None  # no full solver given (solve_from_starts(..., solve=)): no continuation start
         if strategy == "friction" and not any(e.bounded for e in self.system.elements):
             return None
         t0 = time.perf_counter()
@@ -636,7 +606,7 @@ class _Runner:
             if key in self.nkw:
                 opts[key] = self.nkw[key]
         try:
-            sol = solve_with_continuation(self.system, self.omega, self.method, guess="zero",
+            sol = solve_with_continuation(self.system, self.omega, self.method, guess="zero", solve=self.solve,
                                           strategies=(strategy,), **opts)
         except InputError as exc:
             return self._try(strategy, self.problem.initial_guess("linear"), f"skipped: {exc}", 0, t0)
@@ -663,7 +633,7 @@ LADDER_FACTOR = 30.0
 
 def solve_from_starts(problem, method, system, omega, newton_options, accept, *, guess=None, starts=DEFAULT_STARTS,
                       solve_options=None, fallback=True, transient_periods=(10, 40, 160), transient_budget=2e9,
-                      transient_seconds=20.0):
+                      transient_seconds=20.0, solve=None):
     """Try the starts in order until ``accept`` accepts a Newton solution of ``problem``.
 
     Parameters
@@ -690,7 +660,10 @@ def solve_from_starts(problem, method, system, omega, newton_options, accept, *,
         The method's options as given to :func:`mshbm.solve` (``harmonics``, ``steps``, ``theta``,
         ``partition``...): needed to build the shifted problem, the simulation, the continuations.
     fallback : bool
-        Allow :func:`mshbm.solvers.newton.newton` its problem-specific fallback (HBM's exact path following).
+        Allow Newton the problem's exact path follower (:meth:`PeriodicProblem.path_fallback`, HBM/DLFT).
+    solve : callable, optional
+        The full solver (:func:`mshbm.solvers.driver.solve`) for the continuation starts ``"forcing"``
+        and ``"friction"``, whose stages are complete solves; ``None`` skips them.
     transient_periods : sequence of int
         Checkpoints (periods simulated so far) of the ``"transient"`` start.
     transient_budget : float
@@ -711,7 +684,7 @@ def solve_from_starts(problem, method, system, omega, newton_options, accept, *,
     if unknown:
         raise InputError("starts", f"unknown start {unknown[0]!r} (choose from {', '.join(DEFAULT_STARTS)})")
     run = _Runner(problem, method, system, omega, newton_options, accept, solve_options, fallback,
-                  transient_periods, transient_budget, transient_seconds)
+                  transient_periods, transient_budget, transient_seconds, solve)
     won, skipped, t_start = None, [], time.perf_counter()
     with _activated():
         for name in starts:

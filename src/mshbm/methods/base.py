@@ -1,0 +1,171 @@
+"""The problem contract: what every method's problem object provides to the solvers.
+
+A *method* (``"shooting"``, ``"hbm"``, ``"dlft"``, ``"mshbm"``, ``"mshbm-intermediate"``) turns
+``M q'' + C q' + K q = f_ex(t) + f_nl`` at angular frequency ``omega`` (period ``T = 2 pi / omega``)
+into a square nonlinear system ``R(x) = 0`` in its own unknowns ``x`` (Fourier coefficients ``q_hat``
+of ``n_h`` harmonics, states ``q(0), u(0)`` at the Poincaré section, or both).  The solvers
+(:mod:`mshbm.solvers`: Newton, the start ladder, homotopy, continuation, :mod:`mshbm.solvers.driver`)
+see a method only through :class:`PeriodicProblem`; they never probe for attributes.
+
+Contract (every subclass)
+-------------------------
+``method`` : str
+    The registry name.
+``system``, ``omega``, ``n_h``
+    The :class:`mshbm.System`, the angular frequency (rad/s) and the number of harmonics.
+``n_unknowns`` : int
+    ``n_x``, the size of ``x``.
+``initial_guess(guess) -> x``
+    ``guess``: ``None`` or ``"linear"`` (linear response), ``"zero"``, a
+    :class:`mshbm.PeriodicSolution` (e.g. at a nearby frequency) or a dict with ``q_hat``, ``q0``,
+    ``u0``.  Returns ``x``, shape ``(n_x,)``.
+``residual(x, jac=True) -> (R, J)``
+    ``R`` shape ``(n_x,)``; ``J = dR/dx`` shape ``(n_x, n_x)`` (dense or sparse), ``None`` when
+    ``jac=False``.
+``residual_scale(x) -> s``
+    Per-row scale (physical units: N, m, m/s) of Newton's test ``||R / s||_inf <= tol``
+    (:mod:`mshbm.scaling`); depends on the current unknowns, never on the start.
+``omega_derivative(x) -> dR/domega``
+    Shape ``(n_x,)``, at fixed unknowns (their meaning does not change with omega: coefficients, or
+    states at ``t = 0`` with a fixed number of steps per period).  Default: central differences of
+    problems rebuilt at ``omega (1 +- 1e-6)``; what frequency continuation needs besides ``J``.
+``solution_parts(x) -> dict``
+    Keys ``t`` (N+1,), ``q_hat`` (2 n_h + 1, n), ``time_dofs`` (n_t,), ``q_time``, ``u_time``
+    (N+1, n_t), ``lam`` (N+1, n_el) (element forces, N), ``impulses``, ``harmonics`` and ``info``.
+``partition() -> Partition``
+    The DOF sets of the method as named index arrays (same names for every method).
+``residual_units() -> ndarray``
+    Per-row physical unit of ``R``, shape ``(n_x,)``: 0 displacement (m), 1 velocity (m/s), 2 force (N).
+``time_step`` : float or None
+    The Moreau-Jean step ``h = T / N`` of the time-stepped DOFs (``None``: no time stepping).
+``steps`` : int
+    Samples per period: Moreau-Jean steps ``N``, or the AFT samples of HBM/DLFT.
+``time_stepper() -> MoreauJean or None``
+    The stepper of the time-stepped DOFs (``None``: no time stepping); the certificate's energy
+    balance and the step-accuracy bound use it.
+
+Optional capabilities (declared here with their "not available" default, overridden where a method
+has them)
+-----------------------------------------------------------------------------------------------------
+``homotopy() -> list[PeriodicProblem]``
+    Problems with softened laws ending with ``self`` (each solution starts the next); ``[]``: none.
+``path_fallback() -> callable or None``
+    An exact solution-path follower used when Newton fails,
+    ``f(x0, failed, tol=, scale=, max_iter=, callback=) -> NewtonResult or None``; ``None``: none.
+``conditioning() -> ndarray or None``
+    Reciprocal condition numbers of the condensed per-harmonic blocks, shape ``(n_h + 1,)``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["PeriodicProblem", "Partition", "forward_difference_jacobian"]
+
+
+@dataclass(frozen=True)
+class Partition:
+    """The DOF sets of a method, as index arrays (0-based DOFs of the full system).
+
+    ``time``: DOFs integrated in time (shooting: all; MS-HBM: ``N`` or subsystem 1; HBM/DLFT: none).
+    ``harmonic``: DOFs whose Fourier coefficients are unknowns (HBM/DLFT: the kept DOFs; MS-HBM 3.2:
+    ``N``; 3.3: subsystem 2).  ``condensed``: DOFs eliminated exactly per harmonic (``L``; 3.3:
+    subsystem 3).  The same DOF may be both ``time`` and ``harmonic`` (MS-HBM 3.2: ``N``).
+    """
+
+    time: np.ndarray
+    harmonic: np.ndarray
+    condensed: np.ndarray
+
+    def as_dict(self):
+        """JSON-ready form: lists of DOFs."""
+        return {"time": [int(i) for i in self.time], "harmonic": [int(i) for i in self.harmonic],
+                "condensed": [int(i) for i in self.condensed]}
+
+
+def _dofs(a):
+    return np.asarray(a, dtype=np.int64).reshape(-1)
+
+
+def forward_difference_jacobian(f, x, f0, rel_step=1e-7):
+    """Forward-difference Jacobian ``df/dx``, shape ``(f0.size, x.size)``: column ``i`` is
+    ``(f(x + d e_i) - f0) / d`` with ``d = rel_step max(1, |x_i|)``.  The one finite-difference
+    Jacobian of the package (``jacobian="fd"`` of shooting and both MS-HBM variants)."""
+    J = np.empty((np.size(f0), x.size))
+    for i in range(x.size):
+        d = rel_step * max(1.0, abs(x[i]))
+        xp = x.copy()
+        xp[i] += d
+        J[:, i] = (f(xp) - f0) / d
+    return J
+
+
+class PeriodicProblem:
+    """Base class of the methods' problems; the contract is the module docstring of
+    :mod:`mshbm.methods.base`.  Subclasses set ``method``, ``system``, ``omega``, ``n_h`` and
+    implement the abstract methods below."""
+
+    method = ""
+    #: keyword options the problem was built with (set by :func:`mshbm.solvers.driver.build_problem`)
+    build_options: dict = {}
+
+    # ------------------------------------------------------------------ required
+    @property
+    def n_unknowns(self):
+        raise NotImplementedError
+
+    def initial_guess(self, guess=None):
+        raise NotImplementedError
+
+    def residual(self, x, jac=True):
+        raise NotImplementedError
+
+    def residual_scale(self, x):
+        raise NotImplementedError
+
+    def solution_parts(self, x):
+        raise NotImplementedError
+
+    def partition(self):
+        raise NotImplementedError
+
+    def residual_units(self):
+        raise NotImplementedError
+
+    @property
+    def steps(self):
+        raise NotImplementedError
+
+    @property
+    def time_step(self):
+        return None
+
+    def time_stepper(self):
+        return None
+
+    def omega_derivative(self, x, rel_step=1e-6):
+        """``dR/domega`` at fixed ``x``, shape ``(n_x,)``: central differences of the residuals of
+        this method's problems rebuilt at ``omega +- rel_step omega`` (error O(rel_step^2))."""
+        d = rel_step * self.omega
+        x = np.asarray(x, dtype=float)
+        Rp = self.rebuilt(self.omega + d).residual(x, jac=False)[0]
+        Rm = self.rebuilt(self.omega - d).residual(x, jac=False)[0]
+        return (Rp - Rm) / (2.0 * d)
+
+    def rebuilt(self, omega):
+        """The same problem (system, options) at another frequency."""
+        return type(self)(self.system, float(omega), **self.build_options)
+
+    # ------------------------------------------------------------------ optional capabilities
+    def homotopy(self):
+        """Problems with softened laws ending with ``self``; ``[]``: this method has none."""
+        return []
+
+    def path_fallback(self):
+        """Exact solution-path follower used when Newton fails, or ``None`` (see the contract)."""
+        return None
+
+    def conditioning(self):
+        """Reciprocal condition numbers of the condensed blocks per harmonic, or ``None``."""
+        return None

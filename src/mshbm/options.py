@@ -1,0 +1,117 @@
+"""The option registry: which solve options exist, which method accepts which, and their checks.
+
+Every option of :func:`mshbm.solve` is validated here, once: :func:`check_options` is called by
+:func:`mshbm.solvers.driver.build_problem`, and the case-file reader (:mod:`mshbm.io`) takes its key
+sets from :data:`METHODS` and :data:`COMMON`.  Registering a method is one entry in :data:`METHODS`
+(its options) and one in :data:`mshbm.solvers.driver.PROBLEMS` (its problem class).
+
+Options and their meaning
+-------------------------
+Common to all methods (:data:`COMMON`): ``guess``, ``tol``, ``max_iter``, ``line_search``,
+``progress``, ``raise_on_failure``, ``continuation``, ``stability`` (see :func:`mshbm.solve`).
+
+``continuation`` (default True) switches on the fallbacks of the driver's strategy chain
+(:mod:`mshbm.solvers.driver`) when Newton from the first start fails: with no guess, the start ladder
+(:mod:`mshbm.solvers.starts`) for every method; with a guess, the method's own exact path follower
+(HBM/DLFT penalty contact) and regularisation homotopy (HBM); for the mixed methods with a guess,
+``continuation=True`` given *explicitly* also opts in to the restarts and continuation fallbacks of
+:mod:`mshbm.solvers.continuation`.  ``continuation=False``: Newton from the one start only.
+
+Per method (:data:`METHODS`): ``harmonics`` (n_h), ``steps`` (time steps or AFT samples per period,
+:func:`default_steps`), ``theta`` (Moreau-Jean), ``jacobian`` (``"exact"`` or ``"fd"``), ``project``
+(position projection of contacts), ``condense`` (HBM/DLFT: eliminate linear DOFs), ``partition``
+(DOFs of the nonlinear/time-stepped subsystem), ``dlft_penalty`` (DLFT's ``eps``, N/m).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from . import stability as _stability
+from .errors import InputError
+
+__all__ = ["COMMON", "METHODS", "allowed", "check_options", "default_steps"]
+
+#: options of every method (driver and Newton options)
+COMMON = frozenset({"guess", "tol", "max_iter", "line_search", "progress", "raise_on_failure", "continuation",
+                    "stability"})
+#: options accepted by each method besides the common ones (the method registry's option table)
+METHODS = {
+    "shooting": frozenset({"steps", "theta", "jacobian", "harmonics", "project"}),
+    "hbm": frozenset({"harmonics", "steps", "condense", "partition"}),
+    "mshbm": frozenset({"harmonics", "steps", "theta", "jacobian", "partition", "project"}),
+    "mshbm-intermediate": frozenset({"harmonics", "steps", "theta", "jacobian", "partition", "project"}),
+    "dlft": frozenset({"harmonics", "steps", "condense", "partition", "dlft_penalty"}),
+}
+
+
+def allowed(method):
+    """All options ``method`` accepts (its own and the common ones)."""
+    return METHODS[method] | COMMON
+
+
+def default_steps(method, n_h):
+    """Default time points per period: 4096 for time-stepping, ``max(512, 16 (2 n_h + 1))`` rounded
+    up to a power of two for the AFT of HBM and DLFT."""
+    if method in ("hbm", "dlft"):
+        return 1 << max(9, math.ceil(math.log2(16 * (2 * n_h + 1))))
+    return 4096
+
+
+def _int_option(key, value, minimum):
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        if isinstance(value, float) and value.is_integer():
+            value = int(value)
+        else:
+            raise InputError(key, f"must be an integer, got {value!r}")
+    if value < minimum:
+        raise InputError(key, f"must be >= {minimum}, got {value}")
+    return int(value)
+
+
+def check_options(method, options):
+    if method not in METHODS:
+        raise InputError("method", f"unknown method {method!r} (choose from {', '.join(METHODS)})")
+    allowed = METHODS[method] | COMMON
+    for key in options:
+        if key not in allowed:
+            raise InputError(key, f"unknown option for method {method!r} (allowed: {', '.join(sorted(allowed))})")
+    opts = dict(options)
+    n_h = _int_option("harmonics", opts.get("harmonics", 10 if method == "shooting" else 5), 1)
+    if n_h > 2000:
+        raise InputError("harmonics", f"{n_h} harmonics is beyond what this solver supports (max 2000)")
+    opts["harmonics"] = n_h
+    steps = opts.get("steps", default_steps(method, n_h))
+    min_steps = max(8, 2 * n_h + 2) if method != "shooting" else 8
+    steps = _int_option("steps", steps, min_steps)
+    if steps > 1 << 24:
+        raise InputError("steps", f"{steps} steps per period is beyond what this solver supports (max 2^24)")
+    opts["steps"] = steps
+    if "theta" in opts:
+        th = opts["theta"]
+        if isinstance(th, bool) or not isinstance(th, (int, float)) or not 0.5 <= float(th) <= 1.0:
+            raise InputError("theta", f"must be a number in [0.5, 1], got {th!r}")
+    if opts.get("jacobian", "exact") not in ("exact", "fd"):
+        raise InputError("jacobian", f"must be 'exact' or 'fd', got {opts['jacobian']!r}")
+    if "tol" in opts:
+        tol = opts["tol"]
+        if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not (0 < float(tol) < 1):
+            raise InputError("tol", f"must be a number in (0, 1), got {tol!r}")
+    for key in ("condense", "project", "line_search", "continuation", "raise_on_failure"):
+        if key in opts and not isinstance(opts[key], (bool, np.bool_)):
+            raise InputError(key, f"must be true or false, got {opts[key]!r}")
+    if "progress" in opts and not (isinstance(opts["progress"], (bool, np.bool_)) or opts["progress"] == "always"):
+        raise InputError("progress", f"must be true, false or 'always', got {opts['progress']!r}")
+    if "max_iter" in opts:
+        opts["max_iter"] = _int_option("max_iter", opts["max_iter"], 0)
+    if opts.get("dlft_penalty") is not None:
+        ep = opts["dlft_penalty"]
+        if isinstance(ep, bool) or not isinstance(ep, (int, float, np.integer, np.floating)) \
+                or not math.isfinite(float(ep)) or not 0.0 < float(ep) <= 1e100:
+            raise InputError("dlft_penalty", f"must be a finite number > 0 (N/m), got {ep!r}")
+        opts["dlft_penalty"] = float(ep)
+    opts["stability"] = _stability.check_option(opts.get("stability"))
+    return opts
+
+

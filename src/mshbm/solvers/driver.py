@@ -1,0 +1,217 @@
+"""The driver: builds a method's problem, runs an explicit chain of strategies, assembles and
+certifies the :class:`mshbm.PeriodicSolution`.
+
+The chain (each step runs only when the previous ones failed and ``continuation`` is not False):
+
+1. **start** -- with no guess, the start ladder (:func:`mshbm.solvers.starts.solve_from_starts`: linear,
+   regularisation, shifted section, clamped, zero, exact orbit, transient, continuation in forcing and
+   friction bound; the first start whose solution the certificate accepts wins); with a guess, Newton
+   from it (:func:`mshbm.solvers.newton.solve_problem`), followed by the problem's exact path follower
+   (:meth:`PeriodicProblem.path_fallback`, HBM/DLFT penalty contact);
+2. **homotopy** -- the problem's softened-law stages (:meth:`PeriodicProblem.homotopy`, HBM), each
+   solution starting the next;
+3. **continuation** -- for the mixed methods with a guess and ``continuation=True`` given explicitly:
+   restarts and parameter continuation (:func:`mshbm.solvers.continuation.solve_with_continuation`).
+
+Then: the solution parts, the certificate (:mod:`mshbm.certificate`: ``success`` only if certified)
+and the stability analysis (:mod:`mshbm.stability`).  The solvers see the problem only through the
+contract of :mod:`mshbm.methods.base`.
+"""
+from __future__ import annotations
+
+import sys
+import time
+
+import numpy as np
+
+from .._blas import blas_threads, check_threads
+from .. import stability as _stability
+from .. import validate
+from ..certificate import apply_certificate, certify
+from ..condensation import SingularHarmonicError
+from ..errors import ConvergenceError
+from ..methods.registry import build_problem
+from ..result import PeriodicSolution
+from . import starts
+from .continuation import solve_with_continuation
+from .newton import solve_problem
+
+__all__ = ["solve", "build_problem"]
+
+
+class _Progress:
+    def __init__(self, method, enabled):
+        self.enabled = enabled and sys.stderr.isatty() or enabled == "always"
+        self.method = method
+
+    def __call__(self, it, x, r):
+        if self.enabled:
+            print(f"\r[{self.method}] Newton iteration {it:3d}  ||R||_inf = {r:.3e}", end="", file=sys.stderr,
+                  flush=True)
+
+    def close(self):
+        if self.enabled:
+            print(file=sys.stderr)
+
+
+def solve(system, omega, method="mshbm", **options):
+    """Periodic solution of ``system`` under forcing of angular frequency ``omega``.
+
+    Parameters
+    ----------
+    system : System
+    omega : float
+        Angular frequency (rad/s) of the forcing; period ``T = 2 pi / omega``.
+    method : {"shooting", "hbm", "mshbm", "mshbm-intermediate", "dlft"}
+    **options
+        ``harmonics`` (n_h, default 5; shooting: harmonics of the reported
+        ``q_hat``, default 10), ``steps`` (time steps per period; default 4096,
+        HBM: AFT samples, see :func:`default_steps`), ``guess`` (``None``:
+        a ladder of starts, the first accepted one wins, :mod:`mshbm.solvers.starts`;
+        ``"linear"``: linear response; ``"zero"``; a PeriodicSolution, e.g. at a
+        nearby frequency; a dict with ``q_hat``, ``q0``, ``u0``), ``tol``
+        (Newton tolerance on the scaled residual ``||R / s||_inf``, rows scaled
+        by the problem's ``residual_scale``, :mod:`mshbm.scaling`; default 1e-10), ``max_iter`` (default 50), ``line_search`` (default
+        True), ``theta`` (Moreau-Jean, default 0.5), ``jacobian`` (``"exact"`` or
+        ``"fd"``), ``partition`` (DOFs of N; for ``mshbm-intermediate`` a pair of
+        DOF lists for subsystems 1 and 2), ``condense`` (HBM: eliminate linear
+        DOFs exactly, default True), ``project`` (position projection of
+        contacts, default True), ``dlft_penalty`` (DLFT: the parameter ``eps`` in N/m of every
+        element, default from the condensed dynamic stiffness, :mod:`mshbm.methods.dlft`), ``progress`` (print Newton progress to a
+        terminal), ``raise_on_failure`` (raise ConvergenceError instead of
+        returning ``success=False``), ``blas_threads`` (BLAS threads during
+        the solve, default 1: the dense matrices are small, and one thread keeps
+        results bit-identical across machines and parallel jobs from
+        oversubscribing the cores; ``None`` leaves the setting alone),
+        ``continuation`` (``False``: Newton from the one start; mixed methods with
+        a guess: ``True`` opts in to restarts and continuation fallbacks,
+        :mod:`mshbm.solvers.continuation`; HBM: when Newton fails,
+        follow the exact piecewise-linear solution path of penalty contacts
+        (:meth:`mshbm.methods.hbm.HBMProblem.newton_fallback`), else
+        retry by continuation from softened regularisations; default True),
+        ``stability`` (``"auto"``, default: Floquet multipliers and verdict from the exact
+        event-driven flow with saltation terms for systems with at most one element and up to
+        :data:`mshbm.stability.MAX_EXACT_DOFS` DOFs, else a labelled estimate or none;
+        ``True``: also above that size; ``False``: skip.  Not part of ``wall_time``; see
+        :mod:`mshbm.stability`).
+
+    Returns
+    -------
+    PeriodicSolution
+        ``success`` is True only when Newton converged and every gating check of the
+        certificate (``solution.certificate``, :mod:`mshbm.certificate`) passed.
+        With ``floquet_multipliers``, ``stable``, ``stability_method`` and ``stability_reason``.
+
+    Raises
+    ------
+    InputError
+        Invalid system, frequency or option (names the key).
+    """
+    stab = _stability.check_option(options.pop("stability", "auto"))
+    if method in ("mshbm", "mshbm-intermediate") and options.get("continuation") is True \
+            and options.get("guess") is not None:  # guess=None: the start ladder (mshbm.solvers.starts) covers it
+        with validate.quiet_floats():
+            sol = solve_with_continuation(system, omega, method, solve=solve, stability=False,
+                                          **{k: v for k, v in options.items() if k != "continuation"})
+            return _stability.assess(system, sol, stab, theta=options.get("theta", 0.5))
+    with blas_threads(check_threads(options.pop("blas_threads", 1))), validate.quiet_floats():
+        sol = _solve(system, omega, method, options)
+        return _stability.assess(system, sol, stab, theta=options.get("theta", 0.5))
+
+
+def _solve(system, omega, method, options):
+    t0 = time.perf_counter()  # wall time includes set-up (condensation, factorisations)
+    try:
+        problem, sopts = build_problem(system, omega, method, **options)
+    except SingularHarmonicError as exc:
+        raise validate.singular_harmonic_error(exc) from None
+    progress = _Progress(method, sopts.get("progress", False))
+    try:
+        x0 = problem.initial_guess(sopts.get("guess"))
+        nkw = dict(tol=float(sopts.get("tol", 1e-10)), max_iter=int(sopts.get("max_iter", 50)),
+                   line_search=bool(sopts.get("line_search", True)), callback=progress)
+        if sopts.get("guess") is None and sopts.get("continuation", True) and not starts.active():
+            # default start: a ladder of starts, the first accepted one wins (mshbm.solvers.starts)
+            res = starts.solve_from_starts(problem, method, system, omega, nkw,
+                                           _certified_accept(problem, method, omega, sopts, nkw, system),
+                                           solve_options=options, solve=solve)
+        else:
+            res = solve_problem(problem, x0, fallback=bool(sopts.get("continuation", True)), **nkw)
+        path = problem.homotopy() if not res.success and sopts.get("continuation", True) \
+            and "starts" not in res.info else []
+        if path:
+            # fallback: continuation from softened laws to the requested ones
+            x = x0
+            total_it, total_fev = res.nit, res.nfev
+            for sub in path:
+                r = solve_problem(sub, x, **nkw)
+                total_it, total_fev = total_it + r.nit, total_fev + r.nfev
+                if not r.success:
+                    break
+                x = r.x
+            fallback = f"regularisation continuation over {len(path)} stages"
+            if r.success:
+                res = r
+                res.message = f"{r.message} (after {fallback})"
+            else:
+                res.message = f"{res.message}; {fallback} failed too: {r.message}"
+            res.nit, res.nfev = total_it, total_fev
+        parts = problem.solution_parts(res.x)
+    except SingularHarmonicError as exc:
+        raise validate.singular_harmonic_error(exc) from None
+    finally:
+        progress.close()
+    wall = time.perf_counter() - t0
+    success, message = res.success, res.message
+    for key in ("q_time", "u_time", "q_hat", "lam"):
+        if not np.all(np.isfinite(parts[key])):
+            success, message = False, f"non-finite {key} in the solution ({message})"
+    message = validate.overflow_message(success, message, res.residual_norm)
+    rc = problem.conditioning()
+    if not success and rc is not None and rc.size and float(rc.min()) < 1e-4:
+        k = int(np.argmin(rc))
+        message += (f"; note: the condensed block is nearly singular at harmonic k={k} (rcond {rc[k]:.1e}): "
+                    "k*omega is at a resonance of the linear subsystem, where the periodic solution may be "
+                    "non-unique or unbounded (add damping or move omega)")
+    sol = _solution(problem, method, omega, sopts, res, parts, success, message, wall)
+    sol.info["residual_history"] = res.history
+    if "starts" in res.info:
+        sol.info["starts"], sol.info["start_used"] = res.info["starts"], res.info["start_used"]
+    step_accuracy = res.info.get("step_accuracy")
+    if step_accuracy is not None:
+        sol.info["step_accuracy"] = {"ratio": step_accuracy["ratio"], "verdict": step_accuracy["verdict"],
+                                     "bound": np.asarray(step_accuracy["bound"], dtype=float)}
+    # success only if certified (mshbm.certificate)
+    apply_certificate(problem, sol, nkw["tol"], step_accuracy)
+    if not sol.success and sopts.get("raise_on_failure", False):
+        raise ConvergenceError(sol.message)
+    return sol
+
+
+def _solution(problem, method, omega, sopts, res, parts, success, message, wall):
+    """The :class:`PeriodicSolution` of a Newton result ``res`` of ``problem`` (not yet certified)."""
+    parts = dict(parts)
+    n_h = parts.pop("harmonics")
+    sol = PeriodicSolution(method=method, omega=float(omega), harmonics=n_h, steps=len(parts["t"]) - 1,
+                           success=success, message=message, iterations=res.nit, nfev=res.nfev,
+                           residual=res.residual_norm, wall_time=wall, x=res.x, partition=problem.partition(),
+                           conditioning=problem.conditioning(), time_step=problem.time_step, **parts)
+    return sol
+
+
+def _certified_accept(problem, method, omega, sopts, nkw, system):
+    """Acceptance test of the start ladder (:func:`mshbm.solvers.starts.solve_from_starts`): the ladder's own
+    start-independent residual test (:func:`mshbm.solvers.starts.residual_accept`: physical units, no run-away
+    orbits, one step's accuracy at impacts) *and* the certificate of the solution it would return."""
+    first = starts.residual_accept(problem, system, omega, max_iter=nkw["max_iter"])
+
+    def accept(attempt):
+        if not first(attempt):
+            return False
+        sol = _solution(problem, method, omega, sopts, attempt.newton, attempt.parts(), True, "", 0.0)
+        cert = certify(problem, sol, nkw["tol"], attempt.step_accuracy)
+        if not cert.passed:
+            attempt.verdict = f"rejected by the certificate: {cert.describe_failures()}"
+        return cert.passed
+
+    return accept
