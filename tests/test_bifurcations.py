@@ -128,7 +128,7 @@ def test_detect_on_the_closed_form_branch():
     found = detect(pts)
     assert [b.type for b in found] == ["period-doubling", "grazing"]
     pd, gr = found
-    assert pd.omega == pytest.approx(OMEGA_PD, rel=1e-2)
+    assert pd.omega == pytest.approx(OMEGA_PD, rel=2e-3)  # measured 0.085 % (det(J + I) interpolated)
     assert omegas[pd.index] < OMEGA_PD < omegas[pd.index + 1]
     assert gr.omega == pytest.approx(OMEGA_G, rel=1e-2)
     assert pd.as_dict() == {"type": "period-doubling", "omega": pd.omega, "index": pd.index}
@@ -149,7 +149,7 @@ def test_detect_on_an_exact_solver_branch(oscillator):
     pts = [_exact_point(oscillator, w) for w in omegas]
     found = detect(pts)
     assert [b.type for b in found] == ["period-doubling"]
-    assert found[0].omega == pytest.approx(OMEGA_PD, rel=1e-2)
+    assert found[0].omega == pytest.approx(OMEGA_PD, rel=2e-3)  # measured 0.022 %
     assert all(p.contact_active for p in pts)
 
 
