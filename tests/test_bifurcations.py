@@ -236,3 +236,23 @@ def test_bad_input():
     with pytest.raises(InputError, match="rel_tol"):
         detect([], rel_tol=0)
     assert bifurcations.TYPES == ("fold", "period-doubling", "neimark-sacker", "grazing")
+
+
+def test_grazing_on_an_exact_solver_branch(oscillator):
+    """Through omega_g from the default start of the exact solver: the (1,1) orbit (unstable, one impact)
+    below, the linear response (no contact) above; point_from_solution gives the records."""
+    from mshbm.bifurcations import point_from_solution
+
+    exact = lambda w: point_from_solution(oscillator, exact_periodic(oscillator, w))
+    pts = [exact(w) for w in np.arange(3.20, 3.45, 0.04)]
+    assert [p.contact_active for p in pts] == [True] * 3 + [False] * 4
+    assert all(p.multipliers is not None and p.multipliers.size == 2 for p in pts)
+    found = detect(pts)
+    assert [b.type for b in found] == ["grazing"]  # the multipliers' jump there is no period doubling
+    assert found[0].omega == pytest.approx(OMEGA_G, rel=1e-2)
+    fine = detect(pts, locate=lambda kind, a, b: exact(0.5 * (a.omega + b.omega)))
+    assert fine[0].located == "bisection" and fine[0].omega == pytest.approx(OMEGA_G, rel=1e-3)
+    # a failed solve gives a record without data
+    bad = mshbm.solve(oscillator, 3.0, "shooting", max_iter=0, guess="zero", stability=False)
+    p = point_from_solution(oscillator, bad)
+    assert not bad.success and p.multipliers is None and p.contact_active is None

@@ -55,7 +55,7 @@ import numpy as np
 
 from .errors import InputError
 
-__all__ = ["BranchPoint", "Bifurcation", "detect", "TYPES", "REAL_TOL"]
+__all__ = ["BranchPoint", "Bifurcation", "detect", "point_from_solution", "TYPES", "REAL_TOL"]
 
 TYPES = ("fold", "period-doubling", "neimark-sacker", "grazing")
 #: a multiplier is real when ``|Im mu| <= REAL_TOL max(1, |mu|)``
@@ -262,3 +262,55 @@ def _locate(kind, i, j, a, b, locate, rel_tol):
             located = "bisection"
     w = _interpolate(kind, a, b)
     return Bifurcation(kind, float(w), i, j, located, (a.omega, b.omega), nb)
+
+
+#: a contact counts as touching when its smallest gap over the period is at most this (relative to
+#: the gap and the displacement amplitude of its DOF)
+CONTACT_TOL = 1e-8
+
+
+def point_from_solution(system, sol, tangent_omega=None, x=None):
+    """:class:`BranchPoint` of a :class:`mshbm.PeriodicSolution` of ``system``.
+
+    * ``multipliers``: the solution's Floquet multipliers when they are valid for the flow that is
+      reported: the exact flow with saltation (:data:`mshbm.stability.EXACT`, also when marginal),
+      Hill's method (:data:`mshbm.hill.HILL`, the regularised system) or a step-map estimate that
+      gave a verdict (smooth motion); ``None`` otherwise (never Moreau-Jean multipliers at impacts);
+    * ``contact_active`` and ``gap``: for systems with contacts, the smallest gap
+      ``min_t (g0 - q_dof(t))`` over the period and elements (``info["q_max"]`` of exact solutions,
+      else the samples); active when it is at most :data:`CONTACT_TOL` (relative); ``None`` without
+      contacts.  With contact, exact solutions (``info["events"]``) give ``gap = -v / omega`` (same
+      scale) with ``v`` the largest impact velocity, which also vanishes at grazing, so that the
+      grazing is interpolated between a positive and a negative value.  For a failed solve everything is ``None``.
+    """
+    from . import stability
+    from .hill import HILL
+
+    if not sol.success:
+        return BranchPoint(sol.omega, x=sol if x is None else x, tangent_omega=tangent_omega)
+    mult = np.asarray(getattr(sol, "floquet_multipliers", []), dtype=complex)
+    meth = getattr(sol, "stability_method", "")
+    valid = meth in (stability.EXACT, HILL) or (meth == stability.STEP_MAP and sol.stable is not None)
+    mu = mult if (valid and mult.size) else None
+    gaps = []
+    q_max = sol.info.get("q_max") if isinstance(sol.info, dict) else None
+    for el in system.elements:
+        if el.kind != "contact":
+            continue
+        d = el.dof
+        qd = float(np.asarray(q_max)[d]) if q_max is not None else float(np.max(sol.displacement([d])))
+        amp = float(np.max(np.abs(sol.displacement([d]))))
+        gaps.append((el.gap - qd) / max(abs(el.gap), amp, 1e-300))
+    if gaps:
+        g = min(gaps)
+        active = g <= CONTACT_TOL
+        evs = sol.info.get("events") if isinstance(sol.info, dict) else None
+        if active and evs:  # exact flow: minus the largest impact velocity (-> 0 at grazing), as a displacement
+            v = max((abs(float(e.velocity)) for e in evs if getattr(e, "impulse", 0.0) != 0.0), default=0.0)
+            if v > 0.0:
+                el = next(e for e in system.elements if e.kind == "contact")
+                amp = float(np.max(np.abs(sol.displacement([el.dof]))))
+                g = -v / sol.omega / max(abs(el.gap), amp, 1e-300)
+        return BranchPoint(sol.omega, x=sol if x is None else x, multipliers=mu, tangent_omega=tangent_omega,
+                           contact_active=active, gap=g)
+    return BranchPoint(sol.omega, x=sol if x is None else x, multipliers=mu, tangent_omega=tangent_omega)
