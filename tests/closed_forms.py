@@ -46,9 +46,13 @@ and the implicit function theorem on ``x(t1) = sigma`` (``x'(t1-) = v1 > 0``)::
 
 with ``x''(t1-) = cos(omega t1) - 2 zeta v1 - sigma``.  The eigenvalues of this 2x2 Jacobian ``J``
 are the orbit's Floquet multipliers (the stroboscopic map over one period is conjugate to the impact
-map; for one DOF the monodromy of the flow is 2x2, the same two values).  Check:
-``det J = r^2 e^{-2 zeta T}`` (area contraction of the flow times ``r`` for each of the two velocity
-coordinates... verified numerically in the tests).
+map; for one DOF the monodromy of the flow is 2x2, the same two values, no extra multiplier; the exact
+solver's extended state ``(q, u, 1, cos, sin)`` adds only the forcing oscillator's trivial ones, which
+:mod:`mshbm.methods.exact` drops by taking the ``2n x 2n`` block).  Check (verified in the tests):
+``det J = r^2 e^{-2 zeta T}``: the flow contracts areas by ``e^{-2 zeta T}`` (Liouville) and the
+impact's saltation matrix ``S = R + (f+ - R f-) c^T / (c^T f-)`` with ``R = diag(1, -r)``,
+``c = (1, 0)``, ``f- = (v, a-)``, ``f+ = (-r v, a+)`` is ``[[-r, 0], [(a+ + r a-)/v, -r]]``, of
+determinant ``r^2``.
 
 Period doubling: ``det(J + I) = 1 + tr J + det J = 0`` (an eigenvalue ``-1``), solved for ``omega``
 along the stable (1,1) branch by :func:`omega_pd`.
@@ -198,6 +202,20 @@ def pd_test_function(omega, zeta=ZETA, sigma=SIGMA, r=R):
     return float(np.linalg.det(J + np.eye(2)))
 
 
-def omega_pd(lo, hi, zeta=ZETA, sigma=SIGMA, r=R):
-    """Period-doubling frequency of the (1,1) orbit in ``[lo, hi]``: the root of :func:`pd_test_function`."""
+def omega_pd(lo=2.4, hi=2.5, zeta=ZETA, sigma=SIGMA, r=R):
+    """Period-doubling frequency of the (1,1) orbit in ``[lo, hi]``: the root of :func:`pd_test_function`.
+
+    For the test parameters (``zeta = 0.05, sigma = 0.1, r = 0.8``): ``omega_PD = 2.4567153560435933``
+    (multipliers there ``-1`` and ``-0.495572``; impact phase ``t0 = 1.214223``, approach velocity
+    ``v = 0.358195``, amplitude 0.317083).  Below it the multipliers form a complex pair of modulus
+    ``r e^{-zeta T}`` (0.70 at 0.99 omega_PD) that meets on the negative real axis at omega ~ 2.44;
+    above it one real multiplier is below -1 (-1.573 at 1.01 omega_PD).  Undamped with
+    ``sigma = 0, r = 0.8`` the same formulas give the Budd & Dux values of tests/test_stability.py.
+    """
     return brentq(lambda w: pd_test_function(w, zeta, sigma, r), lo, hi, xtol=1e-13)
+
+
+def omega_grazing(lo=2.5, hi=4.0, zeta=ZETA, sigma=SIGMA):
+    """Grazing frequency above resonance: the linear response's amplitude ``|G|`` equals ``sigma``
+    (``3.315795717103483`` for the test parameters); the (1,1) orbit's impact velocity vanishes there."""
+    return brentq(lambda w: abs(_G(w, zeta)) - sigma, lo, hi, xtol=1e-14)
