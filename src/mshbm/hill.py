@@ -27,7 +27,7 @@ inverse-DFT matrices of the ``N_s`` AFT samples and ``(x)`` the Kronecker produc
 harmonic-major coefficient layout.  ``H_h`` is exactly the Jacobian of the (uncondensed) HBM
 residual.  The quadratic eigenvalue problem is linearised (companion form, size
 ``2 n (2 n_h + 1)``) and solved densely, so the cost grows like ``(n n_h)^3``: the function
-refuses more than :data:`MAX_SIZE` unknowns.
+refuses more than :data:`MAX_SIZE` coefficients ``n (2 n_h + 1)`` (a 3000-square eigenproblem).
 
 Which eigenvalues
 -----------------
@@ -71,7 +71,7 @@ __all__ = ["hill_matrices", "hill_exponents", "hill_multipliers", "assess_hbm", 
 
 HILL = "hill (HBM, regularised laws: stability of the regularised system)"
 #: largest number of coefficients ``n (2 n_h + 1)`` for the dense eigenvalue problem
-MAX_SIZE = 3000
+MAX_SIZE = 1500
 #: a verdict needs ``| max|mu| - 1 | >`` this, and more than the estimated multiplier error
 HILL_TOL = 1e-6
 #: eigenvalues without a copy ``s +- i omega`` within ``COPY_TOL omega`` are chosen last (spurious)
@@ -167,10 +167,10 @@ def hill_exponents(system, omega, q_hat, steps=None, filter="symmetric"):
     N = Mh.shape[0]
     nc = np.asarray(q_hat).shape[0]
     n = system.n
-    # companion form of s^2 M + s C + H: z = (p, s p), A z = s B z
-    A = np.block([[np.zeros((N, N)), np.eye(N)], [-Hh, -Ch]])
-    B = np.block([[np.eye(N), np.zeros((N, N))], [np.zeros((N, N)), Mh]])
-    lam, vec = sla.eig(A, B)
+    # companion form of s^2 M + s C + H: z = (p, s p), A z = s z with M_h^-1 = I (x) M^-1 (M is positive definite)
+    Minv = np.kron(np.eye(nc), np.linalg.inv(system.dense("M")))
+    A = np.block([[np.zeros((N, N)), np.eye(N)], [-Minv @ Hh, -Minv @ Ch]])
+    lam, vec = sla.eig(A)
     ok = np.isfinite(lam)
     lam, vec = lam[ok], vec[:N, ok]
     if filter == "symmetric":
