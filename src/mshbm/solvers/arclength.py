@@ -1,0 +1,391 @@
+"""Pseudo-arclength continuation of a residual ``R(x, lam) = 0`` in a scalar parameter ``lam``.
+
+Generic: the driver knows nothing about methods.  It takes callables (like NLvib's one
+continuation driver for any residual):
+
+``residual(x, lam) -> (R, J)``
+    the residual (shape ``(n_x,)``) and its Jacobian ``dR/dx`` (``(n_x, n_x)``);
+``d_lam(x, lam) -> dR/dlam``
+    the derivative in the parameter (``(n_x,)``);
+``residual_scale(x, lam) -> s``
+    per-row scale of ``R``: converged when ``||R / s||_inf <= tol`` (:mod:`mshbm.scaling`);
+``unknown_scale(x, lam) -> w``
+    per-unknown scale of ``x`` in its physical units (m, m/s), taken from the *current solution*
+    and the problem, never from the start.
+
+Scaled variables ``y = x / w``, ``mu = lam / lam_scale`` make the arclength
+``ds^2 = ||dx / w||^2 + (dlam / lam_scale)^2`` dimensionless: ``ds = 0.05`` is a step of 5 % of the
+solution's size or of ``lam_scale`` (for a frequency sweep ``lam_scale`` is the start frequency).
+
+Algorithm (Keller's pseudo-arclength):
+
+* tangent ``t`` (unit, scaled): the null vector of ``[J_y, g]`` (``J_y = diag(1/s) J diag(w)``,
+  ``g = diag(1/s) dR/dlam lam_scale``), oriented so that ``t . t_prev > 0`` -- this carries the
+  direction of travel through turning points (folds), where the ``lam`` component of ``t`` changes
+  sign;
+* predictor: ``(y, mu) + ds t`` (tangent) or along the secant of the last two points;
+* corrector: Newton on the bordered system ``[R / s; t . ((y, mu) - predictor)] = 0`` (the
+  hyperplane through the predictor orthogonal to ``t``), with backtracking on the scaled residual;
+* step control: ``ds`` grows by ``grow`` after a corrector of at most ``fast_iter`` iterations,
+  shrinks by ``shrink`` after one of more than ``slow_iter``; a failed (or rejected, see ``accept``)
+  corrector halves ``ds`` and retries, down to ``ds_min``;
+* stop: at ``lam_end`` (the last point is solved at ``lam = lam_end`` exactly), after
+  ``max_points`` points, when ``ds < ds_min``, or when the branch turns back beyond the start;
+* folds: a sign change of the ``lam`` component of the tangent between two points is located by
+  a secant/bisection on the arclength from the earlier point, to ``fold_rtol`` in ``lam``.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+__all__ = ["ContinuationPoint", "ContinuationResult", "continuation", "tangent"]
+
+
+@dataclass
+class ContinuationPoint:
+    """One converged point: unknowns ``x``, parameter ``lam``, unit tangent (physical units ``dx/ds,
+    dlam/ds``), corrector iterations, the step ``ds`` that led here, scaled residual, and the payload
+    returned by ``accept``."""
+
+    x: np.ndarray
+    lam: float
+    dx: np.ndarray
+    dlam: float
+    iterations: int
+    ds: float
+    residual: float
+    payload: object = None
+
+
+@dataclass
+class ContinuationResult:
+    points: list
+    success: bool
+    message: str
+    folds: list = field(default_factory=list)   # [{"lam", "x", "index"}]: between points index-1 and index
+    counters: dict = field(default_factory=dict)
+
+
+class _Failed(Exception):
+    pass
+
+
+def _solve(A, b):
+    try:
+        z = np.linalg.solve(A, b)
+    except np.linalg.LinAlgError:
+        z = np.linalg.lstsq(A, b, rcond=None)[0]
+    if not np.all(np.isfinite(z)):
+        raise _Failed("singular bordered system")
+    return z
+
+
+class _Evaluator:
+    """Scaled evaluation of the callables at ``(x, lam)``, counting calls."""
+
+    def __init__(self, residual, d_lam, residual_scale, unknown_scale, lam_scale):
+        self.residual, self.d_lam = residual, d_lam
+        self.residual_scale, self.unknown_scale = residual_scale, unknown_scale
+        self.lam_scale = float(lam_scale)
+        self.n_res = self.n_dlam = 0
+
+    def __call__(self, x, lam, jac=True):
+        R, J = self.residual(x, lam)
+        self.n_res += 1
+        s = np.asarray(self.residual_scale(x, lam), dtype=float)
+        r = float(np.max(np.abs(R) / s)) if R.size else 0.0
+        if not jac:
+            return R, s, r, None, None
+        g = np.asarray(self.d_lam(x, lam), dtype=float)
+        self.n_dlam += 1
+        return R, s, r, np.asarray(J, dtype=float), g
+
+
+def tangent(J, g, s, w, lam_scale, previous=None):
+    """Unit tangent ``(t_y, t_mu)`` in scaled variables of ``R(x, lam) = 0`` (see the module docstring),
+    oriented along ``previous`` (a scaled tangent) or, without one, towards increasing ``lam``."""
+    A = np.hstack([(J * w[None, :]) / s[:, None], (g * lam_scale / s)[:, None]])
+    n = A.shape[1]
+    if previous is None:
+        # the row that fixes the gauge: the column of A least in its range (lam, unless at a fold)
+        row = np.zeros(n)
+        row[-1] = 1.0
+        B = np.vstack([A, row])
+        try:
+            z = np.linalg.solve(B, np.eye(n)[-1])
+            if not np.all(np.isfinite(z)):
+                raise np.linalg.LinAlgError
+        except np.linalg.LinAlgError:
+            z = np.linalg.svd(A)[2][-1]
+    else:
+        B = np.vstack([A, previous])
+        try:
+            z = np.linalg.solve(B, np.eye(n)[-1])
+            if not np.all(np.isfinite(z)):
+                raise np.linalg.LinAlgError
+        except np.linalg.LinAlgError:
+            z = np.linalg.svd(A)[2][-1]
+    z = z / np.linalg.norm(z)
+    ref = previous if previous is not None else np.eye(n)[-1]
+    if float(z @ ref) < 0:
+        z = -z
+    return z
+
+
+def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_scale, lam_scale=None,
+                 ds0=0.02, ds_min=1e-5, ds_max=0.2, max_points=200, tol=1e-10, max_corrector_iter=12,
+                 fast_iter=3, slow_iter=7, grow=1.6, shrink=0.5, predictor="tangent", accept=None,
+                 callback=None, fold_rtol=1e-3, max_time=None, lam_limits=None):
+    """Trace the branch of ``R(x, lam) = 0`` from the converged point ``(x0, lam0)`` towards ``lam_end``.
+
+    Parameters
+    ----------
+    residual, d_lam, residual_scale, unknown_scale : callable
+        See the module docstring.
+    x0 : ndarray
+        A solution at ``lam0`` (``||R / s||_inf <= tol``, else the first corrector makes it one).
+    lam0, lam_end : float
+        Start and end of the parameter range; the branch is followed in the direction of
+        ``lam_end`` and stops when it reaches it.
+    lam_scale : float
+        Scale of ``lam`` in the arclength (default ``|lam0|``, or 1).
+    ds0, ds_min, ds_max : float
+        Initial, smallest and largest arclength step (scaled, see the module docstring).
+    max_points : int
+        Most points on the branch (the start included).
+    tol : float
+        Corrector tolerance on ``||R / s||_inf``.
+    max_corrector_iter, fast_iter, slow_iter, grow, shrink
+        Step control (module docstring).
+    predictor : {"tangent", "secant"}
+    accept : callable, optional
+        ``accept(x, lam) -> (ok, payload)`` after each converged corrector (e.g. a certificate);
+        a rejected point counts as a failed corrector.  The payload is stored on the point.
+    callback : callable, optional
+        ``callback(point, n_points, ds)`` after each accepted point (progress display).
+    fold_rtol : float
+        Relative accuracy in ``lam`` of the located folds.
+    max_time : float, optional
+        Wall-time limit (s).
+    lam_limits : (float, float), optional
+        The branch stops when ``lam`` leaves this interval (default: the range widened by half its
+        length on both sides).
+
+    Returns
+    -------
+    ContinuationResult
+    """
+    ev = _Evaluator(residual, d_lam, residual_scale, unknown_scale,
+                    lam_scale if lam_scale is not None else (abs(lam0) if lam0 != 0 else 1.0))
+    lsc = ev.lam_scale
+    direction = 1.0 if lam_end >= lam0 else -1.0
+    span = abs(lam_end - lam0)
+    lo, hi = lam_limits if lam_limits is not None else (min(lam0, lam_end) - 0.5 * span,
+                                                         max(lam0, lam_end) + 0.5 * span)
+    t_start = time.perf_counter()
+    counters = {"corrector_failures": 0, "rejected": 0, "corrector_iterations": 0}
+
+    def newton_fixed(x, lam):
+        """Newton at fixed ``lam`` (the start and the end point)."""
+        for it in range(max_corrector_iter + 1):
+            R, s, r, J, g = ev(x, lam)
+            if r <= tol:
+                return x, it, r, (R, s, J, g)
+            if it == max_corrector_iter:
+                break
+            dx = _solve(J / s[:, None], -R / s)
+            x = _backtrack(lambda xx: ev(xx, lam, jac=False)[2], x, dx, r)
+        raise _Failed(f"Newton at fixed parameter {lam:.6g} did not converge (||R/s|| = {r:.2e})")
+
+    def _backtrack(norm, x, dx, r):
+        a = 1.0
+        for _ in range(6):
+            xt = x + a * dx
+            rt = norm(xt)
+            if np.isfinite(rt) and rt < r:
+                return xt
+            a *= 0.5
+        return x + dx
+
+    def corrector(xp, lp, t, w):
+        """Bordered Newton from the predictor ``(xp, lp)`` on the hyperplane orthogonal to ``t``."""
+        x, lam = xp.copy(), lp
+        ty, tm = t[:-1], t[-1]
+        for it in range(max_corrector_iter + 1):
+            if lam0 > 0 >= lam:  # a positive parameter (frequency, load factor) stays positive
+                raise _Failed("the corrector left the positive parameter range")
+            R, s, r, J, g = ev(x, lam)
+            c = float(ty @ ((x - xp) / w) + tm * (lam - lp) / lsc)
+            if r <= tol and abs(c) <= 1e-8:
+                return x, lam, it, r, (R, s, J, g)
+            if it == max_corrector_iter or not np.isfinite(r):
+                break
+            A = np.zeros((x.size + 1, x.size + 1))
+            A[:-1, :-1] = (J * w[None, :]) / s[:, None]
+            A[:-1, -1] = g * lsc / s
+            A[-1, :-1], A[-1, -1] = ty, tm
+            z = _solve(A, -np.concatenate([R / s, [c]]))
+            dx, dl = z[:-1] * w, z[-1] * lsc
+            a, accepted = 1.0, False
+            for _ in range(6):  # backtracking on the scaled residual
+                xt, lt = x + a * dx, lam + a * dl
+                if lt > 0 or lam0 <= 0:
+                    rt = ev(xt, lt, jac=False)[2]
+                    if np.isfinite(rt) and rt < max(r, tol):
+                        accepted = True
+                        break
+                a *= 0.5
+            if not accepted:
+                xt, lt = x + dx, lam + dl
+            x, lam = xt, lt
+        raise _Failed(f"corrector did not converge in {max_corrector_iter} iterations (||R/s|| = {r:.2e})")
+
+    def make_point(x, lam, it, r, data, ds, prev_t):
+        R, s, J, g = data
+        w = np.asarray(unknown_scale(x, lam), dtype=float)
+        t = tangent(J, g, s, w, lsc, previous=prev_t)
+        return ContinuationPoint(x=x, lam=float(lam), dx=t[:-1] * w, dlam=float(t[-1] * lsc), iterations=it,
+                                 ds=ds, residual=r), t, w
+
+    def scaled_t(p, w):
+        t = np.concatenate([p.dx / w, [p.dlam / lsc]])
+        return t / np.linalg.norm(t)
+
+    def step(p, w, ds, prev=None):
+        """Predict from point ``p`` by ``ds`` and correct; returns (x, lam, it, r, data)."""
+        t = scaled_t(p, w)
+        if predictor == "secant" and prev is not None:
+            d = np.concatenate([(p.x - prev.x) / w, [(p.lam - prev.lam) / lsc]])
+            nd = np.linalg.norm(d)
+            if nd > 0 and float(d @ t) > 0:
+                t = d / nd
+        xp, lp = p.x + ds * t[:-1] * w, p.lam + ds * t[-1] * lsc
+        return corrector(xp, lp, t, w), t
+
+    # ---- the start point
+    try:
+        x, it, r, data = newton_fixed(np.asarray(x0, dtype=float), float(lam0))
+    except _Failed as exc:
+        return ContinuationResult([], False, f"start point: {exc}", [], counters)
+    p0, t0, _ = make_point(x, lam0, it, r, data, 0.0, None)
+    if t0[-1] * direction < 0:  # orient towards lam_end
+        p0.dx, p0.dlam = -p0.dx, -p0.dlam
+    if accept is not None:
+        ok, p0.payload = accept(p0.x, p0.lam)
+        if not ok:
+            return ContinuationResult([p0], False, "the start point was rejected", [], counters)
+    points, folds = [p0], []
+    if callback is not None:
+        callback(p0, 1, ds0)
+    ds, message, success = ds0, "", False
+
+    def finish_at_end(p, q):
+        """Solve at ``lam_end`` from the interpolation between points ``p`` and ``q`` that bracket it."""
+        a = (lam_end - p.lam) / (q.lam - p.lam)
+        xg = p.x + a * (q.x - p.x)
+        x, it, r, data = newton_fixed(xg, lam_end)
+        w = np.asarray(unknown_scale(x, lam_end), dtype=float)
+        pt, _, _ = make_point(x, lam_end, it, r, data, q.ds, scaled_t(q, w))
+        return pt
+
+    while True:
+        if len(points) >= max_points:
+            message = f"stopped after {max_points} points (max_points) at lam = {points[-1].lam:.6g}"
+            break
+        if max_time is not None and time.perf_counter() - t_start > max_time:
+            message = f"stopped by the time limit ({max_time:g} s) at lam = {points[-1].lam:.6g}"
+            break
+        p = points[-1]
+        w = np.asarray(unknown_scale(p.x, p.lam), dtype=float)
+        try:
+            (x, lam, it, r, data), t_used = step(p, w, ds, points[-2] if len(points) > 1 else None)
+            counters["corrector_iterations"] += it
+            q, tq, wq = make_point(x, lam, it, r, data, ds, scaled_t(p, np.asarray(unknown_scale(x, lam), float)))
+            if float(tq @ scaled_t(p, wq)) < 0.0:
+                raise _Failed("tangent reversed (the step jumped across a branch point)")
+            if accept is not None:
+                ok, q.payload = accept(q.x, q.lam)
+                if not ok:
+                    counters["rejected"] += 1
+                    raise _Failed("point rejected")
+        except _Failed as exc:
+            counters["corrector_failures"] += 1
+            ds *= 0.5
+            if ds < ds_min:
+                message = f"step size below ds_min = {ds_min:g} at lam = {p.lam:.6g} ({exc})"
+                break
+            continue
+        # fold: the lam component of the tangent changed sign between p and q
+        if p.dlam * q.dlam < 0:
+            try:
+                folds.append(_locate_fold(step, p, w, ds, q, len(points), fold_rtol, lsc))
+            except _Failed as exc:
+                folds.append({"lam": float(0.5 * (p.lam + q.lam)) if abs(q.lam - p.lam) <= fold_rtol * abs(q.lam)
+                              else max(p.lam, q.lam) if p.dlam > 0 else min(p.lam, q.lam),
+                              "x": q.x, "index": len(points), "located": False, "note": str(exc)})
+        # the end of the range
+        if (q.lam - lam_end) * direction >= 0 and (p.lam - lam_end) * direction < 0:
+            try:
+                q = finish_at_end(p, q)
+                if accept is not None:
+                    ok, q.payload = accept(q.x, q.lam)
+                    if not ok:
+                        raise _Failed("end point rejected")
+            except _Failed as exc:
+                message = f"reached lam_end but the end point failed: {exc}"
+                break
+            points.append(q)
+            if callback is not None:
+                callback(q, len(points), ds)
+            success, message = True, f"reached lam_end = {lam_end:.6g} in {len(points)} points"
+            break
+        points.append(q)
+        if callback is not None:
+            callback(q, len(points), ds)
+        if not lo <= q.lam <= hi:
+            message = f"the branch left the parameter range [{lo:.6g}, {hi:.6g}] at lam = {q.lam:.6g}"
+            break
+        ds = min(ds * grow, ds_max) if it <= fast_iter else (max(ds * shrink, ds_min) if it > slow_iter else ds)
+    counters.update(residual_evaluations=ev.n_res, parameter_derivatives=ev.n_dlam,
+                    wall_time=time.perf_counter() - t_start)
+    return ContinuationResult(points, success, message, folds, counters)
+
+
+def _locate_fold(step, p, w, ds, q, index, rtol, lsc):
+    """Arclength ``sigma`` in ``(0, ds)`` from ``p`` where the ``lam`` component of the tangent vanishes:
+    secant steps safeguarded by bisection on ``f(sigma) = dlam/ds``."""
+    a, fa, la = 0.0, p.dlam, p.lam
+    b, fb, lb = ds, q.dlam, q.lam
+    best = q
+    for _ in range(40):
+        if abs(lb - la) <= rtol * max(abs(la), abs(lb), 1e-300) and abs(b - a) < 1e-3 * ds or abs(b - a) < 1e-9:
+            break
+        sig = b - fb * (b - a) / (fb - fa) if fb != fa else 0.5 * (a + b)
+        if not (a + 0.05 * (b - a) < sig < b - 0.05 * (b - a)):
+            sig = 0.5 * (a + b)
+        (x, lam, it, r, data), _ = step(p, w, sig)
+        from_p = _point_tangent_lam(data, x, lam, p, w, lsc)
+        if from_p * fa > 0:
+            a, fa, la = sig, from_p, lam
+        else:
+            b, fb, lb = sig, from_p, lam
+        best = (x, lam)
+        if abs(from_p) < 1e-12:
+            break
+    x, lam = best if isinstance(best, tuple) else (best.x, best.lam)
+    # the fold lies between la and lb; report the extreme (the turning point) of the bracket
+    lam_f = max(la, lb) if p.dlam > 0 else min(la, lb)
+    return {"lam": float(lam_f), "x": x, "index": index, "located": True,
+            "bracket": [float(min(la, lb)), float(max(la, lb))]}
+
+
+def _point_tangent_lam(data, x, lam, p, w, lsc):
+    R, s, J, g = data
+    t_prev = np.concatenate([p.dx / w, [p.dlam / lsc]])
+    t_prev /= np.linalg.norm(t_prev)
+    t = tangent(J, g, s, w, lsc, previous=t_prev)
+    return float(t[-1] * lsc)
