@@ -10,6 +10,7 @@ method of Schreyer & Leine (2016), behind one call::
 """
 from . import stability  # noqa: F401  (mshbm.stability: Floquet multipliers and verdicts)
 from .api import METHODS, build_problem, residual_omega_derivative, solve
+from .branch import Branch, continue_forcing, sweep  # noqa: F401  (frequency-response curves)
 from .errors import ConvergenceError, InputError
 from .methods.exact import exact_periodic
 from .result import PeriodicSolution
