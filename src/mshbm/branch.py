@@ -261,7 +261,26 @@ class _Tracer:
     def unknown_scale(self, x, lam):
         return unknown_scale(self.problem(lam), x)
 
-    def point(self, x, lam, iterations, residual):
+    def stall_accept(self, x, lam):
+        """A stalled corrector on an impacting orbit of a time-stepping method is accepted when periodic to
+        one time step's accuracy (:func:`mshbm.solvers.starts.residual_accept`, as :func:`mshbm.solve`'s
+        start ladder does); returns the ``step_accuracy`` record for the certificate, else ``None``."""
+        from .solvers.newton import NewtonResult
+        from .solvers.starts import Attempt, residual_accept
+
+        if self.method == "hbm":
+            return None
+        problem = self.problem(lam)
+        x = np.asarray(x, dtype=float)
+        res = NewtonResult(x=x, success=False, nit=0, nfev=0, residual_norm=float("nan"), message="stalled")
+        att = Attempt(start="continuation", x0=x, newton=res, problem=problem)
+        try:
+            ok = residual_accept(problem, problem.system, problem.omega)(att)
+        except (np.linalg.LinAlgError, ValueError, FloatingPointError):
+            return None
+        return att.step_accuracy if ok and att.step_accuracy is not None else None
+
+    def point(self, x, lam, iterations, residual, step_accuracy=None):
         """Certified :class:`BranchPoint` at ``(x, lam)``, or ``None`` if the certificate fails."""
         from . import stability as _stability
         from .certificate import certify
@@ -275,7 +294,7 @@ class _Tracer:
         sol = PeriodicSolution(method=self.method, omega=float(omega_b), harmonics=n_h, steps=len(parts["t"]) - 1,
                                success=True, message="continuation corrector converged", iterations=int(iterations),
                                nfev=0, residual=float(residual), wall_time=0.0, x=np.asarray(x, dtype=float), **parts)
-        cert = certify(problem, sol, self.tol)
+        cert = certify(problem, sol, self.tol, step_accuracy)
         sol.certificate = cert
         if not cert.passed:
             return None
@@ -284,12 +303,17 @@ class _Tracer:
         sol.wall_time = time.perf_counter() - t0
         omega = float(omega_b) * self.k
         sol.info["period"], sol.info["forcing_omega"] = self.k, omega
+        if step_accuracy is not None:
+            sol.info["step_accuracy"] = {"ratio": float(step_accuracy["ratio"]),
+                                         "bound": np.asarray(step_accuracy["bound"], dtype=float)}
         return BranchPoint(omega=omega, load=float(lam) if self.parameter == "forcing" else 1.0,
                            amplitude=np.asarray(sol.amplitude, dtype=float), x=np.asarray(x, dtype=float),
                            q_hat=np.asarray(sol.q_hat, dtype=float), iterations=int(iterations),
                            residual=float(residual),
                            certificate={"passed": True, "failed": [],
-                                        "checks": len([c for c in cert.checks if c.gating])},
+                                        "checks": len([c for c in cert.checks if c.gating]),
+                                        "step_accuracy": None if step_accuracy is None
+                                        else float(step_accuracy["ratio"])},
                            floquet_multipliers=np.asarray(sol.floquet_multipliers, dtype=complex),
                            stable=sol.stable, stability_method=sol.stability_method,
                            contact=_contact_info(system, sol), solution=sol)
@@ -396,8 +420,8 @@ def _run(system, lam_start, lam_end, method, period, parameter, omega_fixed, opt
         branch.wall_time = time.perf_counter() - t0
         return branch
 
-    def accept(x, lam):  # iterations and residual are set from the continuation's points below
-        pt = tracer.point(x, lam, 0, 0.0)
+    def accept(x, lam, stall):  # iterations and residual are set from the continuation's points below
+        pt = tracer.point(x, lam, 0, 0.0, stall)
         return pt is not None, pt
 
     lam_scale = abs(lam_start) if parameter == "omega" else max(abs(lam_start), abs(lam_end))
@@ -406,7 +430,8 @@ def _run(system, lam_start, lam_end, method, period, parameter, omega_fixed, opt
             tracer.residual, tracer.d_lam, np.asarray(sol0.x, dtype=float), float(lam_start), float(lam_end),
             residual_scale=tracer.residual_scale, unknown_scale=tracer.unknown_scale, lam_scale=lam_scale,
             ds0=ds, ds_min=ds_min, ds_max=ds_max, max_points=int(max_points), tol=tol,
-            predictor=predictor, accept=accept, callback=progress, max_time=max_time)
+            predictor=predictor, accept=accept, callback=progress, max_time=max_time,
+            stall_accept=tracer.stall_accept)
     finally:
         progress.close()
     branch.points = []

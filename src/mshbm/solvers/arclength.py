@@ -59,6 +59,7 @@ class ContinuationPoint:
     ds: float
     residual: float
     payload: object = None
+    stall: object = None
 
 
 @dataclass
@@ -139,7 +140,7 @@ def tangent(J, g, s, w, lam_scale, previous=None):
 def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_scale, lam_scale=None,
                  ds0=0.02, ds_min=1e-5, ds_max=0.2, max_points=200, tol=1e-10, max_corrector_iter=12,
                  fast_iter=3, slow_iter=7, grow=1.6, shrink=0.5, predictor="tangent", accept=None,
-                 callback=None, fold_rtol=1e-3, max_time=None, lam_limits=None):
+                 callback=None, fold_rtol=1e-3, max_time=None, lam_limits=None, stall_accept=None):
     """Trace the branch of ``R(x, lam) = 0`` from the converged point ``(x0, lam0)`` towards ``lam_end``.
 
     Parameters
@@ -163,8 +164,15 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
         Step control (module docstring).
     predictor : {"tangent", "secant"}
     accept : callable, optional
-        ``accept(x, lam) -> (ok, payload)`` after each converged corrector (e.g. a certificate);
-        a rejected point counts as a failed corrector.  The payload is stored on the point.
+        ``accept(x, lam, stall) -> (ok, payload)`` after each converged corrector (e.g. a certificate;
+        ``stall`` is what ``stall_accept`` returned, else ``None``); a rejected point counts as a
+        failed corrector.  The payload is stored on the point.
+    stall_accept : callable, optional
+        ``stall_accept(x, lam) -> info or None``: when the corrector *stalls* (no descent of the scaled
+        residual, or ``max_corrector_iter`` reached) above ``tol``, the iterate is accepted when this
+        returns a truthy ``info`` (e.g. an orbit periodic to one time step's accuracy of a
+        time-stepping method, whose discrete map moves impacts by whole steps and has no exact
+        root; :func:`mshbm.solvers.starts.residual_accept`).
     callback : callable, optional
         ``callback(point, n_points, ds)`` after each accepted point (progress display).
     fold_rtol : float
@@ -189,39 +197,54 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
     t_start = time.perf_counter()
     counters = {"corrector_failures": 0, "rejected": 0, "corrector_iterations": 0}
 
+    def stalled(x, lam):
+        return stall_accept(x, lam) if stall_accept is not None else None
+
     def newton_fixed(x, lam):
-        """Newton at fixed ``lam`` (the start and the end point)."""
+        """Newton at fixed ``lam`` (the start and the end point); returns (x, it, r, data, stall)."""
+        best = None
         for it in range(max_corrector_iter + 1):
             R, s, r, J, g = ev(x, lam)
+            if best is None or r < best[2]:
+                best = (x, it, r, (R, s, J, g))
             if r <= tol:
-                return x, it, r, (R, s, J, g)
+                return x, it, r, (R, s, J, g), None
             if it == max_corrector_iter:
                 break
             dx = _solve(J / s[:, None], -R / s)
-            x = _backtrack(lambda xx: ev(xx, lam, jac=False)[2], x, dx, r)
+            xn, ok = _backtrack(lambda xx: ev(xx, lam, jac=False)[2], x, dx, r)
+            if not ok:
+                break
+            x = xn
+        info = stalled(best[0], lam)
+        if info:
+            return best + (info,)
         raise _Failed(f"Newton at fixed parameter {lam:.6g} did not converge (||R/s|| = {r:.2e})")
 
     def _backtrack(norm, x, dx, r):
         a = 1.0
-        for _ in range(6):
+        for _ in range(8):
             xt = x + a * dx
             rt = norm(xt)
             if np.isfinite(rt) and rt < r:
-                return xt
+                return xt, True
             a *= 0.5
-        return x + dx
+        return x + dx, False
 
     def corrector(xp, lp, t, w):
         """Bordered Newton from the predictor ``(xp, lp)`` on the hyperplane orthogonal to ``t``."""
         x, lam = xp.copy(), lp
         ty, tm = t[:-1], t[-1]
+        best = None
         for it in range(max_corrector_iter + 1):
             if lam0 > 0 >= lam:  # a positive parameter (frequency, load factor) stays positive
                 raise _Failed("the corrector left the positive parameter range")
             R, s, r, J, g = ev(x, lam)
             c = float(ty @ ((x - xp) / w) + tm * (lam - lp) / lsc)
+            if np.isfinite(r) and abs(c) <= 1e-8 and (best is None or r < best[3]):
+                best = (x, lam, it, r, (R, s, J, g))
             if r <= tol and abs(c) <= 1e-8:
-                return x, lam, it, r, (R, s, J, g)
+                return x, lam, it, r, (R, s, J, g), None
             if it == max_corrector_iter or not np.isfinite(r):
                 break
             A = np.zeros((x.size + 1, x.size + 1))
@@ -231,7 +254,7 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
             z = _solve(A, -np.concatenate([R / s, [c]]))
             dx, dl = z[:-1] * w, z[-1] * lsc
             a, accepted = 1.0, False
-            for _ in range(6):  # backtracking on the scaled residual
+            for _ in range(8):  # backtracking on the scaled residual
                 xt, lt = x + a * dx, lam + a * dl
                 if lt > 0 or lam0 <= 0:
                     rt = ev(xt, lt, jac=False)[2]
@@ -240,23 +263,27 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
                         break
                 a *= 0.5
             if not accepted:
-                xt, lt = x + dx, lam + dl
+                break  # stalled: no descent along the Newton direction
             x, lam = xt, lt
+        if best is not None:
+            info = stalled(best[0], best[1])
+            if info:
+                return best + (info,)
         raise _Failed(f"corrector did not converge in {max_corrector_iter} iterations (||R/s|| = {r:.2e})")
 
-    def make_point(x, lam, it, r, data, ds, prev_t):
+    def make_point(x, lam, it, r, data, ds, prev_t, stall=None):
         R, s, J, g = data
         w = np.asarray(unknown_scale(x, lam), dtype=float)
         t = tangent(J, g, s, w, lsc, previous=prev_t)
         return ContinuationPoint(x=x, lam=float(lam), dx=t[:-1] * w, dlam=float(t[-1] * lsc), iterations=it,
-                                 ds=ds, residual=r), t, w
+                                 ds=ds, residual=r, stall=stall), t, w
 
     def scaled_t(p, w):
         t = np.concatenate([p.dx / w, [p.dlam / lsc]])
         return t / np.linalg.norm(t)
 
     def step(p, w, ds, prev=None):
-        """Predict from point ``p`` by ``ds`` and correct; returns (x, lam, it, r, data)."""
+        """Predict from point ``p`` by ``ds`` and correct; returns (x, lam, it, r, data, stall)."""
         t = scaled_t(p, w)
         if predictor == "secant" and prev is not None:
             d = np.concatenate([(p.x - prev.x) / w, [(p.lam - prev.lam) / lsc]])
@@ -268,14 +295,14 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
 
     # ---- the start point
     try:
-        x, it, r, data = newton_fixed(np.asarray(x0, dtype=float), float(lam0))
+        x, it, r, data, st = newton_fixed(np.asarray(x0, dtype=float), float(lam0))
     except _Failed as exc:
         return ContinuationResult([], False, f"start point: {exc}", [], counters)
-    p0, t0, _ = make_point(x, lam0, it, r, data, 0.0, None)
+    p0, t0, _ = make_point(x, lam0, it, r, data, 0.0, None, st)
     if t0[-1] * direction < 0:  # orient towards lam_end
         p0.dx, p0.dlam = -p0.dx, -p0.dlam
     if accept is not None:
-        ok, p0.payload = accept(p0.x, p0.lam)
+        ok, p0.payload = accept(p0.x, p0.lam, p0.stall)
         if not ok:
             return ContinuationResult([p0], False, "the start point was rejected", [], counters)
     points, folds = [p0], []
@@ -287,9 +314,9 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
         """Solve at ``lam_end`` from the interpolation between points ``p`` and ``q`` that bracket it."""
         a = (lam_end - p.lam) / (q.lam - p.lam)
         xg = p.x + a * (q.x - p.x)
-        x, it, r, data = newton_fixed(xg, lam_end)
+        x, it, r, data, st = newton_fixed(xg, lam_end)
         w = np.asarray(unknown_scale(x, lam_end), dtype=float)
-        pt, _, _ = make_point(x, lam_end, it, r, data, q.ds, scaled_t(q, w))
+        pt, _, _ = make_point(x, lam_end, it, r, data, q.ds, scaled_t(q, w), st)
         return pt
 
     while True:
@@ -302,13 +329,13 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
         p = points[-1]
         w = np.asarray(unknown_scale(p.x, p.lam), dtype=float)
         try:
-            (x, lam, it, r, data), t_used = step(p, w, ds, points[-2] if len(points) > 1 else None)
+            (x, lam, it, r, data, st), t_used = step(p, w, ds, points[-2] if len(points) > 1 else None)
             counters["corrector_iterations"] += it
-            q, tq, wq = make_point(x, lam, it, r, data, ds, scaled_t(p, np.asarray(unknown_scale(x, lam), float)))
+            q, tq, wq = make_point(x, lam, it, r, data, ds, scaled_t(p, np.asarray(unknown_scale(x, lam), float)), st)
             if float(tq @ scaled_t(p, wq)) < 0.0:
                 raise _Failed("tangent reversed (the step jumped across a branch point)")
             if accept is not None:
-                ok, q.payload = accept(q.x, q.lam)
+                ok, q.payload = accept(q.x, q.lam, q.stall)
                 if not ok:
                     counters["rejected"] += 1
                     raise _Failed("point rejected")
@@ -332,7 +359,7 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
             try:
                 q = finish_at_end(p, q)
                 if accept is not None:
-                    ok, q.payload = accept(q.x, q.lam)
+                    ok, q.payload = accept(q.x, q.lam, q.stall)
                     if not ok:
                         raise _Failed("end point rejected")
             except _Failed as exc:
@@ -367,7 +394,7 @@ def _locate_fold(step, p, w, ds, q, index, rtol, lsc):
         sig = b - fb * (b - a) / (fb - fa) if fb != fa else 0.5 * (a + b)
         if not (a + 0.05 * (b - a) < sig < b - 0.05 * (b - a)):
             sig = 0.5 * (a + b)
-        (x, lam, it, r, data), _ = step(p, w, sig)
+        (x, lam, it, r, data, _), _ = step(p, w, sig)
         from_p = _point_tangent_lam(data, x, lam, p, w, lsc)
         if from_p * fa > 0:
             a, fa, la = sig, from_p, lam
