@@ -96,6 +96,8 @@ def test_impact_oscillator_branch_passes_its_fold():
     assert all(p.certificate["passed"] for p in b.points)
     assert all(p.contact[0]["active"] for p in b.points)
     assert b.stable[0] is True and b.stable[-1] is False  # the part beyond the fold is unstable
+    folds = [f for f in b.bifurcations if f["type"] == "fold"]
+    assert len(folds) == 1 and folds[0]["omega"] == pytest.approx(w[i], rel=1e-2)
 
 
 def test_forcing_continuation_reaches_full_load():

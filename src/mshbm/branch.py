@@ -281,7 +281,7 @@ class _Tracer:
         return att.step_accuracy if ok and att.step_accuracy is not None else None
 
     def point(self, x, lam, iterations, residual, step_accuracy=None):
-        """Certified :class:`BranchPoint` at ``(x, lam)``, or ``None`` if the certificate fails."""
+        """Certified :class:`BranchPoint` at ``(x, lam)``, or the reason (str) if the certificate fails."""
         from . import stability as _stability
         from .certificate import certify
         from .result import PeriodicSolution
@@ -297,7 +297,7 @@ class _Tracer:
         cert = certify(problem, sol, self.tol, step_accuracy)
         sol.certificate = cert
         if not cert.passed:
-            return None
+            return f"certificate failed: {cert.describe_failures()}"
         system = problem.system
         _stability.assess(system, sol, self.stability, theta=self.options.get("theta", 0.5))
         sol.wall_time = time.perf_counter() - t0
@@ -422,7 +422,7 @@ def _run(system, lam_start, lam_end, method, period, parameter, omega_fixed, opt
 
     def accept(x, lam, stall):  # iterations and residual are set from the continuation's points below
         pt = tracer.point(x, lam, 0, 0.0, stall)
-        return pt is not None, pt
+        return not isinstance(pt, str), pt
 
     lam_scale = abs(lam_start) if parameter == "omega" else max(abs(lam_start), abs(lam_end))
     try:

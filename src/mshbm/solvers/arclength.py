@@ -140,7 +140,8 @@ def tangent(J, g, s, w, lam_scale, previous=None):
 def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_scale, lam_scale=None,
                  ds0=0.02, ds_min=1e-5, ds_max=0.2, max_points=200, tol=1e-10, max_corrector_iter=12,
                  fast_iter=3, slow_iter=7, grow=1.6, shrink=0.5, predictor="tangent", accept=None,
-                 callback=None, fold_rtol=1e-3, max_time=None, lam_limits=None, stall_accept=None):
+                 callback=None, fold_rtol=1e-3, max_time=None, lam_limits=None, stall_accept=None, max_jump=3.0,
+                 stall_fold_rtol=5e-3):
     """Trace the branch of ``R(x, lam) = 0`` from the converged point ``(x0, lam0)`` towards ``lam_end``.
 
     Parameters
@@ -167,6 +168,15 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
         ``accept(x, lam, stall) -> (ok, payload)`` after each converged corrector (e.g. a certificate;
         ``stall`` is what ``stall_accept`` returned, else ``None``); a rejected point counts as a
         failed corrector.  The payload is stored on the point.
+    max_jump : float
+        A corrected point farther than ``max_jump * max(ds, ds0)`` (scaled) from the last point is rejected
+        (a jump to another branch) and the step is shortened.  (Not ``ds`` alone: near points accepted at
+        step accuracy, Newton moves by about one time step's worth whatever ``ds`` is.)
+    stall_fold_rtol : float
+        Folds next to points accepted by ``stall_accept`` (their tangents come from a map that moves
+        events by whole steps and jitter) are taken from the sequence of ``lam`` along the branch
+        instead: a turning point whose reversal exceeds ``stall_fold_rtol`` (relative), located at the
+        extreme point (``"located": "extreme point"``).
     stall_accept : callable, optional
         ``stall_accept(x, lam) -> info or None``: when the corrector *stalls* (no descent of the scaled
         residual, or ``max_corrector_iter`` reached) above ``tol``, the iterate is accepted when this
@@ -200,7 +210,7 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
     def stalled(x, lam):
         return stall_accept(x, lam) if stall_accept is not None else None
 
-    def newton_fixed(x, lam):
+    def newton_fixed(x, lam, allow_stall=True):
         """Newton at fixed ``lam`` (the start and the end point); returns (x, it, r, data, stall)."""
         best = None
         for it in range(max_corrector_iter + 1):
@@ -216,7 +226,7 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
             if not ok:
                 break
             x = xn
-        info = stalled(best[0], lam)
+        info = stalled(best[0], lam) if allow_stall else None
         if info:
             return best + (info,)
         raise _Failed(f"Newton at fixed parameter {lam:.6g} did not converge (||R/s|| = {r:.2e})")
@@ -231,7 +241,7 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
             a *= 0.5
         return x + dx, False
 
-    def corrector(xp, lp, t, w):
+    def corrector(xp, lp, t, w, ds):
         """Bordered Newton from the predictor ``(xp, lp)`` on the hyperplane orthogonal to ``t``."""
         x, lam = xp.copy(), lp
         ty, tm = t[:-1], t[-1]
@@ -266,6 +276,14 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
                 break  # stalled: no descent along the Newton direction
             x, lam = xt, lt
         if best is not None:
+            # the bordered iteration stalled: polish at the parameter reached (a natural-parameter Newton
+            # on x alone often finds the root that the joint line search misses), else accept the stall
+            try:
+                xf, itf, rf, dataf, _ = newton_fixed(best[0], best[1], allow_stall=False)
+                if float(np.linalg.norm((xf - best[0]) / w)) <= 0.5 * ds:  # the same root, not another one
+                    return xf, best[1], best[2] + itf, rf, dataf, None
+            except _Failed:
+                pass
             info = stalled(best[0], best[1])
             if info:
                 return best + (info,)
@@ -291,7 +309,7 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
             if nd > 0 and float(d @ t) > 0:
                 t = d / nd
         xp, lp = p.x + ds * t[:-1] * w, p.lam + ds * t[-1] * lsc
-        return corrector(xp, lp, t, w), t
+        return corrector(xp, lp, t, w, ds), t
 
     # ---- the start point
     try:
@@ -334,11 +352,15 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
             q, tq, wq = make_point(x, lam, it, r, data, ds, scaled_t(p, np.asarray(unknown_scale(x, lam), float)), st)
             if float(tq @ scaled_t(p, wq)) < 0.0:
                 raise _Failed("tangent reversed (the step jumped across a branch point)")
+            dist = float(np.linalg.norm(np.concatenate([(x - p.x) / w, [(lam - p.lam) / lsc]])))
+            if dist > max_jump * max(ds, ds0):
+                raise _Failed(f"the corrector moved {dist:.3g} away, more than {max_jump:g} x max(ds, ds0) "
+                              "(a jump to another branch?)")
             if accept is not None:
                 ok, q.payload = accept(q.x, q.lam, q.stall)
                 if not ok:
                     counters["rejected"] += 1
-                    raise _Failed("point rejected")
+                    raise _Failed("point rejected" + (f": {q.payload}" if isinstance(q.payload, str) else ""))
         except _Failed as exc:
             counters["corrector_failures"] += 1
             ds *= 0.5
@@ -347,7 +369,7 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
                 break
             continue
         # fold: the lam component of the tangent changed sign between p and q
-        if p.dlam * q.dlam < 0:
+        if p.dlam * q.dlam < 0 and p.stall is None and q.stall is None:
             try:
                 folds.append(_locate_fold(step, p, w, ds, q, len(points), fold_rtol, lsc))
             except _Failed as exc:
@@ -377,9 +399,34 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
             message = f"the branch left the parameter range [{lo:.6g}, {hi:.6g}] at lam = {q.lam:.6g}"
             break
         ds = min(ds * grow, ds_max) if it <= fast_iter else (max(ds * shrink, ds_min) if it > slow_iter else ds)
+    folds += _stall_folds(points, stall_fold_rtol)
+    folds.sort(key=lambda f: f["index"])
     counters.update(residual_evaluations=ev.n_res, parameter_derivatives=ev.n_dlam,
                     wall_time=time.perf_counter() - t_start)
     return ContinuationResult(points, success, message, folds, counters)
+
+
+def _stall_folds(points, rtol):
+    """Turning points of ``lam`` along the branch with a reversal of more than ``rtol`` (relative), kept
+    where the extreme point or a neighbour was accepted at step accuracy (tangent folds cover the rest)."""
+    lam = np.array([p.lam for p in points])
+    out, ext, trend = [], 0, 0
+    for i in range(1, lam.size):
+        thr = rtol * max(abs(lam[ext]), 1e-300)
+        if trend == 0:
+            if abs(lam[i] - lam[0]) > thr:
+                trend, ext = (1 if lam[i] > lam[0] else -1), i
+        elif trend * (lam[i] - lam[ext]) >= 0:
+            ext = i
+        elif trend * (lam[ext] - lam[i]) > thr:
+            out.append(ext)
+            trend, ext = -trend, i
+    folds = []
+    for i in out:
+        near = points[max(i - 1, 0):i + 2]
+        if any(p.stall is not None for p in near):
+            folds.append({"lam": float(lam[i]), "x": points[i].x, "index": int(i), "located": "extreme point"})
+    return folds
 
 
 def _locate_fold(step, p, w, ds, q, index, rtol, lsc):
