@@ -479,7 +479,7 @@ def sweep(system, omega_start, omega_end, method="mshbm", period=1, **options):
         continuation's: ``ds`` (first arclength step, scaled, default 0.02), ``ds_min`` (1e-5),
         ``ds_max`` (0.1), ``max_points`` (400), ``predictor`` (``"tangent"`` or ``"secant"``),
         ``max_time`` (s), ``progress`` (show progress on a terminal; ``"always"``: also elsewhere),
-        ``stability`` (as for :func:`mshbm.solve`).
+        ``stability`` (as for :func:`mshbm.solve`), ``blas_threads`` (default 1, as for :func:`mshbm.solve`).
 
     Returns
     -------
@@ -489,7 +489,17 @@ def sweep(system, omega_start, omega_end, method="mshbm", period=1, **options):
     w1 = _check_number("omega_end", omega_end)
     if w0 == w1:
         raise InputError("omega_end", "must differ from omega_start")
-    return _run(system, w0, w1, method, period, "omega", None, options)
+    return _guarded(system, w0, w1, method, period, "omega", None, options)
+
+
+def _guarded(system, a, b, method, period, parameter, omega, options):
+    """``_run`` with one BLAS thread (option ``blas_threads``, as :func:`mshbm.solve`) and quiet floats."""
+    from . import validate
+    from ._blas import blas_threads, check_threads
+
+    options = dict(options)
+    with blas_threads(check_threads(options.pop("blas_threads", 1))), validate.quiet_floats():
+        return _run(system, a, b, method, period, parameter, omega, options)
 
 
 def continue_forcing(system, omega, load_start, load_end=1.0, method="mshbm", period=1, **options):
@@ -503,4 +513,4 @@ def continue_forcing(system, omega, load_start, load_end=1.0, method="mshbm", pe
     b = _check_number("load_end", load_end)
     if a == b:
         raise InputError("load_end", "must differ from load_start")
-    return _run(system, a, b, method, period, "forcing", w, options)
+    return _guarded(system, a, b, method, period, "forcing", w, options)

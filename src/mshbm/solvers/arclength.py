@@ -280,7 +280,7 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
             # on x alone often finds the root that the joint line search misses), else accept the stall
             try:
                 xf, itf, rf, dataf, _ = newton_fixed(best[0], best[1], allow_stall=False)
-                if float(np.linalg.norm((xf - best[0]) / w)) <= 0.5 * ds:  # the same root, not another one
+                if float(np.linalg.norm((xf - best[0]) / w)) <= 0.5 * max(ds, ds0):  # the same root, not another
                     return xf, best[1], best[2] + itf, rf, dataf, None
             except _Failed:
                 pass
