@@ -141,7 +141,7 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
                  ds0=0.02, ds_min=1e-5, ds_max=0.2, max_points=200, tol=1e-10, max_corrector_iter=12,
                  fast_iter=3, slow_iter=7, grow=1.6, shrink=0.5, predictor="tangent", accept=None,
                  callback=None, fold_rtol=1e-3, max_time=None, lam_limits=None, stall_accept=None, max_jump=3.0,
-                 stall_fold_rtol=5e-3):
+                 stall_fold_rtol=5e-3, natural_fallback=True):
     """Trace the branch of ``R(x, lam) = 0`` from the converged point ``(x0, lam0)`` towards ``lam_end``.
 
     Parameters
@@ -177,6 +177,12 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
         events by whole steps and jitter) are taken from the sequence of ``lam`` along the branch
         instead: a turning point whose reversal exceeds ``stall_fold_rtol`` (relative), located at the
         extreme point (``"located": "extreme point"``).
+    natural_fallback : bool
+        When the step falls below ``ds_min`` at a point accepted by ``stall_accept``, continue by
+        natural-parameter steps (Newton at fixed ``lam`` from the last point, ``lam`` step adapted,
+        points accepted at step accuracy too) to ``lam_end``; this passes no fold, and the message says
+        so.  The residual of a time-stepping method at impacts is a staircase in ``(x, lam)`` (the map
+        moves impacts by whole steps), so its Jacobian and ``dR/dlam`` may not predict at all.
     stall_accept : callable, optional
         ``stall_accept(x, lam) -> info or None``: when the corrector *stalls* (no descent of the scaled
         residual, or ``max_corrector_iter`` reached) above ``tol``, the iterate is accepted when this
@@ -249,6 +255,9 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
         for it in range(max_corrector_iter + 1):
             if lam0 > 0 >= lam:  # a positive parameter (frequency, load factor) stays positive
                 raise _Failed("the corrector left the positive parameter range")
+            if abs(lam - lp) > max_jump * max(ds, ds0) * lsc:
+                raise _Failed(f"the corrector moved the parameter to {lam:.6g}, more than {max_jump:g} x max(ds, ds0) "
+                              "from the predictor (a jump, or a useless dR/dlam)")
             R, s, r, J, g = ev(x, lam)
             c = float(ty @ ((x - xp) / w) + tm * (lam - lp) / lsc)
             if np.isfinite(r) and abs(c) <= 1e-8 and (best is None or r < best[3]):
@@ -327,6 +336,7 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
     if callback is not None:
         callback(p0, 1, ds0)
     ds, message, success = ds0, "", False
+    natural, natural_reason = None, ""
 
     def finish_at_end(p, q):
         """Solve at ``lam_end`` from the interpolation between points ``p`` and ``q`` that bracket it."""
@@ -346,6 +356,37 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
             break
         p = points[-1]
         w = np.asarray(unknown_scale(p.x, p.lam), dtype=float)
+        if natural is not None:  # natural-parameter steps (see the fallback below)
+            try:
+                lam_n = p.lam + direction * natural
+                if (lam_n - lam_end) * direction > 0:
+                    lam_n = lam_end
+                x, it, r, data, st = newton_fixed(p.x, lam_n)
+                q, _, _ = make_point(x, lam_n, it, r, data, natural / lsc, scaled_t(p, w), st)
+                q.dx, q.dlam = (x - p.x) / (natural / lsc), direction * lsc  # secant, not the (useless) tangent
+                if accept is not None:
+                    ok, q.payload = accept(q.x, q.lam, q.stall)
+                    if not ok:
+                        raise _Failed("point rejected" + (f": {q.payload}" if isinstance(q.payload, str) else ""))
+            except _Failed as exc:
+                counters["natural_failures"] = counters.get("natural_failures", 0) + 1
+                natural *= 0.5
+                if natural < ds_min * lsc:
+                    message = (f"natural-parameter steps below ds_min at lam = {p.lam:.6g} ({exc}) after the "
+                               f"arclength corrector failed ({natural_reason})")
+                    break
+                continue
+            points.append(q)
+            counters["natural_points"] = counters.get("natural_points", 0) + 1
+            if callback is not None:
+                callback(q, len(points), natural / lsc)
+            if q.lam == lam_end:
+                success, message = True, (f"reached lam_end = {lam_end:.6g} in {len(points)} points (the last "
+                                          f"{counters['natural_points']} by natural-parameter steps after the "
+                                          f"arclength corrector failed: {natural_reason})")
+                break
+            natural = min(natural * 1.5, ds_max * lsc)
+            continue
         try:
             (x, lam, it, r, data, st), t_used = step(p, w, ds, points[-2] if len(points) > 1 else None)
             counters["corrector_iterations"] += it
@@ -365,6 +406,11 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
             counters["corrector_failures"] += 1
             ds *= 0.5
             if ds < ds_min:
+                if natural_fallback and p.stall is not None:
+                    # at an orbit accepted at step accuracy the residual is a staircase in (x, lam): its
+                    # Jacobian and dR/dlam do not predict; step in lam at fixed lam instead (no folds)
+                    natural, natural_reason = ds0 * lsc * 0.5, str(exc)
+                    continue
                 message = f"step size below ds_min = {ds_min:g} at lam = {p.lam:.6g} ({exc})"
                 break
             continue
