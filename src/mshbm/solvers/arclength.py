@@ -197,7 +197,7 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
         Wall-time limit (s).
     lam_limits : (float, float), optional
         The branch stops when ``lam`` leaves this interval (default: the range widened by half its
-        length on both sides).
+        length on both sides, for a positive range at most down to half its lower end).
 
     Returns
     -------
@@ -210,6 +210,8 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
     span = abs(lam_end - lam0)
     lo, hi = lam_limits if lam_limits is not None else (min(lam0, lam_end) - 0.5 * span,
                                                          max(lam0, lam_end) + 0.5 * span)
+    if lam_limits is None and min(lam0, lam_end) > 0:  # a positive parameter: at most down to half the range's start
+        lo = max(lo, 0.5 * min(lam0, lam_end))
     t_start = time.perf_counter()
     counters = {"corrector_failures": 0, "rejected": 0, "corrector_iterations": 0}
 
