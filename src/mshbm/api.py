@@ -60,7 +60,9 @@ def solve(system, omega, method="mshbm", **options):
         event-driven flow with saltation terms for systems with at most one element and up to
         :data:`mshbm.stability.MAX_EXACT_DOFS` DOFs, else a labelled estimate or none;
         ``True``: also above that size; ``False``: skip.  Not part of ``wall_time``; see
-        :mod:`mshbm.stability`).
+        :mod:`mshbm.stability`), ``period`` (``k``, default 1: a ``kT``-periodic solution, solved on
+        the base frequency ``omega / k`` with ``harmonics`` and ``steps`` per forcing period; the
+        result's ``omega`` is ``omega / k``, see :mod:`mshbm.period`).
 
     Returns
     -------
@@ -74,6 +76,11 @@ def solve(system, omega, method="mshbm", **options):
     InputError
         Invalid system, frequency or option (names the key).
     """
+    period = options.pop("period", 1)
+    if not (isinstance(period, (int, np.integer)) and not isinstance(period, bool) and int(period) == 1):
+        from . import period as _period  # kT-periodic solutions (subharmonic base frequency omega / k)
+
+        return _period.solve(system, omega, method, period=period, **options)
     return _driver.solve(system, omega, method, **options)
 
 

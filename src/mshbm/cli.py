@@ -1,4 +1,5 @@
-"""Command line: ``mshbm solve CASE.yaml [--method M] [--harmonics N] [--steps N] [--out FILE] [--quiet]``.
+"""Command line: ``mshbm solve CASE.yaml [--method M] [--harmonics N] [--steps N] [--out FILE] [--quiet]``
+and ``mshbm sweep CASE.yaml ...`` (frequency-response curves, :mod:`mshbm.cli_sweep`).
 
 Exit codes: 0 converged, 1 not converged, 2 invalid input (one line
 ``error: <key>: <problem>``), 3 internal error, 130 interrupted.  No traceback
@@ -42,6 +43,9 @@ def _parser():
                    help="write the result summary as JSON (keeps the permissions of an existing file, writes "
                    "through symlinks, FIFOs and character devices; never the case file itself)")
     s.add_argument("--quiet", action="store_true", help="print no table (errors still go to stderr)")
+    from .cli_sweep import add_parser as _add_sweep
+
+    _add_sweep(sub, METHOD_CHOICES)  # mshbm sweep: mshbm.cli_sweep
     return p
 
 
@@ -140,6 +144,10 @@ def main(argv=None):
 
         try:
             with quiet_floats():  # no RuntimeWarnings on the terminal: non-finite numbers are reported
+                if args.command == "sweep":
+                    from .cli_sweep import run as _sweep
+
+                    return _sweep(args, (EXIT_OK, EXIT_NOT_CONVERGED), _write_json, _error)
                 return _solve(args)
         except InputError as exc:
             _error(f"{exc.key}: {exc.problem}")

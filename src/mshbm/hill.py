@@ -3,7 +3,7 @@
 What it answers
 ---------------
 HBM (:mod:`mshbm.methods.hbm`) solves the system with the *regularised* laws of
-:mod:`mshbm.laws` (``arctan`` friction, penalty contact).  Hill's method gives the stability of
+:mod:`mshbm.elements` (``arctan`` friction, penalty contact).  Hill's method gives the stability of
 that periodic solution **of the regularised system**, not of the set-valued (nonsmooth) one: a
 stiff penalty or a steep ``arctan`` has its own fast dynamics, and the multipliers converge to
 those of the nonsmooth flow only in the limit (and not uniformly: Newton's impact law has no
@@ -65,7 +65,7 @@ from scipy.spatial import cKDTree
 
 from . import fourier
 from .errors import InputError
-from .laws import regularised_forces  # the regularised-force Jacobian: imported in this one place only
+from .elements import regularised_forces  # the regularised-force Jacobian: imported in this one place only
 
 __all__ = ["hill_matrices", "hill_exponents", "hill_multipliers", "assess_hbm", "HILL", "MAX_SIZE"]
 
@@ -110,7 +110,7 @@ def hill_matrices(system, omega, q_hat, steps=None):
     if n * nc > MAX_SIZE:
         raise InputError("harmonics", f"Hill matrix of {n * nc} coefficients exceeds {MAX_SIZE} (dense eigenproblem)")
     if steps is None:
-        from .api import default_steps
+        from .options import default_steps
 
         steps = default_steps("hbm", n_h)
     Ns = int(steps)

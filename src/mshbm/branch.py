@@ -1,0 +1,522 @@
+"""Frequency-response curves: ``mshbm.sweep`` traces a branch of periodic solutions.
+
+``sweep(system, omega_start, omega_end, method="mshbm", period=1, **options) -> Branch``
+
+1. The first point is :func:`mshbm.solve` at ``omega_start`` from its default start (the start
+   ladder, :mod:`mshbm.solvers.starts`), or from ``guess``.
+2. The branch is continued in ``omega`` by pseudo-arclength continuation
+   (:func:`mshbm.solvers.arclength.continuation`) on the method's residual ``R(x, omega)``
+   (:func:`mshbm.build_problem`) with its Jacobian and ``dR/domega``
+   (:func:`_omega_derivative`), in the scaled units of :func:`unknown_scale` and
+   ``problem.residual_scale``; it passes folds (turning points).
+3. Every point is certified (:func:`mshbm.certificate.certify` at the corrector's tolerance): a point
+   whose certificate fails is rejected and the step is shortened.  Its stability is that of
+   :func:`mshbm.stability.assess` (exact event-driven multipliers with saltation terms for at most
+   one element, else a verdict only for smooth motion, else ``None``).
+4. Folds are located from the sign change of the tangent's ``omega`` component (to ``1e-3``
+   relative); other bifurcations come from :func:`mshbm.bifurcations.detect` when that module exists.
+
+``period=k`` traces ``kT``-periodic solutions (:mod:`mshbm.period`): the problem lives on the base
+frequency ``omega / k``; the branch reports the forcing frequency ``omega``.
+
+``continue_forcing(system, omega, load_start, load_end, ...)`` continues instead in a load factor
+on the forcing (``f_hat`` times ``load``) at fixed ``omega``.
+
+Notation: ``n`` DOFs, ``x`` the unknowns of the method, ``omega`` the forcing frequency (rad/s).
+"""
+from __future__ import annotations
+
+import json
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .errors import InputError
+from .system import System
+
+__all__ = ["Branch", "BranchPoint", "sweep", "continue_forcing", "unknown_scale"]
+
+#: options of the continuation itself (the others go to the method)
+_CONT_KEYS = {"ds", "ds_min", "ds_max", "max_points", "predictor", "max_time", "progress", "stability"}
+#: options that are not the problem's (handled by the start solve / the corrector)
+_SOLVER_KEYS = {"guess", "tol", "max_iter", "line_search", "raise_on_failure", "continuation", "blas_threads"}
+
+
+@dataclass
+class BranchPoint:
+    """One point of a branch.
+
+    ``omega`` is the forcing frequency (rad/s); ``load`` the load factor on the forcing;
+    ``amplitude`` ``(max - min) / 2`` per DOF over the response period (``period * T``);
+    ``x`` the method's unknowns; ``q_hat`` the displacement coefficients (harmonics of
+    ``omega / period``); ``iterations`` corrector (Newton) iterations; ``residual`` the scaled
+    residual; ``certificate`` ``{"passed", "failed": [names]}``; ``floquet_multipliers``, ``stable``,
+    ``stability_method``; ``contact`` per element ``{kind, dof, min_gap (contacts), active}`` where
+    ``active`` means the element acts on the motion (an impact or closed contact, a stick phase);
+    ``solution`` the :class:`mshbm.result.PeriodicSolution` (not serialised)."""
+
+    omega: float
+    load: float
+    amplitude: np.ndarray
+    x: np.ndarray
+    q_hat: np.ndarray
+    iterations: int
+    residual: float
+    certificate: dict
+    floquet_multipliers: np.ndarray
+    stable: bool | None
+    stability_method: str
+    contact: list
+    solution: object = None
+
+    def as_dict(self):
+        from .stability import multipliers_json
+
+        return {"omega": self.omega, "load": self.load, "amplitude": [float(a) for a in self.amplitude],
+                "iterations": int(self.iterations), "residual": float(self.residual),
+                "certificate": self.certificate, "floquet_multipliers": multipliers_json(self.floquet_multipliers),
+                "stable": self.stable, "stability_method": self.stability_method, "contact": self.contact,
+                "x": [float(v) for v in self.x]}
+
+
+@dataclass
+class Branch:
+    """A branch of periodic solutions (result of :func:`sweep` or :func:`continue_forcing`).
+
+    Attributes
+    ----------
+    success : bool
+        The branch reached the end of the requested range with every point certified.
+    message : str
+    method : str
+    period : int
+        ``k`` of ``kT``-periodic solutions.
+    parameter : {"omega", "forcing"}
+        The continuation parameter.
+    points : list of BranchPoint
+    bifurcations : list of dict
+        ``{"type", "omega", "index", ...}``; ``type`` is ``"fold"`` (located here) or a type from
+        :func:`mshbm.bifurcations.detect` (``"period-doubling"``, ``"neimark-sacker"``, ``"grazing"``).
+    counters : dict
+        Residual evaluations, corrector iterations and failures, rejected points, ...
+    wall_time : float
+        Seconds, start solve and stability analyses included.
+    """
+
+    success: bool
+    message: str
+    method: str
+    period: int = 1
+    parameter: str = "omega"
+    points: list = field(default_factory=list)
+    bifurcations: list = field(default_factory=list)
+    counters: dict = field(default_factory=dict)
+    wall_time: float = 0.0
+
+    @property
+    def omega(self):
+        return np.array([p.omega for p in self.points], dtype=float)
+
+    @property
+    def load(self):
+        return np.array([p.load for p in self.points], dtype=float)
+
+    @property
+    def amplitude(self):
+        """Shape ``(n_points, n)``."""
+        return np.array([p.amplitude for p in self.points], dtype=float)
+
+    @property
+    def stable(self):
+        return [p.stable for p in self.points]
+
+    @property
+    def iterations(self):
+        return np.array([p.iterations for p in self.points], dtype=int)
+
+    def __len__(self):
+        return len(self.points)
+
+    def to_dict(self):
+        return {"success": bool(self.success), "message": self.message, "method": self.method,
+                "period": int(self.period), "parameter": self.parameter,
+                "omega": [float(w) for w in self.omega], "load": [float(v) for v in self.load],
+                "amplitude": [[float(a) for a in p.amplitude] for p in self.points],
+                "stable": self.stable,
+                "bifurcations": [{k: v for k, v in b.items() if k != "x"} for b in self.bifurcations],
+                "iterations": [int(i) for i in self.iterations], "counters": self.counters,
+                "wall_time_s": float(self.wall_time), "points": [p.as_dict() for p in self.points]}
+
+    def to_json(self, **kwargs):
+        """JSON text (non-finite numbers as ``null``)."""
+        from .outfile import jsonable
+
+        return json.dumps(jsonable(self.to_dict()), allow_nan=False, **kwargs)
+
+
+# ---------------------------------------------------------------------------------------------- helpers
+def unknown_scale(problem, x):
+    """Per-unknown scale of ``x`` (physical units of the unknowns: m for displacements and their
+    coefficients, m/s for velocities), from the problem and the current solution.
+
+    Shooting and MS-HBM: their ``residual_scale`` rows have the units of the unknowns (``D``, ``V``).
+    MS-HBM (Section 3.3): its harmonic-balance rows are forces, their unknowns displacement
+    coefficients (scale ``D``).  HBM: every unknown is a displacement coefficient, scale
+    ``max(D_0, max |x|)`` (:func:`mshbm.scaling.displacement_floor` of the penalty problem).
+    """
+    from .scaling import displacement_floor
+
+    x = np.asarray(x, dtype=float)
+    if problem.method == "hbm":
+        if "_sweep_D0" not in problem.__dict__:
+            problem._sweep_D0 = displacement_floor(problem.system, problem.omega, penalty=True)
+        return np.full(x.size, max(problem._sweep_D0, float(np.max(np.abs(x), initial=0.0))))
+    s = np.array(problem.residual_scale(x), dtype=float)
+    if problem.method == "mshbm-intermediate":
+        a = problem.nc * problem.n2
+        if a < s.size:
+            s[:a] = s[a]
+    return s
+
+
+def _omega_derivative(problem, x):
+    """``dR/domega`` at fixed ``x`` from the problem contract (:meth:`PeriodicProblem.omega_derivative`)."""
+    return np.asarray(problem.omega_derivative(x), dtype=float)
+
+
+def scaled_forcing(system, load):
+    """``system`` with ``f_hat`` times ``load`` (matrices and elements shared)."""
+    new = object.__new__(System)
+    new.__dict__.update(system.__dict__)
+    new.f_hat = system.f_hat * float(load)
+    return new
+
+
+def _contact_info(system, sol):
+    out = []
+    lam = np.asarray(sol.lam, dtype=float)
+    for j, el in enumerate(system.elements):
+        force = lam[:, j] if lam.ndim == 2 and lam.shape[1] > j else np.zeros(1)
+        rec = {"kind": el.kind, "dof": int(el.dof)}
+        if el.kind == "contact":
+            q = sol.displacement([el.dof])[:, 0]
+            rec["min_gap"] = float(el.gap - np.max(q))
+            rec["active"] = bool(np.any(force > 0.0)) or rec["min_gap"] <= 0.0
+        else:
+            info = sol.info.get("stability", {})
+            stick = info.get("stick_fraction")
+            rec["stick_fraction"] = None if stick is None else float(stick)
+            rec["active"] = el.bound > 0.0
+        out.append(rec)
+    return out
+
+
+class _Tracer:
+    """The method's problem as a function of the parameter (cached), and the point bookkeeping."""
+
+    def __init__(self, system, method, options, parameter, omega_fixed=None, k=1, tol=1e-10, stability="auto"):
+        from .api import build_problem
+
+        self.build_problem = build_problem
+        self.system, self.method, self.options, self.parameter = system, method, options, parameter
+        self.omega_fixed, self.k, self.tol, self.stability = omega_fixed, k, tol, stability
+        self.cache = {}
+
+    def problem(self, lam):
+        lam = float(lam)
+        p = self.cache.get(lam)
+        if p is None:
+            if len(self.cache) > 8:
+                self.cache.pop(next(iter(self.cache)))
+            if self.parameter == "omega":
+                p = self.build_problem(self.system, lam / self.k, self.method, **self.options)[0]
+            else:
+                p = self.build_problem(scaled_forcing(self.system, lam), self.omega_fixed / self.k, self.method,
+                                       **self.options)[0]
+            self.cache[lam] = p
+        return p
+
+    def residual(self, x, lam):
+        return self.problem(lam).residual(x, jac=True)
+
+    def d_lam(self, x, lam):
+        p = self.problem(lam)
+        if self.parameter == "omega":  # d/domega = (1/k) d/d(omega / k)
+            return _omega_derivative(p, x) / self.k
+        d = 1e-6 * max(abs(lam), 1e-3)
+        Rp = self.problem(lam + d).residual(x, jac=False)[0]
+        Rm = self.problem(lam - d).residual(x, jac=False)[0]
+        return (Rp - Rm) / (2 * d)
+
+    def residual_scale(self, x, lam):
+        return self.problem(lam).residual_scale(x)
+
+    def unknown_scale(self, x, lam):
+        return unknown_scale(self.problem(lam), x)
+
+    def stall_accept(self, x, lam):
+        """A stalled corrector on an impacting orbit of a time-stepping method is accepted when periodic to
+        one time step's accuracy (:func:`mshbm.solvers.starts.residual_accept`, as :func:`mshbm.solve`'s
+        start ladder does); returns the ``step_accuracy`` record for the certificate, else ``None``."""
+        from .solvers.newton import NewtonResult
+        from .solvers.starts import Attempt, residual_accept
+
+        if self.method == "hbm":
+            return None
+        problem = self.problem(lam)
+        x = np.asarray(x, dtype=float)
+        res = NewtonResult(x=x, success=False, nit=0, nfev=0, residual_norm=float("nan"), message="stalled")
+        att = Attempt(start="continuation", x0=x, newton=res, problem=problem)
+        try:
+            ok = residual_accept(problem, problem.system, problem.omega)(att)
+        except (np.linalg.LinAlgError, ValueError, FloatingPointError):
+            return None
+        return att.step_accuracy if ok and att.step_accuracy is not None else None
+
+    def point(self, x, lam, iterations, residual, step_accuracy=None):
+        """Certified :class:`BranchPoint` at ``(x, lam)``, or the reason (str) if the certificate fails."""
+        from . import stability as _stability
+        from .certificate import certify
+        from .result import PeriodicSolution
+
+        t0 = time.perf_counter()
+        problem = self.problem(lam)
+        parts = dict(problem.solution_parts(np.asarray(x, dtype=float)))
+        n_h = parts.pop("harmonics")
+        omega_b = problem.omega
+        sol = PeriodicSolution(method=self.method, omega=float(omega_b), harmonics=n_h, steps=len(parts["t"]) - 1,
+                               success=True, message="continuation corrector converged", iterations=int(iterations),
+                               nfev=0, residual=float(residual), wall_time=0.0, x=np.asarray(x, dtype=float),
+                               partition=problem.partition(), conditioning=problem.conditioning(),
+                               time_step=problem.time_step, **parts)
+        cert = certify(problem, sol, self.tol, step_accuracy)
+        sol.certificate = cert
+        if not cert.passed:
+            return f"certificate failed: {cert.describe_failures()}"
+        system = problem.system
+        if self.method == "hbm" and self.stability is not False:
+            from .hill import assess_hbm  # Hill's method: stability of the regularised system HBM solves
+
+            assess_hbm(system, sol)
+        else:
+            _stability.assess(system, sol, self.stability, theta=self.options.get("theta", 0.5))
+        sol.wall_time = time.perf_counter() - t0
+        omega = float(omega_b) * self.k
+        sol.info["period"], sol.info["forcing_omega"] = self.k, omega
+        if step_accuracy is not None:
+            sol.info["step_accuracy"] = {"ratio": float(step_accuracy["ratio"]),
+                                         "bound": np.asarray(step_accuracy["bound"], dtype=float)}
+        return BranchPoint(omega=omega, load=float(lam) if self.parameter == "forcing" else 1.0,
+                           amplitude=np.asarray(sol.amplitude, dtype=float), x=np.asarray(x, dtype=float),
+                           q_hat=np.asarray(sol.q_hat, dtype=float), iterations=int(iterations),
+                           residual=float(residual),
+                           certificate={"passed": True, "failed": [],
+                                        "checks": len([c for c in cert.checks if c.gating]),
+                                        "step_accuracy": None if step_accuracy is None
+                                        else float(step_accuracy["ratio"])},
+                           floquet_multipliers=np.asarray(sol.floquet_multipliers, dtype=complex),
+                           stable=sol.stable, stability_method=sol.stability_method,
+                           contact=_contact_info(system, sol), solution=sol)
+
+
+class _Progress:
+    def __init__(self, enabled, label):
+        import sys
+
+        self.enabled = enabled is True and sys.stderr.isatty() or enabled == "always"
+        self.label = label
+
+    def __call__(self, point, n, ds):
+        if self.enabled:
+            import sys
+
+            print(f"\r[sweep {self.label}] points {n:4d}  {point.lam:12.6g}  step {ds:.3g}   ", end="",
+                  file=sys.stderr, flush=True)
+
+    def close(self):
+        if self.enabled:
+            import sys
+
+            print(file=sys.stderr)
+
+
+def _check_number(key, value, positive=True):
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise InputError(key, f"must be a number, got {value!r}")
+    value = float(value)
+    if not math.isfinite(value) or (positive and value <= 0):
+        raise InputError(key, f"must be finite{' and > 0' if positive else ''}, got {value}")
+    return value
+
+
+def _split_options(options):
+    cont = {k: options[k] for k in _CONT_KEYS if k in options}
+    rest = {k: v for k, v in options.items() if k not in _CONT_KEYS}
+    prob = {k: v for k, v in rest.items() if k not in _SOLVER_KEYS}
+    return cont, rest, prob
+
+
+def _detect_other(branch, system):
+    """Period doubling, Neimark-Sacker and grazing along the branch (:func:`mshbm.bifurcations.detect`
+    on the points' valid multipliers and contact gaps; folds are located by the continuation itself)."""
+    from . import bifurcations
+
+    records = [bifurcations.point_from_solution(system, bp.solution) for bp in branch.points]
+    found = bifurcations.detect(records, types=("period-doubling", "neimark-sacker", "grazing"))
+    out = []
+    for b in found:
+        rec = b.as_dict()
+        rec["located"] = b.located
+        if branch.parameter != "omega":
+            rec["load"] = float(branch.points[b.index].load)
+        out.append(rec)
+    return out, ""
+
+
+def _run(system, lam_start, lam_end, method, period, parameter, omega_fixed, options):
+    from .options import METHODS
+    from .period import check_period, period_options, subharmonic_system, subharmonic_content, PERIOD_K_TOL
+    from .period import solve as solve_period
+    from .solvers.arclength import continuation
+    from .stability import check_option
+
+    t0 = time.perf_counter()
+    if not isinstance(system, System):
+        raise InputError("system", f"must be an mshbm.System, got {type(system).__name__}")
+    if method not in METHODS:
+        raise InputError("method", f"unknown method {method!r} (choose from {', '.join(METHODS)})")
+    k = check_period(period)
+    cont, rest, prob = _split_options(options)
+    stab = check_option(cont.get("stability", "auto"))
+    max_points = cont.get("max_points", 400)
+    if isinstance(max_points, bool) or not isinstance(max_points, (int, np.integer)) or max_points < 2:
+        raise InputError("max_points", f"must be an integer >= 2, got {max_points!r}")
+    predictor = cont.get("predictor", "tangent")
+    if predictor not in ("tangent", "secant"):
+        raise InputError("predictor", f"must be 'tangent' or 'secant', got {predictor!r}")
+    ds = _check_number("ds", cont.get("ds", 0.02))
+    ds_max = _check_number("ds_max", cont.get("ds_max", 0.1))
+    ds_min = _check_number("ds_min", cont.get("ds_min", 1e-5))
+    max_time = cont.get("max_time")
+    if max_time is not None:
+        max_time = _check_number("max_time", max_time)
+    tol = float(rest.get("tol", 1e-10))
+    label = f"{method}" + (f", period {k}" if k > 1 else "")
+    progress = _Progress(cont.get("progress", False), label)
+
+    sys_k = subharmonic_system(system, k)
+    prob_k = period_options(method, k, prob)
+    # 1. the start point: mshbm.solve from its default start (or the given guess)
+    if parameter == "omega":
+        sol0 = solve_period(system, lam_start, method, period=k, stability=False, **rest)
+    else:
+        sol0 = solve_period(scaled_forcing(system, lam_start), omega_fixed, method, period=k, stability=False,
+                            **rest)
+    tracer = _Tracer(sys_k, method, {kk: v for kk, v in prob_k.items()}, parameter, omega_fixed, k, tol, stab)
+    branch = Branch(success=False, message="", method=method, period=k, parameter=parameter)
+    if not sol0.success:
+        branch.message = f"no certified solution at the start {parameter} = {lam_start:g}: {sol0.message}"
+        branch.wall_time = time.perf_counter() - t0
+        return branch
+    if k > 1 and subharmonic_content(sol0, k) < PERIOD_K_TOL:
+        branch.message = (f"the solution at the start {parameter} = {lam_start:g} is T-periodic, not a "
+                          f"{k}T-periodic one (no period-{k} response found there)")
+        branch.wall_time = time.perf_counter() - t0
+        return branch
+
+    def accept(x, lam, stall):  # iterations and residual are set from the continuation's points below
+        pt = tracer.point(x, lam, 0, 0.0, stall)
+        return not isinstance(pt, str), pt
+
+    lam_scale = abs(lam_start) if parameter == "omega" else max(abs(lam_start), abs(lam_end))
+    try:
+        res = continuation(
+            tracer.residual, tracer.d_lam, np.asarray(sol0.x, dtype=float), float(lam_start), float(lam_end),
+            residual_scale=tracer.residual_scale, unknown_scale=tracer.unknown_scale, lam_scale=lam_scale,
+            ds0=ds, ds_min=ds_min, ds_max=ds_max, max_points=int(max_points), tol=tol,
+            predictor=predictor, accept=accept, callback=progress, max_time=max_time,
+            stall_accept=tracer.stall_accept)
+    finally:
+        progress.close()
+    branch.points = []
+    for p in res.points:
+        bp = p.payload
+        bp.iterations, bp.residual = int(p.iterations), float(p.residual)
+        bp.solution.iterations = int(p.iterations)
+        branch.points.append(bp)
+    if branch.points:
+        branch.points[0].iterations = int(sol0.iterations)
+    folds = []
+    for f in res.folds:
+        rec = {"type": "fold", "index": int(f["index"]), "located": bool(f.get("located", False))}
+        if parameter == "omega":
+            rec["omega"] = float(f["lam"])
+        else:
+            rec["omega"], rec["load"] = float(omega_fixed), float(f["lam"])
+        if "bracket" in f:
+            rec["bracket"] = f["bracket"]
+        folds.append(rec)
+    others, note = ([], "") if not branch.points else _detect_other(branch, system)
+    branch.bifurcations = sorted(folds + [dict(b) for b in others], key=lambda b: b.get("index", 0))
+    branch.success = bool(res.success)
+    branch.message = res.message + (f"; {note}" if note else "")
+    branch.counters = dict(res.counters, start_iterations=int(sol0.iterations), points=len(branch.points))
+    branch.wall_time = time.perf_counter() - t0
+    return branch
+
+
+def sweep(system, omega_start, omega_end, method="mshbm", period=1, **options):
+    """Frequency-response curve: the branch of periodic solutions from ``omega_start`` to ``omega_end``.
+
+    Parameters
+    ----------
+    system : System
+    omega_start, omega_end : float
+        Forcing frequencies (rad/s) of the start and the end of the branch (either order).
+    method : {"shooting", "hbm", "mshbm", "mshbm-intermediate"}
+    period : int
+        ``k``: trace ``kT``-periodic solutions (:mod:`mshbm.period`); ``harmonics``/``steps`` are per
+        forcing period ``T``.
+    **options
+        The method's options as for :func:`mshbm.solve` (``harmonics``, ``steps``, ``theta``,
+        ``partition``...; ``guess`` for the start point; ``tol`` also for the corrector), and the
+        continuation's: ``ds`` (first arclength step, scaled, default 0.02), ``ds_min`` (1e-5),
+        ``ds_max`` (0.1), ``max_points`` (400), ``predictor`` (``"tangent"`` or ``"secant"``),
+        ``max_time`` (s), ``progress`` (show progress on a terminal; ``"always"``: also elsewhere),
+        ``stability`` (as for :func:`mshbm.solve`), ``blas_threads`` (default 1, as for :func:`mshbm.solve`).
+
+    Returns
+    -------
+    Branch
+    """
+    w0 = _check_number("omega_start", omega_start)
+    w1 = _check_number("omega_end", omega_end)
+    if w0 == w1:
+        raise InputError("omega_end", "must differ from omega_start")
+    return _guarded(system, w0, w1, method, period, "omega", None, options)
+
+
+def _guarded(system, a, b, method, period, parameter, omega, options):
+    """``_run`` with one BLAS thread (option ``blas_threads``, as :func:`mshbm.solve`) and quiet floats."""
+    from . import validate
+    from ._blas import blas_threads, check_threads
+
+    options = dict(options)
+    with blas_threads(check_threads(options.pop("blas_threads", 1))), validate.quiet_floats():
+        return _run(system, a, b, method, period, parameter, omega, options)
+
+
+def continue_forcing(system, omega, load_start, load_end=1.0, method="mshbm", period=1, **options):
+    """Branch in the load factor ``load`` on the forcing (``f_hat`` times ``load``) at fixed ``omega``.
+
+    Parameters and result as for :func:`sweep`; ``Branch.load`` holds the load factors and
+    fold records carry ``load``.  ``load_start`` and ``load_end`` must be > 0.
+    """
+    w = _check_number("omega", omega)
+    a = _check_number("load_start", load_start)
+    b = _check_number("load_end", load_end)
+    if a == b:
+        raise InputError("load_end", "must differ from load_start")
+    return _guarded(system, a, b, method, period, "forcing", w, options)

@@ -1,0 +1,188 @@
+"""Frequency-response curves (mshbm.sweep, mshbm.solvers.arclength, mshbm.period, ``mshbm sweep``).
+
+Closed forms: the linear FRF; Den Hartog's Coulomb oscillator without stops (the half-period
+symmetric solution of ``x'' + 2 zeta x' + x = F cos(omega t + phi) - R`` with ``x(0) = -X, x'(0) = 0,
+x(pi/omega) = X, x'(pi/omega) = 0``, solved here from the exact mode flow); a cubic with two folds for
+the arclength driver; a period-2 response of the paper's impact chain against a long transient.
+"""
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.linalg import expm
+from scipy.optimize import fsolve
+
+import mshbm
+from mshbm import Contact, Friction, chain
+from mshbm.cli import main
+from mshbm.integrators.moreau_jean import MoreauJean
+from mshbm.period import solve as solve_period
+from mshbm.solvers.arclength import continuation
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+# ----------------------------------------------------------------------------- the generic driver
+def test_arclength_passes_and_locates_both_folds_of_a_cubic():
+    """x^3 - x - lam = 0 from lam = -1 to 1: S-shaped, folds at lam = +-2/(3 sqrt 3)."""
+    res = continuation(lambda x, l: (np.array([x[0] ** 3 - x[0] - l]), np.array([[3 * x[0] ** 2 - 1]])),
+                       lambda x, l: np.array([-1.0]), np.array([-1.324717957244746]), -1.0, 1.0,
+                       residual_scale=lambda x, l: np.ones(1), unknown_scale=lambda x, l: np.ones(1),
+                       lam_scale=1.0, ds0=0.05)
+    assert res.success
+    lam_f = 2 / (3 * np.sqrt(3))
+    assert [f["lam"] for f in res.folds] == pytest.approx([lam_f, -lam_f], rel=1e-3)
+    x = np.array([p.x[0] for p in res.points])
+    lam = np.array([p.lam for p in res.points])
+    np.testing.assert_allclose(x ** 3 - x - lam, 0.0, atol=1e-10)
+    assert np.all(np.diff(x) > 0)  # one branch, traversed once through both folds
+    assert x[-1] == pytest.approx(1.324717957244746, rel=1e-9) and lam[-1] == 1.0
+
+
+# ----------------------------------------------------------------------------- closed forms
+def test_linear_branch_matches_exact_frf():
+    s = chain([1.0, 2.0], [1.0, 0.5], 0.05, forcing=[{"dof": 1, "amplitude": 1.0}])
+    b = mshbm.sweep(s, 0.3, 1.6, "shooting", steps=8192)
+    assert b.success and len(b) > 10
+    w = b.omega
+    assert w[0] == 0.3 and w[-1] == 1.6 and np.all(np.diff(w) > 0)
+    H = np.array([np.linalg.solve(s.K - x ** 2 * s.M + 1j * x * s.C, [0.0, 1.0]) for x in w])
+    np.testing.assert_allclose(b.amplitude, np.abs(H), rtol=2e-3)  # O((omega h)^2) of Moreau-Jean
+    assert all(st is True for st in b.stable)  # damped linear: every point stable
+
+
+def _den_hartog(w, zeta, F, R):
+    A = np.array([[0.0, 1.0], [-1.0, -2 * zeta]])
+    E = expm(A * np.pi / w)
+    H = F / (1 - w ** 2 + 2j * zeta * w)
+
+    def part(t, phi):
+        z = H * np.exp(1j * (w * t + phi))
+        return np.array([z.real - R, (1j * w * z).real])
+
+    def res(p):
+        X, phi = p
+        return E @ (np.array([-X, 0.0]) - part(0.0, phi)) + part(np.pi / w, phi) - np.array([X, 0.0])
+
+    X, phi = fsolve(res, [abs(H), 0.0], xtol=1e-13)
+    assert np.max(np.abs(res([X, phi]))) < 1e-12
+    return X
+
+
+@pytest.mark.parametrize("method,kw", [("shooting", dict(steps=4096)), ("mshbm", dict(harmonics=20, steps=4096))])
+def test_den_hartog_branch_above_resonance(method, kw):
+    zeta, F, R = 0.05, 1.0, 0.3
+    s = chain([1.0], 1.0, 2 * zeta, forcing=[{"dof": 0, "amplitude": F}], elements=[Friction(0, 1.0, R)])
+    b = mshbm.sweep(s, 1.5, 3.0, method, **kw)
+    assert b.success and len(b) >= 5
+    exact = np.array([_den_hartog(w, zeta, F, R) for w in b.omega])
+    np.testing.assert_allclose(b.amplitude[:, 0], exact, rtol=5e-3)
+    assert all(p.certificate["passed"] for p in b.points)
+    assert all(st is True for st in b.stable)  # exact-flow verdicts (one element)
+
+
+# ----------------------------------------------------------------------------- a fold of an impact oscillator
+def test_impact_oscillator_branch_passes_its_fold():
+    """x'' + 0.1 x' + x = cos(omega t), stop at 0.5, e = 0.8: the impacting (1,1) branch bends to the right
+    and turns back (fold near omega = 1.89); every point is certified and the branch is continuous."""
+    s = chain([1.0], 1.0, 0.1, forcing=[{"dof": 0, "amplitude": 1.0}], elements=[Contact(0, 0.5, 0.8)])
+    b = mshbm.sweep(s, 1.0, 2.2, "shooting", steps=2000, max_points=60)
+    w, a = b.omega, b.amplitude[:, 0]
+    assert len(b) == 60
+    i = int(np.argmax(w))
+    assert 5 < i < len(b) - 5 and 1.85 < w[i] < 1.95
+    assert w[-1] < w[i] - 0.01 and a[-1] < a[i] - 0.3  # beyond the fold: back in omega, on the lower part
+    assert np.max(np.abs(np.diff(a)) / a[1:]) < 0.2 and np.max(np.abs(np.diff(w)) / w[1:]) < 0.1  # no jumps
+    assert all(p.certificate["passed"] for p in b.points)
+    assert all(p.contact[0]["active"] for p in b.points)
+    assert b.stable[0] is True and b.stable[-1] is False  # the part beyond the fold is unstable
+    folds = [f for f in b.bifurcations if f["type"] == "fold"]
+    assert len(folds) == 1 and folds[0]["omega"] == pytest.approx(w[i], rel=1e-2)
+
+
+def test_forcing_continuation_reaches_full_load():
+    s = chain([1.0], 1.0, 0.1, forcing=[{"dof": 0, "amplitude": 1.0}], elements=[Friction(0, 1.0, 0.3)])
+    b = mshbm.continue_forcing(s, 2.0, 4.0, 1.0, "shooting", steps=4096)
+    assert b.success and b.parameter == "forcing"
+    assert b.load[0] == 4.0 and b.load[-1] == 1.0
+    ref = mshbm.solve(s, 2.0, "shooting", steps=4096)
+    assert b.amplitude[-1, 0] == pytest.approx(ref.amplitude[0], rel=1e-8)
+
+
+# ----------------------------------------------------------------------------- period k
+def test_period_2_response_of_the_impact_chain_against_a_transient(impact5):
+    w = np.pi / 5
+    sol = solve_period(impact5, w, "mshbm", period=2, harmonics=5)
+    assert sol.success and sol.info["period"] == 2 and sol.omega == pytest.approx(w / 2)
+    assert sol.info["period_k_content"] > 0.1  # a genuine 2T orbit, not the (unstable) T-periodic one
+    assert sol.stable is True
+    # a long Moreau-Jean transient from rest settles on it
+    T, N = 2 * np.pi / w, 2048
+    mj = MoreauJean(impact5.M, impact5.C, impact5.K, impact5.elements, T / N)
+    B = mj.increments(impact5.forcing(np.linspace(0.0, T, N + 1), w))
+    q, u = np.zeros(5), np.zeros(5)
+    states = []
+    for _ in range(600):
+        tr = mj.run(q, u, B)
+        q, u = tr.q[-1].copy(), tr.u[-1].copy()
+        states.append(tr.q)
+    q2 = np.vstack([states[-2], states[-1][1:]])
+    assert np.max(np.abs(states[-1][-1] - states[-2][-1])) > 1.0  # not T-periodic
+    # 2T-periodic to the step accuracy of the Moreau-Jean map (it moves the impact by whole steps, h = 4.9 ms)
+    assert np.max(np.abs(states[-1][-1] - states[-3][-1])) < 2e-3 * np.max(np.abs(q2))
+    amp = (q2.max(axis=0) - q2.min(axis=0)) / 2
+    np.testing.assert_allclose(sol.amplitude, amp, rtol=5e-3)
+
+
+def test_period_option_of_sweep_reports_forcing_frequency(impact5):
+    b = mshbm.sweep(impact5, np.pi / 5, 0.64, "mshbm", period=2, harmonics=5, max_points=6)
+    assert b.period == 2 and len(b) >= 2
+    assert b.omega[0] == pytest.approx(np.pi / 5)
+    ref = solve_period(impact5, np.pi / 5, "mshbm", period=2, harmonics=5)
+    np.testing.assert_allclose(b.amplitude[0], ref.amplitude, rtol=1e-8)
+
+
+# ----------------------------------------------------------------------------- CLI
+def _run(argv, capsys):
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_cli_sweep_json_and_plot(tmp_path, capsys):
+    case = tmp_path / "dh.yaml"
+    case.write_text("name: dh\nmasses: [1]\nstiffness: 1\ndamping: 0.1\nomega: 2\n"
+                    "forcing:\n  - {dof: 0, amplitude: 1}\nfriction: {dof: 0, mu: 1, normal_force: 0.3}\n")
+    out, png = tmp_path / "b.json", tmp_path / "b.png"
+    code, stdout, err = _run(["sweep", case, "--method", "shooting", "--omega-start", 1.5, "--omega-end", 2.5,
+                              "--steps", 2048, "--out", out, "--plot", png], capsys)
+    assert code == 0, err
+    data = json.loads(out.read_text())
+    assert data["success"] is True and isinstance(data["message"], str)
+    assert data["omega"][0] == 1.5 and data["omega"][-1] == 2.5
+    assert len(data["amplitude"]) == len(data["omega"]) == len(data["stable"]) and len(data["amplitude"][0]) == 1
+    assert isinstance(data["bifurcations"], list)
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.parametrize("argv,key", [
+    (["--omega-start", -1, "--omega-end", 2], "--omega-start"),
+    (["--omega-start", 1, "--omega-end", 2, "--period", 0], "--period"),
+    (["--omega-start", 1, "--omega-end", 2, "--dofs", 7], "--dofs"),
+    (["--omega-start", 1, "--omega-end", 1], "--omega-end"),
+])
+def test_cli_sweep_bad_input_exit_2(argv, key, tmp_path, capsys):
+    code, out, err = _run(["sweep", ROOT / "examples" / "impact5.yaml"] + argv, capsys)
+    assert code == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"error: {key}:")
+
+
+def test_cli_sweep_early_stop_exit_1(tmp_path, capsys):
+    out = tmp_path / "b.json"
+    code, _, err = _run(["sweep", ROOT / "examples" / "impact5.yaml", "--method", "shooting", "--steps", 1024,
+                         "--omega-start", 0.6, "--omega-end", 0.9, "--max-points", 3, "--out", out, "--quiet"], capsys)
+    assert code == 1 and err.startswith("error: sweep stopped early")
+    data = json.loads(out.read_text())
+    assert data["success"] is False and len(data["omega"]) == 3
