@@ -398,6 +398,10 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
             if dist > max_jump * max(ds, ds0):
                 raise _Failed(f"the corrector moved {dist:.3g} away, more than {max_jump:g} x max(ds, ds0) "
                               "(a jump to another branch?)")
+            if len(points) == 1 and (lam - p.lam) * direction < 0:
+                # the start tangent points towards lam_end: a first step away from it means the tangent
+                # was useless (e.g. dR/dlam of an orbit accepted at step accuracy), never a fold
+                raise _Failed("the first step moved away from lam_end")
             if accept is not None:
                 ok, q.payload = accept(q.x, q.lam, q.stall)
                 if not ok:
