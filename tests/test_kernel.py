@@ -24,6 +24,11 @@ CASES = {
     "contact_e05": [Contact(1, 0.3, 0.5)],
     "two_elements": [Friction(0, 0.3, 1.0), Contact(1, 0.25, 0.8)],
     "three_elements": [Friction(0, 0.3, 1.0), Friction(2, 0.2, 1.0), Contact(1, 0.25, 0.0)],
+    # elements between two DOFs (w = sign (e_I - e_J)): the kernel's dof2 path
+    "relative_friction": [Friction(3, 0.4, 1.0, relative_to=1)],
+    "relative_contact": [Contact(3, 0.1, 0.6, relative_to=2)],
+    "relative_mixed": [Friction(0, 0.3, 1.0, relative_to=1), Contact(3, 0.1, 0.8, relative_to=2),
+                       Contact(1, 0.25, 1.0)],
 }
 #: one DOF and one element take the scalar fast path of the kernel
 SCALAR = {"scalar_friction": [Friction(0, 0.5, 0.3)], "scalar_contact_e1": [Contact(0, 0.2, 1.0)],
@@ -43,7 +48,7 @@ def test_kernel_matches_numpy(name, theta):
     q0, u0 = _start(n)
     tr = st.run(q0, u0, B)
     q, u, P = kernels.moreau_jean_numpy(q0, u0, st.Aq, st.Au, st.WG, st.Del, st.MinvG, B, st.theta, st.h,
-                                        st.kind, st.dof, st.sign, st.bound, st.gap, st.e)
+                                        st.kind, st.dof, st.sign, st.bound, st.gap, st.e, dof2=st.dof2)
     assert np.abs(P).max() > 0  # the elements did act
     assert np.allclose(tr.q, q, rtol=0, atol=1e-11)
     assert np.allclose(tr.u, u, rtol=0, atol=1e-11)

@@ -125,14 +125,49 @@ class Element:
         """Direction ``w = sign * e_dof``."""
         raise NotImplementedError
 
+    #: second DOF of a relative element (``w = sign (e_dof - e_relative_to)``); ``None``: the ground
+    relative_to = None
+
     @property
     def dofs(self):
-        """DOFs the element acts on."""
-        return (self.dof,)
+        """DOFs the element acts on: ``(dof,)`` or ``(dof, relative_to)``."""
+        return (self.dof,) if self.relative_to is None else (self.dof, self.relative_to)
+
+    @property
+    def relative(self):
+        """True if the element acts between two DOFs (on ``q_dof - q_relative_to``)."""
+        return self.relative_to is not None
+
+    @property
+    def direction(self):
+        """``[(dof, w_dof)]``: the nonzero entries of ``w``."""
+        if self.relative_to is None:
+            return [(self.dof, self.sign)]
+        return [(self.dof, self.sign), (self.relative_to, -self.sign)]
+
+    def local(self, X, col=None):
+        """``w^T x`` for samples ``X`` whose last axis is indexed by DOF (through ``col``, a mapping
+        DOF -> column, if given): ``sign X[..., I]`` or ``sign (X[..., I] - X[..., J])``."""
+        c = (lambda d: d) if col is None else (lambda d: col[int(d)])
+        if self.relative_to is None:
+            return self.sign * X[..., c(self.dof)]
+        return self.sign * (X[..., c(self.dof)] - X[..., c(self.relative_to)])
 
     def renumbered(self, position):
         """The element with its DOFs renumbered by ``position`` (mapping old DOF -> new index)."""
-        return replace(self, dof=position[int(self.dof)])
+        if self.relative_to is None:
+            return replace(self, dof=position[int(self.dof)])
+        return replace(self, dof=position[int(self.dof)], relative_to=position[int(self.relative_to)])
+
+    def _check_relative(self):
+        if self.relative_to is not None:
+            J = _dof(f"{self.kind}.relative_to", self.relative_to)
+            if J == self.dof:
+                raise InputError(f"{self.kind}.relative_to", f"must differ from dof ({self.dof}): "
+                                 "the element acts on q_dof - q_relative_to")
+            if J < 0:
+                raise InputError(f"{self.kind}.relative_to", f"DOF {J} out of range (negative)")
+            object.__setattr__(self, "relative_to", J)
 
     @property
     def acts(self):
@@ -191,12 +226,16 @@ class Friction(Element):
         Normal force ``F_N`` (N), ``>= 0``.  The friction bound is ``mu*F_N``.
     smoothing : float
         Regularisation ``kappa`` (s/m) of eq. (42), used by HBM only.
+    relative_to : int or None
+        Second DOF ``J``: the element then acts on ``q_dof - q_J`` (slip velocity ``u_dof - u_J``,
+        ``w = e_dof - e_J``); ``None`` (default): between ``dof`` and the ground.
     """
 
     dof: int
     mu: float
     normal_force: float
     smoothing: float = 800.0
+    relative_to: int | None = None
     kind: str = field(default="friction", init=False)
 
     kernel_code: ClassVar[int] = KIND_FRICTION
@@ -209,6 +248,7 @@ class Friction(Element):
                            _finite_number("friction.normal_force", self.normal_force, nonnegative=True))
         object.__setattr__(self, "smoothing",
                            _finite_number("friction.smoothing", self.smoothing, positive=True))
+        self._check_relative()
 
     @property
     def sign(self):
@@ -268,6 +308,9 @@ class Contact(Element):
     penalty_stiffness, penalty_damping : float
         ``k_c > 0`` (N/m) and ``d_c >= 0`` (Ns/m) of the penalty law eq. (45),
         used by HBM only.
+    relative_to : int or None
+        Second DOF ``J``: the gap is then ``g_N = gap - (q_dof - q_J)`` (``w = -(e_dof - e_J)``);
+        ``None`` (default): a stop fixed to the ground.
     """
 
     dof: int
@@ -275,6 +318,7 @@ class Contact(Element):
     restitution: float = 1.0
     penalty_stiffness: float = 8000.0
     penalty_damping: float = 0.0
+    relative_to: int | None = None
     kind: str = field(default="contact", init=False)
 
     kernel_code: ClassVar[int] = KIND_CONTACT
@@ -292,6 +336,7 @@ class Contact(Element):
                            _finite_number("contact.penalty_stiffness", self.penalty_stiffness, positive=True))
         object.__setattr__(self, "penalty_damping",
                            _finite_number("contact.penalty_damping", self.penalty_damping, nonnegative=True))
+        self._check_relative()
 
     @property
     def sign(self):
@@ -336,18 +381,19 @@ class Contact(Element):
 ELEMENT_TYPES = {cls.kind: cls for cls in (Friction, Contact)}
 
 
-def regularised_forces(elements, local_dof, q, u):
+def regularised_forces(elements, local_dof, q, u, coupling=False):
     """Evaluate the regularised laws (:meth:`Element.regularised_law`) on samples.
 
-    Friction (eq. 42), slip velocity ``gamma_T = u_d``::
+    Friction (eq. 42), slip velocity ``gamma_T = w^T u``::
 
         lambda_T = -mu F_N (2/pi) arctan(kappa gamma_T)
 
-    Penalty contact (eq. 45), ``g_N = g0 - q_d``, ``gamma_N = -u_d``::
+    Penalty contact (eq. 45), ``g_N = g0 + w^T q`` (``g0 - q_d`` on one DOF), ``gamma_N = w^T u``::
 
         lambda_N = -(k_c g_N + d_c gamma_N)   if g_N <= 0,   0 otherwise
 
-    The force on the DOF is ``w lambda`` with ``w = +1`` (friction) or ``-1`` (contact).
+    The force on the DOFs is ``w lambda`` with ``w = +e_d`` (friction) or ``-e_d`` (contact), or
+    ``w = sign (e_I - e_J)`` for an element relative to a second DOF ``J``.
 
     The penalty law is piecewise linear in ``(q, u)``: continuous for ``d_c = 0``, with
     a jump ``d_c gamma_N`` at ``g_N = 0`` for ``d_c > 0``.  On the AFT samples the HBM
@@ -358,10 +404,13 @@ def regularised_forces(elements, local_dof, q, u):
     Parameters
     ----------
     elements : sequence of Element
-    local_dof : sequence of int
-        Column of ``q``/``u`` that each element acts on.
+    local_dof : sequence of int or of tuples of int
+        Column of ``q``/``u`` that each element acts on; for a relative element the columns of
+        its two DOFs ``(I, J)`` (an int alone: its ``dof``'s column, single-DOF elements).
     q, u : ndarray, shape (N_s, n_N)
         Displacements and velocities of the nonlinear DOFs at the samples.
+    coupling : bool
+        Also return the off-diagonal Jacobian terms of relative elements.
 
     Returns
     -------
@@ -370,20 +419,46 @@ def regularised_forces(elements, local_dof, q, u):
     f : ndarray, shape (N_s, n_N)
         Generalised forces on the DOFs, ``sum_j w_j lambda_j``.
     dfdq, dfdu : ndarray, shape (N_s, n_N)
-        Diagonal derivatives ``d f_i / d q_i`` and ``d f_i / d u_i`` (``w w^T`` times the
-        element's derivatives; single-DOF elements only have diagonal terms).
+        Diagonal derivatives ``d f_i / d q_i`` and ``d f_i / d u_i`` (the diagonal of ``w w^T``
+        times the element's derivatives).
+    offdiag : list of ``(i, k, dfdq_ik, dfdu_ik)``, only with ``coupling``
+        ``d f_i / d q_k`` and ``d f_i / d u_k`` (``i != k``, arrays of shape (N_s,) or None)
+        of the relative elements.
     """
     Ns, nN = q.shape
     lam = np.zeros((Ns, len(elements)))
     f = np.zeros((Ns, nN))
     dfdq = np.zeros((Ns, nN))
     dfdu = np.zeros((Ns, nN))
+    offdiag = []
     for j, (el, d) in enumerate(zip(elements, local_dof)):
         w = el.sign
-        lam[:, j], dl_ds, dl_dg = el.regularised_law(w * q[:, d], w * u[:, d])
-        f[:, d] += w * lam[:, j]
-        if dl_ds is not None:
-            dfdq[:, d] += (w * w) * dl_ds
-        if dl_dg is not None:
-            dfdu[:, d] += (w * w) * dl_dg
+        if el.relative_to is None:
+            d = d[0] if isinstance(d, tuple) else d
+            lam[:, j], dl_ds, dl_dg = el.regularised_law(w * q[:, d], w * u[:, d])
+            f[:, d] += w * lam[:, j]
+            if dl_ds is not None:
+                dfdq[:, d] += (w * w) * dl_ds
+            if dl_dg is not None:
+                dfdu[:, d] += (w * w) * dl_dg
+            continue
+        a, b = d
+        lam[:, j], dl_ds, dl_dg = el.regularised_law(w * (q[:, a] - q[:, b]), w * (u[:, a] - u[:, b]))
+        f[:, a] += w * lam[:, j]
+        f[:, b] -= w * lam[:, j]
+        for i, wi in ((a, w), (b, -w)):
+            for k, wk in ((a, w), (b, -w)):
+                cq = None if dl_ds is None else (wi * wk) * dl_ds
+                cu = None if dl_dg is None else (wi * wk) * dl_dg
+                if i == k:
+                    if cq is not None:
+                        dfdq[:, i] += cq
+                    if cu is not None:
+                        dfdu[:, i] += cu
+                else:
+                    offdiag.append((i, k, cq, cu))
+    if coupling:
+        return lam, f, dfdq, dfdu, offdiag
+    if offdiag:
+        raise ValueError("regularised_forces: relative elements couple two DOFs; call with coupling=True")
     return lam, f, dfdq, dfdu

@@ -91,13 +91,17 @@ class MoreauJean:
         G = np.zeros((n, m))
         self.kind = np.zeros(m, dtype=np.int64)
         self.dof = np.zeros(m, dtype=np.int64)
+        self.dof2 = np.full(m, -1, dtype=np.int64)  # second DOF of relative elements, -1: ground
         self.sign = np.zeros(m)
         self.bound = np.zeros(m)
         self.gap = np.zeros(m)
         self.e = np.zeros(m)
         for j, el in enumerate(elements):
-            G[el.dof, j] = el.sign
+            for d, w in el.direction:
+                G[d, j] = w
             self.dof[j], self.sign[j] = el.dof, el.sign
+            if el.relative_to is not None:
+                self.dof2[j] = el.relative_to
             self.kind[j], self.bound[j], self.gap[j], self.e[j] = el.kernel_parameters(h)
         self.G = G
         self.WG = np.ascontiguousarray(self.W @ G)
@@ -159,7 +163,7 @@ class MoreauJean:
             np.ascontiguousarray(q0, dtype=float), np.ascontiguousarray(u0, dtype=float),
             self.Aq, self.Au, self.WG, self.Del, self.MinvG,
             np.ascontiguousarray(B, dtype=float), np.ascontiguousarray(dB, dtype=float),
-            self.theta, self.h, self.kind, self.dof, self.sign, self.bound, self.gap, self.e,
+            self.theta, self.h, self.kind, self.dof, self.dof2, self.sign, self.bound, self.gap, self.e,
             self.project, bool(sensitivities or store_q_sensitivities), bool(store_q_sensitivities),
             self.tol, self.max_iter)
         return Trajectory(*out)
@@ -188,14 +192,13 @@ class MoreauJean:
             rows = np.empty((E.size, 2 * n))
             for a, j in enumerate(E):
                 ee = self.e[j] if self.kind[j] == kernels.KIND_CONTACT else 0.0
-                rows[a] = -self.sign[j] * (dUf[self.dof[j]] + ee * dU[self.dof[j]])
+                rows[a] = -(self.G[:, j] @ dUf + ee * (self.G[:, j] @ dU))
             dP = np.linalg.solve(self.Del[np.ix_(E, E)], rows)
             dUn += self.WG[:, E] @ dP
         dQn = np.hstack([I, h * (1 - th) * I]) + h * th * dUn
         for j in np.flatnonzero(pattern & kernels.STATUS_PROJECTED):
-            d = self.dof[j]
-            w = self.sign[j] * self.MinvG[d, j]
-            dQn = dQn - np.outer(self.MinvG[:, j], self.sign[j] * dQn[d] / w)
+            w = self.G[:, j] @ self.MinvG[:, j]
+            dQn = dQn - np.outer(self.MinvG[:, j], (self.G[:, j] @ dQn) / w)
         return np.vstack([dQn, dUn])
 
     def monodromy(self, status):

@@ -25,9 +25,10 @@ CHAIN_KEYS = ("masses", "stiffness", "damping")
 MATRIX_KEYS = ("M", "C", "K")
 FORCING_KEYS = ("dof", "amplitude", "sin", "harmonic", "constant")
 #: element keys: default value, or ``...`` when required
-FRICTION_KEYS = {"dof": ..., "mu": ..., "normal_force": ..., "smoothing": 800.0}
+#: (``relative_to: J``: the element acts on ``q_dof - q_J`` instead of between ``dof`` and the ground)
+FRICTION_KEYS = {"dof": ..., "mu": ..., "normal_force": ..., "smoothing": 800.0, "relative_to": None}
 CONTACT_KEYS = {"dof": ..., "gap": ..., "restitution": 1.0, "penalty_stiffness": 8000.0,
-                "penalty_damping": 0.0}
+                "penalty_damping": 0.0, "relative_to": None}
 SOLVER_KEYS = ("method", "harmonics", "steps", "theta", "jacobian", "tol", "max_iter", "partition",
                "condense", "project", "line_search", "continuation", "stability")
 
@@ -186,13 +187,18 @@ def _elements(kind, value, n):
                 if default is ...:
                     raise InputError(f"{key}.{name}", "missing (required)")
                 vals[name] = default
-            elif name == "dof":
-                vals[name] = _dof(f"{key}.dof", item[name], n)
+            elif name in ("dof", "relative_to"):
+                vals[name] = _dof(f"{key}.{name}", item[name], n)
             else:
                 vals[name] = _number(f"{key}.{name}", item[name])
-        if vals["dof"] in seen:
-            raise InputError(f"{key}.dof", f"DOF {vals['dof']} already has a {kind} element ({seen[vals['dof']]})")
-        seen[vals["dof"]] = key
+        if vals.get("relative_to") is not None and vals["relative_to"] == vals["dof"]:
+            raise InputError(f"{key}.relative_to", f"must differ from dof ({vals['dof']}): the element acts on "
+                                                   "q_dof - q_relative_to")
+        where = vals["dof"] if vals.get("relative_to") is None else (vals["dof"], vals["relative_to"])
+        if where in seen:
+            what = f"DOF {where}" if vals.get("relative_to") is None else f"DOFs {where[0]}-{where[1]}"
+            raise InputError(f"{key}.dof", f"{what} already has a {kind} element ({seen[where]})")
+        seen[where] = key
         try:
             out.append(cls(**vals))
         except InputError as exc:  # Friction/Contact name keys "friction.mu": add the list index

@@ -63,8 +63,9 @@ def _local_elements(system, dofs):
     pos = {int(d): i for i, d in enumerate(dofs)}
     out = []
     for el in system.elements:
-        if int(el.dof) not in pos:
-            raise InputError("partition", f"{el.kind} element on DOF {el.dof} is not in the nonlinear subsystem")
+        for d in el.dofs:
+            if int(d) not in pos:
+                raise InputError("partition", f"{el.kind} element on DOF {d} is not in the nonlinear subsystem")
         out.append(el.renumbered(pos))
     return out
 

@@ -339,13 +339,15 @@ def clamped_response(system, omega, n_h):
     """Linear response with the element DOFs held fixed, ``q_hat`` shape (2 n_h + 1, n).
 
     Friction DOFs stick at their mean linear-response position, contact DOFs are closed at the gap
-    (``q_dof = gap``).  The other DOFs respond to the forcing through the dynamic stiffness of the
+    (``q_dof = gap``); elements relative to a second DOF fix nothing.  The other DOFs respond to the forcing through the dynamic stiffness of the
     clamped structure, harmonic by harmonic (singular harmonics are set to zero).
     """
     n = system.n
     fixed = {}
     lin = linear_response(system, omega, n_h)
     for el in system.elements:
+        if el.relative_to is not None:
+            continue  # a relative element fixes no DOF to the ground: its DOFs respond freely
         fixed[int(el.dof)] = el.gap if el.unilateral else float(lin[0, el.dof])
     Nd = np.array(sorted(fixed), dtype=np.int64)
     Ld = np.setdiff1d(np.arange(n), Nd)
