@@ -239,3 +239,126 @@ def test_relative_to_in_case_file(tmp_path, capsys):
     case = mshbm.load_case(write_case(tmp_path, data))
     (el,) = case.system.elements
     assert el.dofs == (0, 1) and el.relative
+
+
+# ============================================================================= Jenkins (elastic friction)
+from mshbm import Jenkins  # noqa: E402
+
+
+def _loop(el, a, Ns=2048):
+    """Force of ``el`` under ``s = a cos(t)`` and the energy it dissipates over the cycle."""
+    t = np.arange(Ns) * (2 * np.pi / Ns)
+    s, v = a * np.cos(t), -a * np.sin(t)
+    lam, D = el.history_law(s)
+    return lam, D, s, -float(np.sum(lam * v)) * (2 * np.pi / Ns)
+
+
+@pytest.mark.parametrize("kt", [5.0, 10.0, 100.0])
+def test_jenkins_hysteresis_energy_is_masing_closed_form(kt):
+    """Energy per cycle = area of the loop = 4 mu F_N (a - mu F_N / k_t) (slipping, a > mu F_N / k_t)."""
+    el = Jenkins(0, 1.0, 0.5, tangential_stiffness=kt)
+    a = 0.3
+    lam, _, s, W = _loop(el, a)
+    exact = 4 * 0.5 * (a - 0.5 / kt)
+    assert W == pytest.approx(exact, rel=1e-5)
+    assert np.abs(lam).max() == pytest.approx(0.5, rel=0, abs=1e-15)  # slides at mu F_N
+    # no slip for a <= mu F_N / (2 k_t)... fully elastic: lambda = -k_t (s - z), no dissipation
+    lam, _, s, W = _loop(el, 0.4 * 0.5 / kt)
+    assert abs(W) < 1e-12 and np.ptp(lam + kt * s) < 1e-12
+
+
+def test_jenkins_tends_to_coulomb_like_one_over_kt():
+    """The dissipated energy differs from rigid Coulomb's 4 mu F_N a by 4 (mu F_N)^2 / k_t."""
+    a, b = 0.3, 0.5
+    errs = []
+    for kt in (1e2, 1e3, 1e4):
+        lam, _, _, W = _loop(Jenkins(0, 1.0, b, tangential_stiffness=kt), a, 8192)
+        errs.append(abs(W - 4 * b * a))
+    np.testing.assert_allclose(errs, [4 * b * b / kt for kt in (1e2, 1e3, 1e4)], rtol=2e-3)
+
+
+def test_jenkins_jacobian_matches_finite_differences():
+    el = Jenkins(0, 1.0, 0.5, tangential_stiffness=10.0)
+    rng = np.random.default_rng(3)
+    Ns = 64
+    s = 0.3 * np.cos(np.arange(Ns) * 2 * np.pi / Ns) + 0.01 * rng.standard_normal(Ns)
+    lam, D = el.history_law(s)
+    d = 1e-7
+    for i in (0, 5, 31, Ns - 1):
+        sp_ = s.copy()
+        sp_[i] += d
+        np.testing.assert_allclose((el.history_law(sp_)[0] - lam) / d, D[:, i], rtol=0, atol=1e-6)
+
+
+def test_jenkins_hbm_linear_while_sticking():
+    """mu F_N huge: the structure is linear with K + k_t e_0 e_0^T (harmonics exact; the mean is fixed
+    by the AFT convention lambda = 0 at the last sample of the first march)."""
+    kt = 5.0
+    s = chain([1.0, 1.0], 1.0, 0.05, forcing=[{"dof": 1, "amplitude": 0.1}],
+              elements=[Jenkins(0, 1.0, 100.0, tangential_stiffness=kt)])
+    sol = mshbm.solve(s, 0.8, "hbm", harmonics=5, steps=256)
+    assert sol.success
+    K = s.dense("K").copy()
+    K[0, 0] += kt
+    lin = mshbm.solve(System(s.M, s.C, K, s.f_hat), 0.8, "hbm", harmonics=5)
+    qa, qb = np.asarray(sol.q_hat), np.asarray(lin.q_hat)
+    assert np.abs(qa[1:] - qb[1:]).max() <= 1e-12 * np.abs(qb).max()
+    assert sol.stable is None and "Jenkins" in sol.stability_reason
+
+
+def test_jenkins_hbm_tends_to_coulomb():
+    """Den Hartog's oscillator with a Jenkins element: HBM (n_H = 15) converges as k_t grows; the
+    steps between k_t = 1e2, 1e3, 1e4, 1e6 shrink (measured 0.035, 0.0089, 0.0013 in the first harmonic)
+    and the limit lies within HBM's truncation of Den Hartog's exact amplitude."""
+    amps = {}
+    for kt in (1e2, 1e3, 1e4, 1e6):
+        s = chain([1.0], 1.0, 0.0, forcing=[{"dof": 0, "amplitude": 1.0}],
+                  elements=[Jenkins(0, 1.0, F_DH, tangential_stiffness=kt)])
+        sol = mshbm.solve(s, OMEGA_DH, "hbm", harmonics=15, steps=1024)
+        assert sol.success
+        amps[kt] = float(np.max(np.abs(sol.displacement([0]))))
+        # energy: the friction work balances the input (certificate) and the loop slides at mu F_N
+        assert {c.name: c for c in sol.certificate.checks}["friction_cone"].value == pytest.approx(1.0, abs=1e-12)
+    d = [abs(amps[k] - amps[1e6]) for k in (1e2, 1e3, 1e4)]
+    assert d[0] > 3 * d[1] > 9 * d[2]
+    assert abs(amps[1e6] - den_hartog(OMEGA_DH, F_DH)) / den_hartog(OMEGA_DH, F_DH) < 1e-2
+
+
+def test_jenkins_relative_equals_ground_in_relative_coordinates():
+    rel, ground, Tn = _pair(Jenkins(0, 0.3, 1.0, tangential_stiffness=20.0, relative_to=1),
+                            Jenkins(0, 0.3, 1.0, tangential_stiffness=20.0))
+    a = mshbm.solve(rel, 0.8, "hbm", harmonics=10, steps=512)
+    b = mshbm.solve(ground, 0.8, "hbm", harmonics=10, steps=512)
+    assert a.success and b.success
+    qa, qb = np.asarray(a.q_hat), np.asarray(b.q_hat) @ Tn.T
+    assert np.abs(qa - qb).max() <= 1e-9 * np.abs(qa).max()
+
+
+@pytest.mark.parametrize("method", ["shooting", "mshbm", "mshbm-intermediate"])
+def test_jenkins_time_stepping_is_a_clean_input_error(method):
+    s = chain([1.0, 1.0], 1.0, 0.05, forcing=[{"dof": 1, "amplitude": 1.0}],
+              elements=[Jenkins(0, 1.0, 0.3, tangential_stiffness=10.0)])
+    part = {"mshbm-intermediate": dict(partition=[[0], [1]])}.get(method, {})
+    with pytest.raises(InputError) as info:
+        mshbm.solve(s, 0.8, method, steps=256, **part)
+    assert info.value.key == "friction.tangential_stiffness"
+    with pytest.raises(InputError) as info:
+        exact_periodic(s, 0.8)
+    assert info.value.key == "friction.tangential_stiffness"
+
+
+@pytest.mark.parametrize("value, ids", [(0, "zero"), (-5.0, "negative"), ("stiff", "string"),
+                                        (float("inf"), "inf")])
+def test_bad_tangential_stiffness_exit_2(value, ids, tmp_path, capsys):
+    data = copy.deepcopy(BASE)
+    data["friction"] = {**data["friction"], "tangential_stiffness": value}
+    data["solver"] = {"method": "hbm", "harmonics": 2}
+    code, out, err = run(capsys, "solve", write_case(tmp_path, data))
+    assert_input_error(code, out, err, "friction.tangential_stiffness")
+
+
+def test_tangential_stiffness_in_case_file(tmp_path):
+    data = copy.deepcopy(BASE)
+    data["friction"] = {**data["friction"], "tangential_stiffness": 50.0}
+    (el,) = mshbm.load_case(write_case(tmp_path, data)).system.elements
+    assert isinstance(el, Jenkins) and el.tangential_stiffness == 50.0 and el.history

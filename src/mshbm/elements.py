@@ -54,7 +54,7 @@ import numpy as np
 from .errors import InputError
 from .integrators.kernels import KIND_CONTACT, KIND_FRICTION
 
-__all__ = ["Element", "Friction", "Contact", "regularised_forces", "ELEMENT_TYPES"]
+__all__ = ["Element", "Friction", "Contact", "Jenkins", "regularised_forces", "ELEMENT_TYPES"]
 
 
 def _finite_number(key, value, *, positive=False, nonnegative=False):
@@ -118,6 +118,9 @@ class Element:
     unilateral: ClassVar[bool] = False
     bounded: ClassVar[bool] = False
     piecewise_linear: ClassVar[bool] = False
+    #: the law has an internal state (its force depends on the history of ``s``, not on ``(s, gamma)``):
+    #: HBM evaluates :meth:`history_law` instead of :meth:`regularised_law`
+    history: ClassVar[bool] = False
 
     # ------------------------------------------------------------------ geometry
     @property
@@ -377,6 +380,82 @@ class Contact(Element):
         return [(f"{self.kind}.penalty_stiffness", "k_c gap", self.penalty_stiffness * max(self.gap, 1.0))]
 
 
+@dataclass(frozen=True)
+class Jenkins(Friction):
+    """Elastic Coulomb friction (Jenkins element): a spring ``k_t`` in series with a Coulomb slider.
+
+    With the slider position ``z`` (internal state), the force on the structure is ``w lambda`` with::
+
+        lambda = -k_t (s - z),   |lambda| <= mu F_N,   z moves only while |lambda| = mu F_N
+
+    (``s = w^T q``).  While the slider sticks the element is a linear spring ``k_t`` (the structure
+    behaves like ``K + k_t w w^T``); as ``k_t -> inf`` it tends to rigid Coulomb friction.  Under
+    ``s = a cos(omega t)`` with ``a > mu F_N / k_t`` the hysteresis loop encloses the energy
+    ``4 mu F_N (a - mu F_N / k_t)`` per cycle (Masing/Iwan).
+
+    Methods: HBM evaluates the law along the period's samples, marching the period twice from
+    ``lambda = 0`` at the last sample (:meth:`history_law`, the usual AFT treatment of hysteresis,
+    with its exact Jacobian); the law is not regularised.  Time stepping (shooting, MS-HBM) and the
+    exact flow would carry ``z`` as a state of the periodic problem: not supported (a clean
+    :class:`~mshbm.errors.InputError`).  In the case file: a ``friction`` entry with
+    ``tangential_stiffness``.
+    """
+
+    tangential_stiffness: float = 1.0
+
+    def __post_init__(self):
+        super().__post_init__()
+        object.__setattr__(self, "tangential_stiffness",
+                           _finite_number("friction.tangential_stiffness", self.tangential_stiffness, positive=True))
+
+    history: ClassVar[bool] = True
+
+    def project(self, p, h):
+        raise InputError("friction.tangential_stiffness",
+                         "elastic friction (Jenkins) has an internal slider state: time stepping (shooting, "
+                         "mshbm, mshbm-intermediate) does not support it yet; use method 'hbm'")
+
+    def kernel_parameters(self, h):
+        self.project(0.0, h)
+
+    def regularised_law(self, s, gamma):
+        raise TypeError("Jenkins has a history-dependent law: use history_law")
+
+    def scaled(self, factor):
+        """Not regularised: unchanged."""
+        return self
+
+    def history_law(self, s):
+        """``lambda`` at the periodic samples ``s`` (shape (N_s,)) and ``D = d lambda / d s`` (N_s, N_s).
+
+        Return mapping over two periods: ``lambda_k = clip(lambda_{k-1} - k_t (s_k - s_{k-1}), +-mu F_N)``
+        from ``lambda = 0`` at the last sample (``s_{-1} = s_{N_s-1}``); the second period is returned.
+        ``D`` follows the same recursion (zero rows while the slider slides).
+        """
+        s = np.asarray(s, dtype=float)
+        Ns = s.size
+        kt, b = self.tangential_stiffness, self.bound
+        lam = np.zeros(Ns)
+        D = np.zeros((Ns, Ns))
+        prev_l, prev_D, prev_k = 0.0, np.zeros(Ns), Ns - 1
+        for _ in range(2):
+            for k in range(Ns):
+                l = prev_l - kt * (s[k] - s[prev_k])
+                row = prev_D.copy()
+                row[k] -= kt
+                row[prev_k] += kt
+                if l >= b:
+                    l, row = b, np.zeros(Ns)
+                elif l <= -b:
+                    l, row = -b, np.zeros(Ns)
+                lam[k], D[k] = l, row
+                prev_l, prev_D, prev_k = l, row, k
+        return lam, D
+
+    def magnitude_terms(self):
+        return super().magnitude_terms() + [(f"{self.kind}.tangential_stiffness", "k_t", self.tangential_stiffness)]
+
+
 #: element classes by their ``kind`` (the case-file keys)
 ELEMENT_TYPES = {cls.kind: cls for cls in (Friction, Contact)}
 
@@ -423,7 +502,8 @@ def regularised_forces(elements, local_dof, q, u, coupling=False):
         times the element's derivatives).
     offdiag : list of ``(i, k, dfdq_ik, dfdu_ik)``, only with ``coupling``
         ``d f_i / d q_k`` and ``d f_i / d u_k`` (``i != k``, arrays of shape (N_s,) or None)
-        of the relative elements.
+        of the relative elements; for elements with a history (:class:`Jenkins`) ``dfdq_ik`` is an
+        ``(N_s, N_s)`` matrix ``d f_i(t_a) / d q_k(t_b)`` (``i == k`` included).
     """
     Ns, nN = q.shape
     lam = np.zeros((Ns, len(elements)))
@@ -433,6 +513,16 @@ def regularised_forces(elements, local_dof, q, u, coupling=False):
     offdiag = []
     for j, (el, d) in enumerate(zip(elements, local_dof)):
         w = el.sign
+        if el.history:  # dense in time: d lambda_k / d s_l, into the coupling terms as (N_s, N_s) matrices
+            cols = (d,) if isinstance(d, (int, np.integer)) else tuple(d)
+            wc = [(c, wi) for c, (_, wi) in zip(cols, el.direction)]
+            s = sum(wi * q[:, c] for c, wi in wc) if len(wc) > 1 else w * q[:, cols[0]]
+            lam[:, j], D = el.history_law(s)
+            for i, wi in wc:
+                f[:, i] += wi * lam[:, j]
+                for k, wk in wc:
+                    offdiag.append((i, k, (wi * wk) * D, None))
+            continue
         if el.relative_to is None:
             d = d[0] if isinstance(d, tuple) else d
             lam[:, j], dl_ds, dl_dg = el.regularised_law(w * q[:, d], w * u[:, d])
@@ -460,5 +550,6 @@ def regularised_forces(elements, local_dof, q, u, coupling=False):
     if coupling:
         return lam, f, dfdq, dfdu, offdiag
     if offdiag:
-        raise ValueError("regularised_forces: relative elements couple two DOFs; call with coupling=True")
+        raise ValueError("regularised_forces: relative or history elements couple DOFs or samples; "
+                         "call with coupling=True")
     return lam, f, dfdq, dfdu

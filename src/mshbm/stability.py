@@ -151,6 +151,10 @@ def assess(system, sol, stability="auto", steps=None, theta=0.5):
 
 def _assess(system, sol, stability, steps, theta, t0):
     reason_exact = ""
+    if any(el.history for el in system.elements):
+        return _set(sol, None, None, "none: not supported for elastic friction",
+                    "elastic friction (Jenkins) has a slider state that neither the exact flow nor the "
+                    "Moreau-Jean step map carries: no multipliers")
     if any(el.relative_to is not None for el in system.elements):
         reason_exact = "an element relative to a second DOF (the exact flow handles one element on one DOF); "
     elif len(system.elements) <= 1:

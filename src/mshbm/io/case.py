@@ -11,6 +11,7 @@ import numpy as np
 
 from .. import api
 from ..errors import InputError
+from ..elements import Jenkins
 from ..system import Contact, Friction, System, chain
 from .yaml import _REPR, MAX_FILE_BYTES, describe as _describe, load_yaml as _load_yaml, read_text as _read_text
 
@@ -26,7 +27,9 @@ MATRIX_KEYS = ("M", "C", "K")
 FORCING_KEYS = ("dof", "amplitude", "sin", "harmonic", "constant")
 #: element keys: default value, or ``...`` when required
 #: (``relative_to: J``: the element acts on ``q_dof - q_J`` instead of between ``dof`` and the ground)
-FRICTION_KEYS = {"dof": ..., "mu": ..., "normal_force": ..., "smoothing": 800.0, "relative_to": None}
+#: (``tangential_stiffness: k_t``: elastic friction, a Jenkins element, :class:`mshbm.elements.Jenkins`)
+FRICTION_KEYS = {"dof": ..., "mu": ..., "normal_force": ..., "smoothing": 800.0, "relative_to": None,
+                 "tangential_stiffness": None}
 CONTACT_KEYS = {"dof": ..., "gap": ..., "restitution": 1.0, "penalty_stiffness": 8000.0,
                 "penalty_damping": 0.0, "relative_to": None}
 SOLVER_KEYS = ("method", "harmonics", "steps", "theta", "jacobian", "tol", "max_iter", "partition",
@@ -199,8 +202,14 @@ def _elements(kind, value, n):
             what = f"DOF {where}" if vals.get("relative_to") is None else f"DOFs {where[0]}-{where[1]}"
             raise InputError(f"{key}.dof", f"{what} already has a {kind} element ({seen[where]})")
         seen[where] = key
+        make = cls
+        if kind == "friction":
+            if vals.get("tangential_stiffness") is None:
+                vals.pop("tangential_stiffness", None)
+            else:
+                make = Jenkins
         try:
-            out.append(cls(**vals))
+            out.append(make(**vals))
         except InputError as exc:  # Friction/Contact name keys "friction.mu": add the list index
             if key != kind and exc.key.startswith(kind + "."):
                 raise InputError(key + exc.key[len(kind):], exc.problem) from None

@@ -173,7 +173,9 @@ class HBMProblem:
             if dfdu[:, i].any():
                 Jn[:, i, :, i] += (self.E * dfdu[:, i]) @ self.VsOm
         for i, k, cq, cu in offdiag:  # relative elements: d f_i / d (q_k, u_k), i != k
-            if cq is not None and cq.any():
+            if cq is not None and cq.ndim == 2:  # history (Jenkins): d f_i(t_a) / d q_k(t_b)
+                Jn[:, i, :, k] += self.E @ cq @ self.Vs
+            elif cq is not None and cq.any():
                 Jn[:, i, :, k] += (self.E * cq) @ self.Vs
             if cu is not None and cu.any():
                 Jn[:, i, :, k] += (self.E * cu) @ self.VsOm
