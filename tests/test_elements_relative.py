@@ -362,3 +362,24 @@ def test_tangential_stiffness_in_case_file(tmp_path):
     data["friction"] = {**data["friction"], "tangential_stiffness": 50.0}
     (el,) = mshbm.load_case(write_case(tmp_path, data)).system.elements
     assert isinstance(el, Jenkins) and el.tangential_stiffness == 50.0 and el.history
+
+
+@pytest.mark.parametrize("relative", [False, True])
+def test_hbm_jacobian_with_jenkins_and_relative_elements_matches_finite_differences(relative):
+    els = [Jenkins(0, 1.0, 0.4, tangential_stiffness=8.0, relative_to=1 if relative else None),
+           Friction(2, 0.3, 0.5, relative_to=1 if relative else None),
+           Contact(1, 0.3, penalty_stiffness=50.0, relative_to=2 if relative else None)]
+    s = chain([1.0, 2.0, 1.5], 1.0, 0.05, forcing=[{"dof": 2, "amplitude": 1.5}], elements=els)
+    prob, _ = mshbm.build_problem(s, 0.8, "hbm", harmonics=4, steps=128)
+    x = prob.initial_guess("linear") * 1.3 + 0.01
+    R, J = prob.residual(x)
+    J = J.toarray() if hasattr(J, "toarray") else J
+    d = 1e-7
+    worst = 0.0
+    for i in range(x.size):
+        xp, xm = x.copy(), x.copy()
+        xp[i] += d
+        xm[i] -= d
+        fd = (prob.residual(xp, jac=False)[0] - prob.residual(xm, jac=False)[0]) / (2 * d)
+        worst = max(worst, np.abs(fd - J[:, i]).max() / max(1.0, np.abs(J[:, i]).max()))
+    assert worst < 1e-5

@@ -425,29 +425,31 @@ class Jenkins(Friction):
         """Not regularised: unchanged."""
         return self
 
-    def history_law(self, s):
-        """``lambda`` at the periodic samples ``s`` (shape (N_s,)) and ``D = d lambda / d s`` (N_s, N_s).
+    def history_law(self, s, basis=None):
+        """``lambda`` at the periodic samples ``s`` (shape (N_s,)) and its derivative ``D``.
 
         Return mapping over two periods: ``lambda_k = clip(lambda_{k-1} - k_t (s_k - s_{k-1}), +-mu F_N)``
         from ``lambda = 0`` at the last sample (``s_{-1} = s_{N_s-1}``); the second period is returned.
-        ``D`` follows the same recursion (zero rows while the slider slides).
+        ``D`` follows the same recursion (zero rows while the slider slides): ``d lambda / d s``, shape
+        (N_s, N_s), or with ``basis`` (shape (N_s, n_b), ``s = basis @ c``) ``d lambda / d c``, shape
+        (N_s, n_b) -- for HBM the Fourier coefficients, ``O(N_s n_b)`` memory instead of ``O(N_s^2)``.
         """
         s = np.asarray(s, dtype=float)
         Ns = s.size
+        V = np.eye(Ns) if basis is None else np.asarray(basis, dtype=float)
         kt, b = self.tangential_stiffness, self.bound
         lam = np.zeros(Ns)
-        D = np.zeros((Ns, Ns))
-        prev_l, prev_D, prev_k = 0.0, np.zeros(Ns), Ns - 1
+        D = np.zeros((Ns, V.shape[1]))
+        zero = np.zeros(V.shape[1])
+        prev_l, prev_D, prev_k = 0.0, zero, Ns - 1
         for _ in range(2):
             for k in range(Ns):
                 l = prev_l - kt * (s[k] - s[prev_k])
-                row = prev_D.copy()
-                row[k] -= kt
-                row[prev_k] += kt
+                row = prev_D - kt * (V[k] - V[prev_k])
                 if l >= b:
-                    l, row = b, np.zeros(Ns)
+                    l, row = b, zero
                 elif l <= -b:
-                    l, row = -b, np.zeros(Ns)
+                    l, row = -b, zero
                 lam[k], D[k] = l, row
                 prev_l, prev_D, prev_k = l, row, k
         return lam, D
@@ -460,7 +462,7 @@ class Jenkins(Friction):
 ELEMENT_TYPES = {cls.kind: cls for cls in (Friction, Contact)}
 
 
-def regularised_forces(elements, local_dof, q, u, coupling=False):
+def regularised_forces(elements, local_dof, q, u, coupling=False, basis=None):
     """Evaluate the regularised laws (:meth:`Element.regularised_law`) on samples.
 
     Friction (eq. 42), slip velocity ``gamma_T = w^T u``::
@@ -490,6 +492,9 @@ def regularised_forces(elements, local_dof, q, u, coupling=False):
         Displacements and velocities of the nonlinear DOFs at the samples.
     coupling : bool
         Also return the off-diagonal Jacobian terms of relative elements.
+    basis : ndarray, shape (N_s, n_b), optional
+        ``q = basis @ coefficients`` (HBM: the inverse DFT): the derivatives of history elements are
+        then taken with respect to the coefficients.
 
     Returns
     -------
@@ -503,7 +508,8 @@ def regularised_forces(elements, local_dof, q, u, coupling=False):
     offdiag : list of ``(i, k, dfdq_ik, dfdu_ik)``, only with ``coupling``
         ``d f_i / d q_k`` and ``d f_i / d u_k`` (``i != k``, arrays of shape (N_s,) or None)
         of the relative elements; for elements with a history (:class:`Jenkins`) ``dfdq_ik`` is an
-        ``(N_s, N_s)`` matrix ``d f_i(t_a) / d q_k(t_b)`` (``i == k`` included).
+        ``(N_s, N_s)`` matrix ``d f_i(t_a) / d q_k(t_b)`` (``i == k`` included), or with ``basis`` the
+        ``(N_s, n_b)`` matrix ``d f_i(t_a) / d c_k`` for the coefficients ``c_k`` of ``q_k``.
     """
     Ns, nN = q.shape
     lam = np.zeros((Ns, len(elements)))
@@ -517,11 +523,11 @@ def regularised_forces(elements, local_dof, q, u, coupling=False):
             cols = (d,) if isinstance(d, (int, np.integer)) else tuple(d)
             wc = [(c, wi) for c, (_, wi) in zip(cols, el.direction)]
             s = sum(wi * q[:, c] for c, wi in wc) if len(wc) > 1 else w * q[:, cols[0]]
-            lam[:, j], D = el.history_law(s)
+            lam[:, j], D = el.history_law(s, basis)
             for i, wi in wc:
                 f[:, i] += wi * lam[:, j]
                 for k, wk in wc:
-                    offdiag.append((i, k, (wi * wk) * D, None))
+                    offdiag.append((i, k, D if wi * wk == 1.0 else (wi * wk) * D, None))
             continue
         if el.relative_to is None:
             d = d[0] if isinstance(d, tuple) else d

@@ -159,7 +159,8 @@ class HBMProblem:
         """``(R, J)`` with shapes ``(n_x,)`` and ``(n_x, n_x)`` (dense if condensed, else sparse)."""
         nc, nR = 2 * self.n_h + 1, self.nR
         q, u = self._time(x)
-        _, f, dfdq, dfdu, offdiag = regularised_forces(self.system.elements, self._ldof, q, u, coupling=True)
+        _, f, dfdq, dfdu, offdiag = regularised_forces(self.system.elements, self._ldof, q, u, coupling=True,
+                                                       basis=self.Vs)
         R = self.A @ x - self.r
         R.reshape(nc, nR)[:, self.nl_cols] -= self.E @ f
         if not jac:
@@ -173,8 +174,8 @@ class HBMProblem:
             if dfdu[:, i].any():
                 Jn[:, i, :, i] += (self.E * dfdu[:, i]) @ self.VsOm
         for i, k, cq, cu in offdiag:  # relative elements: d f_i / d (q_k, u_k), i != k
-            if cq is not None and cq.ndim == 2:  # history (Jenkins): d f_i(t_a) / d q_k(t_b)
-                Jn[:, i, :, k] += self.E @ cq @ self.Vs
+            if cq is not None and cq.ndim == 2:  # history (Jenkins): d f_i(t_a) / d q_hat_k (through Vs)
+                Jn[:, i, :, k] += self.E @ cq
             elif cq is not None and cq.any():
                 Jn[:, i, :, k] += (self.E * cq) @ self.Vs
             if cu is not None and cu.any():
