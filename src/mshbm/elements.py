@@ -32,16 +32,30 @@ event-driven flow, checks  :attr:`Element.unilateral` (gap ``g_N >= 0``, impacts
 subsystems                 :meth:`Element.renumbered` (the element on renumbered DOFs)
 =========================  ==================================================================
 
-The elements of issue 15 are meant to be new subclasses:
+Elements of issue 15:
 
-* friction and contact *relative* to a second DOF: ``dofs = (I, J)``, ``w = sign (e_I - e_J)``; the
-  laws are the same functions of ``(s, gamma)``, and :func:`regularised_forces` then adds the
-  off-diagonal terms ``w w^T`` of the Jacobian (today single-DOF elements give diagonal terms only);
-* *Jenkins* friction (tangential stiffness ``k_t`` in series with the slider): a law with an internal
-  state (the slider position), so its kernel parameters gain a state and its regularised law is
-  evaluated along the period's history (AFT over two periods);
-* friction whose *normal load* comes from a contact on the same point: its bound is
-  ``mu lambda_N`` of another element, a coupling the kernel's local solve has to know.
+* friction and contact *relative* to a second DOF (``relative_to=J``, all methods): ``dofs = (I, J)``,
+  ``w = sign (e_I - e_J)`` (:attr:`Element.direction`, :meth:`Element.local`); the laws are the same
+  functions of ``(s, gamma)``.  :func:`regularised_forces` adds the off-diagonal Jacobian terms of
+  ``w w^T``; the Moreau-Jean kernel takes the second DOF as ``dof2`` (``-1``: the ground); the exact
+  flow and hence exact Floquet multipliers handle one element on one DOF only (InputError; stability
+  falls back to the step map with the reason).
+* :class:`Jenkins` friction (tangential stiffness ``k_t`` in series with the slider; HBM only): a law
+  with an internal state (the slider position ``z``), :attr:`Element.history`; HBM evaluates it along
+  the period twice (:meth:`Jenkins.history_law`, derivative with respect to the Fourier coefficients).
+  Not yet in time stepping.  The plan: a massless slider DOF per element (``M_zz = 0``,
+  ``K += k_t [w; -1][w; -1]^T``, rigid Coulomb friction on ``z``) inside :class:`MoreauJean` -- the
+  theta-scheme's ``W = (M + h theta C + h^2 theta^2 K)^-1`` stays regular because ``K_zz = k_t > 0``,
+  so the kernel needs no change; ``M^-1 G`` (contact projection) must then be taken on the massive
+  block only.  Shooting and both MS-HBM variants gain ``(z, u_z)`` per element as unknowns (and strip
+  them from the reported solution); in a motion that never slips ``z`` is free (a family of periodic
+  solutions), so the ``z``-rows need a convention there (HBM's march sets ``lambda = 0`` at its last sample).
+* friction whose *normal load* comes from a contact on the same point (not implemented): its bound is
+  ``mu lambda_N`` of another element -- in the kernel a coupled local problem (PGS with the bound
+  updated each sweep, and in the sensitivities ``dP_T = -+mu dP_N`` while sliding); in HBM
+  ``lambda_T = mu lambda_N(g_N, gamma_N) (2/pi) arctan(kappa gamma_T)`` with Jacobian terms in the
+  normal and tangential DOFs (the coupling terms of :func:`regularised_forces`); the certificate's
+  cone ``|lambda_T| <= mu lambda_N`` per sample; exact flow: not supported.
 """
 from __future__ import annotations
 
