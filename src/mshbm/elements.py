@@ -40,20 +40,17 @@ Elements of issue 15:
   ``w w^T``; the Moreau-Jean kernel takes the second DOF as ``dof2`` (``-1``: the ground); the exact
   flow and hence exact Floquet multipliers handle one element on one DOF only (InputError; stability
   falls back to the step map with the reason).
-* :class:`Jenkins` friction (tangential stiffness ``k_t`` in series with the slider; HBM only): a law
-  with an internal state (the slider position ``z``), :attr:`Element.history`; HBM evaluates it along
-  the period twice (:meth:`Jenkins.history_law`, derivative with respect to the Fourier coefficients).
-  Not yet in time stepping.  The plan: a massless slider DOF per element (``M_zz = 0``,
-  ``K += k_t [w; -1][w; -1]^T``, rigid Coulomb friction on ``z``) inside :class:`MoreauJean` -- the
-  theta-scheme's ``W = (M + h theta C + h^2 theta^2 K)^-1`` stays regular because ``K_zz = k_t > 0``,
-  so the kernel needs no change; ``M^-1 G`` (contact projection) must then be taken on the massive
-  block only.  Measured in a first attempt: with ``theta = 1/2`` the slider's velocity ``u_z`` is an
-  auxiliary state mapped to ``-(1 - theta)/theta u_z = -u_z`` every step, and the shooting Jacobian
-  (monodromy) of a slipping orbit grew to 3e129 (Den Hartog's oscillator, ``k_t = 100``, 4096 steps)
-  while the sticking case matched ``K + k_t`` exactly (2e-14): the slider needs its own update
-  (``theta = 1`` on the slider, ``z+ = z + h u_z+``, so that ``u_z`` is no state), a kernel change.  Shooting and both MS-HBM variants gain ``(z, u_z)`` per element as unknowns (and strip
-  them from the reported solution); in a motion that never slips ``z`` is free (a family of periodic
-  solutions), so the ``z``-rows need a convention there (HBM's march sets ``lambda = 0`` at its last sample).
+* :class:`Jenkins` friction (tangential stiffness ``k_t`` in series with the slider; all methods but
+  the exact flow): a law with an internal state (the slider position ``z``), :attr:`Element.history`.
+  HBM evaluates it along the period twice (:meth:`Jenkins.history_law`, derivative with respect to
+  the Fourier coefficients).  Time stepping integrates one massless slider DOF per element
+  (:func:`mshbm.integrators.moreau_jean._with_sliders`: ``M_zz = 0``, ``K += k_t [w; -e_z][w; -e_z]^T``,
+  rigid Coulomb friction on ``z``), stepped with ``theta = 1`` so that its velocity is no state (with
+  ``theta = 1/2`` the auxiliary velocity maps to ``-u_z`` every step and a first attempt's shooting
+  Jacobian grew to 3e129); shooting and both MS-HBM variants carry ``(z, u_z)`` as unknowns and
+  report the structure's DOFs only.  In a motion that never slips ``z`` is free (a family of
+  periodic solutions differing in the mean): HBM's march picks ``lambda = 0`` at its last sample, time
+  stepping the start ``z = w^T q(0)`` of Newton's first iterate.
 * friction whose *normal load* comes from a contact on the same point (not implemented): its bound is
   ``mu lambda_N`` of another element -- in the kernel a coupled local problem (PGS with the bound
   updated each sweep, and in the sensitivities ``dP_T = -+mu dP_N`` while sliding); in HBM
@@ -413,9 +410,9 @@ class Jenkins(Friction):
 
     Methods: HBM evaluates the law along the period's samples, marching the period twice from
     ``lambda = 0`` at the last sample (:meth:`history_law`, the usual AFT treatment of hysteresis,
-    with its exact Jacobian); the law is not regularised.  Time stepping (shooting, MS-HBM) and the
-    exact flow would carry ``z`` as a state of the periodic problem: not supported (a clean
-    :class:`~mshbm.errors.InputError`).  In the case file: a ``friction`` entry with
+    with its exact Jacobian); the law is not regularised.  Time stepping (shooting, MS-HBM) integrates
+    ``z`` as a massless slider DOF (see the module docstring); the exact flow does not support it (a
+    clean :class:`~mshbm.errors.InputError`).  In the case file: a ``friction`` entry with
     ``tangential_stiffness``.
     """
 
@@ -428,13 +425,10 @@ class Jenkins(Friction):
 
     history: ClassVar[bool] = True
 
-    def project(self, p, h):
-        raise InputError("friction.tangential_stiffness",
-                         "elastic friction (Jenkins) has an internal slider state: time stepping (shooting, "
-                         "mshbm, mshbm-intermediate) does not support it yet; use method 'hbm'")
-
     def kernel_parameters(self, h):
-        self.project(0.0, h)
+        """Not a kernel element itself: :class:`mshbm.integrators.moreau_jean.MoreauJean` integrates it as
+        a massless slider DOF carrying rigid friction (its :meth:`project` is Coulomb's on that DOF)."""
+        raise TypeError("Jenkins: MoreauJean integrates it as a slider DOF with Coulomb friction")
 
     def regularised_law(self, s, gamma):
         raise TypeError("Jenkins has a history-dependent law: use history_law")

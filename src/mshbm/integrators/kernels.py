@@ -248,7 +248,7 @@ def _moreau_jean_scalar(q0, u0, aq, au, wg, dl, minvg, B, dB, theta, h, kind, si
 @njit(cache=True)
 def moreau_jean(q0, u0, Aq, Au, WG, Del, MinvG, B, dB, theta, h,
                 kind, dof, dof2, sign, bound, gap, e, project,
-                want_sens, store_q_sens, tol, max_iter):
+                want_sens, store_q_sens, tol, max_iter, n_slider):
     """Integrate ``N = B.shape[0]`` Moreau-Jean steps.
 
     Parameters
@@ -269,11 +269,15 @@ def moreau_jean(q0, u0, Aq, Au, WG, Del, MinvG, B, dB, theta, h,
     q, u : (N+1, n) trajectory;  P : (N, m) impulses;  status : (N, m) int8;
     Sq, Su : (n, n_s) end sensitivities, ``n_s = 2n + n_p`` (empty if not wanted);
     Sq_traj : (N+1, n, n_s) if ``store_q_sens`` else empty;  max_iter_used : int.
+
+    ``n_slider``: the last ``n_slider`` DOFs are massless sliders of Jenkins elements
+    (:func:`mshbm.integrators.moreau_jean._with_sliders`), stepped with ``theta = 1``
+    (``q+ = q + h u+``) so that their velocity is no state; ``Aq, Au, WG`` must be built alike.
     """
     N = B.shape[0]
     n = q0.shape[0]
     m = kind.shape[0]
-    if n == 1 and m == 1:
+    if n == 1 and m == 1 and n_slider == 0:
         return _moreau_jean_scalar(q0, u0, Aq[0, 0], Au[0, 0], WG[0, 0], Del[0, 0], MinvG[0, 0], B, dB, theta, h,
                                    kind[0], sign[0], bound[0], gap[0], e[0], project, want_sens, store_q_sens)
     n_p = dB.shape[2]
@@ -308,8 +312,15 @@ def moreau_jean(q0, u0, Aq, Au, WG, Del, MinvG, B, dB, theta, h,
     dQn = np.empty((n, n_s))
     dP = np.zeros((m, n_s))
     used = 0
-    c1 = h * (1.0 - theta)
-    c2 = h * theta
+    c1v = np.empty(n)
+    c2v = np.empty(n)
+    for i in range(n):
+        if i < n - n_slider:
+            c1v[i] = h * (1.0 - theta)
+            c2v[i] = h * theta
+        else:
+            c1v[i] = 0.0
+            c2v[i] = h
     for k in range(N):
         # free velocity
         for i in range(n):
@@ -323,10 +334,10 @@ def moreau_jean(q0, u0, Aq, Au, WG, Del, MinvG, B, dB, theta, h,
                 d = dof[j]
                 d2 = dof2[j]
                 if d2 < 0:
-                    fgap[j] = gap[j] + sign[j] * (q[d] + c1 * u[d] + c2 * uf[d])
+                    fgap[j] = gap[j] + sign[j] * (q[d] + c1v[d] * u[d] + c2v[d] * uf[d])
                 else:
-                    fgap[j] = gap[j] + sign[j] * ((q[d] + c1 * u[d] + c2 * uf[d])
-                                                  - (q[d2] + c1 * u[d2] + c2 * uf[d2]))
+                    fgap[j] = gap[j] + sign[j] * ((q[d] + c1v[d] * u[d] + c2v[d] * uf[d])
+                                                  - (q[d2] + c1v[d2] * u[d2] + c2v[d2] * uf[d2]))
             else:
                 fgap[j] = 0.0
         if m > 0:
@@ -339,7 +350,7 @@ def moreau_jean(q0, u0, Aq, Au, WG, Del, MinvG, B, dB, theta, h,
             for j in range(m):
                 s += WG[i, j] * P[j]
             un[i] = s
-            qn[i] = q[i] + c1 * u[i] + c2 * s
+            qn[i] = q[i] + c1v[i] * u[i] + c2v[i] * s
         if want_sens:
             if n * n * n_s > 4096:
                 dUf[:, :] = Su - np.dot(Aq, Sq) - np.dot(Au, Su)
@@ -394,7 +405,7 @@ def moreau_jean(q0, u0, Aq, Au, WG, Del, MinvG, B, dB, theta, h,
                     for j in range(m):
                         s += WG[i, j] * dP[j, c]
                     dUn[i, c] = s
-                    dQn[i, c] = Sq[i, c] + c1 * Su[i, c] + c2 * s
+                    dQn[i, c] = Sq[i, c] + c1v[i] * Su[i, c] + c2v[i] * s
         # position projection of penetrating contacts (metric M)
         if project:
             for j in range(m):
@@ -432,7 +443,7 @@ def moreau_jean(q0, u0, Aq, Au, WG, Del, MinvG, B, dB, theta, h,
 
 
 def moreau_jean_numpy(q0, u0, Aq, Au, WG, Del, MinvG, B, theta, h,
-                      kind, dof, sign, bound, gap, e, project=True, dof2=None):
+                      kind, dof, sign, bound, gap, e, project=True, dof2=None, n_slider=0):
     """Plain NumPy version of :func:`moreau_jean` (no sensitivities), for testing.
 
     One element per step is solved in closed form; several by PGS as in the kernel.
@@ -441,6 +452,8 @@ def moreau_jean_numpy(q0, u0, Aq, Au, WG, Del, MinvG, B, theta, h,
     """
     N, n, m = B.shape[0], q0.size, kind.size
     dof2 = -np.ones(m, dtype=np.int64) if dof2 is None else np.asarray(dof2)
+    th = np.full(n, float(theta))
+    th[n - n_slider:] = 1.0  # massless slider DOFs: theta = 1
     W = np.zeros((n, m))  # columns w_j
     for j in range(m):
         W[dof[j], j] = sign[j]
@@ -451,7 +464,7 @@ def moreau_jean_numpy(q0, u0, Aq, Au, WG, Del, MinvG, B, theta, h,
     for k in range(N):
         uf = u + B[k] - Aq @ q - Au @ u
         P = np.zeros(m)
-        qfree = q + h * (1 - theta) * u + h * theta * uf
+        qfree = q + h * (1 - th) * u + h * th * uf
         active = np.array([bound[j] > 0 if kind[j] == KIND_FRICTION
                            else gap[j] + W[:, j] @ qfree <= 0 for j in range(m)], dtype=bool)
         r = np.array([W[:, j] @ uf + (e[j] * (W[:, j] @ u) if kind[j] == KIND_CONTACT else 0.0)
@@ -464,7 +477,7 @@ def moreau_jean_numpy(q0, u0, Aq, Au, WG, Del, MinvG, B, theta, h,
             if np.max(np.abs(P - Pold), initial=0.0) <= 1e-14 * (1 + np.max(np.abs(P), initial=0.0)):
                 break
         u_new = uf + WG @ P
-        q_new = q + h * ((1 - theta) * u + theta * u_new)
+        q_new = q + h * ((1 - th) * u + th * u_new)
         if project:
             for j in range(m):
                 if kind[j] == KIND_CONTACT:

@@ -156,29 +156,31 @@ class MixedProblem:
         Tr = self.cond.real_matrix(self.cond.T)
         self.td = _TimeDomainPart(system, self.Nd, omega, self.n_h, steps, theta, project, c0, Tr)
         self.nN = self.Nd.size
+        self.nA = self.td.stepper.n  # integrated: N, then one slider per Jenkins element
         self.nc = 2 * self.n_h + 1
 
     @property
     def n_unknowns(self):
-        return self.nc * self.nN + 2 * self.nN
+        return self.nc * self.nN + 2 * self.nA
 
     def initial_guess(self, guess=None):
         q_hat, q0, u0 = guess_parts(guess, self.system, self.omega, self.n_h)
-        return np.concatenate([q_hat[:, self.Nd].reshape(-1), q0[self.Nd], u0[self.Nd]])
+        q0, u0 = self.td.stepper.with_slider_state(q0[self.Nd], u0[self.Nd])
+        return np.concatenate([q_hat[:, self.Nd].reshape(-1), q0, u0])
 
     def residual_scale(self, x):
         """Per-row scale of the residual at unknowns ``x``, shape ``(n_x,)`` (m for the coefficient and
         ``q`` rows, m/s for the ``u`` rows)."""
-        return _mixed_scale(self, x, self.nc * self.nN, self.nN, force_rows=False)
+        return _mixed_scale(self, x, self.nc * self.nN, self.nA, force_rows=False)
 
     def _split(self, x):
         a = self.nc * self.nN
-        return x[:a], x[a:a + self.nN], x[a + self.nN:]
+        return x[:a], x[a:a + self.nA], x[a + self.nA:]
 
     def _eval(self, x, sens):
         p, q0, u0 = self._split(x)
         tr = self.td.run(q0, u0, p, sens)
-        qh = self.td.project(tr.q[:-1]).reshape(-1)
+        qh = self.td.project(tr.q[:-1, :self.nN]).reshape(-1)
         R = np.concatenate([p - qh, tr.q[-1] - q0, tr.u[-1] - u0])
         return R, tr
 
@@ -196,10 +198,10 @@ class MixedProblem:
                 J[:, i] = (self._eval(xp, False)[0] - R) / d
             return R, J
         R, tr = self._eval(x, True)
-        nN, a = self.nN, self.nc * self.nN
-        # kernel columns: [q0 (nN), u0 (nN), p (a)] -> reorder to x = [p, q0, u0]
+        a, nN = self.nc * self.nN, self.nA
+        # kernel columns: [q0 (nA), u0 (nA), p (a)] -> reorder to x = [p, q0, u0]
         perm = np.concatenate([np.arange(2 * nN, 2 * nN + a), np.arange(2 * nN)])
-        dqh = self.td.project(tr.Sq_traj[:-1]).reshape(a, -1)[:, perm]
+        dqh = self.td.project(tr.Sq_traj[:-1, :self.nN]).reshape(a, -1)[:, perm]
         J = np.zeros((x.size, x.size))
         J[:a] = -dqh
         J[:a, :a] += np.eye(a)
@@ -214,7 +216,7 @@ class MixedProblem:
         tr = self.td.run(q0, u0, p, sens=False)
         XN = p.reshape(self.nc, self.nN)
         q_hat = np.zeros((self.nc, self.system.n))
-        q_hat[:, self.Nd] = fourier.fft(tr.q[:-1], self.n_h)
+        q_hat[:, self.Nd] = fourier.fft(tr.q[:-1, :self.nN], self.n_h)
         if self.Ld.size:
             q_hat[:, self.Ld] = fourier.from_complex(self.cond.recover(fourier.to_complex(XN)))
         lam = np.vstack([tr.P, tr.P[:1]]) / self.td.h
@@ -223,7 +225,7 @@ class MixedProblem:
                 "connectivity_defect": float(np.max(np.abs(p - q_hat[:, self.Nd].reshape(-1)), initial=0.0)),
                 "stick_or_closed_fraction": [float(np.mean((tr.status[:, j] & 3) >= 2))
                                              for j in range(tr.status.shape[1])]}
-        return dict(t=self.td.t, q_hat=q_hat, time_dofs=self.Nd, q_time=tr.q, u_time=tr.u,
+        return dict(t=self.td.t, q_hat=q_hat, time_dofs=self.Nd, q_time=tr.q[:, :self.nN], u_time=tr.u[:, :self.nN],
                     lam=lam, impulses=tr.P, harmonics=self.n_h, info=info)
 
 
@@ -318,28 +320,30 @@ class IntermediateProblem:
         F = fourier.to_complex(system.forcing_hat(self.n_h))
         self.rhs = fourier.from_complex(F[:, I2] - self.cond.g).reshape(-1)
         self.nc, self.n1, self.n2 = nc, I1.size, I2.size
+        self.nA = self.td.stepper.n  # integrated: subsystem 1, then one slider per Jenkins element
 
     @property
     def n_unknowns(self):
-        return self.nc * self.n2 + 2 * self.n1
+        return self.nc * self.n2 + 2 * self.nA
 
     def initial_guess(self, guess=None):
         q_hat, q0, u0 = guess_parts(guess, self.system, self.omega, self.n_h)
-        return np.concatenate([q_hat[:, self.I2].reshape(-1), q0[self.I1], u0[self.I1]])
+        q0, u0 = self.td.stepper.with_slider_state(q0[self.I1], u0[self.I1])
+        return np.concatenate([q_hat[:, self.I2].reshape(-1), q0, u0])
 
     def residual_scale(self, x):
         """Per-row scale of the residual at unknowns ``x``, shape ``(n_x,)`` (N for the harmonic balance
         rows, m for the ``q`` rows, m/s for the ``u`` rows)."""
-        return _mixed_scale(self, x, self.nc * self.n2, self.n1, force_rows=True)
+        return _mixed_scale(self, x, self.nc * self.n2, self.nA, force_rows=True)
 
     def _split(self, x):
         a = self.nc * self.n2
-        return x[:a], x[a:a + self.n1], x[a + self.n1:]
+        return x[:a], x[a:a + self.nA], x[a + self.nA:]
 
     def _eval(self, x, sens):
         p, q0, u0 = self._split(x)
         tr = self.td.run(q0, u0, p, sens)
-        q1h = self.td.project(tr.q[:-1]).reshape(-1)
+        q1h = self.td.project(tr.q[:-1, :self.n1]).reshape(-1)
         R = np.concatenate([self.H21r @ q1h + self.Sr @ p - self.rhs, tr.q[-1] - q0, tr.u[-1] - u0])
         return R, tr
 
@@ -357,9 +361,9 @@ class IntermediateProblem:
                 J[:, i] = (self._eval(xp, False)[0] - R) / d
             return R, J
         R, tr = self._eval(x, True)
-        n1, a = self.n1, self.nc * self.n2
+        n1, a = self.nA, self.nc * self.n2
         perm = np.concatenate([np.arange(2 * n1, 2 * n1 + a), np.arange(2 * n1)])
-        dq1h = self.td.project(tr.Sq_traj[:-1]).reshape(self.nc * n1, -1)[:, perm]
+        dq1h = self.td.project(tr.Sq_traj[:-1, :self.n1]).reshape(self.nc * self.n1, -1)[:, perm]
         J = np.zeros((x.size, x.size))
         J[:a] = self.H21r @ dq1h
         J[:a, :a] += self.Sr
@@ -374,7 +378,7 @@ class IntermediateProblem:
         tr = self.td.run(q0, u0, p, sens=False)
         X2 = p.reshape(self.nc, self.n2)
         q_hat = np.zeros((self.nc, self.system.n))
-        q_hat[:, self.I1] = fourier.fft(tr.q[:-1], self.n_h)
+        q_hat[:, self.I1] = fourier.fft(tr.q[:-1, :self.n1], self.n_h)
         q_hat[:, self.I2] = X2
         if self.I3.size:
             q_hat[:, self.I3] = fourier.from_complex(self.cond.recover(fourier.to_complex(X2)))
@@ -383,5 +387,5 @@ class IntermediateProblem:
                 "min_rcond_H_33": float(self.cond.rcond.min()), "time_step": self.td.h,
                 "stick_or_closed_fraction": [float(np.mean((tr.status[:, j] & 3) >= 2))
                                              for j in range(tr.status.shape[1])]}
-        return dict(t=self.td.t, q_hat=q_hat, time_dofs=self.I1, q_time=tr.q, u_time=tr.u,
+        return dict(t=self.td.t, q_hat=q_hat, time_dofs=self.I1, q_time=tr.q[:, :self.n1], u_time=tr.u[:, :self.n1],
                     lam=lam, impulses=tr.P, harmonics=self.n_h, info=info)

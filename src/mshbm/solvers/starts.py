@@ -193,11 +193,11 @@ def _residual_units(problem):
     elif name == "shooting":
         units[problem.n:] = 1
     elif name == "mshbm":
-        units[problem.nc * problem.nN + problem.nN:] = 1
+        units[problem.nc * problem.nN + problem.nA:] = 1  # nA: N and the Jenkins sliders
     elif name == "mshbm-intermediate":
         a = problem.nc * problem.n2
         units[:a] = 2
-        units[a + problem.n1:] = 1
+        units[a + problem.nA:] = 1
     return units
 
 
@@ -614,7 +614,8 @@ class _Runner:
                     break
             if tr is None:
                 break
-            gg = {"q_hat": fourier.fft(tr.q[:-1], self.n_h), "q0": q.copy(), "u0": u.copy()}
+            # the structure's DOFs (the stepper also integrates the sliders of Jenkins elements)
+            gg = {"q_hat": fourier.fft(tr.q[:-1, :n], self.n_h), "q0": q[:n].copy(), "u0": u[:n].copy()}
             drift = float(np.max(np.abs(np.concatenate([tr.q[-1] - tr.q[0], tr.u[-1] - tr.u[0]]))))
             att = self._try("transient", self.problem.initial_guess(gg),
                             f"{done} periods simulated (period drift {drift:.1e})", it, t0)
