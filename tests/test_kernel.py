@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from mshbm import Contact, Friction, chain
+from mshbm import Contact, Friction, Jenkins, chain
 from mshbm.integrators import kernels
 from mshbm.integrators.moreau_jean import MoreauJean
 
@@ -24,6 +24,15 @@ CASES = {
     "contact_e05": [Contact(1, 0.3, 0.5)],
     "two_elements": [Friction(0, 0.3, 1.0), Contact(1, 0.25, 0.8)],
     "three_elements": [Friction(0, 0.3, 1.0), Friction(2, 0.2, 1.0), Contact(1, 0.25, 0.0)],
+    # elements between two DOFs (w = sign (e_I - e_J)): the kernel's dof2 path
+    "relative_friction": [Friction(3, 0.4, 1.0, relative_to=1)],
+    "relative_contact": [Contact(3, 0.1, 0.6, relative_to=2)],
+    "relative_mixed": [Friction(0, 0.3, 1.0, relative_to=1), Contact(3, 0.1, 0.8, relative_to=2),
+                       Contact(1, 0.25, 1.0)],
+    # Jenkins elements: massless slider DOFs appended by MoreauJean, stepped with theta = 1 (n_slider)
+    "jenkins": [Jenkins(0, 0.5, 1.0, tangential_stiffness=20.0)],
+    "jenkins_relative_mixed": [Jenkins(3, 0.4, 1.0, tangential_stiffness=5.0, relative_to=1),
+                               Contact(2, 0.2, 0.9), Jenkins(0, 0.3, 1.0, tangential_stiffness=50.0)],
 }
 #: one DOF and one element take the scalar fast path of the kernel
 SCALAR = {"scalar_friction": [Friction(0, 0.5, 0.3)], "scalar_contact_e1": [Contact(0, 0.2, 1.0)],
@@ -40,10 +49,11 @@ def test_kernel_matches_numpy(name, theta):
     els = {**CASES, **SCALAR}[name]
     n = 1 if name in SCALAR else 4
     sys, st, B = _setup(els, n=n, theta=theta)
-    q0, u0 = _start(n)
+    q0, u0 = st.with_slider_state(*_start(n))  # Jenkins: the sliders' state appended
     tr = st.run(q0, u0, B)
     q, u, P = kernels.moreau_jean_numpy(q0, u0, st.Aq, st.Au, st.WG, st.Del, st.MinvG, B, st.theta, st.h,
-                                        st.kind, st.dof, st.sign, st.bound, st.gap, st.e)
+                                        st.kind, st.dof, st.sign, st.bound, st.gap, st.e, dof2=st.dof2,
+                                        n_slider=st.n - st.n_structure)
     assert np.abs(P).max() > 0  # the elements did act
     assert np.allclose(tr.q, q, rtol=0, atol=1e-11)
     assert np.allclose(tr.u, u, rtol=0, atol=1e-11)
@@ -54,7 +64,8 @@ def test_kernel_matches_numpy(name, theta):
 def test_sensitivities_match_finite_differences_and_runs(name):
     n = 1 if name in SCALAR else 4
     sys, st, B = _setup({**CASES, **SCALAR}[name], n=n, N=300)
-    x = np.concatenate(_start(n))
+    x = np.concatenate(st.with_slider_state(*_start(n)))
+    n = st.n  # with the Jenkins sliders
     tr = st.run(x[:n], x[n:], B, sensitivities=True)
     Phi = np.vstack([tr.Sq, tr.Su])
     # run-length product of step Jacobians (used by full shooting) is the same matrix

@@ -11,15 +11,15 @@ method of Schreyer & Leine (2016), behind one call::
 from . import stability  # noqa: F401  (mshbm.stability: Floquet multipliers and verdicts)
 from .api import METHODS, build_problem, residual_omega_derivative, solve
 from .branch import Branch, continue_forcing, sweep
-from .elements import Contact, Element, Friction
+from .elements import Contact, Element, Friction, Jenkins
 from .errors import ConvergenceError, InputError
 from .methods.exact import exact_periodic
 from .result import PeriodicSolution
 from .system import System, chain
 
 __all__ = ["solve", "build_problem", "residual_omega_derivative", "METHODS", "System", "Element", "Friction",
-           "Contact", "chain", "PeriodicSolution", "InputError", "ConvergenceError", "load_case", "exact_periodic",
-           "sweep", "Branch", "continue_forcing"]
+           "Jenkins", "Contact", "chain", "PeriodicSolution", "InputError", "ConvergenceError", "load_case",
+           "exact_periodic", "sweep", "Branch", "continue_forcing"]
 __version__ = "0.1.0"
 
 

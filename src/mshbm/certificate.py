@@ -221,7 +221,7 @@ def _certify(problem, sol, tol, cert, step_accuracy=None):
     F = force_scale(system, penalty=is_hbm and not is_dlft)
     D0 = displacement_floor(system, omega)
     els = list(system.elements)
-    el_dofs = np.array(sorted({int(e.dof) for e in els}), dtype=np.int64)
+    el_dofs = np.array(sorted({int(d) for e in els for d in e.dofs}), dtype=np.int64)
 
     # 1. residual, re-evaluated
     x = np.asarray(sol.x, dtype=float)
@@ -285,9 +285,9 @@ def _certify(problem, sol, tol, cert, step_accuracy=None):
     if ct:
         pen, bnd, comp = 0.0, np.inf, 0.0
         for j, e in ct:
-            g = e.gap - qe[:, col[e.dof]]
+            g = e.gap + e.local(qe, col)  # g_N = gap + w^T q (relative contacts: on q_I - q_J)
             p = max(0.0, float(-g.min()))
-            umax = float(np.max(np.abs(ue[:, col[e.dof]])))
+            umax = float(np.max(np.abs(e.local(ue, col))))
             if is_dlft:  # the law holds on the Lagrangian displacement; the truncated series may cross
                 b = None
             elif is_hbm:
@@ -359,8 +359,10 @@ def _energy(problem, sol, system, omega, h, N, is_hbm, stepper, els, col, qe, ue
         ka, kb = k * omega * a, k * omega * b  # (n_h, n): velocity coefficients (sin, cos parts)
         Cd = C if sp.issparse(C) else np.asarray(C)
         D_C = float(0.5 * T * (np.sum(ka * (Cd @ ka.T).T) + np.sum(kb * (Cd @ kb.T).T)))
-        Wj = np.array([h * float(np.sum(sign[j] * lam[:-1, j] * ue[:-1, col[e.dof]])) for j, e in enumerate(els)])
-        Ej = np.array([h * float(np.sum(np.abs(lam[:-1, j] * ue[:-1, col[e.dof]]))) for j, e in enumerate(els)])
+        uj = [ue[:-1, col[e.dof]] if e.relative_to is None else sign[j] * e.local(ue[:-1], col)
+              for j, e in enumerate(els)]  # sign * w^T u: the element's velocity along +-e_dof
+        Wj = np.array([h * float(np.sum(sign[j] * lam[:-1, j] * uj[j])) for j, e in enumerate(els)])
+        Ej = np.array([h * float(np.sum(np.abs(lam[:-1, j] * uj[j]))) for j, e in enumerate(els)])
         bound_rel, gate, note = ENERGY_TOL, True, "HBM: Parseval and AFT quadrature"
         step_work = h * float(np.max(np.abs(lam), initial=0.0)) * float(np.max(np.abs(ue), initial=0.0))
     else:
@@ -408,7 +410,7 @@ def _energy(problem, sol, system, omega, h, N, is_hbm, stepper, els, col, qe, ue
                 ka, kb = k * omega * a, k * omega * b
                 D_C += float(0.5 * T * (np.sum(ka * (CLL @ ka.T).T) + np.sum(kb * (CLL @ kb.T).T)))
         P = np.asarray(sol.impulses)
-        vj = [v[:, pos[int(e.dof)]] for e in els]
+        vj = [v[:, pos[int(e.dof)]] if e.relative_to is None else e.sign * e.local(v, pos) for e in els]
         Wj = np.array([float(np.sum(sign[j] * P[:, j] * vj[j])) for j in range(len(els))])
         Ej = np.array([float(np.sum(np.abs(P[:, j] * vj[j]))) for j in range(len(els))])
         # work of the projection: it moves q by delta after the step, changing the potential energy

@@ -32,16 +32,31 @@ event-driven flow, checks  :attr:`Element.unilateral` (gap ``g_N >= 0``, impacts
 subsystems                 :meth:`Element.renumbered` (the element on renumbered DOFs)
 =========================  ==================================================================
 
-The elements of issue 15 are meant to be new subclasses:
+Elements of issue 15:
 
-* friction and contact *relative* to a second DOF: ``dofs = (I, J)``, ``w = sign (e_I - e_J)``; the
-  laws are the same functions of ``(s, gamma)``, and :func:`regularised_forces` then adds the
-  off-diagonal terms ``w w^T`` of the Jacobian (today single-DOF elements give diagonal terms only);
-* *Jenkins* friction (tangential stiffness ``k_t`` in series with the slider): a law with an internal
-  state (the slider position), so its kernel parameters gain a state and its regularised law is
-  evaluated along the period's history (AFT over two periods);
-* friction whose *normal load* comes from a contact on the same point: its bound is
-  ``mu lambda_N`` of another element, a coupling the kernel's local solve has to know.
+* friction and contact *relative* to a second DOF (``relative_to=J``, all methods): ``dofs = (I, J)``,
+  ``w = sign (e_I - e_J)`` (:attr:`Element.direction`, :meth:`Element.local`); the laws are the same
+  functions of ``(s, gamma)``.  :func:`regularised_forces` adds the off-diagonal Jacobian terms of
+  ``w w^T``; the Moreau-Jean kernel takes the second DOF as ``dof2`` (``-1``: the ground); the exact
+  flow and hence exact Floquet multipliers handle one element on one DOF only (InputError; stability
+  falls back to the step map with the reason).
+* :class:`Jenkins` friction (tangential stiffness ``k_t`` in series with the slider; all methods but
+  the exact flow): a law with an internal state (the slider position ``z``), :attr:`Element.history`.
+  HBM evaluates it along the period twice (:meth:`Jenkins.history_law`, derivative with respect to
+  the Fourier coefficients).  Time stepping integrates one massless slider DOF per element
+  (:func:`mshbm.integrators.moreau_jean._with_sliders`: ``M_zz = 0``, ``K += k_t [w; -e_z][w; -e_z]^T``,
+  rigid Coulomb friction on ``z``), stepped with ``theta = 1`` so that its velocity is no state (with
+  ``theta = 1/2`` the auxiliary velocity maps to ``-u_z`` every step and a first attempt's shooting
+  Jacobian grew to 3e129); shooting and both MS-HBM variants carry ``(z, u_z)`` as unknowns and
+  report the structure's DOFs only.  In a motion that never slips ``z`` is free (a family of
+  periodic solutions differing in the mean): HBM's march picks ``lambda = 0`` at its last sample, time
+  stepping the start ``z = w^T q(0)`` of Newton's first iterate.
+* friction whose *normal load* comes from a contact on the same point (not implemented): its bound is
+  ``mu lambda_N`` of another element -- in the kernel a coupled local problem (PGS with the bound
+  updated each sweep, and in the sensitivities ``dP_T = -+mu dP_N`` while sliding); in HBM
+  ``lambda_T = mu lambda_N(g_N, gamma_N) (2/pi) arctan(kappa gamma_T)`` with Jacobian terms in the
+  normal and tangential DOFs (the coupling terms of :func:`regularised_forces`); the certificate's
+  cone ``|lambda_T| <= mu lambda_N`` per sample; exact flow: not supported.
 """
 from __future__ import annotations
 
@@ -54,7 +69,7 @@ import numpy as np
 from .errors import InputError
 from .integrators.kernels import KIND_CONTACT, KIND_FRICTION
 
-__all__ = ["Element", "Friction", "Contact", "regularised_forces", "ELEMENT_TYPES"]
+__all__ = ["Element", "Friction", "Contact", "Jenkins", "regularised_forces", "ELEMENT_TYPES"]
 
 
 def _finite_number(key, value, *, positive=False, nonnegative=False):
@@ -118,6 +133,9 @@ class Element:
     unilateral: ClassVar[bool] = False
     bounded: ClassVar[bool] = False
     piecewise_linear: ClassVar[bool] = False
+    #: the law has an internal state (its force depends on the history of ``s``, not on ``(s, gamma)``):
+    #: HBM evaluates :meth:`history_law` instead of :meth:`regularised_law`
+    history: ClassVar[bool] = False
 
     # ------------------------------------------------------------------ geometry
     @property
@@ -125,14 +143,49 @@ class Element:
         """Direction ``w = sign * e_dof``."""
         raise NotImplementedError
 
+    #: second DOF of a relative element (``w = sign (e_dof - e_relative_to)``); ``None``: the ground
+    relative_to = None
+
     @property
     def dofs(self):
-        """DOFs the element acts on."""
-        return (self.dof,)
+        """DOFs the element acts on: ``(dof,)`` or ``(dof, relative_to)``."""
+        return (self.dof,) if self.relative_to is None else (self.dof, self.relative_to)
+
+    @property
+    def relative(self):
+        """True if the element acts between two DOFs (on ``q_dof - q_relative_to``)."""
+        return self.relative_to is not None
+
+    @property
+    def direction(self):
+        """``[(dof, w_dof)]``: the nonzero entries of ``w``."""
+        if self.relative_to is None:
+            return [(self.dof, self.sign)]
+        return [(self.dof, self.sign), (self.relative_to, -self.sign)]
+
+    def local(self, X, col=None):
+        """``w^T x`` for samples ``X`` whose last axis is indexed by DOF (through ``col``, a mapping
+        DOF -> column, if given): ``sign X[..., I]`` or ``sign (X[..., I] - X[..., J])``."""
+        c = (lambda d: d) if col is None else (lambda d: col[int(d)])
+        if self.relative_to is None:
+            return self.sign * X[..., c(self.dof)]
+        return self.sign * (X[..., c(self.dof)] - X[..., c(self.relative_to)])
 
     def renumbered(self, position):
         """The element with its DOFs renumbered by ``position`` (mapping old DOF -> new index)."""
-        return replace(self, dof=position[int(self.dof)])
+        if self.relative_to is None:
+            return replace(self, dof=position[int(self.dof)])
+        return replace(self, dof=position[int(self.dof)], relative_to=position[int(self.relative_to)])
+
+    def _check_relative(self):
+        if self.relative_to is not None:
+            J = _dof(f"{self.kind}.relative_to", self.relative_to)
+            if J == self.dof:
+                raise InputError(f"{self.kind}.relative_to", f"must differ from dof ({self.dof}): "
+                                 "the element acts on q_dof - q_relative_to")
+            if J < 0:
+                raise InputError(f"{self.kind}.relative_to", f"DOF {J} out of range (negative)")
+            object.__setattr__(self, "relative_to", J)
 
     @property
     def acts(self):
@@ -191,12 +244,16 @@ class Friction(Element):
         Normal force ``F_N`` (N), ``>= 0``.  The friction bound is ``mu*F_N``.
     smoothing : float
         Regularisation ``kappa`` (s/m) of eq. (42), used by HBM only.
+    relative_to : int or None
+        Second DOF ``J``: the element then acts on ``q_dof - q_J`` (slip velocity ``u_dof - u_J``,
+        ``w = e_dof - e_J``); ``None`` (default): between ``dof`` and the ground.
     """
 
     dof: int
     mu: float
     normal_force: float
     smoothing: float = 800.0
+    relative_to: int | None = None
     kind: str = field(default="friction", init=False)
 
     kernel_code: ClassVar[int] = KIND_FRICTION
@@ -209,6 +266,7 @@ class Friction(Element):
                            _finite_number("friction.normal_force", self.normal_force, nonnegative=True))
         object.__setattr__(self, "smoothing",
                            _finite_number("friction.smoothing", self.smoothing, positive=True))
+        self._check_relative()
 
     @property
     def sign(self):
@@ -268,6 +326,9 @@ class Contact(Element):
     penalty_stiffness, penalty_damping : float
         ``k_c > 0`` (N/m) and ``d_c >= 0`` (Ns/m) of the penalty law eq. (45),
         used by HBM only.
+    relative_to : int or None
+        Second DOF ``J``: the gap is then ``g_N = gap - (q_dof - q_J)`` (``w = -(e_dof - e_J)``);
+        ``None`` (default): a stop fixed to the ground.
     """
 
     dof: int
@@ -275,6 +336,7 @@ class Contact(Element):
     restitution: float = 1.0
     penalty_stiffness: float = 8000.0
     penalty_damping: float = 0.0
+    relative_to: int | None = None
     kind: str = field(default="contact", init=False)
 
     kernel_code: ClassVar[int] = KIND_CONTACT
@@ -292,6 +354,7 @@ class Contact(Element):
                            _finite_number("contact.penalty_stiffness", self.penalty_stiffness, positive=True))
         object.__setattr__(self, "penalty_damping",
                            _finite_number("contact.penalty_damping", self.penalty_damping, nonnegative=True))
+        self._check_relative()
 
     @property
     def sign(self):
@@ -332,22 +395,98 @@ class Contact(Element):
         return [(f"{self.kind}.penalty_stiffness", "k_c gap", self.penalty_stiffness * max(self.gap, 1.0))]
 
 
+@dataclass(frozen=True)
+class Jenkins(Friction):
+    """Elastic Coulomb friction (Jenkins element): a spring ``k_t`` in series with a Coulomb slider.
+
+    With the slider position ``z`` (internal state), the force on the structure is ``w lambda`` with::
+
+        lambda = -k_t (s - z),   |lambda| <= mu F_N,   z moves only while |lambda| = mu F_N
+
+    (``s = w^T q``).  While the slider sticks the element is a linear spring ``k_t`` (the structure
+    behaves like ``K + k_t w w^T``); as ``k_t -> inf`` it tends to rigid Coulomb friction.  Under
+    ``s = a cos(omega t)`` with ``a > mu F_N / k_t`` the hysteresis loop encloses the energy
+    ``4 mu F_N (a - mu F_N / k_t)`` per cycle (Masing/Iwan).
+
+    Methods: HBM evaluates the law along the period's samples, marching the period twice from
+    ``lambda = 0`` at the last sample (:meth:`history_law`, the usual AFT treatment of hysteresis,
+    with its exact Jacobian); the law is not regularised.  Time stepping (shooting, MS-HBM) integrates
+    ``z`` as a massless slider DOF (see the module docstring); the exact flow does not support it (a
+    clean :class:`~mshbm.errors.InputError`).  In the case file: a ``friction`` entry with
+    ``tangential_stiffness``.
+    """
+
+    tangential_stiffness: float = 1.0
+
+    def __post_init__(self):
+        super().__post_init__()
+        object.__setattr__(self, "tangential_stiffness",
+                           _finite_number("friction.tangential_stiffness", self.tangential_stiffness, positive=True))
+
+    history: ClassVar[bool] = True
+
+    def kernel_parameters(self, h):
+        """Not a kernel element itself: :class:`mshbm.integrators.moreau_jean.MoreauJean` integrates it as
+        a massless slider DOF carrying rigid friction (its :meth:`project` is Coulomb's on that DOF)."""
+        raise TypeError("Jenkins: MoreauJean integrates it as a slider DOF with Coulomb friction")
+
+    def regularised_law(self, s, gamma):
+        raise TypeError("Jenkins has a history-dependent law: use history_law")
+
+    def scaled(self, factor):
+        """Not regularised: unchanged."""
+        return self
+
+    def history_law(self, s, basis=None):
+        """``lambda`` at the periodic samples ``s`` (shape (N_s,)) and its derivative ``D``.
+
+        Return mapping over two periods: ``lambda_k = clip(lambda_{k-1} - k_t (s_k - s_{k-1}), +-mu F_N)``
+        from ``lambda = 0`` at the last sample (``s_{-1} = s_{N_s-1}``); the second period is returned.
+        ``D`` follows the same recursion (zero rows while the slider slides): ``d lambda / d s``, shape
+        (N_s, N_s), or with ``basis`` (shape (N_s, n_b), ``s = basis @ c``) ``d lambda / d c``, shape
+        (N_s, n_b) -- for HBM the Fourier coefficients, ``O(N_s n_b)`` memory instead of ``O(N_s^2)``.
+        """
+        s = np.asarray(s, dtype=float)
+        Ns = s.size
+        V = np.eye(Ns) if basis is None else np.asarray(basis, dtype=float)
+        kt, b = self.tangential_stiffness, self.bound
+        lam = np.zeros(Ns)
+        D = np.zeros((Ns, V.shape[1]))
+        zero = np.zeros(V.shape[1])
+        prev_l, prev_D, prev_k = 0.0, zero, Ns - 1
+        for _ in range(2):
+            for k in range(Ns):
+                l = prev_l - kt * (s[k] - s[prev_k])
+                row = prev_D - kt * (V[k] - V[prev_k])
+                if l >= b:
+                    l, row = b, zero
+                elif l <= -b:
+                    l, row = -b, zero
+                lam[k], D[k] = l, row
+                prev_l, prev_D, prev_k = l, row, k
+        return lam, D
+
+    def magnitude_terms(self):
+        return super().magnitude_terms() + [(f"{self.kind}.tangential_stiffness", "k_t", self.tangential_stiffness)]
+
+
 #: element classes by their ``kind`` (the case-file keys)
 ELEMENT_TYPES = {cls.kind: cls for cls in (Friction, Contact)}
 
 
-def regularised_forces(elements, local_dof, q, u):
+def regularised_forces(elements, local_dof, q, u, coupling=False, basis=None):
     """Evaluate the regularised laws (:meth:`Element.regularised_law`) on samples.
 
-    Friction (eq. 42), slip velocity ``gamma_T = u_d``::
+    Friction (eq. 42), slip velocity ``gamma_T = w^T u``::
 
         lambda_T = -mu F_N (2/pi) arctan(kappa gamma_T)
 
-    Penalty contact (eq. 45), ``g_N = g0 - q_d``, ``gamma_N = -u_d``::
+    Penalty contact (eq. 45), ``g_N = g0 + w^T q`` (``g0 - q_d`` on one DOF), ``gamma_N = w^T u``::
 
         lambda_N = -(k_c g_N + d_c gamma_N)   if g_N <= 0,   0 otherwise
 
-    The force on the DOF is ``w lambda`` with ``w = +1`` (friction) or ``-1`` (contact).
+    The force on the DOFs is ``w lambda`` with ``w = +e_d`` (friction) or ``-e_d`` (contact), or
+    ``w = sign (e_I - e_J)`` for an element relative to a second DOF ``J``.
 
     The penalty law is piecewise linear in ``(q, u)``: continuous for ``d_c = 0``, with
     a jump ``d_c gamma_N`` at ``g_N = 0`` for ``d_c > 0``.  On the AFT samples the HBM
@@ -358,10 +497,16 @@ def regularised_forces(elements, local_dof, q, u):
     Parameters
     ----------
     elements : sequence of Element
-    local_dof : sequence of int
-        Column of ``q``/``u`` that each element acts on.
+    local_dof : sequence of int or of tuples of int
+        Column of ``q``/``u`` that each element acts on; for a relative element the columns of
+        its two DOFs ``(I, J)`` (an int alone: its ``dof``'s column, single-DOF elements).
     q, u : ndarray, shape (N_s, n_N)
         Displacements and velocities of the nonlinear DOFs at the samples.
+    coupling : bool
+        Also return the off-diagonal Jacobian terms of relative elements.
+    basis : ndarray, shape (N_s, n_b), optional
+        ``q = basis @ coefficients`` (HBM: the inverse DFT): the derivatives of history elements are
+        then taken with respect to the coefficients.
 
     Returns
     -------
@@ -370,20 +515,59 @@ def regularised_forces(elements, local_dof, q, u):
     f : ndarray, shape (N_s, n_N)
         Generalised forces on the DOFs, ``sum_j w_j lambda_j``.
     dfdq, dfdu : ndarray, shape (N_s, n_N)
-        Diagonal derivatives ``d f_i / d q_i`` and ``d f_i / d u_i`` (``w w^T`` times the
-        element's derivatives; single-DOF elements only have diagonal terms).
+        Diagonal derivatives ``d f_i / d q_i`` and ``d f_i / d u_i`` (the diagonal of ``w w^T``
+        times the element's derivatives).
+    offdiag : list of ``(i, k, dfdq_ik, dfdu_ik)``, only with ``coupling``
+        ``d f_i / d q_k`` and ``d f_i / d u_k`` (``i != k``, arrays of shape (N_s,) or None)
+        of the relative elements; for elements with a history (:class:`Jenkins`) ``dfdq_ik`` is an
+        ``(N_s, N_s)`` matrix ``d f_i(t_a) / d q_k(t_b)`` (``i == k`` included), or with ``basis`` the
+        ``(N_s, n_b)`` matrix ``d f_i(t_a) / d c_k`` for the coefficients ``c_k`` of ``q_k``.
     """
     Ns, nN = q.shape
     lam = np.zeros((Ns, len(elements)))
     f = np.zeros((Ns, nN))
     dfdq = np.zeros((Ns, nN))
     dfdu = np.zeros((Ns, nN))
+    offdiag = []
     for j, (el, d) in enumerate(zip(elements, local_dof)):
         w = el.sign
-        lam[:, j], dl_ds, dl_dg = el.regularised_law(w * q[:, d], w * u[:, d])
-        f[:, d] += w * lam[:, j]
-        if dl_ds is not None:
-            dfdq[:, d] += (w * w) * dl_ds
-        if dl_dg is not None:
-            dfdu[:, d] += (w * w) * dl_dg
+        if el.history:  # dense in time: d lambda_k / d s_l, into the coupling terms as (N_s, N_s) matrices
+            cols = (d,) if isinstance(d, (int, np.integer)) else tuple(d)
+            wc = [(c, wi) for c, (_, wi) in zip(cols, el.direction)]
+            s = sum(wi * q[:, c] for c, wi in wc) if len(wc) > 1 else w * q[:, cols[0]]
+            lam[:, j], D = el.history_law(s, basis)
+            for i, wi in wc:
+                f[:, i] += wi * lam[:, j]
+                for k, wk in wc:
+                    offdiag.append((i, k, D if wi * wk == 1.0 else (wi * wk) * D, None))
+            continue
+        if el.relative_to is None:
+            d = d[0] if isinstance(d, tuple) else d
+            lam[:, j], dl_ds, dl_dg = el.regularised_law(w * q[:, d], w * u[:, d])
+            f[:, d] += w * lam[:, j]
+            if dl_ds is not None:
+                dfdq[:, d] += (w * w) * dl_ds
+            if dl_dg is not None:
+                dfdu[:, d] += (w * w) * dl_dg
+            continue
+        a, b = d
+        lam[:, j], dl_ds, dl_dg = el.regularised_law(w * (q[:, a] - q[:, b]), w * (u[:, a] - u[:, b]))
+        f[:, a] += w * lam[:, j]
+        f[:, b] -= w * lam[:, j]
+        for i, wi in ((a, w), (b, -w)):
+            for k, wk in ((a, w), (b, -w)):
+                cq = None if dl_ds is None else (wi * wk) * dl_ds
+                cu = None if dl_dg is None else (wi * wk) * dl_dg
+                if i == k:
+                    if cq is not None:
+                        dfdq[:, i] += cq
+                    if cu is not None:
+                        dfdu[:, i] += cu
+                else:
+                    offdiag.append((i, k, cq, cu))
+    if coupling:
+        return lam, f, dfdq, dfdu, offdiag
+    if offdiag:
+        raise ValueError("regularised_forces: relative or history elements couple DOFs or samples; "
+                         "call with coupling=True")
     return lam, f, dfdq, dfdu

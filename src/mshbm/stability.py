@@ -111,7 +111,13 @@ def assess(system, sol, stability="auto", steps=None, theta=0.5):
 
 def _assess(system, sol, stability, steps, theta, t0):
     reason_exact = ""
-    if len(system.elements) <= 1:
+    if any(el.history for el in system.elements):
+        return _set(sol, None, None, "none: not supported for elastic friction",
+                    "elastic friction (Jenkins) has a slider state that neither the exact flow nor the "
+                    "Moreau-Jean step map carries: no multipliers")
+    if any(el.relative_to is not None for el in system.elements):
+        reason_exact = "an element relative to a second DOF (the exact flow handles one element on one DOF); "
+    elif len(system.elements) <= 1:
         res = _exact(system, sol)
         if res.get("ok"):
             mult = res.pop("mult")
@@ -188,7 +194,7 @@ def _step_map(system, sol, steps, theta, prefix, t0):
     reversal = False
     for j, el in enumerate(system.elements):
         if el.bounded and el.acts:  # mu F_N = 0: the element never acts
-            v = tr.u[:, el.dof]
+            v = el.local(tr.u)
             reversal |= bool(np.any(v > 0)) and bool(np.any(v < 0))
     rho = float(np.max(np.abs(mult)))
     details = dict(steps=N, impacts=impacts, stick=stick, slip_reversal=reversal, tolerance=STEP_MAP_TOL,

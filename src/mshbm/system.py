@@ -125,9 +125,13 @@ class System:
                 raise InputError(f"elements[{i}]", f"must be an element (Friction, Contact), got {type(el).__name__}")
             if not 0 <= el.dof < n:
                 raise InputError(f"{el.kind}.dof", f"DOF {el.dof} out of range 0..{n - 1}")
-            if (el.kind, el.dof) in seen:
-                raise InputError(f"{el.kind}.dof", f"two {el.kind} elements on DOF {el.dof}")
-            seen.add((el.kind, el.dof))
+            if el.relative_to is not None and not 0 <= el.relative_to < n:
+                raise InputError(f"{el.kind}.relative_to", f"DOF {el.relative_to} out of range 0..{n - 1}")
+            key = (el.kind, tuple(el.dofs))
+            if key in seen:
+                where = f"DOF {el.dof}" if el.relative_to is None else f"DOFs {el.dof}-{el.relative_to}"
+                raise InputError(f"{el.kind}.dof", f"two {el.kind} elements on {where}")
+            seen.add(key)
         self.name = str(name)
 
     # ------------------------------------------------------------------ basics
@@ -183,7 +187,8 @@ class System:
         return new
 
     def __repr__(self):
-        els = ", ".join(f"{e.kind}@{e.dof}" for e in self.elements) or "linear"
+        els = ", ".join(f"{e.kind}@{e.dof}" + ("" if e.relative_to is None else f"-{e.relative_to}")
+                        for e in self.elements) or "linear"
         return f"System({self.name!r}, n={self.n}, {els}, sparse={self.is_sparse})"
 
 

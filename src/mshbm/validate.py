@@ -121,7 +121,7 @@ def _dof_list(key, value, n):
 def check_partition(system, method, partition):
     """Validated partition: int array (``hbm``, ``mshbm``) or a pair of int arrays (``mshbm-intermediate``)."""
     n = system.n
-    el_dofs = sorted({int(e.dof) for e in system.elements})
+    el_dofs = sorted({int(d) for e in system.elements for d in e.dofs})
     if method == "mshbm-intermediate":
         if isinstance(partition, np.ndarray) and partition.dtype != object and partition.ndim == 2 \
                 and partition.shape[0] == 2:

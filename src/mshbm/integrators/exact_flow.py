@@ -157,6 +157,12 @@ class ExactFlow:
         el = system.elements[0] if system.elements else None
         if el is not None and not el.acts:
             el = None  # mu F_N = 0: the element never acts
+        if el is not None and el.history:
+            raise InputError("friction.tangential_stiffness", "the exact solver does not support elastic friction "
+                             "(Jenkins: a slider state); use method 'hbm'")
+        if el is not None and el.relative_to is not None:
+            raise InputError(f"{el.kind}.relative_to", "the exact solver supports one element between a DOF and "
+                             "the ground; relative elements are not supported (use shooting, mshbm or hbm)")
         if el is not None and not (el.bounded or el.unilateral):
             raise InputError("elements", f"the exact solver supports friction and contact elements, got {el.kind}")
         self.element = el

@@ -10,7 +10,9 @@ One step of the theta-method from ``(q, u)`` at ``t_k`` with step ``h``
 
 with ``f_theta,k = (1 - theta) f(t_k) + theta f(t_{k+1})``.  Element ``j`` acts on
 ``dof[j]`` with direction ``sign[j]``; its relative velocity is
-``gamma_j = sign[j] u[dof[j]]``.  The local problem, with the Delassus matrix
+``gamma_j = sign[j] u[dof[j]]``.  A *relative* element (``dof2[j] >= 0``) acts between two
+DOFs, ``w_j = sign[j] (e_dof[j] - e_dof2[j])`` and ``gamma_j = sign[j] (u[dof[j]] - u[dof2[j]])``;
+``dof2[j] = -1`` is the ground (the one-DOF arithmetic is unchanged).  The local problem, with the Delassus matrix
 ``D = G^T W G``, is:
 
 * friction (kind 0): ``gamma_j+ = 0`` if ``|P_j| < bound_j = h mu F_N`` else
@@ -46,7 +48,15 @@ STATUS_PROJECTED = 4  # flag added when the position of a contact was projected
 
 
 @njit(cache=True)
-def _local_solve(uf, u, q_free_gap, kind, dof, sign, bound, e, Del, P, status, tol, max_iter, r, active):
+def _rel(x, d, d2, s):
+    """``w^T x`` of an element: ``s x[d]`` (ground, ``d2 < 0``) or ``s (x[d] - x[d2])``."""
+    if d2 < 0:
+        return s * x[d]
+    return s * (x[d] - x[d2])
+
+
+@njit(cache=True)
+def _local_solve(uf, u, q_free_gap, kind, dof, dof2, sign, bound, e, Del, P, status, tol, max_iter, r, active):
     """Solve the local impulse problem; fills P and status; returns iterations.
 
     ``r`` and ``active`` are work arrays of length m (right-hand sides
@@ -54,12 +64,12 @@ def _local_solve(uf, u, q_free_gap, kind, dof, sign, bound, e, Del, P, status, t
     """
     m = kind.shape[0]
     for j in range(m):
-        gf = sign[j] * uf[dof[j]]
+        gf = _rel(uf, dof[j], dof2[j], sign[j])
         if kind[j] == KIND_FRICTION:
             r[j] = gf
             active[j] = bound[j] > 0.0
         else:
-            r[j] = gf + e[j] * sign[j] * u[dof[j]]
+            r[j] = gf + e[j] * _rel(u, dof[j], dof2[j], sign[j])
             active[j] = q_free_gap[j] <= 0.0
         P[j] = 0.0
     it = 0
@@ -237,8 +247,8 @@ def _moreau_jean_scalar(q0, u0, aq, au, wg, dl, minvg, B, dB, theta, h, kind, si
 
 @njit(cache=True)
 def moreau_jean(q0, u0, Aq, Au, WG, Del, MinvG, B, dB, theta, h,
-                kind, dof, sign, bound, gap, e, project,
-                want_sens, store_q_sens, tol, max_iter):
+                kind, dof, dof2, sign, bound, gap, e, project,
+                want_sens, store_q_sens, tol, max_iter, n_slider):
     """Integrate ``N = B.shape[0]`` Moreau-Jean steps.
 
     Parameters
@@ -248,7 +258,8 @@ def moreau_jean(q0, u0, Aq, Au, WG, Del, MinvG, B, dB, theta, h,
     WG : (n, m) ``W G``;  Del : (m, m) ``G^T W G``;  MinvG : (n, m) ``M^-1 G``.
     B : (N, n) forcing increments ``b_k``;  dB : (N, n, n_p) their parameter derivatives.
     theta, h : scheme parameter and step (s).
-    kind, dof, sign, bound, gap, e : (m,) element data; ``bound = h mu F_N``.
+    kind, dof, dof2, sign, bound, gap, e : (m,) element data; ``bound = h mu F_N``; ``dof2 = -1``
+        for an element on one DOF, else the second DOF of a relative element.
     project : bool, project penetrating contacts back to ``g = 0``.
     want_sens : bool, propagate sensitivities w.r.t. ``(q0, u0, p)``.
     store_q_sens : bool, also store ``dq_k/d(q0,u0,p)`` at every step.
@@ -258,11 +269,15 @@ def moreau_jean(q0, u0, Aq, Au, WG, Del, MinvG, B, dB, theta, h,
     q, u : (N+1, n) trajectory;  P : (N, m) impulses;  status : (N, m) int8;
     Sq, Su : (n, n_s) end sensitivities, ``n_s = 2n + n_p`` (empty if not wanted);
     Sq_traj : (N+1, n, n_s) if ``store_q_sens`` else empty;  max_iter_used : int.
+
+    ``n_slider``: the last ``n_slider`` DOFs are massless sliders of Jenkins elements
+    (:func:`mshbm.integrators.moreau_jean._with_sliders`), stepped with ``theta = 1``
+    (``q+ = q + h u+``) so that their velocity is no state; ``Aq, Au, WG`` must be built alike.
     """
     N = B.shape[0]
     n = q0.shape[0]
     m = kind.shape[0]
-    if n == 1 and m == 1:
+    if n == 1 and m == 1 and n_slider == 0:
         return _moreau_jean_scalar(q0, u0, Aq[0, 0], Au[0, 0], WG[0, 0], Del[0, 0], MinvG[0, 0], B, dB, theta, h,
                                    kind[0], sign[0], bound[0], gap[0], e[0], project, want_sens, store_q_sens)
     n_p = dB.shape[2]
@@ -297,8 +312,15 @@ def moreau_jean(q0, u0, Aq, Au, WG, Del, MinvG, B, dB, theta, h,
     dQn = np.empty((n, n_s))
     dP = np.zeros((m, n_s))
     used = 0
-    c1 = h * (1.0 - theta)
-    c2 = h * theta
+    c1v = np.empty(n)
+    c2v = np.empty(n)
+    for i in range(n):
+        if i < n - n_slider:
+            c1v[i] = h * (1.0 - theta)
+            c2v[i] = h * theta
+        else:
+            c1v[i] = 0.0
+            c2v[i] = h
     for k in range(N):
         # free velocity
         for i in range(n):
@@ -310,11 +332,16 @@ def moreau_jean(q0, u0, Aq, Au, WG, Del, MinvG, B, dB, theta, h,
         for j in range(m):
             if kind[j] == KIND_CONTACT:
                 d = dof[j]
-                fgap[j] = gap[j] + sign[j] * (q[d] + c1 * u[d] + c2 * uf[d])
+                d2 = dof2[j]
+                if d2 < 0:
+                    fgap[j] = gap[j] + sign[j] * (q[d] + c1v[d] * u[d] + c2v[d] * uf[d])
+                else:
+                    fgap[j] = gap[j] + sign[j] * ((q[d] + c1v[d] * u[d] + c2v[d] * uf[d])
+                                                  - (q[d2] + c1v[d2] * u[d2] + c2v[d2] * uf[d2]))
             else:
                 fgap[j] = 0.0
         if m > 0:
-            it = _local_solve(uf, u, fgap, kind, dof, sign, bound, e, Del, P, status, tol, max_iter,
+            it = _local_solve(uf, u, fgap, kind, dof, dof2, sign, bound, e, Del, P, status, tol, max_iter,
                               rwork, awork)
             if it > used:
                 used = it
@@ -323,7 +350,7 @@ def moreau_jean(q0, u0, Aq, Au, WG, Del, MinvG, B, dB, theta, h,
             for j in range(m):
                 s += WG[i, j] * P[j]
             un[i] = s
-            qn[i] = q[i] + c1 * u[i] + c2 * s
+            qn[i] = q[i] + c1v[i] * u[i] + c2v[i] * s
         if want_sens:
             if n * n * n_s > 4096:
                 dUf[:, :] = Su - np.dot(Aq, Sq) - np.dot(Au, Su)
@@ -361,9 +388,13 @@ def moreau_jean(q0, u0, Aq, Au, WG, Del, MinvG, B, dB, theta, h,
                     for b in range(n_eq):
                         A[a, b] = Del[ja, idx[b]]
                     d = dof[ja]
+                    d2 = dof2[ja]
                     ee = e[ja] if kind[ja] == KIND_CONTACT else 0.0
                     for c in range(n_s):
-                        R[a, c] = -sign[ja] * (dUf[d, c] + ee * Su[d, c])
+                        if d2 < 0:
+                            R[a, c] = -sign[ja] * (dUf[d, c] + ee * Su[d, c])
+                        else:
+                            R[a, c] = -sign[ja] * ((dUf[d, c] - dUf[d2, c]) + ee * (Su[d, c] - Su[d2, c]))
                 X = _solve_small(A, R)
                 for a in range(n_eq):
                     for c in range(n_s):
@@ -374,22 +405,23 @@ def moreau_jean(q0, u0, Aq, Au, WG, Del, MinvG, B, dB, theta, h,
                     for j in range(m):
                         s += WG[i, j] * dP[j, c]
                     dUn[i, c] = s
-                    dQn[i, c] = Sq[i, c] + c1 * Su[i, c] + c2 * s
+                    dQn[i, c] = Sq[i, c] + c1v[i] * Su[i, c] + c2v[i] * s
         # position projection of penetrating contacts (metric M)
         if project:
             for j in range(m):
                 if kind[j] == KIND_CONTACT:
                     d = dof[j]
-                    g = gap[j] + sign[j] * qn[d]
+                    d2 = dof2[j]
+                    g = gap[j] + _rel(qn, d, d2, sign[j])
                     if g < 0.0:
-                        w = sign[j] * MinvG[d, j]
+                        w = _rel(MinvG[:, j], d, d2, sign[j])
                         delta = -g / w
                         for i in range(n):
                             qn[i] += MinvG[i, j] * delta
                         status[j] += STATUS_PROJECTED
                         if want_sens:
                             for c in range(n_s):
-                                dd = -sign[j] * dQn[d, c] / w
+                                dd = -_rel(dQn[:, c], d, d2, sign[j]) / w
                                 for i in range(n):
                                     dQn[i, c] += MinvG[i, j] * dd
         for i in range(n):
@@ -411,22 +443,31 @@ def moreau_jean(q0, u0, Aq, Au, WG, Del, MinvG, B, dB, theta, h,
 
 
 def moreau_jean_numpy(q0, u0, Aq, Au, WG, Del, MinvG, B, theta, h,
-                      kind, dof, sign, bound, gap, e, project=True):
+                      kind, dof, sign, bound, gap, e, project=True, dof2=None, n_slider=0):
     """Plain NumPy version of :func:`moreau_jean` (no sensitivities), for testing.
 
     One element per step is solved in closed form; several by PGS as in the kernel.
+    ``dof2``: second DOF of relative elements (-1: ground; default: all on one DOF).
     Returns ``q, u, P`` with the shapes of the kernel's outputs.
     """
     N, n, m = B.shape[0], q0.size, kind.size
+    dof2 = -np.ones(m, dtype=np.int64) if dof2 is None else np.asarray(dof2)
+    th = np.full(n, float(theta))
+    th[n - n_slider:] = 1.0  # massless slider DOFs: theta = 1
+    W = np.zeros((n, m))  # columns w_j
+    for j in range(m):
+        W[dof[j], j] = sign[j]
+        if dof2[j] >= 0:
+            W[dof2[j], j] = -sign[j]
     q, u = q0.astype(float).copy(), u0.astype(float).copy()
     qt, ut, Pt = [q.copy()], [u.copy()], np.zeros((N, m))
     for k in range(N):
         uf = u + B[k] - Aq @ q - Au @ u
         P = np.zeros(m)
-        qfree = q + h * (1 - theta) * u + h * theta * uf
+        qfree = q + h * (1 - th) * u + h * th * uf
         active = np.array([bound[j] > 0 if kind[j] == KIND_FRICTION
-                           else gap[j] + sign[j] * qfree[dof[j]] <= 0 for j in range(m)], dtype=bool)
-        r = np.array([sign[j] * uf[dof[j]] + (e[j] * sign[j] * u[dof[j]] if kind[j] == KIND_CONTACT else 0.0)
+                           else gap[j] + W[:, j] @ qfree <= 0 for j in range(m)], dtype=bool)
+        r = np.array([W[:, j] @ uf + (e[j] * (W[:, j] @ u) if kind[j] == KIND_CONTACT else 0.0)
                       for j in range(m)])
         for _ in range(1 if m == 1 else 1000):
             Pold = P.copy()
@@ -436,13 +477,13 @@ def moreau_jean_numpy(q0, u0, Aq, Au, WG, Del, MinvG, B, theta, h,
             if np.max(np.abs(P - Pold), initial=0.0) <= 1e-14 * (1 + np.max(np.abs(P), initial=0.0)):
                 break
         u_new = uf + WG @ P
-        q_new = q + h * ((1 - theta) * u + theta * u_new)
+        q_new = q + h * ((1 - th) * u + th * u_new)
         if project:
             for j in range(m):
                 if kind[j] == KIND_CONTACT:
-                    g = gap[j] + sign[j] * q_new[dof[j]]
+                    g = gap[j] + W[:, j] @ q_new
                     if g < 0:
-                        q_new += MinvG[:, j] * (-g / (sign[j] * MinvG[dof[j], j]))
+                        q_new += MinvG[:, j] * (-g / (W[:, j] @ MinvG[:, j]))
         q, u = q_new, u_new
         qt.append(q.copy())
         ut.append(u.copy())

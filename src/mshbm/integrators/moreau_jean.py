@@ -4,6 +4,11 @@ Notation: ``q, u`` displacement and velocity (shape ``(n,)``), ``h`` the step,
 ``theta`` the scheme parameter (1/2: trapezoidal, energy-conserving for the
 linear part), ``P`` contact/friction impulses per step (shape ``(m,)``).
 See :mod:`mshbm.integrators.kernels` for the step itself.
+
+Jenkins elements (:class:`mshbm.elements.Jenkins`) are integrated as one massless slider DOF each,
+appended after the ``n_structure`` DOFs of the structure (:func:`_with_sliders`) and stepped with
+``theta = 1`` (per-DOF ``theta``: ``W = (M + h C Theta + h^2 K Theta^2)^-1``); states of the
+structure alone are completed by :meth:`MoreauJean.with_slider_state`.
 """
 from __future__ import annotations
 
@@ -54,6 +59,40 @@ class Trajectory:
     pgs_iterations: int
 
 
+def _with_sliders(M, C, K, elements):
+    """Matrices and elements with one massless slider DOF ``z`` per Jenkins element.
+
+    A Jenkins element (spring ``k_t`` in series with a Coulomb slider, :class:`mshbm.elements.Jenkins`)
+    is a DOF ``z`` without mass, tied to ``s = w^T q`` by the spring (``K += k_t [w; -e_z][w; -e_z]^T``)
+    and carrying rigid Coulomb friction on ``z``.  The step matrix ``M + h theta C + (h theta)^2 K``
+    stays regular (``K_zz = k_t``); with no mass the slider's balance is the quasi-static
+    ``lambda = -k_t (s_theta - z_theta)``, ``|lambda| <= mu F_N`` at every step: the friction impulse on
+    ``z`` is ``h lambda``, the element's force on the structure.  Returns ``(M, C, K, elements,
+    sliders)`` with ``sliders`` the list of ``(element index, slider DOF)``.
+    """
+    from ..elements import Friction
+
+    jen = [j for j, el in enumerate(elements) if getattr(el, "history", False)]
+    if not jen:
+        return M, C, K, list(elements), []
+    n = M.shape[0]
+    na = n + len(jen)
+    Ma, Ca, Ka = (np.zeros((na, na)) for _ in range(3))
+    Ma[:n, :n], Ca[:n, :n], Ka[:n, :n] = M, C, K
+    out, sliders = list(elements), []
+    for i, j in enumerate(jen):
+        el = elements[j]
+        z = n + i
+        v = np.zeros(na)
+        for d, w in el.direction:
+            v[d] = w
+        v[z] = -1.0
+        Ka += el.tangential_stiffness * np.outer(v, v)
+        out[j] = Friction(z, el.mu, el.normal_force, el.smoothing)
+        sliders.append((j, z))
+    return Ma, Ca, Ka, out, sliders
+
+
 class MoreauJean:
     """Moreau-Jean integrator for a (sub)system with local elements.
 
@@ -82,33 +121,73 @@ class MoreauJean:
                              f"use 'mshbm' or 'hbm' for systems with more than {MAX_DENSE_DOFS} DOFs")
         dense = lambda A: A.toarray() if sp.issparse(A) else np.asarray(A, dtype=float)
         M, C, K = dense(M), dense(C), dense(K)
+        #: DOFs of the structure; ``n`` counts also one massless slider DOF per Jenkins element
+        self.n_structure = n
+        M, C, K, elements, self.sliders = _with_sliders(M, C, K, elements)
+        self.Ktilde = K
+        n = M.shape[0]
         self.n, self.h, self.theta = n, float(h), float(theta)
-        S = M + h * theta * C + (h * theta) ** 2 * K
-        self.W = np.linalg.inv(S)
-        self.Aq = np.ascontiguousarray(h * self.W @ K)
-        self.Au = np.ascontiguousarray(h * self.W @ C + h * h * theta * self.W @ K)
+        if not self.sliders:
+            S = M + h * theta * C + (h * theta) ** 2 * K
+            self.W = np.linalg.inv(S)
+            self.Aq = np.ascontiguousarray(h * self.W @ K)
+            self.Au = np.ascontiguousarray(h * self.W @ C + h * h * theta * self.W @ K)
+        else:  # per-DOF theta: 1 on the massless sliders (their velocity is then no state)
+            th = self.theta_dofs
+            S = M + h * C * th + h * h * K * (th * th)
+            self.W = np.linalg.inv(S)
+            self.Aq = np.ascontiguousarray(h * self.W @ K)
+            self.Au = np.ascontiguousarray(h * self.W @ C + h * h * self.W @ (K * th))
         m = len(elements)
         G = np.zeros((n, m))
         self.kind = np.zeros(m, dtype=np.int64)
         self.dof = np.zeros(m, dtype=np.int64)
+        self.dof2 = np.full(m, -1, dtype=np.int64)  # second DOF of relative elements, -1: ground
         self.sign = np.zeros(m)
         self.bound = np.zeros(m)
         self.gap = np.zeros(m)
         self.e = np.zeros(m)
         for j, el in enumerate(elements):
-            G[el.dof, j] = el.sign
+            for d, w in el.direction:
+                G[d, j] = w
             self.dof[j], self.sign[j] = el.dof, el.sign
+            if el.relative_to is not None:
+                self.dof2[j] = el.relative_to
             self.kind[j], self.bound[j], self.gap[j], self.e[j] = el.kernel_parameters(h)
         self.G = G
         self.WG = np.ascontiguousarray(self.W @ G)
         self.Del = np.ascontiguousarray(G.T @ self.WG)
-        self.MinvG = np.ascontiguousarray(np.linalg.solve(M, G))
+        # M^-1 G on the massive block (the slider DOFs are massless; contacts act on the structure only)
+        ns = self.n_structure
+        MinvG = np.zeros((n, m))
+        MinvG[:ns] = np.linalg.solve(M[:ns, :ns], G[:ns])
+        self.MinvG = np.ascontiguousarray(MinvG)
         self.project = bool(project)
         self.tol, self.max_iter = float(tol), int(max_iter)
 
     @property
     def m(self):
         return self.kind.size
+
+    @property
+    def theta_dofs(self):
+        """Scheme parameter per integrated DOF (``theta``; 1 on the slider DOFs of Jenkins elements)."""
+        th = np.full(self.n, self.theta)
+        th[self.n_structure:] = 1.0
+        return th
+
+    def with_slider_state(self, q0, u0):
+        """``(q0, u0)`` of the structure completed by the slider DOFs: each slider at rest relative to its
+        spring (``z = w^T q0``, ``lambda = 0``) and moving with it (``u_z = w^T u0``); states that already
+        hold the sliders are returned as they are."""
+        q0, u0 = np.asarray(q0, dtype=float), np.asarray(u0, dtype=float)
+        if not self.sliders or q0.shape[0] == self.n:
+            return q0, u0
+        K = self.Ktilde
+        ns = self.n_structure
+        zq = np.array([-(K[z, :ns] @ q0[:ns]) / K[z, z] for _, z in self.sliders])
+        zu = np.array([-(K[z, :ns] @ u0[:ns]) / K[z, z] for _, z in self.sliders])
+        return np.concatenate([q0, zq]), np.concatenate([u0, zu])
 
     def increments(self, F):
         """Forcing increments ``b_k = h W f_theta,k`` from forces at the grid points.
@@ -123,6 +202,8 @@ class MoreauJean:
         ndarray, shape (N, n) or (N, n, n_p)
         """
         F = np.asarray(F, dtype=float)
+        if F.shape[1] == self.n_structure < self.n:  # no force on the slider DOFs
+            F = np.concatenate([F, np.zeros((F.shape[0], self.n - self.n_structure) + F.shape[2:])], axis=1)
         Ft = (1.0 - self.theta) * F[:-1] + self.theta * F[1:]
         if F.ndim == 2:
             return np.ascontiguousarray(self.h * Ft @ self.W.T)
@@ -147,6 +228,7 @@ class MoreauJean:
         -------
         Trajectory
         """
+        q0, u0 = self.with_slider_state(q0, u0)
         N = B.shape[0]
         if dB is None:
             dB = np.zeros((N, self.n, 0))
@@ -159,9 +241,9 @@ class MoreauJean:
             np.ascontiguousarray(q0, dtype=float), np.ascontiguousarray(u0, dtype=float),
             self.Aq, self.Au, self.WG, self.Del, self.MinvG,
             np.ascontiguousarray(B, dtype=float), np.ascontiguousarray(dB, dtype=float),
-            self.theta, self.h, self.kind, self.dof, self.sign, self.bound, self.gap, self.e,
+            self.theta, self.h, self.kind, self.dof, self.dof2, self.sign, self.bound, self.gap, self.e,
             self.project, bool(sensitivities or store_q_sensitivities), bool(store_q_sensitivities),
-            self.tol, self.max_iter)
+            self.tol, self.max_iter, self.n - self.n_structure)
         return Trajectory(*out)
 
     def step_jacobian(self, pattern):
@@ -188,14 +270,14 @@ class MoreauJean:
             rows = np.empty((E.size, 2 * n))
             for a, j in enumerate(E):
                 ee = self.e[j] if self.kind[j] == kernels.KIND_CONTACT else 0.0
-                rows[a] = -self.sign[j] * (dUf[self.dof[j]] + ee * dU[self.dof[j]])
+                rows[a] = -(self.G[:, j] @ dUf + ee * (self.G[:, j] @ dU))
             dP = np.linalg.solve(self.Del[np.ix_(E, E)], rows)
             dUn += self.WG[:, E] @ dP
-        dQn = np.hstack([I, h * (1 - th) * I]) + h * th * dUn
+        thd = self.theta_dofs[:, None]
+        dQn = np.hstack([I, h * (1 - thd) * I]) + h * thd * dUn
         for j in np.flatnonzero(pattern & kernels.STATUS_PROJECTED):
-            d = self.dof[j]
-            w = self.sign[j] * self.MinvG[d, j]
-            dQn = dQn - np.outer(self.MinvG[:, j], self.sign[j] * dQn[d] / w)
+            w = self.G[:, j] @ self.MinvG[:, j]
+            dQn = dQn - np.outer(self.MinvG[:, j], (self.G[:, j] @ dQn) / w)
         return np.vstack([dQn, dUn])
 
     def monodromy(self, status):

@@ -12,6 +12,7 @@ import numpy as np
 from .. import api
 from .. import options as options_
 from ..errors import InputError
+from ..elements import Jenkins
 from ..system import Contact, Friction, System, chain
 from .yaml import _REPR, MAX_FILE_BYTES, describe as _describe, load_yaml as _load_yaml, read_text as _read_text
 
@@ -26,9 +27,12 @@ CHAIN_KEYS = ("masses", "stiffness", "damping")
 MATRIX_KEYS = ("M", "C", "K")
 FORCING_KEYS = ("dof", "amplitude", "sin", "harmonic", "constant")
 #: element keys: default value, or ``...`` when required
-FRICTION_KEYS = {"dof": ..., "mu": ..., "normal_force": ..., "smoothing": 800.0}
+#: (``relative_to: J``: the element acts on ``q_dof - q_J`` instead of between ``dof`` and the ground)
+#: (``tangential_stiffness: k_t``: elastic friction, a Jenkins element, :class:`mshbm.elements.Jenkins`)
+FRICTION_KEYS = {"dof": ..., "mu": ..., "normal_force": ..., "smoothing": 800.0, "relative_to": None,
+                 "tangential_stiffness": None}
 CONTACT_KEYS = {"dof": ..., "gap": ..., "restitution": 1.0, "penalty_stiffness": 8000.0,
-                "penalty_damping": 0.0}
+                "penalty_damping": 0.0, "relative_to": None}
 SOLVER_KEYS = ("method", "harmonics", "steps", "theta", "jacobian", "tol", "max_iter", "partition",
                "condense", "project", "line_search", "continuation", "stability", "dlft_penalty")
 
@@ -187,15 +191,26 @@ def _elements(kind, value, n):
                 if default is ...:
                     raise InputError(f"{key}.{name}", "missing (required)")
                 vals[name] = default
-            elif name == "dof":
-                vals[name] = _dof(f"{key}.dof", item[name], n)
+            elif name in ("dof", "relative_to"):
+                vals[name] = _dof(f"{key}.{name}", item[name], n)
             else:
                 vals[name] = _number(f"{key}.{name}", item[name])
-        if vals["dof"] in seen:
-            raise InputError(f"{key}.dof", f"DOF {vals['dof']} already has a {kind} element ({seen[vals['dof']]})")
-        seen[vals["dof"]] = key
+        if vals.get("relative_to") is not None and vals["relative_to"] == vals["dof"]:
+            raise InputError(f"{key}.relative_to", f"must differ from dof ({vals['dof']}): the element acts on "
+                                                   "q_dof - q_relative_to")
+        where = vals["dof"] if vals.get("relative_to") is None else (vals["dof"], vals["relative_to"])
+        if where in seen:
+            what = f"DOF {where}" if vals.get("relative_to") is None else f"DOFs {where[0]}-{where[1]}"
+            raise InputError(f"{key}.dof", f"{what} already has a {kind} element ({seen[where]})")
+        seen[where] = key
+        make = cls
+        if kind == "friction":
+            if vals.get("tangential_stiffness") is None:
+                vals.pop("tangential_stiffness", None)
+            else:
+                make = Jenkins
         try:
-            out.append(cls(**vals))
+            out.append(make(**vals))
         except InputError as exc:  # Friction/Contact name keys "friction.mu": add the list index
             if key != kind and exc.key.startswith(kind + "."):
                 raise InputError(key + exc.key[len(kind):], exc.problem) from None

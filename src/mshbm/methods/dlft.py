@@ -159,6 +159,11 @@ class DLFTProblem(PeriodicProblem):
         self.system, self.omega = system, float(omega)
         self.n_h, self.Ns = int(harmonics), int(steps)
         n = system.n
+        for el in system.elements:
+            if el.relative_to is not None or el.history:
+                what = "relative_to" if el.relative_to is not None else "tangential_stiffness"
+                raise InputError(f"{el.kind}.{what}", "DLFT supports ground friction and contact only (relative and "
+                                 "elastic (Jenkins) elements: use shooting, mshbm or hbm)")
         dofs = [el.dof for el in system.elements]
         if len(set(dofs)) != len(dofs):
             d = next(d for d in dofs if dofs.count(d) > 1)

@@ -98,8 +98,9 @@ class HBMProblem(PeriodicProblem):
         self.cond = Condensation(system, omega, self.n_h, self.keep, self.elim)
         nR = self.keep.size
         pos = {int(d): i for i, d in enumerate(self.keep)}
-        self.local_dof = [pos[el.dof] for el in system.elements]
-        self.nl_cols = np.array(sorted({pos[el.dof] for el in system.elements}), dtype=np.int64)
+        self.local_dof = [pos[el.dof] if el.relative_to is None else tuple(pos[d] for d in el.dofs)
+                          for el in system.elements]
+        self.nl_cols = np.array(sorted({pos[d] for el in system.elements for d in el.dofs}), dtype=np.int64)
         # linear part A = H_RR - T (block diagonal per harmonic)
         F = fourier.to_complex(system.forcing_hat(self.n_h))
         sub = lambda A: A.tocsr()[self.keep][:, self.keep] if sp.issparse(A) else np.asarray(A)[np.ix_(self.keep, self.keep)]
@@ -175,7 +176,8 @@ class HBMProblem(PeriodicProblem):
         """``(R, J)`` with shapes ``(n_x,)`` and ``(n_x, n_x)`` (dense if condensed, else sparse)."""
         nc, nR = 2 * self.n_h + 1, self.nR
         q, u = self._time(x)
-        _, f, dfdq, dfdu = regularised_forces(self.system.elements, self._ldof, q, u)
+        _, f, dfdq, dfdu, offdiag = regularised_forces(self.system.elements, self._ldof, q, u, coupling=True,
+                                                       basis=self.Vs)
         R = self.A @ x - self.r
         R.reshape(nc, nR)[:, self.nl_cols] -= self.E @ f
         if not jac:
@@ -188,13 +190,21 @@ class HBMProblem(PeriodicProblem):
                 Jn[:, i, :, i] += (self.E * dfdq[:, i]) @ self.Vs
             if dfdu[:, i].any():
                 Jn[:, i, :, i] += (self.E * dfdu[:, i]) @ self.VsOm
+        for i, k, cq, cu in offdiag:  # relative elements: d f_i / d (q_k, u_k), i != k
+            if cq is not None and cq.ndim == 2:  # history (Jenkins): d f_i(t_a) / d q_hat_k (through Vs)
+                Jn[:, i, :, k] += self.E @ cq
+            elif cq is not None and cq.any():
+                Jn[:, i, :, k] += (self.E * cq) @ self.Vs
+            if cu is not None and cu.any():
+                Jn[:, i, :, k] += (self.E * cu) @ self.VsOm
         return R, self._jacobian(Jn)
 
     @functools.cached_property
     def _ldof(self):
         """Column of the nonlinear-DOF samples each element acts on."""
         cols = {int(c): i for i, c in enumerate(self.nl_cols)}
-        return [cols[d] for d in self.local_dof]
+        return [cols[d] if isinstance(d, (int, np.integer)) else tuple(cols[c] for c in d)
+                for d in self.local_dof]
 
     @functools.cached_property
     def _nl_idx(self):
@@ -231,7 +241,8 @@ class HBMProblem(PeriodicProblem):
         of :meth:`newton_fallback` is exact.  With ``d_c > 0`` eq. (45) jumps by
         ``d_c gamma_N`` where ``g_N`` changes sign, so the residual jumps too and an
         exact zero need not exist (measured: found for ``d_c <= 5``, not for
-        ``d_c = 50`` on the 5-mass chain, ``k_c = 8000``).
+        ``d_c = 50`` on the 5-mass chain, ``k_c = 8000``).  Contacts relative to a second DOF are
+        piecewise linear in the same way (on ``w^T q``).
         """
         els = self.system.elements
         return len(els) > 0 and all(el.piecewise_linear for el in els)
@@ -239,30 +250,48 @@ class HBMProblem(PeriodicProblem):
     def _contacts(self):
         """``[(i, element)]``: index ``i`` into ``nl_cols`` of each contact's DOF."""
         cols = {int(c): i for i, c in enumerate(self.nl_cols)}
-        return [(cols[d], el) for el, d in zip(self.system.elements, self.local_dof) if el.unilateral]
+        return [(cols[d if isinstance(d, (int, np.integer)) else d[0]], el)
+                for el, d in zip(self.system.elements, self.local_dof) if el.unilateral]
+
+    def _contact_directions(self):
+        """``[[(i, w_i), ...]]`` per contact: indices ``i`` into ``nl_cols`` and entries of ``w``."""
+        cols = {int(self.keep[c]): i for i, c in enumerate(self.nl_cols)}
+        return [[(cols[int(d)], w) for d, w in el.direction] for _, el in self._contacts()]
 
     def _gaps(self, x, offset=0.0):
-        """Sampled gaps ``g_N(t_j) + offset`` of the contacts, shape (N_s, n_contacts)."""
+        """Sampled gaps ``g_N(t_j) + offset = gap + offset + w^T q(t_j)`` of the contacts, shape (N_s, n_contacts)."""
         q = self.Vs @ x.reshape(2 * self.n_h + 1, self.nR)[:, self.nl_cols]
-        return np.stack([el.gap + offset - q[:, i] for i, el in self._contacts()], axis=1)
+        col = {int(self.keep[c]): i for i, c in enumerate(self.nl_cols)}
+        return np.stack([el.gap + offset + el.local(q, col) for _, el in self._contacts()], axis=1)
 
     def _pl_jacobian(self, closed):
         """Jacobian of the residual on the region with closed samples ``closed`` (N_s, n_contacts)."""
         nc, nN = 2 * self.n_h + 1, self.nl_cols.size
         Jn = np.zeros((nc, nN, nc, nN))
-        for j, (i, el) in enumerate(self._contacts()):
+        for j, ((i, el), wdir) in enumerate(zip(self._contacts(), self._contact_directions())):
             S = np.flatnonzero(closed[:, j])
-            if S.size:  # closed: d f / d q = -k_c, d f / d u = -d_c
-                Jn[:, i, :, i] -= self.E[:, S] @ (el.penalty_stiffness * self.Vs[S]
-                                                  + el.penalty_damping * self.VsOm[S])
+            if not S.size:
+                continue
+            # closed: d f / d q = -k_c w w^T, d f / d u = -d_c w w^T
+            block = self.E[:, S] @ (el.penalty_stiffness * self.Vs[S] + el.penalty_damping * self.VsOm[S])
+            if el.relative_to is None:
+                Jn[:, i, :, i] -= block
+            else:
+                for a, wa in wdir:
+                    for b, wb in wdir:
+                        Jn[:, a, :, b] -= (wa * wb) * block
         return self._jacobian(Jn)
 
     def _gap_derivative(self, closed):
         """``dR / d lambda`` when every gap is offset by ``lambda`` (region ``closed``)."""
         h = np.zeros((2 * self.n_h + 1, self.nR))
-        for j, (i, el) in enumerate(self._contacts()):
+        for j, ((i, el), wdir) in enumerate(zip(self._contacts(), self._contact_directions())):
             S = np.flatnonzero(closed[:, j])
-            h[:, self.nl_cols[i]] -= el.penalty_stiffness * self.E[:, S].sum(axis=1)
+            if el.relative_to is None:
+                h[:, self.nl_cols[i]] -= el.penalty_stiffness * self.E[:, S].sum(axis=1)
+            else:  # R = ... - E w lambda, d lambda / d offset = -k_c on the closed samples
+                for a, wa in wdir:
+                    h[:, self.nl_cols[a]] += wa * el.penalty_stiffness * self.E[:, S].sum(axis=1)
         return h.reshape(-1)
 
     def _pl_crossing(self, x, dx, closed, offset, doffset):
@@ -271,8 +300,10 @@ class HBMProblem(PeriodicProblem):
         Returns ``(s, closed_after)``; ``s = inf`` if no sample switches.
         """
         g = self._gaps(x, offset)
-        dg = doffset - (self.Vs @ dx.reshape(2 * self.n_h + 1, self.nR)[:, self.nl_cols])
-        dg = np.stack([dg[:, i] for i, _ in self._contacts()], axis=1)
+        dq = self.Vs @ dx.reshape(2 * self.n_h + 1, self.nR)[:, self.nl_cols]
+        col = {int(self.keep[c]): i for i, c in enumerate(self.nl_cols)}
+        dg = np.stack([doffset - dq[:, i] if el.relative_to is None else doffset + el.local(dq, col)
+                       for i, el in self._contacts()], axis=1)
         moving = np.where(closed, dg > 0.0, dg < 0.0)
         if not moving.any():
             return np.inf, closed
@@ -416,8 +447,7 @@ class HBMProblem(PeriodicProblem):
         T = 2 * np.pi / self.omega
         t = np.linspace(0.0, T, self.Ns + 1)
         q, u = self._time(x)
-        cols = {int(c): i for i, c in enumerate(self.nl_cols)}
-        lam, _, _, _ = regularised_forces(self.system.elements, [cols[d] for d in self.local_dof], q, u)
+        lam = regularised_forces(self.system.elements, self._ldof, q, u, coupling=True)[0]
         lam = np.vstack([lam, lam[:1]])
         info = {"partition": self.keep.tolist(), "condensed": self.condense,
                 "min_rcond_H_LL": float(self.cond.rcond.min())}

@@ -64,8 +64,9 @@ def _local_elements(system, dofs):
     pos = {int(d): i for i, d in enumerate(dofs)}
     out = []
     for el in system.elements:
-        if int(el.dof) not in pos:
-            raise InputError("partition", f"{el.kind} element on DOF {el.dof} is not in the nonlinear subsystem")
+        for d in el.dofs:
+            if int(d) not in pos:
+                raise InputError("partition", f"{el.kind} element on DOF {d} is not in the nonlinear subsystem")
         out.append(el.renumbered(pos))
     return out
 
@@ -118,7 +119,7 @@ class _MixedBase(PeriodicProblem):
 
     @property
     def n_unknowns(self):
-        return self.nc * self._harm.size + 2 * self._time.size
+        return self.nc * self._harm.size + 2 * self.nA
 
     @property
     def steps(self):
@@ -138,7 +139,7 @@ class _MixedBase(PeriodicProblem):
         return self.cond.rcond
 
     def residual_units(self):
-        a, nt = self.nc * self._harm.size, self._time.size
+        a, nt = self.nc * self._harm.size, self.nA
         units = np.zeros(self.n_unknowns, dtype=np.int8)
         units[:a] = 2 if self._force_rows else 0
         units[a + nt:] = 1
@@ -146,21 +147,22 @@ class _MixedBase(PeriodicProblem):
 
     def initial_guess(self, guess=None):
         q_hat, q0, u0 = guess_parts(guess, self.system, self.omega, self.n_h)
-        return np.concatenate([q_hat[:, self._harm].reshape(-1), q0[self._time], u0[self._time]])
+        q0, u0 = self.td.stepper.with_slider_state(q0[self._time], u0[self._time])
+        return np.concatenate([q_hat[:, self._harm].reshape(-1), q0, u0])
 
     def residual_scale(self, x):
         """Per-row scale of the residual at unknowns ``x``, shape ``(n_x,)``: m (3.2) or N (3.3) for
         the harmonic-balance rows, m for the ``q`` rows, m/s for the ``u`` rows."""
-        return _mixed_scale(self, x, self.nc * self._harm.size, self._time.size, force_rows=self._force_rows)
+        return _mixed_scale(self, x, self.nc * self._harm.size, self.nA, force_rows=self._force_rows)
 
     def _split(self, x):
-        a, nt = self.nc * self._harm.size, self._time.size
+        a, nt = self.nc * self._harm.size, self.nA
         return x[:a], x[a:a + nt], x[a + nt:]
 
     def _eval(self, x, sens):
         p, q0, u0 = self._split(x)
         tr = self.td.run(q0, u0, p, sens)
-        qh = self.td.project(tr.q[:-1]).reshape(-1)
+        qh = self.td.project(tr.q[:-1, :self._time.size]).reshape(-1)
         R = np.concatenate([self._balance(qh, p), tr.q[-1] - q0, tr.u[-1] - u0])
         return R, tr
 
@@ -172,10 +174,12 @@ class _MixedBase(PeriodicProblem):
             R, _ = self._eval(x, False)
             return R, forward_difference_jacobian(lambda xp: self._eval(xp, False)[0], x, R)
         R, tr = self._eval(x, True)
-        nt, a = self._time.size, self.nc * self._harm.size
-        # kernel columns: [q0 (nt), u0 (nt), p (a)] -> reorder to x = [p, q0, u0]
+        nt, a = self.nA, self.nc * self._harm.size
+        # kernel columns: [q0 (nA), u0 (nA), p (a)] -> reorder to x = [p, q0, u0]; nA: the time-stepped
+        # DOFs, then one slider per Jenkins element (mshbm.integrators.moreau_jean)
         perm = np.concatenate([np.arange(2 * nt, 2 * nt + a), np.arange(2 * nt)])
-        dqh = self.td.project(tr.Sq_traj[:-1]).reshape(self.nc * nt, -1)[:, perm]
+        n1 = self._time.size
+        dqh = self.td.project(tr.Sq_traj[:-1, :n1]).reshape(self.nc * n1, -1)[:, perm]
         J = np.zeros((x.size, x.size))
         J[:a] = self._balance_dq(dqh)
         J[:a, :a] += self._balance_dp()
@@ -190,7 +194,8 @@ class _MixedBase(PeriodicProblem):
         tr = self.td.run(q0, u0, p, sens=False)
         X = p.reshape(self.nc, self._harm.size)
         q_hat = np.zeros((self.nc, self.system.n))
-        q_hat[:, self._time] = fourier.fft(tr.q[:-1], self.n_h)
+        n1 = self._time.size
+        q_hat[:, self._time] = fourier.fft(tr.q[:-1, :n1], self.n_h)
         if not self._harmonic_dofs_are_time_dofs:
             q_hat[:, self._harm] = X
         if self._cond_dofs.size:
@@ -199,7 +204,7 @@ class _MixedBase(PeriodicProblem):
         info = {**self._info(p, q_hat),
                 "stick_or_closed_fraction": [float(np.mean((tr.status[:, j] & 3) >= 2))
                                              for j in range(tr.status.shape[1])]}
-        return dict(t=self.td.t, q_hat=q_hat, time_dofs=self._time, q_time=tr.q, u_time=tr.u,
+        return dict(t=self.td.t, q_hat=q_hat, time_dofs=self._time, q_time=tr.q[:, :n1], u_time=tr.u[:, :n1],
                     lam=lam, impulses=tr.P, harmonics=self.n_h, info=info)
 
 
@@ -251,6 +256,7 @@ class MixedProblem(_MixedBase):
         self.nN = self.Nd.size
         self.nc = 2 * self.n_h + 1
         self._time, self._harm, self._cond_dofs = self.Nd, self.Nd, self.Ld
+        self.nA = self.td.stepper.n  # integrated: N, then one slider per Jenkins element
 
     # the mixed residual (27): harmonic-balance rows of N are the connectivity q_hat_N - FFT(q_N)
     _force_rows = False
@@ -361,6 +367,7 @@ class IntermediateProblem(_MixedBase):
         self.rhs = fourier.from_complex(F[:, I2] - self.cond.g).reshape(-1)
         self.nc, self.n1, self.n2 = nc, I1.size, I2.size
         self._time, self._harm, self._cond_dofs = I1, I2, I3
+        self.nA = self.td.stepper.n  # integrated: subsystem 1, then one slider per Jenkins element
 
     # residual (39): harmonic-balance rows of subsystem 2 are forces
     _force_rows = True

@@ -5,7 +5,9 @@ Unknowns ``x = (q(0), u(0))`` (shape ``(2n,)``); residual (periodicity)::
     R(x) = (q(T) - q(0), u(T) - u(0))
 
 with ``q(T), u(T)`` from ``N`` Moreau-Jean steps of ``h = T/N`` of the whole
-system.  The Jacobian is ``Phi - I`` with the monodromy matrix ``Phi``: the exact
+system (with Jenkins elements, :class:`mshbm.elements.Jenkins`, ``q`` and ``u`` also hold one
+massless slider DOF per element, :func:`mshbm.integrators.moreau_jean._with_sliders`: the slider
+positions are periodic too; the reported solution has the structure's DOFs only).  The Jacobian is ``Phi - I`` with the monodromy matrix ``Phi``: the exact
 product of the step Jacobians for the active sets met along the trajectory
 (formed from matrix powers of runs of equal active sets,
 :meth:`MoreauJean.monodromy`), or forward finite differences (``jacobian="fd"``).
@@ -60,7 +62,8 @@ class ShootingProblem(PeriodicProblem):
         self.stepper = MoreauJean(system.M, system.C, system.K, system.elements, self.h, theta, project)
         self.t = np.linspace(0.0, self.T, self.N + 1)
         self.B = self.stepper.increments(system.forcing(self.t, self.omega))
-        self.n = system.n
+        self.n = self.stepper.n  # integrated DOFs (the structure's, then the Jenkins sliders')
+        self.ns = system.n
 
     @property
     def n_unknowns(self):
@@ -78,7 +81,7 @@ class ShootingProblem(PeriodicProblem):
         return self.stepper
 
     def partition(self):
-        return Partition(time=np.arange(self.n), harmonic=np.zeros(0, np.int64), condensed=np.zeros(0, np.int64))
+        return Partition(time=np.arange(self.ns), harmonic=np.zeros(0, np.int64), condensed=np.zeros(0, np.int64))
 
     def residual_units(self):
         return np.repeat(np.array([0, 1], dtype=np.int8), self.n)
@@ -97,7 +100,7 @@ class ShootingProblem(PeriodicProblem):
 
     def initial_guess(self, guess=None):
         _, q0, u0 = guess_parts(guess, self.system, self.omega, self.n_h)
-        return np.concatenate([q0, u0])
+        return np.concatenate(self.stepper.with_slider_state(q0, u0))
 
     def simulate(self, x, sensitivities=False):
         """Trajectory over one period from ``x = (q0, u0)``."""
@@ -131,7 +134,8 @@ class ShootingProblem(PeriodicProblem):
         """Time-domain data for :class:`PeriodicSolution`."""
         tr = self.simulate(x)
         n_h = min(self.n_h, (self.N - 1) // 2)
-        q_hat = fourier.fft(tr.q[:-1], n_h)
+        ns = self.ns
+        q_hat = fourier.fft(tr.q[:-1, :ns], n_h)
         lam = np.vstack([tr.P, tr.P[:1]]) / self.h
         mult = np.linalg.eigvals(self.monodromy(x))
         impacts = bool(np.any((self.stepper.kind == kernels.KIND_CONTACT) & np.any(tr.P > 0, axis=0)))
@@ -141,5 +145,5 @@ class ShootingProblem(PeriodicProblem):
                 "step_map_multipliers": mult, "step_map_impacts": impacts,
                 "time_step": self.h, "stick_or_closed_fraction":
                     [float(np.mean((tr.status[:, j] & 3) >= 2)) for j in range(tr.status.shape[1])]}
-        return dict(t=self.t, q_hat=q_hat, time_dofs=np.arange(self.n), q_time=tr.q, u_time=tr.u,
+        return dict(t=self.t, q_hat=q_hat, time_dofs=np.arange(ns), q_time=tr.q[:, :ns], u_time=tr.u[:, :ns],
                     lam=lam, impulses=tr.P, harmonics=n_h, info=info)

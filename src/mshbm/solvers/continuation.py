@@ -111,7 +111,7 @@ def _first_touch_scale(system, omega, n_h=10, samples=256):
     best = math.inf
     for e in contacts:
         # g = gap - q_d(t) > 0 for s * q_d(t) < gap  (the forcing is affine: q = s * q_lin)
-        qmax = float(np.max(q[:, e.dof]))
+        qmax = float(np.max(-e.local(q)))  # g = gap + w^T q
         if qmax > 0:
             best = min(best, e.gap / qmax)
     return best

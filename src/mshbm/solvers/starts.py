@@ -310,13 +310,15 @@ def clamped_response(system, omega, n_h):
     """Linear response with the element DOFs held fixed, ``q_hat`` shape (2 n_h + 1, n).
 
     Friction DOFs stick at their mean linear-response position, contact DOFs are closed at the gap
-    (``q_dof = gap``).  The other DOFs respond to the forcing through the dynamic stiffness of the
+    (``q_dof = gap``); elements relative to a second DOF fix nothing.  The other DOFs respond to the forcing through the dynamic stiffness of the
     clamped structure, harmonic by harmonic (singular harmonics are set to zero).
     """
     n = system.n
     fixed = {}
     lin = linear_response(system, omega, n_h)
     for el in system.elements:
+        if el.relative_to is not None:
+            continue  # a relative element fixes no DOF to the ground: its DOFs respond freely
         fixed[int(el.dof)] = el.gap if el.unilateral else float(lin[0, el.dof])
     Nd = np.array(sorted(fixed), dtype=np.int64)
     Ld = np.setdiff1d(np.arange(n), Nd)
@@ -561,8 +563,11 @@ class _Runner:
         q, u = start["q0"].copy(), start["u0"].copy()
         T = 2 * math.pi / self.omega
         theta = float(self.options.get("theta", 0.5)) if self.method != "hbm" else 0.5
-        stepper = MoreauJean(self.system.M, self.system.C, self.system.K, self.system.elements, T / steps, theta,
-                             bool(self.options.get("project", True)))
+        try:
+            stepper = MoreauJean(self.system.M, self.system.C, self.system.K, self.system.elements, T / steps,
+                                 theta, bool(self.options.get("project", True)))
+        except InputError:  # an element time stepping does not support (elastic friction): no transient start
+            return None
         t = np.linspace(0.0, T, steps + 1)
         B = stepper.increments(self.system.forcing(t, self.omega))
         done, att, it = 0, None, 0
@@ -579,7 +584,8 @@ class _Runner:
                     break
             if tr is None:
                 break
-            gg = {"q_hat": fourier.fft(tr.q[:-1], self.n_h), "q0": q.copy(), "u0": u.copy()}
+            # the structure's DOFs (the stepper also integrates the sliders of Jenkins elements)
+            gg = {"q_hat": fourier.fft(tr.q[:-1, :n], self.n_h), "q0": q[:n].copy(), "u0": u[:n].copy()}
             drift = float(np.max(np.abs(np.concatenate([tr.q[-1] - tr.q[0], tr.u[-1] - tr.u[0]]))))
             att = self._try("transient", self.problem.initial_guess(gg),
                             f"{done} periods simulated (period drift {drift:.1e})", it, t0)
