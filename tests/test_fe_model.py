@@ -79,9 +79,11 @@ def test_build_writes_loadable_case(tmp_path):
     assert tip == pytest.approx(info["linear"]["tip_amplitude"], rel=1e-8)
 
 
-def test_large_model_stays_sparse(tmp_path):
-    """10^4 DOFs: read as CSR matrices (nothing dense n x n in the System)."""
+def test_large_model_stays_sparse_and_example_is_current(tmp_path):
+    """10^4 DOFs: read as CSR matrices (nothing dense n x n in the System); the committed example
+    case file is the one the script writes (same numbers to the last digit)."""
     fe.build_fe_model(tmp_path, n_el=5000)
+    assert (tmp_path / "beam.yaml").read_text() == (ROOT / "examples" / "fe_beam" / "beam.yaml").read_text()
     s = mshbm.load_case(tmp_path / "beam.yaml").system
     assert s.n == 10_000
     assert all(sp.isspmatrix_csr(getattr(s, k)) for k in "MCK")
