@@ -250,3 +250,16 @@ def test_limits_checked_before_reading(tmp_path, monkeypatch, capsys):
     with pytest.raises(InputError, match="unpacks to") as info:
         mio.read_matrix_file("C", str(bomb))
     assert info.value.key == "C"
+
+
+def test_large_sparse_mass_positive_definite_check():
+    """n > 3000, not diagonally dominant: the symmetric sparse factorisation decides (fast)."""
+    from mshbm.system import _check_positive_definite
+    n = 4000
+    off = np.ones(n - 1)
+    pd = sp.diags([off, 2.01 * np.ones(n), off], [-1, 0, 1], format="csr")       # eigenvalues > 0.01
+    indefinite = sp.diags([off, 1.5 * np.ones(n), off], [-1, 0, 1], format="csr")  # eigenvalues down to -0.5
+    _check_positive_definite(pd)
+    with pytest.raises(InputError, match="positive definite") as info:
+        _check_positive_definite(indefinite)
+    assert info.value.key == "M"
