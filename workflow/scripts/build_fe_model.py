@@ -70,6 +70,7 @@ DEFAULTS = dict(
     restitution=0.8,      # e_N
     penalty_ratio=100.0,  # HBM penalty stiffness / tip stiffness 3 E I / L^3
     harmonics=5,          # solver.harmonics in the case file
+    steps=8192,           # solver.steps (time steps per period of MS-HBM's time-stepped DOFs)
 )
 
 
@@ -242,7 +243,7 @@ def build_fe_model(out_dir, n_el=None, case_name="beam.yaml", **params):
         f"smoothing: {_g(fr['smoothing'])}}}",
         f"contact: {{dof: {ct['dof']}, gap: {_g(ct['gap'])}, restitution: {_g(ct['restitution'])}, "
         f"penalty_stiffness: {_g(ct['penalty_stiffness'])}}}",
-        f"solver: {{method: mshbm, harmonics: {int(p['harmonics'])}}}",
+        f"solver: {{method: mshbm, harmonics: {int(p['harmonics'])}, steps: {int(p['steps'])}}}",
     ]
     (out / case_name).write_text("\n".join(lines) + "\n")
     (out / "modes.json").write_text(json.dumps(info, indent=1) + "\n")
