@@ -88,3 +88,29 @@ def test_large_model_stays_sparse_and_example_is_current(tmp_path):
     assert s.n == 10_000
     assert all(sp.isspmatrix_csr(getattr(s, k)) for k in "MCK")
     assert s.K.nnz < 10 * s.n
+
+
+def test_plate_with_nu_zero_has_the_beam_bending_modes():
+    """Kirchhoff plate (BFS elements, Kronecker assembly) with nu = 0: the beam modes w = phi(x) are exact
+    plate modes, so the closed-form cantilever frequencies (EI -> D b) appear in the plate spectrum."""
+    b = 0.2
+    M, K = fe.plate_matrices(20, 4, lx=1.0, ly=b, thickness=0.01, poisson=0.0)
+    assert M.shape == (4 * 20 * 5,) * 2 and (K != K.T).nnz == 0
+    w = fe.natural_frequencies(M, K, 8)
+    for w_r in fe.cantilever_frequencies(3, width=b, height=0.01):
+        assert np.min(np.abs(w / w_r - 1.0)) < 1e-4
+    # free-free in y, clamped in x: a rigid y-translation of the clamped edge is not a DOF; K is definite
+    assert np.all(w > 0)
+
+
+def test_plate_dof_index():
+    nx, ny = 10, 4
+    assert fe.plate_w_dof(1.0, 0.5, nx, ny) == (2 * (nx - 1)) * 2 * (ny + 1) + 2 * 2
+    assert fe.plate_w_dof(0.0, 0.0, nx, ny) == 0
+
+
+def test_plate_example_is_current(tmp_path):
+    fe.build_fe_model(tmp_path, n_el=50, case_name="plate.yaml", model="plate", ny=49)
+    assert (tmp_path / "plate.yaml").read_text() == (ROOT / "examples" / "fe_plate" / "plate.yaml").read_text()
+    s = mshbm.load_case(tmp_path / "plate.yaml").system
+    assert s.n == 10_000 and all(sp.isspmatrix_csr(getattr(s, k)) for k in "MCK")

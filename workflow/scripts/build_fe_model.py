@@ -71,6 +71,9 @@ DEFAULTS = dict(
     penalty_ratio=100.0,  # HBM penalty stiffness / tip stiffness 3 E I / L^3
     harmonics=5,          # solver.harmonics in the case file
     steps=8192,           # solver.steps (time steps per period of MS-HBM's time-stepped DOFs)
+    model="beam",         # "beam" or "plate" (Kirchhoff plate width x height, n_el x ny BFS elements)
+    ny=49,                # plate: elements across the width
+    poisson=0.3,          # plate: Poisson's ratio
 )
 
 
@@ -114,6 +117,68 @@ def beam_matrices(n_el, length=1.0, young=210e9, density=7850.0, width=0.04, hei
         A_.sum_duplicates()
         A_.sort_indices()
     return M, K
+
+
+def _hermite_1d(n_el, length, clamped):
+    """Global 1-D Hermite matrices ``(int N N, int N' N', int N'' N'', int N'' N)`` on ``n_el`` equal
+    elements (DOFs ``(w, l w')`` per node, ``l`` the element length; ``clamped``: node 0 removed), by
+    5-point Gauss quadrature."""
+    l = length / n_el
+    g, wg = np.polynomial.legendre.leggauss(5)
+    xi = 0.5 * (g + 1.0)                      # in [0, 1]
+    wq = 0.5 * wg * l
+    N = np.array([1 - 3 * xi**2 + 2 * xi**3, l * (xi - 2 * xi**2 + xi**3), 3 * xi**2 - 2 * xi**3, l * (-xi**2 + xi**3)])
+    d1 = np.array([-6 * xi + 6 * xi**2, l * (1 - 4 * xi + 3 * xi**2), 6 * xi - 6 * xi**2, l * (-2 * xi + 3 * xi**2)]) / l
+    d2 = np.array([-6 + 12 * xi, l * (-4 + 6 * xi), 6 - 12 * xi, l * (-2 + 6 * xi)]) / l**2
+    elems = [(N * wq) @ N.T, (d1 * wq) @ d1.T, (d2 * wq) @ d2.T, (d2 * wq) @ N.T]
+    dofs = 2 * np.arange(n_el)[:, None] + np.arange(4)[None, :]
+    rows, cols = np.repeat(dofs, 4, axis=1).ravel(), np.tile(dofs, (1, 4)).ravel()
+    n_all = 2 * (n_el + 1)
+    # slope DOFs in length units (l w'): every DOF is a displacement, and the matrices stay well scaled
+    S = sp.diags(np.tile([1.0, 1.0 / l], n_el + 1))
+    out = []
+    for E_ in elems:
+        A_ = sp.coo_matrix((np.tile(E_.ravel(), n_el), (rows, cols)), shape=(n_all, n_all)).tocsr()
+        A_ = (S @ A_ @ S).tocsr()
+        out.append(A_[2:, 2:] if clamped else A_)
+    return out
+
+
+def plate_matrices(nx, ny, lx=1.0, ly=0.2, thickness=0.01, young=210e9, poisson=0.3, density=7850.0):
+    """Kirchhoff plate ``lx x ly`` clamped along ``x = 0``, free elsewhere, ``nx x ny`` conforming
+    bicubic Hermite (Bogner-Fox-Schmit) elements; DOFs ``(w, lx_e w_x, ly_e w_y, lx_e ly_e w_xy)`` per
+    node (``lx_e, ly_e``: element sizes; all DOFs in metres, which keeps ``K`` well scaled).
+
+    On a tensor mesh the element matrices are Kronecker products of 1-D Hermite matrices, and so are
+    the assembled ones: with ``D = E t^3 / (12 (1 - nu^2))`` and the 1-D matrices ``M1 = int N N``,
+    ``G1 = int N' N'``, ``K1 = int N'' N''``, ``B1 = int N'' N``::
+
+        M = rho t (M1x (x) M1y)
+        K = D (K1x (x) M1y + M1x (x) K1y + nu (B1x (x) B1y^T + B1x^T (x) B1y) + 2 (1 - nu) G1x (x) G1y)
+
+    (the bending energy ``D/2 int w_xx^2 + w_yy^2 + 2 nu w_xx w_yy + 2 (1 - nu) w_xy^2``).  Global DOF
+    ``i_x * 2 (ny + 1) + i_y`` couples the x-DOF ``i_x`` (``(w, d/dx)`` of x-node ``i_x + 1``) with
+    the y-DOF ``i_y`` (``(w, d/dy)`` of y-node ``i_y // 2``).  Returns ``(M, K)`` as CSR.
+    """
+    Mx, Gx, Kx, Bx = _hermite_1d(nx, lx, True)
+    My, Gy, Ky, By = _hermite_1d(ny, ly, False)
+    D = young * thickness ** 3 / (12.0 * (1.0 - poisson ** 2))
+    M = density * thickness * sp.kron(Mx, My, format="csr")
+    K = D * (sp.kron(Kx, My) + sp.kron(Mx, Ky) + poisson * (sp.kron(Bx, By.T) + sp.kron(Bx.T, By))
+             + 2.0 * (1.0 - poisson) * sp.kron(Gx, Gy))
+    K = sp.csr_matrix(0.5 * (K + K.T))
+    M = sp.csr_matrix(0.5 * (M + M.T))
+    for A_ in (K, M):
+        A_.sum_duplicates()
+        A_.sort_indices()
+    return M, K
+
+
+def plate_w_dof(x_over_L, y_over_L, nx, ny):
+    """Transverse DOF ``w`` of the plate node nearest ``(x, y)`` (fractions of ``lx``, ``ly``)."""
+    ix = min(max(int(round(x_over_L * nx)), 1), nx) - 1
+    iy = min(max(int(round(y_over_L * ny)), 0), ny)
+    return (2 * ix) * 2 * (ny + 1) + 2 * iy
 
 
 def cantilever_frequencies(n_modes, length=1.0, young=210e9, density=7850.0, width=0.04, height=0.01):
@@ -177,16 +242,26 @@ def build_fe_model(out_dir, n_el=None, case_name="beam.yaml", **params):
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     geo = dict(length=p["length"], young=p["young"], density=p["density"], width=p["width"], height=p["height"])
-    M, K = beam_matrices(n_el, **geo)
+    plate = p["model"] == "plate"
+    if plate:  # elements sit at mid-width (y = width / 2); the tip is the middle of the free edge
+        ny = int(p["ny"])
+        M, K = plate_matrices(n_el, ny, p["length"], p["width"], p["height"], p["young"], p["poisson"],
+                              p["density"])
+        dof_at = lambda x: (plate_w_dof(x, 0.5, n_el, ny), None)
+    else:
+        M, K = beam_matrices(n_el, **geo)
+        dof_at = lambda x: node_dof(x, n_el)
     n = M.shape[0]
     w = natural_frequencies(M, K, 3)
     w_exact = cantilever_frequencies(3, **geo)
+    if plate:  # plate bending modes approach the beam's with E / (1 - nu^2); mode 2 is torsion
+        w_exact = w_exact / math.sqrt(1.0 - p["poisson"] ** 2)
     alpha, beta = rayleigh_coefficients(w[0], w[1], p["zeta"])
     C = alpha * M + beta * K
     omega = p["omega_ratio"] * w[0]
-    f_dof, f_node = node_dof(p["x_force"], n_el)
-    r_dof, r_node = node_dof(p["x_friction"], n_el)
-    tip = n - 2
+    f_dof, f_node = dof_at(p["x_force"])
+    r_dof, r_node = dof_at(p["x_friction"])
+    tip = dof_at(1.0)[0] if plate else n - 2
     Q = linear_response(M, C, K, omega, f_dof, p["force"])
     tip_amp = float(abs(Q[tip]))
     fr_vel = float(omega * abs(Q[r_dof]))
@@ -204,7 +279,7 @@ def build_fe_model(out_dir, n_el=None, case_name="beam.yaml", **params):
         "forcing": {"dof": f_dof, "node": f_node, "amplitude": p["force"]},
         "friction": {"dof": r_dof, "node": r_node, "mu": p["mu"], "normal_force": bound / p["mu"],
                      "smoothing": smoothing},
-        "contact": {"dof": tip, "node": n_el, "gap": gap, "restitution": p["restitution"],
+        "contact": {"dof": tip, "node": None if plate else n_el, "gap": gap, "restitution": p["restitution"],
                     "penalty_stiffness": p["penalty_ratio"] * k_tip},
         "linear": {"tip_amplitude": tip_amp, "friction_dof_amplitude": float(abs(Q[r_dof])),
                    "friction_dof_velocity": fr_vel},
@@ -215,7 +290,22 @@ def build_fe_model(out_dir, n_el=None, case_name="beam.yaml", **params):
     sio.mmwrite(out / "K.mtx", K, comment=f"stiffness, cantilever Euler-Bernoulli beam, {n_el} elements",
                 symmetry="symmetric")
     fr, ct = info["friction"], info["contact"]
-    lines = [
+    if plate:
+        where = (f"# Forcing on w at x = {p['x_force']:g} L, omega = {p['omega_ratio']:g} w_1; friction joint on w at "
+                 f"x = {p['x_friction']:g} L; impact stop at the middle of the free edge (all at mid-width),")
+        head = [f"# Cantilever Kirchhoff plate (clamped along x = 0), {n_el} x {int(p['ny'])} bicubic Hermite (BFS) "
+                f"elements, {n} DOFs (w, l_x w_x, l_y w_y, l_x l_y w_xy per node; l: element sizes), nu = {p['poisson']:g}",
+                f"# L = {p['length']:g} m, width x thickness = {p['width']:g} x {p['height']:g} m, "
+                f"E = {p['young']:g} Pa, rho = {p['density']:g} kg/m^3",
+                "# Written by workflow/scripts/build_fe_model.py (the .mtx files are generated, not stored):",
+                f"#   python workflow/scripts/build_fe_model.py <this directory> --model plate --n-el {n_el} "
+                f"--ny {int(p['ny'])} --case {case_name}",
+                "# Lowest frequencies (eigsh, shift-invert); the beam formula with E (narrow strip) and with "
+                "E/(1-nu^2) (wide plate) bracket the bending modes; torsion modes interleave on wide plates:"]
+        head += [f"#   mode {r + 1}: {w[r]:.6g} rad/s ({w[r] / (2 * math.pi):.6g} Hz)" for r in range(3)]
+        head += [f"#   beam formula with E: {', '.join(f'{x:.6g}' for x in w_exact * math.sqrt(1 - p['poisson'] ** 2))}"
+                 f" rad/s; with E/(1-nu^2): {', '.join(f'{x:.6g}' for x in w_exact)} rad/s", where]
+    lines = head if plate else [
         f"# Cantilever Euler-Bernoulli beam, {n_el} Hermite cubic elements, {n} DOFs "
         f"(DOF 2(i-1): w of node i, 2(i-1)+1: its rotation)",
         f"# L = {p['length']:g} m, b x h = {p['width']:g} x {p['height']:g} m, E = {p['young']:g} Pa, "
@@ -224,15 +314,15 @@ def build_fe_model(out_dir, n_el=None, case_name="beam.yaml", **params):
         f"#   python workflow/scripts/build_fe_model.py <this directory> --n-el {n_el}",
         "# First bending frequencies (eigsh, shift-invert) against the closed form (beta_r L)^2 sqrt(EI/(rho A L^4)):",
     ]
-    for r in range(3):
+    for r in range(0 if plate else 3):
         lines.append(f"#   mode {r + 1}: {w[r]:.6g} rad/s ({w[r] / (2 * math.pi):.6g} Hz), closed form "
                      f"{w_exact[r]:.6g} rad/s, rel. error {w[r] / w_exact[r] - 1:+.2e}")
-    lines += [
+    lines += ([] if plate else [
         f"# Forcing at node {f_node} (x = {f_node / n_el:g} L), omega = {p['omega_ratio']:g} w_1; "
-        f"friction joint at node {r_node}; impact stop at the tip,",
+        f"friction joint at node {r_node}; impact stop at the tip,"]) + [
         f"# gap = {p['gap_ratio']:g} x the linear tip amplitude {tip_amp:.6g} m.  Rayleigh damping: "
         f"zeta = {p['zeta']:g} at w_1 and w_2.",
-        "name: fe_beam",
+        f"name: fe_{p['model']}",
         "M: M.mtx",
         "K: K.mtx",
         f"damping: {{alpha: {_g(alpha)}, beta: {_g(beta)}}}",
@@ -255,8 +345,10 @@ def main(argv=None):
     ap.add_argument("out_dir")
     ap.add_argument("--n-el", type=int, default=DEFAULTS["n_el"])
     ap.add_argument("--case", default="beam.yaml", help="case file name (in OUT_DIR)")
+    ap.add_argument("--model", choices=("beam", "plate"), default="beam")
+    ap.add_argument("--ny", type=int, default=DEFAULTS["ny"], help="plate: elements across the width")
     args = ap.parse_args(argv)
-    info = build_fe_model(args.out_dir, n_el=args.n_el, case_name=args.case)
+    info = build_fe_model(args.out_dir, n_el=args.n_el, case_name=args.case, model=args.model, ny=args.ny)
     print(f"{info['n_dofs']} DOFs; omega_1..3 = {', '.join(f'{x:.6g}' for x in info['omega_fe'])} rad/s "
           f"(rel. errors {', '.join(f'{x:+.1e}' for x in info['rel_error'])}); wrote {args.out_dir}")
     return 0
