@@ -24,6 +24,15 @@ or a general structure by its matrices (instead of masses/stiffness/damping)::
     C: [[0.1, 0], [0, 0.1]]          # optional, default 0
     K: [[2, -1], [-1, 1]]
 
+``M``, ``C`` and ``K`` may also be paths to matrix files (Matrix Market ``.mtx`` or
+``scipy.sparse`` ``.npz``, relative to the case file), and ``damping: {alpha: a, beta: b}`` gives
+Rayleigh damping ``C = a M + b K`` for matrices and chains (:mod:`mshbm.io.matrices` states the
+path rules, the size limits and when the matrices are kept sparse)::
+
+    M: beam_M.mtx
+    K: beam_K.mtx
+    damping: {alpha: 0.5, beta: 1.0e-5}
+
 Numbers follow YAML 1.2 as most readers expect: ``1e3`` and ``1.0e+3`` are floats, ``.inf`` and
 ``.nan`` are floats (and rejected where a finite value is needed).  The YAML 1.1 traps are input
 errors naming the key, never silently converted: sexagesimal numbers (``1:30``, which YAML 1.1
@@ -36,7 +45,8 @@ Every problem is reported as :class:`mshbm.InputError` whose ``key`` is the
 dotted name of the offending entry (``friction.mu``, ``forcing[0].dof``,
 ``solver.harmonics``, ...).  Reading is defensive: files over 10 MB, nesting
 deeper than 32 levels and alias expansions beyond 5 million values are
-rejected before anything big is built.
+rejected before anything big is built; so are matrix files over 320 MB or
+declaring more than 5 million rows or stored entries.
 """
 from .case import (CHAIN_KEYS, CONTACT_KEYS, FORCING_KEYS, FRICTION_KEYS, MATRIX_KEYS, MAX_FORCING_HARMONIC,  # noqa: F401
                    SOLVER_KEYS, TOP_KEYS, Case, load_case, parse_case)

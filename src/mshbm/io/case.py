@@ -8,12 +8,15 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+import scipy.sparse as sp
 
 from .. import api
 from .. import options as options_
 from ..errors import InputError
 from ..elements import Jenkins
 from ..system import Contact, Friction, System, chain
+from .matrices import matrix_storage as _matrix_storage, rayleigh as _rayleigh, \
+    rayleigh_damping as _rayleigh_damping, read_matrix_file as _read_matrix_file
 from .yaml import _REPR, MAX_FILE_BYTES, describe as _describe, load_yaml as _load_yaml, read_text as _read_text
 
 __all__ = ["Case", "load_case", "parse_case", "MAX_FILE_BYTES", "SOLVER_KEYS", "TOP_KEYS"]
@@ -125,7 +128,13 @@ def _per_spring(key, value):
     return value
 
 
-def _matrix(key, value, n=None):
+def _matrix(key, value, n=None, base_dir=None):
+    """A matrix given as a list of rows (dense array) or as a file path (CSR, :mod:`mshbm.io.matrices`)."""
+    if isinstance(value, str):
+        A = _read_matrix_file(key, value, base_dir)
+        if n is not None and A.shape[0] != n:
+            raise InputError(key, f"must be {n}x{n} like M, got {A.shape[0]}x{A.shape[1]} from {value!r}")
+        return A
     if isinstance(value, (int, float)) and not isinstance(value, bool) and n in (None, 1):
         value = [[value]]
     if not isinstance(value, list) or not value:
@@ -332,13 +341,18 @@ class Case:
         return f"Case({self.name!r}, {self.system!r}, omega={self.omega:g}, solver={self.solver!r})"
 
 
-def parse_case(data, name=None, source=None):
-    """Build a :class:`Case` from an already parsed mapping (the content of a case file)."""
+def parse_case(data, name=None, source=None, base_dir=None):
+    """Build a :class:`Case` from an already parsed mapping (the content of a case file).
+
+    ``base_dir``: directory against which relative matrix file paths (``M: K.mtx``) are resolved;
+    default: the working directory (:func:`load_case` passes the case file's directory).
+    """
     if not isinstance(data, dict):
         got = "an empty document" if data is None else f"a {type(data).__name__}"
         raise InputError("yaml", f"the top level must be a mapping of keys ({', '.join(TOP_KEYS)}), got {got}")
     _check_keys("", data, TOP_KEYS)
-    chain_keys = [k for k in CHAIN_KEYS if k in data]
+    rayleigh = isinstance(data.get("damping"), dict)  # damping: {alpha, beta} -> C = alpha M + beta K
+    chain_keys = [k for k in CHAIN_KEYS if k in data and not (k == "damping" and rayleigh)]
     matrix_keys = [k for k in MATRIX_KEYS if k in data]
     if chain_keys and matrix_keys:
         raise InputError(matrix_keys[0], f"cannot be combined with {'/'.join(chain_keys)}: describe the "
@@ -360,10 +374,21 @@ def parse_case(data, name=None, source=None):
             raise InputError("M", "missing (required with C/K)")
         if "K" not in data:
             raise InputError("K", "missing (required with M)")
-        M = _matrix("M", data["M"])
+        M = _matrix("M", data["M"], base_dir=base_dir)
         n = M.shape[0]
-        K = _matrix("K", data["K"], n)
-        C = _matrix("C", data["C"], n) if "C" in data else np.zeros((n, n))
+        K = _matrix("K", data["K"], n, base_dir)
+        if rayleigh and "C" in data:
+            raise InputError("damping", "cannot be combined with C: give either C or Rayleigh damping "
+                                        "{alpha, beta} (C = alpha M + beta K)")
+        C = _matrix("C", data["C"], n, base_dir) if "C" in data else None
+        mats = _matrix_storage({k: A for k, A in (("M", M), ("C", C), ("K", K)) if A is not None})
+        M, K = mats["M"], mats["K"]
+        if rayleigh:
+            C = _rayleigh_damping(M, K, *_rayleigh(data["damping"], _number))
+        elif C is None:
+            C = sp.csr_matrix((n, n)) if sp.issparse(M) else np.zeros((n, n))
+        else:
+            C = mats["C"]
         forcing = _forcing(data.get("forcing"), n)
         elements = _elements("friction", data.get("friction"), n) + _elements("contact", data.get("contact"), n)
         system = System(M, C, K, _forcing_hat(forcing, n), elements, name=name)
@@ -376,10 +401,14 @@ def parse_case(data, name=None, source=None):
         masses = _masses(data["masses"])
         n = len(masses)
         stiffness = _per_spring("stiffness", data["stiffness"])
-        damping = _per_spring("damping", data.get("damping", 0.0))
+        alpha_beta = _rayleigh(data["damping"], _number) if rayleigh else None
+        damping = 0.0 if rayleigh else _per_spring("damping", data.get("damping", 0.0))
         forcing = _forcing(data.get("forcing"), n)
         elements = _elements("friction", data.get("friction"), n) + _elements("contact", data.get("contact"), n)
         system = chain(masses, stiffness, damping, forcing=forcing, elements=elements, name=name)
+        if rayleigh:
+            system = System(system.M, _rayleigh_damping(system.M, system.K, *alpha_beta), system.K,
+                            system.f_hat, system.elements, name=name)
     solver = _solver(data.get("solver"), n)
     return Case(system=system, omega=omega, solver=solver, name=name, source=source)
 
@@ -437,4 +466,5 @@ def load_case(path, **overrides):
     text = _read_text(path)
     data = _load_yaml(text)
     data = _apply_overrides(data, overrides)
-    return parse_case(data, name=Path(os.fspath(path)).stem, source=str(os.fspath(path)))
+    return parse_case(data, name=Path(os.fspath(path)).stem, source=str(os.fspath(path)),
+                      base_dir=Path(os.fspath(path)).parent)

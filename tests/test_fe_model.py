@@ -1,0 +1,116 @@
+"""The finite-element beam of the FE example (workflow/scripts/build_fe_model.py): element matrices,
+natural frequencies against the closed-form Euler-Bernoulli cantilever, and the case file it writes."""
+import importlib.util
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+import mshbm
+
+ROOT = Path(__file__).resolve().parents[1]
+_spec = importlib.util.spec_from_file_location("build_fe_model", ROOT / "workflow" / "scripts" / "build_fe_model.py")
+fe = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(fe)
+
+
+def test_element_matrices_rigid_modes_and_mass():
+    """Free-free beam: translation and rotation are zero-energy modes; the kinetic energy of a unit
+    translation is rho A L; the matrices are symmetric and M is positive definite."""
+    L, n_el = 2.0, 7
+    M, K = fe.beam_matrices(n_el, length=L, clamped=False)
+    x = np.repeat(np.linspace(0.0, L, n_el + 1), 1)
+    trans = np.zeros(M.shape[0]); trans[0::2] = 1.0
+    rot = np.zeros(M.shape[0]); rot[0::2] = x; rot[1::2] = 1.0
+    scale = abs(K).max()
+    assert np.abs(K @ trans).max() <= 1e-12 * scale and np.abs(K @ rot).max() <= 1e-12 * scale
+    A, _ = fe.section(0.04, 0.01)
+    assert trans @ (M @ trans) == pytest.approx(7850.0 * A * L, rel=1e-13)
+    assert (M != M.T).nnz == 0 and (K != K.T).nnz == 0
+    np.linalg.cholesky(M.toarray())
+    assert M.shape == (2 * (n_el + 1),) * 2 and fe.beam_matrices(n_el)[0].shape == (2 * n_el,) * 2
+
+
+@pytest.mark.parametrize("n_el", [100, 2000])
+def test_cantilever_frequencies_match_closed_form(n_el):
+    """First three bending frequencies within 0.1 % of (beta_r L)^2 sqrt(EI / (rho A L^4))."""
+    M, K = fe.beam_matrices(n_el)
+    w = fe.natural_frequencies(M, K, 3)
+    w_exact = fe.cantilever_frequencies(3)
+    assert np.all(np.abs(w / w_exact - 1.0) < 1e-3), w / w_exact - 1.0
+    # Hermite cubics converge fast: the coarse mesh is already far inside the bound
+    if n_el == 100:
+        assert np.all(np.abs(w / w_exact - 1.0) < 1e-6)
+
+
+def test_closed_form_roots():
+    """beta_r L are roots of 1 + cos x cosh x (the clamped-free frequency equation)."""
+    for bl in fe.CANTILEVER_BETA_L:
+        assert abs(1.0 + math.cos(bl) * math.cosh(bl)) < 1e-9 * math.cosh(bl)
+
+
+def test_rayleigh_coefficients_give_zeta_at_both_frequencies():
+    a, b = fe.rayleigh_coefficients(50.0, 300.0, 0.02)
+    for w in (50.0, 300.0):
+        assert a / (2 * w) + b * w / 2 == pytest.approx(0.02, rel=1e-14)
+
+
+def test_build_writes_loadable_case(tmp_path):
+    info = fe.build_fe_model(tmp_path, n_el=40)
+    case = mshbm.load_case(tmp_path / "beam.yaml")
+    s = case.system
+    assert s.n == 80 == info["n_dofs"]
+    M, K = fe.beam_matrices(40)
+    assert np.array_equal(s.M, M.toarray()) and np.array_equal(s.K, K.toarray())
+    a, b = info["rayleigh"]["alpha"], info["rayleigh"]["beta"]
+    assert np.array_equal(s.C, a * M.toarray() + b * K.toarray())
+    assert case.omega == info["omega"] == fe.DEFAULTS["omega_ratio"] * info["omega_fe"][0]
+    kinds = {e.kind: e for e in s.elements}
+    assert kinds["contact"].dof == s.n - 2 and kinds["friction"].dof == info["friction"]["dof"]
+    assert kinds["contact"].gap == pytest.approx(fe.DEFAULTS["gap_ratio"] * info["linear"]["tip_amplitude"])
+    assert kinds["friction"].bound == pytest.approx(fe.DEFAULTS["friction_ratio"] * fe.DEFAULTS["force"])
+    assert json.loads((tmp_path / "modes.json").read_text())["n_dofs"] == 80
+    # the linear response in the file equals mshbm's linear HBM solve without elements
+    lin = mshbm.solve(s.with_elements(()), case.omega, "hbm", harmonics=1)
+    tip = np.hypot(*lin.q_hat[1:3, s.n - 2])
+    assert tip == pytest.approx(info["linear"]["tip_amplitude"], rel=1e-8)
+
+
+def test_large_model_stays_sparse_and_example_is_current(tmp_path):
+    """10^4 DOFs: read as CSR matrices (nothing dense n x n in the System); the committed example
+    case file is the one the script writes (same numbers to the last digit)."""
+    fe.build_fe_model(tmp_path, n_el=5000)
+    assert (tmp_path / "beam.yaml").read_text() == (ROOT / "examples" / "fe_beam" / "beam.yaml").read_text()
+    s = mshbm.load_case(tmp_path / "beam.yaml").system
+    assert s.n == 10_000
+    assert all(sp.isspmatrix_csr(getattr(s, k)) for k in "MCK")
+    assert s.K.nnz < 10 * s.n
+
+
+def test_plate_with_nu_zero_has_the_beam_bending_modes():
+    """Kirchhoff plate (BFS elements, Kronecker assembly) with nu = 0: the beam modes w = phi(x) are exact
+    plate modes, so the closed-form cantilever frequencies (EI -> D b) appear in the plate spectrum."""
+    b = 0.2
+    M, K = fe.plate_matrices(20, 4, lx=1.0, ly=b, thickness=0.01, poisson=0.0)
+    assert M.shape == (4 * 20 * 5,) * 2 and (K != K.T).nnz == 0
+    w = fe.natural_frequencies(M, K, 8)
+    for w_r in fe.cantilever_frequencies(3, width=b, height=0.01):
+        assert np.min(np.abs(w / w_r - 1.0)) < 1e-4
+    # free-free in y, clamped in x: a rigid y-translation of the clamped edge is not a DOF; K is definite
+    assert np.all(w > 0)
+
+
+def test_plate_dof_index():
+    nx, ny = 10, 4
+    assert fe.plate_w_dof(1.0, 0.5, nx, ny) == (2 * (nx - 1)) * 2 * (ny + 1) + 2 * 2
+    assert fe.plate_w_dof(0.0, 0.0, nx, ny) == 0
+
+
+def test_plate_example_is_current(tmp_path):
+    fe.build_fe_model(tmp_path, n_el=50, case_name="plate.yaml", model="plate", ny=49)
+    assert (tmp_path / "plate.yaml").read_text() == (ROOT / "examples" / "fe_plate" / "plate.yaml").read_text()
+    s = mshbm.load_case(tmp_path / "plate.yaml").system
+    assert s.n == 10_000 and all(sp.isspmatrix_csr(getattr(s, k)) for k in "MCK")

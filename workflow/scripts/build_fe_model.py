@@ -1,0 +1,366 @@
+"""Finite-element cantilever beam with a friction joint and an impact stop, written as a case file.
+
+The linear structure is an Euler-Bernoulli beam (length ``L``, rectangular ``b x h`` section,
+Young's modulus ``E``, density ``rho``) clamped at ``x = 0`` and free at ``x = L``, meshed with
+``n_el`` Hermite cubic elements.  Each node carries a transverse displacement ``w`` and a rotation
+``theta = w'``; the clamped node is removed, so DOF ``2 (i-1)`` is ``w`` and ``2 (i-1) + 1`` is
+``theta`` of node ``i = 1..n_el`` (``n = 2 n_el`` DOFs).  Element matrices (length ``l``)::
+
+    K_e = E I / l^3  [[12, 6l, -12, 6l], [6l, 4l^2, -6l, 2l^2], [-12, -6l, 12, -6l], [6l, 2l^2, -6l, 4l^2]]
+    M_e = rho A l / 420 [[156, 22l, 54, -13l], [22l, 4l^2, 13l, -3l^2], [54, 13l, 156, -22l],
+                         [-13l, -3l^2, -22l, 4l^2]]            (consistent mass)
+
+Rayleigh damping ``C = alpha M + beta K`` is chosen for the modal damping ratio ``zeta`` at the
+first two bending frequencies (``zeta_r = alpha / (2 w_r) + beta w_r / 2``).
+
+Nonlinear elements (the present element types act between one DOF and the ground):
+
+* a friction joint on the transverse DOF of the node nearest ``x_friction L`` whose bound ``mu F_N``
+  is ``friction_ratio`` times the forcing amplitude;
+* an impact stop (unilateral contact) at the tip, gap ``gap_ratio`` times the tip amplitude of the
+  linear response (no friction, no stop) at the forcing frequency;
+* harmonic forcing ``F cos(omega t)`` on the transverse DOF of the node nearest ``x_force L``, at
+  ``omega = omega_ratio w_1`` (near the first bending resonance).
+
+The first bending frequencies come from ``scipy.sparse.linalg.eigsh`` in shift-invert mode and are
+checked against the closed-form cantilever values ``w_r = (beta_r L)^2 sqrt(E I / (rho A L^4))``
+with ``beta_r L = 1.8751, 4.6941, 7.8548, ...`` (:func:`cantilever_frequencies`).
+
+Outputs (in ``out_dir``): ``M.mtx`` and ``K.mtx`` (Matrix Market, symmetric, sparse), the case file
+(default ``beam.yaml``, referring to the matrices by relative path, its header lists the natural
+frequencies) and ``modes.json`` (frequencies, parameters, the linear response).
+
+Usage::
+
+    python workflow/scripts/build_fe_model.py OUT_DIR [--n-el 5000] [--case beam.yaml]
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+import scipy.io as sio
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+#: beta_r L of the clamped-free Euler-Bernoulli beam (roots of cos x cosh x = -1)
+CANTILEVER_BETA_L = (1.8751040687119611, 4.6940911329741745, 7.8547574382376126,
+                     10.995540734875467, 14.137168391046471)
+
+DEFAULTS = dict(
+    n_el=5000,            # elements (n = 2 n_el DOFs)
+    length=1.0,           # m
+    width=0.04,           # m  (b)
+    height=0.01,          # m  (h, bending direction)
+    young=210e9,          # Pa (steel)
+    density=7850.0,       # kg/m^3
+    zeta=0.01,            # Rayleigh damping ratio at the first two bending frequencies
+    x_force=0.75,         # forcing node position / L
+    force=1.0,            # N, amplitude of F cos(omega t)
+    omega_ratio=0.98,     # omega / w_1
+    x_friction=0.5,       # friction node position / L
+    mu=0.3,               # friction coefficient
+    friction_ratio=0.2,   # mu F_N / force
+    smoothing=None,       # kappa (s/m) of the HBM regularisation; default 100 / (linear friction DOF velocity)
+    gap_ratio=0.5,        # tip gap / linear tip amplitude
+    restitution=0.8,      # e_N
+    penalty_ratio=100.0,  # HBM penalty stiffness / tip stiffness 3 E I / L^3
+    harmonics=5,          # solver.harmonics in the case file
+    steps=8192,           # solver.steps (time steps per period of MS-HBM's time-stepped DOFs)
+    model="beam",         # "beam" or "plate" (Kirchhoff plate width x height, n_el x ny BFS elements)
+    ny=49,                # plate: elements across the width
+    poisson=0.3,          # plate: Poisson's ratio
+)
+
+
+def section(width, height):
+    """Area ``A`` and second moment ``I`` of a ``width x height`` rectangle (bending along height)."""
+    return width * height, width * height ** 3 / 12.0
+
+
+def element_matrices(l, EI, rhoA):
+    """Hermite cubic stiffness and consistent mass matrices (4 x 4) of an element of length ``l``."""
+    Ke = EI / l ** 3 * np.array([[12, 6 * l, -12, 6 * l],
+                                 [6 * l, 4 * l * l, -6 * l, 2 * l * l],
+                                 [-12, -6 * l, 12, -6 * l],
+                                 [6 * l, 2 * l * l, -6 * l, 4 * l * l]])
+    Me = rhoA * l / 420.0 * np.array([[156, 22 * l, 54, -13 * l],
+                                      [22 * l, 4 * l * l, 13 * l, -3 * l * l],
+                                      [54, 13 * l, 156, -22 * l],
+                                      [-13 * l, -3 * l * l, -22 * l, 4 * l * l]])
+    return Ke, Me
+
+
+def beam_matrices(n_el, length=1.0, young=210e9, density=7850.0, width=0.04, height=0.01, clamped=True):
+    """Assembled ``(M, K)`` (CSR) of the beam; ``clamped``: node 0 removed (cantilever), else free-free."""
+    if int(n_el) < 1:
+        raise ValueError(f"n_el must be >= 1, got {n_el}")
+    n_el = int(n_el)
+    A, I = section(width, height)
+    Ke, Me = element_matrices(length / n_el, young * I, density * A)
+    dofs = 2 * np.arange(n_el)[:, None] + np.arange(4)[None, :]        # (n_el, 4) global DOFs
+    rows = np.repeat(dofs, 4, axis=1).ravel()
+    cols = np.tile(dofs, (1, 4)).ravel()
+    n_all = 2 * (n_el + 1)
+    K = sp.coo_matrix((np.tile(Ke.ravel(), n_el), (rows, cols)), shape=(n_all, n_all)).tocsr()
+    M = sp.coo_matrix((np.tile(Me.ravel(), n_el), (rows, cols)), shape=(n_all, n_all)).tocsr()
+    if clamped:
+        K, M = K[2:, 2:], M[2:, 2:]
+    # exactly symmetric (the element matrices are, the sums in another order may not be)
+    K = sp.csr_matrix(0.5 * (K + K.T))
+    M = sp.csr_matrix(0.5 * (M + M.T))
+    for A_ in (K, M):
+        A_.sum_duplicates()
+        A_.sort_indices()
+    return M, K
+
+
+def _hermite_1d(n_el, length, clamped):
+    """Global 1-D Hermite matrices ``(int N N, int N' N', int N'' N'', int N'' N)`` on ``n_el`` equal
+    elements (DOFs ``(w, l w')`` per node, ``l`` the element length; ``clamped``: node 0 removed), by
+    5-point Gauss quadrature."""
+    l = length / n_el
+    g, wg = np.polynomial.legendre.leggauss(5)
+    xi = 0.5 * (g + 1.0)                      # in [0, 1]
+    wq = 0.5 * wg * l
+    N = np.array([1 - 3 * xi**2 + 2 * xi**3, l * (xi - 2 * xi**2 + xi**3), 3 * xi**2 - 2 * xi**3, l * (-xi**2 + xi**3)])
+    d1 = np.array([-6 * xi + 6 * xi**2, l * (1 - 4 * xi + 3 * xi**2), 6 * xi - 6 * xi**2, l * (-2 * xi + 3 * xi**2)]) / l
+    d2 = np.array([-6 + 12 * xi, l * (-4 + 6 * xi), 6 - 12 * xi, l * (-2 + 6 * xi)]) / l**2
+    elems = [(N * wq) @ N.T, (d1 * wq) @ d1.T, (d2 * wq) @ d2.T, (d2 * wq) @ N.T]
+    dofs = 2 * np.arange(n_el)[:, None] + np.arange(4)[None, :]
+    rows, cols = np.repeat(dofs, 4, axis=1).ravel(), np.tile(dofs, (1, 4)).ravel()
+    n_all = 2 * (n_el + 1)
+    # slope DOFs in length units (l w'): every DOF is a displacement, and the matrices stay well scaled
+    S = sp.diags(np.tile([1.0, 1.0 / l], n_el + 1))
+    out = []
+    for E_ in elems:
+        A_ = sp.coo_matrix((np.tile(E_.ravel(), n_el), (rows, cols)), shape=(n_all, n_all)).tocsr()
+        A_ = (S @ A_ @ S).tocsr()
+        out.append(A_[2:, 2:] if clamped else A_)
+    return out
+
+
+def plate_matrices(nx, ny, lx=1.0, ly=0.2, thickness=0.01, young=210e9, poisson=0.3, density=7850.0):
+    """Kirchhoff plate ``lx x ly`` clamped along ``x = 0``, free elsewhere, ``nx x ny`` conforming
+    bicubic Hermite (Bogner-Fox-Schmit) elements; DOFs ``(w, lx_e w_x, ly_e w_y, lx_e ly_e w_xy)`` per
+    node (``lx_e, ly_e``: element sizes; all DOFs in metres, which keeps ``K`` well scaled).
+
+    On a tensor mesh the element matrices are Kronecker products of 1-D Hermite matrices, and so are
+    the assembled ones: with ``D = E t^3 / (12 (1 - nu^2))`` and the 1-D matrices ``M1 = int N N``,
+    ``G1 = int N' N'``, ``K1 = int N'' N''``, ``B1 = int N'' N``::
+
+        M = rho t (M1x (x) M1y)
+        K = D (K1x (x) M1y + M1x (x) K1y + nu (B1x (x) B1y^T + B1x^T (x) B1y) + 2 (1 - nu) G1x (x) G1y)
+
+    (the bending energy ``D/2 int w_xx^2 + w_yy^2 + 2 nu w_xx w_yy + 2 (1 - nu) w_xy^2``).  Global DOF
+    ``i_x * 2 (ny + 1) + i_y`` couples the x-DOF ``i_x`` (``(w, d/dx)`` of x-node ``i_x + 1``) with
+    the y-DOF ``i_y`` (``(w, d/dy)`` of y-node ``i_y // 2``).  Returns ``(M, K)`` as CSR.
+    """
+    Mx, Gx, Kx, Bx = _hermite_1d(nx, lx, True)
+    My, Gy, Ky, By = _hermite_1d(ny, ly, False)
+    D = young * thickness ** 3 / (12.0 * (1.0 - poisson ** 2))
+    M = density * thickness * sp.kron(Mx, My, format="csr")
+    K = D * (sp.kron(Kx, My) + sp.kron(Mx, Ky) + poisson * (sp.kron(Bx, By.T) + sp.kron(Bx.T, By))
+             + 2.0 * (1.0 - poisson) * sp.kron(Gx, Gy))
+    K = sp.csr_matrix(0.5 * (K + K.T))
+    M = sp.csr_matrix(0.5 * (M + M.T))
+    for A_ in (K, M):
+        A_.sum_duplicates()
+        A_.sort_indices()
+    return M, K
+
+
+def plate_w_dof(x_over_L, y_over_L, nx, ny):
+    """Transverse DOF ``w`` of the plate node nearest ``(x, y)`` (fractions of ``lx``, ``ly``)."""
+    ix = min(max(int(round(x_over_L * nx)), 1), nx) - 1
+    iy = min(max(int(round(y_over_L * ny)), 0), ny)
+    return (2 * ix) * 2 * (ny + 1) + 2 * iy
+
+
+def cantilever_frequencies(n_modes, length=1.0, young=210e9, density=7850.0, width=0.04, height=0.01):
+    """Closed-form angular frequencies (rad/s) of the first ``n_modes`` bending modes."""
+    A, I = section(width, height)
+    c = math.sqrt(young * I / (density * A * length ** 4))
+    return np.array([bl ** 2 * c for bl in CANTILEVER_BETA_L[:n_modes]])
+
+
+def natural_frequencies(M, K, n_modes=3):
+    """Lowest ``n_modes`` angular frequencies (rad/s): ``eigsh`` in shift-invert mode about 0."""
+    v0 = np.ones(M.shape[0])  # a fixed start vector: the same frequencies (to the last bit) on every run
+    w2 = spla.eigsh(K.tocsc(), k=n_modes, M=M.tocsc(), sigma=0.0, which="LM", return_eigenvectors=False, v0=v0)
+    return np.sqrt(np.sort(w2))
+
+
+def rayleigh_coefficients(w1, w2, zeta):
+    """``(alpha, beta)`` with damping ratio ``zeta`` at ``w1`` and ``w2``."""
+    alpha = 2.0 * zeta * w1 * w2 / (w1 + w2)
+    beta = 2.0 * zeta / (w1 + w2)
+    return alpha, beta
+
+
+def node_dof(x_over_L, n_el):
+    """Transverse DOF of the node nearest ``x = x_over_L L`` (nodes 1..n_el; node 0 is clamped)."""
+    node = min(max(int(round(x_over_L * n_el)), 1), n_el)
+    return 2 * (node - 1), node
+
+
+def linear_response(M, C, K, omega, dof, force):
+    """Complex amplitudes ``Q`` of ``(K - omega^2 M + i omega C) Q = e_dof force`` (sparse LU)."""
+    H = (K - omega ** 2 * M + 1j * omega * C).tocsc()
+    f = np.zeros(M.shape[0], dtype=complex)
+    f[dof] = force
+    return spla.spsolve(H, f)
+
+
+def _g(x):
+    """Number as a YAML scalar that reads back to the same float."""
+    return repr(float(x))
+
+
+def build_fe_model(out_dir, n_el=None, case_name="beam.yaml", **params):
+    """Build the beam, write ``M.mtx``, ``K.mtx``, the case file and ``modes.json`` into ``out_dir``.
+
+    Parameters are those of :data:`DEFAULTS` (keyword arguments override them).
+
+    Returns
+    -------
+    dict
+        The content of ``modes.json`` (frequencies, element placement, parameters).
+    """
+    p = dict(DEFAULTS)
+    unknown = set(params) - set(p)
+    if unknown:
+        raise TypeError(f"unknown parameters: {', '.join(sorted(unknown))}")
+    p.update(params)
+    if n_el is not None:
+        p["n_el"] = int(n_el)
+    n_el = p["n_el"]
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    geo = dict(length=p["length"], young=p["young"], density=p["density"], width=p["width"], height=p["height"])
+    plate = p["model"] == "plate"
+    if plate:  # elements sit at mid-width (y = width / 2); the tip is the middle of the free edge
+        ny = int(p["ny"])
+        M, K = plate_matrices(n_el, ny, p["length"], p["width"], p["height"], p["young"], p["poisson"],
+                              p["density"])
+        dof_at = lambda x: (plate_w_dof(x, 0.5, n_el, ny), None)
+    else:
+        M, K = beam_matrices(n_el, **geo)
+        dof_at = lambda x: node_dof(x, n_el)
+    n = M.shape[0]
+    w = natural_frequencies(M, K, 3)
+    w_exact = cantilever_frequencies(3, **geo)
+    if plate:  # plate bending modes approach the beam's with E / (1 - nu^2); mode 2 is torsion
+        w_exact = w_exact / math.sqrt(1.0 - p["poisson"] ** 2)
+    alpha, beta = rayleigh_coefficients(w[0], w[1], p["zeta"])
+    C = alpha * M + beta * K
+    omega = p["omega_ratio"] * w[0]
+    f_dof, f_node = dof_at(p["x_force"])
+    r_dof, r_node = dof_at(p["x_friction"])
+    tip = dof_at(1.0)[0] if plate else n - 2
+    Q = linear_response(M, C, K, omega, f_dof, p["force"])
+    tip_amp = float(abs(Q[tip]))
+    fr_vel = float(omega * abs(Q[r_dof]))
+    A, I = section(p["width"], p["height"])
+    k_tip = 3.0 * p["young"] * I / p["length"] ** 3
+    bound = p["friction_ratio"] * p["force"]
+    smoothing = p["smoothing"] if p["smoothing"] is not None else 100.0 / fr_vel
+    gap = p["gap_ratio"] * tip_amp
+    info = {
+        "n_el": n_el, "n_dofs": n, "nnz_M": int(M.nnz), "nnz_K": int(K.nnz),
+        "omega_fe": w.tolist(), "omega_exact": w_exact.tolist(),
+        "rel_error": (w / w_exact - 1.0).tolist(),
+        "f_hz": (w / (2 * math.pi)).tolist(),
+        "omega": omega, "rayleigh": {"alpha": alpha, "beta": beta},
+        "forcing": {"dof": f_dof, "node": f_node, "amplitude": p["force"]},
+        "friction": {"dof": r_dof, "node": r_node, "mu": p["mu"], "normal_force": bound / p["mu"],
+                     "smoothing": smoothing},
+        "contact": {"dof": tip, "node": None if plate else n_el, "gap": gap, "restitution": p["restitution"],
+                    "penalty_stiffness": p["penalty_ratio"] * k_tip},
+        "linear": {"tip_amplitude": tip_amp, "friction_dof_amplitude": float(abs(Q[r_dof])),
+                   "friction_dof_velocity": fr_vel},
+        "params": p,
+    }
+    sio.mmwrite(out / "M.mtx", M, comment=f"consistent mass, cantilever Euler-Bernoulli beam, {n_el} elements",
+                symmetry="symmetric")
+    sio.mmwrite(out / "K.mtx", K, comment=f"stiffness, cantilever Euler-Bernoulli beam, {n_el} elements",
+                symmetry="symmetric")
+    fr, ct = info["friction"], info["contact"]
+    if plate:
+        where = (f"# Forcing on w at x = {p['x_force']:g} L, omega = {p['omega_ratio']:g} w_1; friction joint on w at "
+                 f"x = {p['x_friction']:g} L; impact stop at the middle of the free edge (all at mid-width),")
+        head = [f"# Cantilever Kirchhoff plate (clamped along x = 0), {n_el} x {int(p['ny'])} bicubic Hermite (BFS) "
+                f"elements, {n} DOFs (w, l_x w_x, l_y w_y, l_x l_y w_xy per node; l: element sizes), nu = {p['poisson']:g}",
+                f"# L = {p['length']:g} m, width x thickness = {p['width']:g} x {p['height']:g} m, "
+                f"E = {p['young']:g} Pa, rho = {p['density']:g} kg/m^3",
+                "# Written by workflow/scripts/build_fe_model.py (the .mtx files are generated, not stored):",
+                f"#   python workflow/scripts/build_fe_model.py <this directory> --model plate --n-el {n_el} "
+                f"--ny {int(p['ny'])} --case {case_name}",
+                "# Lowest frequencies (eigsh, shift-invert); the beam formula with E (narrow strip) and with "
+                "E/(1-nu^2) (wide plate) bracket the bending modes; torsion modes interleave on wide plates:"]
+        head += [f"#   mode {r + 1}: {w[r]:.6g} rad/s ({w[r] / (2 * math.pi):.6g} Hz)" for r in range(3)]
+        head += [f"#   beam formula with E: {', '.join(f'{x:.6g}' for x in w_exact * math.sqrt(1 - p['poisson'] ** 2))}"
+                 f" rad/s; with E/(1-nu^2): {', '.join(f'{x:.6g}' for x in w_exact)} rad/s", where]
+    lines = head if plate else [
+        f"# Cantilever Euler-Bernoulli beam, {n_el} Hermite cubic elements, {n} DOFs "
+        f"(DOF 2(i-1): w of node i, 2(i-1)+1: its rotation)",
+        f"# L = {p['length']:g} m, b x h = {p['width']:g} x {p['height']:g} m, E = {p['young']:g} Pa, "
+        f"rho = {p['density']:g} kg/m^3",
+        "# Written by workflow/scripts/build_fe_model.py (the .mtx files are generated, not stored):",
+        f"#   python workflow/scripts/build_fe_model.py <this directory> --n-el {n_el}",
+        "# First bending frequencies (eigsh, shift-invert) against the closed form (beta_r L)^2 sqrt(EI/(rho A L^4)):",
+    ]
+    for r in range(0 if plate else 3):
+        lines.append(f"#   mode {r + 1}: {w[r]:.6g} rad/s ({w[r] / (2 * math.pi):.6g} Hz), closed form "
+                     f"{w_exact[r]:.6g} rad/s, rel. error {w[r] / w_exact[r] - 1:+.2e}")
+    lines += ([] if plate else [
+        f"# Forcing at node {f_node} (x = {f_node / n_el:g} L), omega = {p['omega_ratio']:g} w_1; "
+        f"friction joint at node {r_node}; impact stop at the tip,"]) + [
+        f"# gap = {p['gap_ratio']:g} x the linear tip amplitude {tip_amp:.6g} m.  Rayleigh damping: "
+        f"zeta = {p['zeta']:g} at w_1 and w_2.",
+        f"name: fe_{p['model']}",
+        "M: M.mtx",
+        "K: K.mtx",
+        f"damping: {{alpha: {_g(alpha)}, beta: {_g(beta)}}}",
+        f"omega: {_g(omega)}",
+        "forcing:",
+        f"  - {{dof: {f_dof}, amplitude: {_g(p['force'])}}}",
+        f"friction: {{dof: {fr['dof']}, mu: {_g(fr['mu'])}, normal_force: {_g(fr['normal_force'])}, "
+        f"smoothing: {_g(fr['smoothing'])}}}",
+        f"contact: {{dof: {ct['dof']}, gap: {_g(ct['gap'])}, restitution: {_g(ct['restitution'])}, "
+        f"penalty_stiffness: {_g(ct['penalty_stiffness'])}}}",
+        f"solver: {{method: mshbm, harmonics: {int(p['harmonics'])}, steps: {int(p['steps'])}}}",
+    ]
+    (out / case_name).write_text("\n".join(lines) + "\n")
+    (out / "modes.json").write_text(json.dumps(info, indent=1) + "\n")
+    return info
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("out_dir")
+    ap.add_argument("--n-el", type=int, default=DEFAULTS["n_el"])
+    ap.add_argument("--case", default="beam.yaml", help="case file name (in OUT_DIR)")
+    ap.add_argument("--model", choices=("beam", "plate"), default="beam")
+    ap.add_argument("--ny", type=int, default=DEFAULTS["ny"], help="plate: elements across the width")
+    args = ap.parse_args(argv)
+    info = build_fe_model(args.out_dir, n_el=args.n_el, case_name=args.case, model=args.model, ny=args.ny)
+    print(f"{info['n_dofs']} DOFs; omega_1..3 = {', '.join(f'{x:.6g}' for x in info['omega_fe'])} rad/s "
+          f"(rel. errors {', '.join(f'{x:+.1e}' for x in info['rel_error'])}); wrote {args.out_dir}")
+    return 0
+
+
+if __name__ == "__main__" or "snakemake" in globals():
+    smk = globals().get("snakemake")
+    if smk is not None:
+        with open(smk.log[0], "w") as logf:
+            sys.stdout = logf
+            out_dir = str(Path(smk.output.case).parent)
+            info = build_fe_model(out_dir, n_el=int(smk.params.n_el), case_name=Path(smk.output.case).name)
+            print(json.dumps({k: info[k] for k in ("n_dofs", "omega_fe", "omega_exact", "rel_error")}))
+    else:
+        sys.exit(main())
