@@ -73,6 +73,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 
 from .. import condensation, fourier
 from ..methods.common import linear_response
@@ -331,15 +332,26 @@ def clamped_response(system, omega, n_h):
     for k in range(n_h + 1):
         rhs = F[k][Ld].astype(complex)
         H = condensation.dynamic_stiffness(system.M, system.C, system.K, k * omega)
-        H = H.toarray() if sp.issparse(H) else np.asarray(H)
-        if k == 0:
-            rhs = rhs - H[np.ix_(Ld, Nd)] @ q_hat[0, Nd]
-        if not np.any(rhs):
-            continue
-        try:
-            x = np.linalg.solve(H[np.ix_(Ld, Ld)], rhs)
-        except np.linalg.LinAlgError:
-            continue
+        if sp.issparse(H):  # large models stay sparse (a dense H_LL of 10^4 DOFs would be 1.5 GiB)
+            H = H.tocsr()
+            if k == 0:
+                rhs = rhs - H[Ld][:, Nd] @ q_hat[0, Nd]
+            if not np.any(rhs):
+                continue
+            try:
+                x = spla.splu(H[Ld][:, Ld].tocsc()).solve(rhs)
+            except RuntimeError:  # exactly singular
+                continue
+        else:
+            H = np.asarray(H)
+            if k == 0:
+                rhs = rhs - H[np.ix_(Ld, Nd)] @ q_hat[0, Nd]
+            if not np.any(rhs):
+                continue
+            try:
+                x = np.linalg.solve(H[np.ix_(Ld, Ld)], rhs)
+            except np.linalg.LinAlgError:
+                continue
         if np.all(np.isfinite(x)):
             Z[k][Ld] = x
     q_hat[:, Ld] = fourier.from_complex(Z)[:, Ld]
