@@ -14,7 +14,7 @@
 # impulse steps form one impact cluster.  Whether impacts accumulate is decided by
 # `mshbm.accumulation` (runs of impacts whose intervals shrink geometrically, limit by Aitken's
 # extrapolation; validated on a bouncing ball with $e_N < 1$ against the closed-form accumulation
-# time, `tests/test_accumulation.py`) on the impact times of the exact event-driven solution
+# time, `tests/unit/test_accumulation.py`) on the impact times of the exact event-driven solution
 # (`mshbm.methods.exact`, started from the reference shooting), or, if that failed, on the impulse steps
 # of the reference shooting.  HBM uses the
 # penalty spring, so it has contact episodes (intervals with $q_1 > g_{N,0}$) instead of impacts.

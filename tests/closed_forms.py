@@ -210,7 +210,7 @@ def omega_pd(lo=2.4, hi=2.5, zeta=ZETA, sigma=SIGMA, r=R):
     ``v = 0.358195``, amplitude 0.317083).  Below it the multipliers form a complex pair of modulus
     ``r e^{-zeta T}`` (0.70 at 0.99 omega_PD) that meets on the negative real axis at omega ~ 2.44;
     above it one real multiplier is below -1 (-1.573 at 1.01 omega_PD).  Undamped with
-    ``sigma = 0, r = 0.8`` the same formulas give the Budd & Dux values of tests/test_stability.py.
+    ``sigma = 0, r = 0.8`` the same formulas give the Budd & Dux values of tests/unit/test_stability.py.
     """
     return brentq(lambda w: pd_test_function(w, zeta, sigma, r), lo, hi, xtol=1e-13)
 

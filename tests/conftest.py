@@ -1,5 +1,5 @@
 """Shared fixtures: the paper's systems (the case files of examples/, tests/paper_systems.py); the quick
-workflow, run once per session (tests/test_workflow.py, tests/test_render.py)."""
+workflow, run once per session (tests/integration/test_workflow.py, tests/integration/test_render.py)."""
 import pytest
 from paper_systems import system
 from workflow_run import QUICK, TARGET, copy_workflow, run

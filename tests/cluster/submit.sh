@@ -1,6 +1,6 @@
 #!/bin/sh
 # A local stand-in for a batch scheduler's submit command, for Snakemake's cluster-generic executor
-# (tests/test_cluster.py):
+# (tests/integration/test_cluster.py):
 #
 #   submit.sh RULE THREADS MEM_MB RUNTIME_MIN JOBSCRIPT
 #

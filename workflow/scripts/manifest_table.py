@@ -5,7 +5,7 @@
     python workflow/scripts/manifest_table.py --check   # exit 1 if README.md shows another table
 
 The table sits between the markers ``<!-- manifest:begin -->`` and ``<!-- manifest:end -->`` of
-README.md; tests/test_manifest.py runs the check.
+README.md; tests/integration/test_manifest.py runs the check.
 """
 import sys
 from pathlib import Path

@@ -2,7 +2,7 @@
 
 Nothing here solves anything by itself; the solver is :func:`mshbm.solve`.  Imported by the
 scripts in this directory (Snakemake puts the script directory on ``sys.path``) and by the
-tests (``tests/test_workflow.py``).
+tests (``tests/integration/test_workflow.py``).
 """
 from __future__ import annotations
 

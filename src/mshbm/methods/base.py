@@ -61,7 +61,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["PeriodicProblem", "Partition", "forward_difference_jacobian"]
+__all__ = ["PeriodicProblem", "HarmonicProblem", "Partition", "forward_difference_jacobian"]
 
 
 @dataclass(frozen=True)
@@ -169,3 +169,26 @@ class PeriodicProblem:
     def conditioning(self):
         """Reciprocal condition numbers of the condensed blocks per harmonic, or ``None``."""
         return None
+
+
+class HarmonicProblem(PeriodicProblem):
+    """What the harmonic-balance methods (HBM, DLFT) share: unknowns are the Fourier coefficients of
+    the kept DOFs ``keep`` (the others, ``elim``, condensed exactly by ``cond``), ``Ns`` AFT samples per
+    period, every residual row a force, and an exact path follower ``newton_fallback`` for penalty or
+    gap contact."""
+
+    @property
+    def steps(self):
+        return self.Ns
+
+    def partition(self):
+        return Partition(time=np.zeros(0, np.int64), harmonic=self.keep.copy(), condensed=self.elim.copy())
+
+    def residual_units(self):
+        return np.full(self.n_unknowns, 2, dtype=np.int8)
+
+    def conditioning(self):
+        return self.cond.rcond
+
+    def path_fallback(self):
+        return self.newton_fallback

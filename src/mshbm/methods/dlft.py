@@ -66,7 +66,7 @@ reversal within a few samples and the contact force of an impact on ~20 samples
 ``n_h = 25``: 55 % instead of 25 %; friction chain: 3.6 % instead of 1.6 %).  If the rule gives
 0, ``(n_h omega)^2 M_dd``.  Option ``dlft_penalty``: one value (N/m, > 0) for all elements.
 
-Accuracy (measured; see ``workflow/scripts/bench_dlft.py`` and ``tests/test_dlft.py``)
+Accuracy (measured; see ``workflow/scripts/bench_dlft.py`` and ``tests/unit/test_dlft.py``)
 ------------------------------------------------------------------------------------
 Friction converges like ``1/n_h`` in the amplitude: Den Hartog's undamped Coulomb oscillator
 (``beta = 0.6``, ``mu F_N / P = 0.3``, no stick) -0.85 % at ``n_h = 25`` (HBM with the arctan law
@@ -109,7 +109,7 @@ import scipy.sparse.linalg as spla
 from .. import condensation, fourier
 from ..condensation import Condensation
 from ..errors import InputError
-from .base import Partition, PeriodicProblem
+from .base import HarmonicProblem
 from .common import guess_parts
 from .dlft_kernels import friction_march
 
@@ -134,7 +134,7 @@ def default_penalty(A_dd, m_dd, omega):
     return eps
 
 
-class DLFTProblem(PeriodicProblem):
+class DLFTProblem(HarmonicProblem):
     """DLFT periodic problem (see the module docstring).
 
     Parameters
@@ -231,22 +231,6 @@ class DLFTProblem(PeriodicProblem):
     @property
     def n_unknowns(self):
         return (2 * self.n_h + 1) * self.nR
-
-    @property
-    def steps(self):
-        return self.Ns
-
-    def partition(self):
-        return Partition(time=np.zeros(0, np.int64), harmonic=self.keep.copy(), condensed=self.elim.copy())
-
-    def residual_units(self):
-        return np.full(self.n_unknowns, 2, dtype=np.int8)
-
-    def conditioning(self):
-        return self.cond.rcond
-
-    def path_fallback(self):
-        return self.newton_fallback
 
     def residual_scale(self, x=None):
         """Per-row scale of the residual, shape ``(n_x,)``: the force scale ``F`` (N) on every row."""

@@ -42,7 +42,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from .. import condensation, fourier
-from .base import Partition, PeriodicProblem
+from .base import HarmonicProblem
 from .common import guess_parts
 from ..condensation import Condensation
 from ..elements import regularised_forces
@@ -57,7 +57,7 @@ def scaled_regularisation(system, factor):
     return system.with_elements([el.scaled(factor) for el in system.elements])
 
 
-class HBMProblem(PeriodicProblem):
+class HBMProblem(HarmonicProblem):
     """HBM-AFT periodic problem.
 
     Parameters
@@ -128,22 +128,6 @@ class HBMProblem(PeriodicProblem):
     @property
     def n_unknowns(self):
         return (2 * self.n_h + 1) * self.nR
-
-    @property
-    def steps(self):
-        return self.Ns
-
-    def partition(self):
-        return Partition(time=np.zeros(0, np.int64), harmonic=self.keep.copy(), condensed=self.elim.copy())
-
-    def residual_units(self):
-        return np.full(self.n_unknowns, 2, dtype=np.int8)
-
-    def conditioning(self):
-        return self.cond.rcond
-
-    def path_fallback(self):
-        return self.newton_fallback
 
     def residual_scale(self, x=None):
         """Per-row scale of the residual, shape ``(n_x,)``: the force scale ``F`` (N) on every row."""

@@ -55,58 +55,8 @@ class _Progress:
 
 
 def solve(system, omega, method="mshbm", **options):
-    """Periodic solution of ``system`` under forcing of angular frequency ``omega``.
-
-    Parameters
-    ----------
-    system : System
-    omega : float
-        Angular frequency (rad/s) of the forcing; period ``T = 2 pi / omega``.
-    method : {"shooting", "hbm", "mshbm", "mshbm-intermediate", "dlft"}
-    **options
-        ``harmonics`` (n_h, default 5; shooting: harmonics of the reported
-        ``q_hat``, default 10), ``steps`` (time steps per period; default 4096,
-        HBM: AFT samples, see :func:`default_steps`), ``guess`` (``None``:
-        a ladder of starts, the first accepted one wins, :mod:`mshbm.solvers.starts`;
-        ``"linear"``: linear response; ``"zero"``; a PeriodicSolution, e.g. at a
-        nearby frequency; a dict with ``q_hat``, ``q0``, ``u0``), ``tol``
-        (Newton tolerance on the scaled residual ``||R / s||_inf``, rows scaled
-        by the problem's ``residual_scale``, :mod:`mshbm.scaling`; default 1e-10), ``max_iter`` (default 50), ``line_search`` (default
-        True), ``theta`` (Moreau-Jean, default 0.5), ``jacobian`` (``"exact"`` or
-        ``"fd"``), ``partition`` (DOFs of N; for ``mshbm-intermediate`` a pair of
-        DOF lists for subsystems 1 and 2), ``condense`` (HBM: eliminate linear
-        DOFs exactly, default True), ``project`` (position projection of
-        contacts, default True), ``dlft_penalty`` (DLFT: the parameter ``eps`` in N/m of every
-        element, default from the condensed dynamic stiffness, :mod:`mshbm.methods.dlft`), ``progress`` (print Newton progress to a
-        terminal), ``raise_on_failure`` (raise ConvergenceError instead of
-        returning ``success=False``), ``blas_threads`` (BLAS threads during
-        the solve, default 1: the dense matrices are small, and one thread keeps
-        results bit-identical across machines and parallel jobs from
-        oversubscribing the cores; ``None`` leaves the setting alone),
-        ``continuation`` (``False``: Newton from the one start; mixed methods with
-        a guess: ``True`` opts in to restarts and continuation fallbacks,
-        :mod:`mshbm.solvers.continuation`; HBM: when Newton fails,
-        follow the exact piecewise-linear solution path of penalty contacts
-        (:meth:`mshbm.methods.hbm.HBMProblem.newton_fallback`), else
-        retry by continuation from softened regularisations; default True),
-        ``stability`` (``"auto"``, default: Floquet multipliers and verdict from the exact
-        event-driven flow with saltation terms for systems with at most one element and up to
-        :data:`mshbm.stability.MAX_EXACT_DOFS` DOFs, else a labelled estimate or none;
-        ``True``: also above that size; ``False``: skip.  Not part of ``wall_time``; see
-        :mod:`mshbm.stability`).
-
-    Returns
-    -------
-    PeriodicSolution
-        ``success`` is True only when Newton converged and every gating check of the
-        certificate (``solution.certificate``, :mod:`mshbm.certificate`) passed.
-        With ``floquet_multipliers``, ``stable``, ``stability_method`` and ``stability_reason``.
-
-    Raises
-    ------
-    InputError
-        Invalid system, frequency or option (names the key).
-    """
+    """:func:`mshbm.solve` (its docstring lists the options): the strategy chain of this module, then
+    the stability analysis (not part of ``wall_time``)."""
     stab = _stability.check_option(options.pop("stability", "auto"))
     if method in ("mshbm", "mshbm-intermediate") and options.get("continuation") is True \
             and options.get("guess") is not None:  # guess=None: the start ladder (mshbm.solvers.starts) covers it

@@ -27,7 +27,7 @@ from mshbm import Contact, Friction, InputError, System, chain
 from mshbm.integrators.moreau_jean import MoreauJean
 from mshbm.methods.exact import exact_periodic
 
-from test_io_cli import BASE, assert_input_error, run, write_case
+from integration.test_io_cli import BASE, assert_input_error, run, write_case  # shared CLI helpers
 
 
 def den_hartog(omega, F):

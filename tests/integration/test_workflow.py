@@ -17,7 +17,7 @@ TABLES = ["table1", "table2"]
 ACCEPTED_LINT = "Specify a conda environment or container for each rule."
 
 # fixtures `workdir` (a temporary copy of the workflow) and `quick_run` (the quick workflow, run once
-# per session and shared with tests/test_render.py): tests/conftest.py
+# per session and shared with tests/integration/test_render.py): tests/conftest.py
 
 
 def test_every_notebook_source_is_a_parameterised_percent_notebook():

@@ -1,5 +1,5 @@
 """workflow/manifest.yaml, figure -> rules -> notebook -> method modules: valid, complete, true and
-shown in README.md.  (The workflow itself reads it: tests/test_workflow.py runs the notebooks it lists.)"""
+shown in README.md.  (The workflow itself reads it: tests/integration/test_workflow.py runs the notebooks it lists.)"""
 import importlib.util
 import re
 import sys

@@ -18,7 +18,7 @@ import pytest
 import mshbm
 from paper_systems import OMEGA, friction_chain, impact_chain
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS")
 
 #: (name, system expression, method, options) -- the expressions use tests/conftest.py

@@ -10,7 +10,7 @@ The target is a representative chain of the quick configuration: Fig. 3 (the con
 its solves with full shooting, HBM and MS-HBM, its summary, its notebook).  The test checks that the
 chain completes, that every job went through the submit command with the resources its rule declares,
 and that the figure's numbers match the stored references of the quick workflow
-(tests/reference/quick.json), as those of the local run do (tests/test_workflow.py).
+(tests/reference/quick.json), as those of the local run do (tests/integration/test_workflow.py).
 """
 import re
 

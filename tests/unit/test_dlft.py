@@ -25,7 +25,7 @@ from mshbm import Contact, Friction, InputError, chain
 from mshbm.methods import dlft_kernels
 from mshbm.methods.exact import exact_periodic
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 
 
 def den_hartog_amplitude(beta, r):

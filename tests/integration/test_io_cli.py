@@ -17,7 +17,7 @@ from mshbm import InputError
 from mshbm.cli import main
 from mshbm.io import MAX_FILE_BYTES, Case, load_case, parse_case
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 EXAMPLES = ROOT / "examples"
 JSON_KEYS = {"case", "method", "harmonics", "steps", "success", "message", "iterations", "residual",
              "wall_time_s", "amplitude", "period", "omega"}

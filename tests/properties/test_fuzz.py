@@ -47,7 +47,7 @@ BASE = {
     "solver": {"method": "mshbm", "harmonics": 1, "steps": 64, "max_iter": 8},
 }
 CONTACT = {"dof": 0, "gap": 0.1, "restitution": 1.0, "penalty_stiffness": 8000.0, "penalty_damping": 0.0}
-EXAMPLE = str(Path(__file__).resolve().parents[1] / "examples" / "friction3.yaml")
+EXAMPLE = str(Path(__file__).resolve().parents[2] / "examples" / "friction3.yaml")
 KEY_ROOTS = set(TOP_KEYS) | {"yaml", "--steps", "--harmonics", "--out", "method", "path"}
 
 

@@ -9,7 +9,7 @@ import yaml
 
 import paper_systems as ps
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "workflow" / "scripts"))
 import wfcore  # noqa: E402
 

@@ -20,7 +20,7 @@ from mshbm.integrators.moreau_jean import MoreauJean
 from mshbm.period import solve as solve_period
 from mshbm.solvers.arclength import continuation
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 # ----------------------------------------------------------------------------- the generic driver

@@ -20,7 +20,7 @@ from paper_systems import OMEGA, friction_chain, impact_chain
 from mshbm.api import solve_with_continuation
 from mshbm.solvers.continuation import scaled_system
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 SCRIPT = ROOT / "workflow" / "scripts" / "stress.py"
 CONFIG = ROOT / "workflow" / "stress.yaml"
 

@@ -87,7 +87,7 @@ def test_moreau_jean_ball(e):
 
 
 def test_periodic_zeno_orbit_of_the_exact_solver():
-    """The periodic e = 0.5 orbit of tests/test_exact.py (mass pressed on the stop, lifting off once per
+    """The periodic e = 0.5 orbit of tests/unit/test_exact.py (mass pressed on the stop, lifting off once per
     period) has one accumulation per period, just after its closing impact; e = 0 has a single impact."""
     found = {}
     for e in (0.0, 0.5):

@@ -11,7 +11,7 @@ import scipy.sparse as sp
 
 import mshbm
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 _spec = importlib.util.spec_from_file_location("build_fe_model", ROOT / "workflow" / "scripts" / "build_fe_model.py")
 fe = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(fe)
