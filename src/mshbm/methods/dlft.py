@@ -431,8 +431,7 @@ class DLFTProblem(HarmonicProblem):
         for j, (l, _, _, _) in enumerate(marched):
             lam[:-1, j] = l
         lam[-1] = lam[0]
-        info = {"partition": self.keep.tolist(), "condensed": self.condense,
-                "min_rcond_H_LL": float(self.cond.rcond.min()),
+        info = {"condensed": self.condense,  # partition, conditioning: typed fields of the solution
                 "dlft_penalty": [float(e) for e in self.eps]}
         fr = [j for j, el in enumerate(self.system.elements) if el.bounded]
         ct = [j for j, el in enumerate(self.system.elements) if el.unilateral]

@@ -433,8 +433,7 @@ class HBMProblem(HarmonicProblem):
         q, u = self._time(x)
         lam = regularised_forces(self.system.elements, self._ldof, q, u, coupling=True)[0]
         lam = np.vstack([lam, lam[:1]])
-        info = {"partition": self.keep.tolist(), "condensed": self.condense,
-                "min_rcond_H_LL": float(self.cond.rcond.min())}
+        info = {"condensed": self.condense}  # partition, conditioning: typed fields of the solution
         contacts = self._contacts()
         if contacts:
             # AFT resolution of each contact: samples with g_N <= 0 (a few only: increase ``steps``)

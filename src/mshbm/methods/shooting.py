@@ -143,7 +143,7 @@ class ShootingProblem(PeriodicProblem):
                 # so at impacts they are not the flow's multipliers.  The solution's floquet_multipliers /
                 # stable (mshbm.stability) are the valid ones.
                 "step_map_multipliers": mult, "step_map_impacts": impacts,
-                "time_step": self.h, "stick_or_closed_fraction":
+                "stick_or_closed_fraction":
                     [float(np.mean((tr.status[:, j] & 3) >= 2)) for j in range(tr.status.shape[1])]}
         return dict(t=self.t, q_hat=q_hat, time_dofs=np.arange(ns), q_time=tr.q[:, :ns], u_time=tr.u[:, :ns],
                     lam=lam, impulses=tr.P, harmonics=n_h, info=info)
