@@ -61,7 +61,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["PeriodicProblem", "HarmonicProblem", "Partition", "forward_difference_jacobian"]
+__all__ = ["PeriodicProblem", "HarmonicProblem", "Partition", "forward_difference_jacobian",
+           "central_difference_jacobian"]
 
 
 @dataclass(frozen=True)
@@ -99,6 +100,19 @@ def forward_difference_jacobian(f, x, f0, rel_step=1e-7):
         xp[i] += d
         J[:, i] = (f(xp) - f0) / d
     return J
+
+
+def central_difference_jacobian(f, x, rel_step=1e-6):
+    """Central-difference Jacobian ``df/dx``: column ``i`` is ``(f(x + d e_i) - f(x - d e_i)) / (2 d)``
+    with ``d = rel_step max(1, |x_i|)`` (``jacobian="fd"`` of :func:`mshbm.methods.exact.exact_periodic`)."""
+    cols = []
+    for i in range(x.size):
+        d = rel_step * max(1.0, abs(x[i]))
+        xp, xm = x.copy(), x.copy()
+        xp[i] += d
+        xm[i] -= d
+        cols.append((f(xp) - f(xm)) / (2 * d))
+    return np.column_stack(cols)
 
 
 class PeriodicProblem:

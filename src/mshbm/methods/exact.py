@@ -21,6 +21,7 @@ import numpy as np
 from .._blas import blas_threads as _blas_threads
 
 from .. import fourier
+from .base import central_difference_jacobian
 from .common import linear_response
 from ..errors import InputError
 # ExactFlow, ExactTrajectory, Event, EventError and _extrema are re-exported (their former home)
@@ -199,16 +200,7 @@ def _exact_periodic(system, omega, guess, samples, tol, max_iter, harmonics, jac
             return R, None
         if jacobian == "saltation":
             return R, out["Phi"][:2 * n] - np.eye(2 * n)
-        J = np.empty((2 * n, 2 * n))
-        for i in range(2 * n):
-            dx = 1e-6 * max(1.0, abs(x[i]))
-            xp, xm = x.copy(), x.copy()
-            xp[i] += dx
-            xm[i] -= dx
-            Rp, _ = residual(xp, False)
-            Rm, _ = residual(xm, False)
-            J[:, i] = (Rp - Rm) / (2 * dx)
-        return R, J
+        return R, central_difference_jacobian(lambda xp: residual(xp, False)[0], x)
 
     x = np.concatenate([q_s, u_s])
     hist, nfev, success, message = [], 0, False, ""
