@@ -7,7 +7,7 @@
 2. The branch is continued in ``omega`` by pseudo-arclength continuation
    (:func:`mshbm.solvers.arclength.continuation`) on the method's residual ``R(x, omega)``
    (:func:`mshbm.build_problem`) with its Jacobian and ``dR/domega``
-   (:func:`_omega_derivative`), in the scaled units of :func:`unknown_scale` and
+   (:meth:`PeriodicProblem.omega_derivative`), in the scaled units of :func:`unknown_scale` and
    ``problem.residual_scale``; it passes folds (turning points).
 3. Every point is certified (:func:`mshbm.certificate.certify` at the corrector's tolerance): a point
    whose certificate fails is rejected and the step is shortened.  Its stability is that of
@@ -181,11 +181,6 @@ def unknown_scale(problem, x):
     return s
 
 
-def _omega_derivative(problem, x):
-    """``dR/domega`` at fixed ``x`` from the problem contract (:meth:`PeriodicProblem.omega_derivative`)."""
-    return np.asarray(problem.omega_derivative(x), dtype=float)
-
-
 def scaled_forcing(system, load):
     """``system`` with ``f_hat`` times ``load`` (matrices and elements shared)."""
     new = object.__new__(System)
@@ -244,7 +239,7 @@ class _Tracer:
     def d_lam(self, x, lam):
         p = self.problem(lam)
         if self.parameter == "omega":  # d/domega = (1/k) d/d(omega / k)
-            return _omega_derivative(p, x) / self.k
+            return np.asarray(p.omega_derivative(x), dtype=float) / self.k  # the problem contract's dR/domega
         d = 1e-6 * max(abs(lam), 1e-3)
         Rp = self.problem(lam + d).residual(x, jac=False)[0]
         Rm = self.problem(lam - d).residual(x, jac=False)[0]
@@ -279,18 +274,15 @@ class _Tracer:
         """Certified :class:`BranchPoint` at ``(x, lam)``, or the reason (str) if the certificate fails."""
         from . import stability as _stability
         from .certificate import certify
-        from .result import PeriodicSolution
+        from .solvers.driver import assemble
 
         t0 = time.perf_counter()
         problem = self.problem(lam)
-        parts = dict(problem.solution_parts(np.asarray(x, dtype=float)))
-        n_h = parts.pop("harmonics")
+        x = np.asarray(x, dtype=float)
         omega_b = problem.omega
-        sol = PeriodicSolution(method=self.method, omega=float(omega_b), harmonics=n_h, steps=len(parts["t"]) - 1,
-                               success=True, message="continuation corrector converged", iterations=int(iterations),
-                               nfev=0, residual=float(residual), wall_time=0.0, x=np.asarray(x, dtype=float),
-                               partition=problem.partition(), conditioning=problem.conditioning(),
-                               time_step=problem.time_step, **parts)
+        sol = assemble(problem, self.method, x, problem.solution_parts(x), success=True,
+                       message="continuation corrector converged", iterations=int(iterations), nfev=0,
+                       residual=float(residual), wall_time=0.0)
         cert = certify(problem, sol, self.tol, step_accuracy)
         sol.certificate = cert
         if not cert.passed:

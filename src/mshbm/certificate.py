@@ -83,7 +83,6 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 
-from . import fourier
 from .solvers.newton import scaled_norm
 from .scaling import displacement_floor, force_scale
 
@@ -173,11 +172,6 @@ def _diag(A):
     return np.asarray(A.diagonal() if sp.issparse(A) else np.diag(np.asarray(A)), dtype=float)
 
 
-def _stepper(problem):
-    """The Moreau-Jean stepper of a time-stepping method, ``None`` for HBM."""
-    return problem.time_stepper()
-
-
 def certify(problem, sol, tol, step_accuracy=None):
     """Certificate of ``sol`` (a :class:`mshbm.result.PeriodicSolution` of ``problem``).
 
@@ -213,7 +207,7 @@ def _certify(problem, sol, tol, cert, step_accuracy=None):
     system, omega = problem.system, float(sol.omega)
     is_hbm = problem.method in ("hbm", "dlft")  # Fourier series of all DOFs, AFT samples
     is_dlft = problem.method == "dlft"
-    stepper = _stepper(problem)
+    stepper = problem.time_stepper()  # None for HBM and DLFT
     T = 2.0 * np.pi / omega
     t = np.asarray(sol.t)
     N = t.size - 1

@@ -258,7 +258,7 @@ class MoreauJean:
         -------
         ndarray, shape (2n, 2n)
         """
-        n, h, th = self.n, self.h, self.theta
+        n, h = self.n, self.h
         I = np.eye(n)
         dUf = np.hstack([-self.Aq, I - self.Au])
         dU = np.hstack([np.zeros((n, n)), I])

@@ -60,6 +60,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.sparse as sp
+
+from .. import condensation, fourier
+from ..condensation import Condensation
 
 __all__ = ["PeriodicProblem", "HarmonicProblem", "Partition", "forward_difference_jacobian",
            "central_difference_jacobian"]
@@ -190,6 +194,49 @@ class HarmonicProblem(PeriodicProblem):
     the kept DOFs ``keep`` (the others, ``elim``, condensed exactly by ``cond``), ``Ns`` AFT samples per
     period, every residual row a force, and an exact path follower ``newton_fallback`` for penalty or
     gap contact."""
+
+    def _setup_harmonic_balance(self, system, omega, harmonics, steps, condense, partition):
+        """The linear part both methods share: kept DOFs ``keep`` (the element DOFs or ``partition``; all
+        DOFs without ``condense``), the exact condensation ``cond`` of the others (``elim``), the
+        block-diagonal ``A = H_RR - T`` per harmonic (dense when condensed, else sparse), the right-hand
+        side ``r``, the AFT matrices ``E``, ``Vs`` and the derivative ``Om``.  Returns the complex
+        condensed blocks ``H_RR,k - T_k``, shape ``(n_h + 1, n_R, n_R)`` (``None`` without ``condense``)."""
+        self.system, self.omega = system, float(omega)
+        self.n_h, self.Ns = int(harmonics), int(steps)
+        n = system.n
+        N_dofs = system.nonlinear_dofs if partition is None else np.asarray(partition, dtype=np.int64)
+        self.condense = bool(condense)
+        self.keep = np.asarray(N_dofs, dtype=np.int64) if self.condense else np.arange(n)
+        self.elim = np.setdiff1d(np.arange(n), self.keep)
+        self.cond = Condensation(system, omega, self.n_h, self.keep, self.elim)
+        nR = self.nR = self.keep.size
+        keep = self.keep
+        sub = lambda A: A.tocsr()[keep][:, keep] if sp.issparse(A) else np.asarray(A)[np.ix_(keep, keep)]
+        MRR, CRR, KRR = sub(system.M), sub(system.C), sub(system.K)
+        Hs = None
+        if self.condense:  # dense: n_R is the (small) nonlinear subsystem
+            Hs = np.empty((self.n_h + 1, nR, nR), dtype=complex)
+            for k in range(self.n_h + 1):
+                Hk = condensation.dynamic_stiffness(MRR, CRR, KRR, k * omega)
+                Hs[k] = (Hk.toarray() if sp.issparse(Hk) else Hk) - self.cond.T[k]
+            self.A = self.cond.real_matrix(Hs)
+        else:
+            blocks = []
+            for k in range(self.n_h + 1):
+                Hk = sp.csr_matrix(condensation.dynamic_stiffness(MRR, CRR, KRR, k * omega))
+                A, Bm = Hk.real, Hk.imag
+                blocks.append(A if k == 0 else sp.bmat([[A, Bm], [-Bm, A]]))
+            self.A = sp.block_diag(blocks, format="csr")
+        F = fourier.to_complex(system.forcing_hat(self.n_h))
+        self.r = fourier.from_complex(F[:, keep] - self.cond.g).reshape(-1)
+        self.E = fourier.dft_matrix(self.Ns, self.n_h)
+        self.Vs = fourier.idft_matrix(self.Ns, self.n_h)
+        self.Om = fourier.derivative(np.eye(2 * self.n_h + 1), self.omega)
+        return Hs
+
+    @property
+    def n_unknowns(self):
+        return (2 * self.n_h + 1) * self.nR
 
     @property
     def steps(self):

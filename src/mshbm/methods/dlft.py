@@ -156,8 +156,6 @@ class DLFTProblem(HarmonicProblem):
     method = "dlft"
 
     def __init__(self, system, omega, harmonics, steps, condense=True, partition=None, dlft_penalty=None):
-        self.system, self.omega = system, float(omega)
-        self.n_h, self.Ns = int(harmonics), int(steps)
         n = system.n
         for el in system.elements:
             if el.relative_to is not None or el.history:
@@ -169,29 +167,9 @@ class DLFTProblem(HarmonicProblem):
             d = next(d for d in dofs if dofs.count(d) > 1)
             raise InputError("elements", f"DLFT needs one element per DOF (DOF {d} carries a friction and a "
                                          "contact element: the demanded force cannot be split between them)")
-        N_dofs = system.nonlinear_dofs if partition is None else np.asarray(partition, dtype=np.int64)
-        self.condense = bool(condense)
-        self.keep = np.asarray(N_dofs, dtype=np.int64) if self.condense else np.arange(n)
-        self.elim = np.setdiff1d(np.arange(n), self.keep)
-        self.cond = Condensation(system, omega, self.n_h, self.keep, self.elim)
-        nR = self.nR = self.keep.size
-        nc = 2 * self.n_h + 1
+        Hs = self._setup_harmonic_balance(system, omega, harmonics, steps, condense, partition)
+        nR, nc = self.nR, 2 * self.n_h + 1
         pos = {int(d): i for i, d in enumerate(self.keep)}
-        sub = lambda A: A.tocsr()[self.keep][:, self.keep] if sp.issparse(A) else np.asarray(A)[np.ix_(self.keep, self.keep)]
-        MRR, CRR, KRR = sub(system.M), sub(system.C), sub(system.K)
-        F = fourier.to_complex(system.forcing_hat(self.n_h))
-        if self.condense:  # dense: n_R is the (small) nonlinear subsystem
-            Hs = np.empty((self.n_h + 1, nR, nR), dtype=complex)
-            for k in range(self.n_h + 1):
-                Hk = condensation.dynamic_stiffness(MRR, CRR, KRR, k * omega)
-                Hs[k] = (Hk.toarray() if sp.issparse(Hk) else Hk) - self.cond.T[k]
-            self.A = self.cond.real_matrix(Hs)
-        else:
-            blocks = []
-            for k in range(self.n_h + 1):
-                Hk = sp.csr_matrix(condensation.dynamic_stiffness(MRR, CRR, KRR, k * omega))
-                blocks.append(Hk.real if k == 0 else sp.bmat([[Hk.real, Hk.imag], [-Hk.imag, Hk.real]]))
-            self.A = sp.block_diag(blocks, format="csr")
         # the penalty rule: diagonal of the dynamic stiffness condensed onto the element DOFs N
         nl = system.nonlinear_dofs
         if self.condense and np.array_equal(self.keep, nl):
@@ -203,10 +181,6 @@ class DLFTProblem(HarmonicProblem):
                                                           k * omega) - c.T[k] for k in range(self.n_h + 1)])
         pn = {int(d): i for i, d in enumerate(nl)}
         diag = {el.dof: Hd[:, pn[el.dof], pn[el.dof]] for el in system.elements}
-        self.r = fourier.from_complex(F[:, self.keep] - self.cond.g).reshape(-1)
-        self.E = fourier.dft_matrix(self.Ns, self.n_h)
-        self.Vs = fourier.idft_matrix(self.Ns, self.n_h)
-        self.Om = fourier.derivative(np.eye(nc), self.omega)
         Md = np.asarray(system.M.diagonal() if sp.issparse(system.M) else np.diag(system.M), dtype=float)
         if dlft_penalty is None:
             self.eps = np.array([default_penalty(diag[el.dof], Md[el.dof], self.omega) for el in system.elements])
@@ -228,10 +202,6 @@ class DLFTProblem(HarmonicProblem):
             self._el.append((el, j, rows, cols, sel, w, Q))
 
     # ------------------------------------------------------------------ the problem interface
-    @property
-    def n_unknowns(self):
-        return (2 * self.n_h + 1) * self.nR
-
     def residual_scale(self, x=None):
         """Per-row scale of the residual, shape ``(n_x,)``: the force scale ``F`` (N) on every row."""
         from ..scaling import force_scale

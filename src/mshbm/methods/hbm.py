@@ -41,10 +41,9 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from .. import condensation, fourier
+from .. import fourier
 from .base import HarmonicProblem
 from .common import guess_parts
-from ..condensation import Condensation
 from ..elements import regularised_forces
 from ..solvers.newton import NewtonResult, follow_pl_path, newton
 
@@ -85,49 +84,12 @@ class HBMProblem(HarmonicProblem):
 
     def __init__(self, system, omega, harmonics, steps, condense=True, partition=None):
         self._args = (system, omega, harmonics, steps, condense, partition)
-        self.system, self.omega = system, float(omega)
-        self.n_h, self.Ns = int(harmonics), int(steps)
-        n = system.n
-        N_dofs = system.nonlinear_dofs if partition is None else np.asarray(partition, dtype=np.int64)
-        self.condense = bool(condense)
-        if self.condense:
-            self.keep = np.asarray(N_dofs, dtype=np.int64)
-        else:
-            self.keep = np.arange(n)
-        self.elim = np.setdiff1d(np.arange(n), self.keep)
-        self.cond = Condensation(system, omega, self.n_h, self.keep, self.elim)
-        nR = self.keep.size
+        self._setup_harmonic_balance(system, omega, harmonics, steps, condense, partition)
         pos = {int(d): i for i, d in enumerate(self.keep)}
         self.local_dof = [pos[el.dof] if el.relative_to is None else tuple(pos[d] for d in el.dofs)
                           for el in system.elements]
         self.nl_cols = np.array(sorted({pos[d] for el in system.elements for d in el.dofs}), dtype=np.int64)
-        # linear part A = H_RR - T (block diagonal per harmonic)
-        F = fourier.to_complex(system.forcing_hat(self.n_h))
-        sub = lambda A: A.tocsr()[self.keep][:, self.keep] if sp.issparse(A) else np.asarray(A)[np.ix_(self.keep, self.keep)]
-        MRR, CRR, KRR = sub(system.M), sub(system.C), sub(system.K)
-        if self.condense:  # dense: n_R is the (small) nonlinear subsystem
-            Hs = np.empty((self.n_h + 1, nR, nR), dtype=complex)
-            for k in range(self.n_h + 1):
-                Hk = condensation.dynamic_stiffness(MRR, CRR, KRR, k * omega)
-                Hs[k] = (Hk.toarray() if sp.issparse(Hk) else Hk) - self.cond.T[k]
-            self.A = self.cond.real_matrix(Hs)
-        else:
-            blocks = []
-            for k in range(self.n_h + 1):
-                Hk = sp.csr_matrix(condensation.dynamic_stiffness(MRR, CRR, KRR, k * omega))
-                A, Bm = Hk.real, Hk.imag
-                blocks.append(A if k == 0 else sp.bmat([[A, Bm], [-Bm, A]]))
-            self.A = sp.block_diag(blocks, format="csr")
-        self.r = fourier.from_complex(F[:, self.keep] - self.cond.g).reshape(-1)
-        self.E = fourier.dft_matrix(self.Ns, self.n_h)
-        self.Vs = fourier.idft_matrix(self.Ns, self.n_h)
-        self.Om = fourier.derivative(np.eye(2 * self.n_h + 1), self.omega)
         self.VsOm = self.Vs @ self.Om
-        self.nR = nR
-
-    @property
-    def n_unknowns(self):
-        return (2 * self.n_h + 1) * self.nR
 
     def residual_scale(self, x=None):
         """Per-row scale of the residual, shape ``(n_x,)``: the force scale ``F`` (N) on every row."""

@@ -123,7 +123,7 @@ def _solve(system, omega, method, options):
         message += (f"; note: the condensed block is nearly singular at harmonic k={k} (rcond {rc[k]:.1e}): "
                     "k*omega is at a resonance of the linear subsystem, where the periodic solution may be "
                     "non-unique or unbounded (add damping or move omega)")
-    sol = _solution(problem, method, omega, sopts, res, parts, success, message, wall)
+    sol = _solution(problem, method, res, parts, success, message, wall)
     sol.info["residual_history"] = res.history
     if "starts" in res.info:
         sol.info["starts"], sol.info["start_used"] = res.info["starts"], res.info["start_used"]
@@ -138,15 +138,22 @@ def _solve(system, omega, method, options):
     return sol
 
 
-def _solution(problem, method, omega, sopts, res, parts, success, message, wall):
-    """The :class:`PeriodicSolution` of a Newton result ``res`` of ``problem`` (not yet certified)."""
+def assemble(problem, method, x, parts, *, success, message, iterations, nfev, residual, wall_time):
+    """The :class:`PeriodicSolution` at unknowns ``x`` of ``problem`` (``parts``: its
+    ``solution_parts(x)``), not yet certified; the one place a solution is built from a problem
+    (the driver here, the continuation's points in :mod:`mshbm.branch`)."""
     parts = dict(parts)
     n_h = parts.pop("harmonics")
-    sol = PeriodicSolution(method=method, omega=float(omega), harmonics=n_h, steps=len(parts["t"]) - 1,
-                           success=success, message=message, iterations=res.nit, nfev=res.nfev,
-                           residual=res.residual_norm, wall_time=wall, x=res.x, partition=problem.partition(),
-                           conditioning=problem.conditioning(), time_step=problem.time_step, **parts)
-    return sol
+    return PeriodicSolution(method=method, omega=float(problem.omega), harmonics=n_h, steps=len(parts["t"]) - 1,
+                            success=success, message=message, iterations=iterations, nfev=nfev, residual=residual,
+                            wall_time=wall_time, x=x, partition=problem.partition(),
+                            conditioning=problem.conditioning(), time_step=problem.time_step, **parts)
+
+
+def _solution(problem, method, res, parts, success, message, wall):
+    """:func:`assemble` for a Newton result ``res``."""
+    return assemble(problem, method, res.x, parts, success=success, message=message, iterations=res.nit,
+                    nfev=res.nfev, residual=res.residual_norm, wall_time=wall)
 
 
 def _certified_accept(problem, method, omega, sopts, nkw, system):
@@ -158,7 +165,7 @@ def _certified_accept(problem, method, omega, sopts, nkw, system):
     def accept(attempt):
         if not first(attempt):
             return False
-        sol = _solution(problem, method, omega, sopts, attempt.newton, attempt.parts(), True, "", 0.0)
+        sol = _solution(problem, method, attempt.newton, attempt.parts(), True, "", 0.0)
         cert = certify(problem, sol, nkw["tol"], attempt.step_accuracy)
         if not cert.passed:
             attempt.verdict = f"rejected by the certificate: {cert.describe_failures()}"
