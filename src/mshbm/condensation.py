@@ -14,7 +14,7 @@ import scipy.sparse.linalg as spla
 
 from .fourier import real_block, to_complex
 
-__all__ = ["dynamic_stiffness", "Condensation", "SingularHarmonicError"]
+__all__ = ["dynamic_stiffness", "dynamic_stiffness_stack", "Condensation", "SingularHarmonicError"]
 
 
 class SingularHarmonicError(ArithmeticError):
@@ -28,6 +28,13 @@ def dynamic_stiffness(M, C, K, k_omega):
         return (sp.csc_matrix(K, dtype=complex) - k_omega ** 2 * sp.csc_matrix(M)
                 + 1j * k_omega * sp.csc_matrix(C)).tocsc()
     return np.asarray(K) - k_omega ** 2 * np.asarray(M) + 1j * k_omega * np.asarray(C)
+
+
+def dynamic_stiffness_stack(M, C, K, omegas):
+    """``H(w) = K - w^2 M + i w C`` for every ``w`` in ``omegas`` at once (dense ``M, C, K``), shape
+    ``(len(omegas), n, m)``."""
+    w = np.asarray(omegas, dtype=float)[:, None, None]
+    return np.asarray(K)[None] - w ** 2 * np.asarray(M)[None] + 1j * w * np.asarray(C)[None]
 
 
 def _sub(A, rows, cols):
@@ -84,50 +91,82 @@ class Condensation:
         if nE == 0:
             return
         M, C, K = system.M, system.C, system.K
+        if not (sp.issparse(M) and nE > 400):
+            self._dense(M, C, K, F, omega, n_h, rcond_min, name)
+            return
         blocks = {}
         for mat, A in (("M", M), ("C", C), ("K", K)):
             blocks[mat] = (_sub(A, self.elim, self.elim), _sub(A, self.elim, self.keep),
                             _sub(A, self.keep, self.elim))
-        sparse = sp.issparse(blocks["M"][0]) and nE > 400
-        for k in range(n_h + 1):
+        for k in range(n_h + 1):  # large sparse H_EE: one sparse LU per harmonic
             w = k * omega
             H_EE = dynamic_stiffness(blocks["M"][0], blocks["C"][0], blocks["K"][0], w)
             H_ER = dynamic_stiffness(blocks["M"][1], blocks["C"][1], blocks["K"][1], w)
             H_RE = dynamic_stiffness(blocks["M"][2], blocks["C"][2], blocks["K"][2], w)
             rhs = np.empty((nE, nR + 1), dtype=complex)
             rhs[:, 0] = F[k, self.elim]
-            rhs[:, 1:] = H_ER.toarray() if sp.issparse(H_ER) else H_ER
-            if sparse:
-                try:
-                    # H is complex symmetric: symmetric mode keeps the fill-reducing ordering
-                    # (default pivoting destroys it on 2-D meshes: 30 s instead of 0.03 s a harmonic)
-                    lu = spla.splu(sp.csc_matrix(H_EE), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.1,
-                                   options=dict(SymmetricMode=True))
-                except RuntimeError:
-                    raise SingularHarmonicError(
-                        f"{name} is singular at harmonic k={k} (k*omega={w:.6g})") from None
-                d = np.abs(lu.U.diagonal())
-                self.rcond[k] = d.min() / d.max() if d.max() > 0 else 0.0
-                sol = lu.solve(rhs)
-            else:
-                H = H_EE.toarray() if sp.issparse(H_EE) else H_EE
-                # LAPACK directly: the scipy wrappers' checks cost more than the LU of a small H_EE
-                getrf, getrs = sla.get_lapack_funcs(("getrf", "getrs"), (H,))
-                lu, piv, info = getrf(H)
-                d = np.abs(np.diag(lu))
-                self.rcond[k] = d.min() / d.max() if info == 0 and d.max() > 0 else 0.0
-                if self.rcond[k] < rcond_min:
-                    raise SingularHarmonicError(
-                        f"{name} is singular at harmonic k={k} (k*omega={w:.6g}, rcond~{self.rcond[k]:.1e})")
-                sol, info = getrs(lu, piv, rhs)
+            rhs[:, 1:] = H_ER.toarray()
+            try:
+                # H is complex symmetric: symmetric mode keeps the fill-reducing ordering
+                # (default pivoting destroys it on 2-D meshes: 30 s instead of 0.03 s a harmonic)
+                lu = spla.splu(sp.csc_matrix(H_EE), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.1,
+                               options=dict(SymmetricMode=True))
+            except RuntimeError:
+                raise SingularHarmonicError(
+                    f"{name} is singular at harmonic k={k} (k*omega={w:.6g})") from None
+            d = np.abs(lu.U.diagonal())
+            self.rcond[k] = d.min() / d.max() if d.max() > 0 else 0.0
+            sol = lu.solve(rhs)
             if not np.all(np.isfinite(sol)) or self.rcond[k] < rcond_min:
                 raise SingularHarmonicError(
                     f"{name} is singular at harmonic k={k} (k*omega={w:.6g}, rcond~{self.rcond[k]:.1e})")
             self.z[k] = sol[:, 0]
             self.Z[k] = sol[:, 1:]
-            HRE = H_RE.toarray() if sp.issparse(H_RE) else H_RE
-            self.T[k] = HRE @ self.Z[k]
-            self.g[k] = HRE @ self.z[k]
+            self.T[k] = H_RE @ self.Z[k]
+            self.g[k] = H_RE @ self.z[k]
+
+    def _dense(self, M, C, K, F, omega, n_h, rcond_min, name):
+        """The dense path (``n_E <= 400`` or dense matrices): the blocks of all harmonics at once,
+        one LAPACK LU per harmonic."""
+        e, r = self.elim, self.keep
+        dense = lambda A: A.toarray() if sp.issparse(A) else np.asarray(A, dtype=float)
+        if sp.issparse(M):  # small sparse model: only the rows needed
+            M, C, K = (A.tocsr() for A in (M, C, K))
+            idx = np.concatenate([e, r])
+            M, C, K = (dense(A[idx][:, idx]) for A in (M, C, K))
+            e, r = np.arange(e.size), np.arange(e.size, idx.size)
+        else:
+            M, C, K = dense(M), dense(C), dense(K)
+        w = omega * np.arange(n_h + 1)
+
+        def H(a, b):  # H_ab,k for all k, shape (n_h + 1, |a|, |b|)
+            ab = np.ix_(a, b)
+            return dynamic_stiffness_stack(M[ab], C[ab], K[ab], w)
+
+        H_EE, H_ER, H_RE = H(e, e), H(e, r), H(r, e)
+        nE, nR = e.size, r.size
+        rhs = np.empty((n_h + 1, nE, nR + 1), dtype=complex)
+        rhs[:, :, 0] = F[:, self.elim]
+        rhs[:, :, 1:] = H_ER
+        getrf, getrs = sla.get_lapack_funcs(("getrf", "getrs"), (H_EE[0],))
+        sol = np.empty_like(rhs)
+        for k in range(n_h + 1):
+            # LAPACK directly: the scipy wrappers' checks cost more than the LU of a small H_EE
+            lu, piv, info = getrf(H_EE[k])
+            d = np.abs(np.diag(lu))
+            self.rcond[k] = d.min() / d.max() if info == 0 and d.max() > 0 else 0.0
+            if self.rcond[k] < rcond_min:
+                raise SingularHarmonicError(
+                    f"{name} is singular at harmonic k={k} (k*omega={w[k]:.6g}, rcond~{self.rcond[k]:.1e})")
+            sol[k], info = getrs(lu, piv, rhs[k])
+        if not np.all(np.isfinite(sol)):
+            k = int(np.argmax(~np.isfinite(sol).all(axis=(1, 2))))
+            raise SingularHarmonicError(
+                f"{name} is singular at harmonic k={k} (k*omega={w[k]:.6g}, rcond~{self.rcond[k]:.1e})")
+        self.z = sol[:, :, 0].copy()
+        self.Z = sol[:, :, 1:].copy()
+        self.T = H_RE @ self.Z
+        self.g = np.einsum("kij,kj->ki", H_RE, self.z)
 
     def recover(self, XR):
         """``X_E`` (complex, shape (n_h+1, n_E)) from ``X_R`` (complex, (n_h+1, n_R))."""

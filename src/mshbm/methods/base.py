@@ -54,6 +54,9 @@ has them)
     ``f(x0, failed, tol=, scale=, max_iter=, callback=) -> NewtonResult or None``; ``None``: none.
 ``conditioning() -> ndarray or None``
     Reciprocal condition numbers of the condensed per-harmonic blocks, shape ``(n_h + 1,)``.
+``cheap_jacobian`` : bool (default False)
+    The Jacobian costs little more than ``R`` (HBM, DLFT): Newton evaluates the full step with it and
+    keeps it when the step is taken; the iterates do not change.
 """
 from __future__ import annotations
 
@@ -125,6 +128,9 @@ class PeriodicProblem:
     implement the abstract methods below."""
 
     method = ""
+    #: the Jacobian costs little more than the residual: Newton evaluates its full step with the
+    #: Jacobian and keeps it when the step is taken (:func:`mshbm.solvers.newton.newton`)
+    cheap_jacobian = False
     #: keyword options the problem was built with (set by :func:`mshbm.solvers.driver.build_problem`)
     build_options: dict = {}
 
@@ -195,6 +201,8 @@ class HarmonicProblem(PeriodicProblem):
     period, every residual row a force, and an exact path follower ``newton_fallback`` for penalty or
     gap contact."""
 
+    cheap_jacobian = True  # the AFT Jacobian is a few products more than the residual
+
     def _setup_harmonic_balance(self, system, omega, harmonics, steps, condense, partition):
         """The linear part both methods share: kept DOFs ``keep`` (the element DOFs or ``partition``; all
         DOFs without ``condense``), the exact condensation ``cond`` of the others (``elim``), the
@@ -215,10 +223,9 @@ class HarmonicProblem(PeriodicProblem):
         MRR, CRR, KRR = sub(system.M), sub(system.C), sub(system.K)
         Hs = None
         if self.condense:  # dense: n_R is the (small) nonlinear subsystem
-            Hs = np.empty((self.n_h + 1, nR, nR), dtype=complex)
-            for k in range(self.n_h + 1):
-                Hk = condensation.dynamic_stiffness(MRR, CRR, KRR, k * omega)
-                Hs[k] = (Hk.toarray() if sp.issparse(Hk) else Hk) - self.cond.T[k]
+            dense = lambda A: A.toarray() if sp.issparse(A) else A
+            Hs = condensation.dynamic_stiffness_stack(dense(MRR), dense(CRR), dense(KRR),
+                                                      omega * np.arange(self.n_h + 1)) - self.cond.T
             self.A = self.cond.real_matrix(Hs)
         else:
             blocks = []

@@ -42,12 +42,41 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from .. import fourier
+from . import hbm_kernels
 from .base import HarmonicProblem
 from .common import guess_parts
-from ..elements import regularised_forces
+from ..elements import Contact, Friction, regularised_forces
 from ..solvers.newton import NewtonResult, follow_pl_path, newton
 
 __all__ = ["HBMProblem", "scaled_regularisation"]
+
+
+#: placeholder Jacobian argument of the compiled kernel when only ``R`` is wanted
+_NO_JAC = np.empty((0, 0, 0, 0))
+
+
+def _fast_laws(elements, nl_cols, pos):
+    """Arrays of :func:`hbm_kernels.aft_forces` for the elements, or ``None`` where the kernel does not
+    apply (an element relative to a second DOF, with a history, or with a law of its own)."""
+    cols = {int(c): i for i, c in enumerate(nl_cols)}
+    rows = []
+    for el in elements:
+        law = type(el).regularised_law
+        if el.relative_to is not None or el.history:
+            return None
+        if law is Friction.regularised_law:
+            rows.append((hbm_kernels.KIND_FRICTION, cols[pos[el.dof]], el.sign, el.bound * 2.0 / np.pi,
+                         el.smoothing, 0.0))
+        elif law is Contact.regularised_law:
+            rows.append((hbm_kernels.KIND_CONTACT, cols[pos[el.dof]], el.sign, el.gap, el.penalty_stiffness,
+                         el.penalty_damping))
+        else:
+            return None
+    if not rows:
+        return None
+    kind, col, sign, p1, p2, p3 = zip(*rows)
+    return (np.array(kind, np.int64), np.array(col, np.int64), np.array(sign, float), np.array(p1, float),
+            np.array(p2, float), np.array(p3, float))
 
 
 def scaled_regularisation(system, factor):
@@ -89,7 +118,8 @@ class HBMProblem(HarmonicProblem):
         self.local_dof = [pos[el.dof] if el.relative_to is None else tuple(pos[d] for d in el.dofs)
                           for el in system.elements]
         self.nl_cols = np.array(sorted({pos[d] for el in system.elements for d in el.dofs}), dtype=np.int64)
-        self.VsOm = self.Vs @ self.Om
+        self.VsOm = np.ascontiguousarray(self.Vs @ self.Om)
+        self._fast = _fast_laws(system.elements, self.nl_cols, pos)
 
     def residual_scale(self, x=None):
         """Per-row scale of the residual, shape ``(n_x,)``: the force scale ``F`` (N) on every row."""
@@ -121,6 +151,15 @@ class HBMProblem(HarmonicProblem):
     def residual(self, x, jac=True):
         """``(R, J)`` with shapes ``(n_x,)`` and ``(n_x, n_x)`` (dense if condensed, else sparse)."""
         nc, nR = 2 * self.n_h + 1, self.nR
+        if self._fast is not None:  # one compiled pass (mshbm.methods.hbm_kernels)
+            nN = self.nl_cols.size
+            Xn = np.ascontiguousarray(x.reshape(nc, nR)[:, self.nl_cols])
+            Fn = np.empty((nc, nN))
+            Jn = np.empty((nc, nN, nc, nN)) if jac else _NO_JAC
+            hbm_kernels.aft_forces(Xn, self.Vs, self.VsOm, self.E, *self._fast, jac, Fn, Jn)
+            R = self.A @ x - self.r
+            R.reshape(nc, nR)[:, self.nl_cols] -= Fn
+            return (R, self._jacobian(Jn)) if jac else (R, None)
         q, u = self._time(x)
         _, f, dfdq, dfdu, offdiag = regularised_forces(self.system.elements, self._ldof, q, u, coupling=True,
                                                        basis=self.Vs)

@@ -80,7 +80,8 @@ def _solve(J, R, s=None):
     return np.linalg.lstsq(J, R, rcond=None)[0]
 
 
-def newton(fun, x0, tol=1e-10, max_iter=50, line_search=True, callback=None, scale=None, fallback=None):
+def newton(fun, x0, tol=1e-10, max_iter=50, line_search=True, callback=None, scale=None, fallback=None,
+           reuse_jacobian=False):
     """Solve ``R(x) = 0``.
 
     Parameters
@@ -103,6 +104,10 @@ def newton(fun, x0, tol=1e-10, max_iter=50, line_search=True, callback=None, sca
         ``fallback(x0, failed, tol=, scale=, max_iter=, callback=) -> NewtonResult or None``, called
         when Newton fails (e.g. a problem's :meth:`path_fallback`).  Its result is returned if it
         succeeds, with the same convergence test ``||R / s||_inf <= tol`` on the real problem.
+    reuse_jacobian : bool
+        Evaluate the full Newton step with its Jacobian and keep it if the step is accepted (one
+        evaluation per iteration fewer; for problems whose Jacobian costs little more than ``R``).
+        The iterates are the same either way.
 
     Returns
     -------
@@ -111,7 +116,7 @@ def newton(fun, x0, tol=1e-10, max_iter=50, line_search=True, callback=None, sca
     """
     x0 = np.array(x0, dtype=float)
     scale = _scale_function(fun, scale)
-    res = _newton(fun, x0, tol, max_iter, line_search, callback, scale)
+    res = _newton(fun, x0, tol, max_iter, line_search, callback, scale, reuse_jacobian=reuse_jacobian)
     hook = fallback
     if res.success or not hook:
         return res
@@ -134,6 +139,7 @@ def solve_problem(problem, x0, *, fallback=True, **newton_options):
     scale ``residual_scale`` and, if ``fallback``, its exact path follower (``path_fallback()``).
     ``newton_options``: ``tol``, ``max_iter``, ``line_search``, ``callback`` of :func:`newton`."""
     hook = problem.path_fallback() if fallback else None
+    newton_options.setdefault("reuse_jacobian", bool(problem.cheap_jacobian))
     return newton(problem.residual, x0, scale=problem.residual_scale, fallback=hook, **newton_options)
 
 
@@ -170,7 +176,7 @@ def _watchdog_step(fun, xt, r2, s):
     return None
 
 
-def _newton(fun, x, tol, max_iter, line_search, callback, scale, watchdog=None):
+def _newton(fun, x, tol, max_iter, line_search, callback, scale, watchdog=None, reuse_jacobian=False):
     x = np.array(x, dtype=float)
     if watchdog is None:
         watchdog = max_iter
@@ -202,9 +208,14 @@ def _newton(fun, x, tol, max_iter, line_search, callback, scale, watchdog=None):
         r2 = float(np.linalg.norm(R / s))
         best = None
         watched = None
+        full = None
         while True:
             xt = x + lam * dx
-            Rt, _ = fun(xt, jac=False)
+            if lam == 1.0 and reuse_jacobian:  # the full step is usually taken: keep its Jacobian
+                Rt, Jt = fun(xt)
+                full = (xt, Rt, Jt)
+            else:
+                Rt, _ = fun(xt, jac=False)
             nfev += 1
             rt2 = float(np.linalg.norm(Rt / s)) if np.all(np.isfinite(Rt)) else np.inf
             if best is None or rt2 < best[0]:
@@ -232,6 +243,9 @@ def _newton(fun, x, tol, max_iter, line_search, callback, scale, watchdog=None):
             return NewtonResult(x, False, f"line search failed at iteration {it}: scaled ||R||_inf stalls at {r:.2e} "
                                 "(no descent; residual may be nonsmooth here or the start is too far)",
                                 it, nfev, r, hist)
+        if full is not None and full[0] is xt:
+            x, R, J = full
+            continue
         x = xt
         R, J = fun(x)
         nfev += 1

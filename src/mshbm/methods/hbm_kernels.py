@@ -1,0 +1,132 @@
+"""Compiled AFT kernel of HBM: element forces and their Jacobian in one pass (numba, raw arrays).
+
+Notation (:mod:`mshbm.methods.hbm`): ``n_h`` harmonics, ``nc = 2 n_h + 1`` real coefficients per DOF,
+``N_s`` AFT samples, ``n_N`` nonlinear DOFs (columns of the kept unknowns the elements act on).
+``Vs`` (``N_s x nc``) is the inverse DFT (coefficients -> samples), ``VsOm = Vs Om`` the same for
+the velocity, ``E`` (``nc x N_s``) the DFT (samples -> coefficients).
+
+:func:`aft_forces` fuses, for single-DOF elements with the regularised laws of
+:meth:`mshbm.elements.Element.regularised_law` (no relative element, no history):
+
+1. samples ``q = Vs Xn``, ``u = VsOm Xn`` of the nonlinear DOFs (only where an element needs them),
+2. the laws (``kind`` 0: friction eq. 42, ``lambda = -a arctan(kappa w u)``, ``a = 2 mu F_N / pi``;
+   ``kind`` 1: penalty contact eq. 45, ``lambda = -(k_c g + d_c w u)`` while ``g = gap + w q <= 0``),
+3. the force coefficients ``Fn = E f`` (``f = sum_j w_j lambda_j`` per DOF),
+4. with ``jac``, the diagonal-in-DOF Jacobian blocks ``Jn[:, i, :, i] = E diag(df/dq) Vs +
+   E diag(df/du) VsOm``, summed over the samples where the derivative is nonzero only (a contact is
+   closed on a small share of the period).
+
+:func:`aft_forces_numpy` is its plain NumPy twin (tested against it in ``tests/unit/test_hbm_kernels.py``).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+#: law codes of :func:`aft_forces`
+KIND_FRICTION, KIND_CONTACT = 0, 1
+
+
+@njit(cache=True)
+def aft_forces(Xn, Vs, VsOm, E, kind, col, sign, p1, p2, p3, jac, Fn, Jn):  # pragma: no cover - compiled
+    """Fill ``Fn`` (``nc x n_N``) and, with ``jac``, ``Jn`` (``nc x n_N x nc x n_N``, zeroed here).
+
+    Per element ``j``: ``kind[j]`` (0 friction, 1 contact), ``col[j]`` its column in ``Xn``,
+    ``sign[j]`` its direction ``w``; friction ``p1 = 2 mu F_N / pi``, ``p2 = kappa``; contact
+    ``p1 = gap``, ``p2 = k_c``, ``p3 = d_c``.
+    """
+    Ns, nc = Vs.shape
+    nN = Xn.shape[1]
+    m = kind.shape[0]
+    f = np.zeros((Ns, nN))
+    dq = np.zeros((Ns, nN))
+    du = np.zeros((Ns, nN))
+    for j in range(m):
+        c = col[j]
+        w = sign[j]
+        for s in range(Ns):
+            us = 0.0
+            for k in range(nc):
+                us += VsOm[s, k] * Xn[k, c]
+            if kind[j] == 0:
+                ku = p2[j] * w * us
+                f[s, c] += w * (-p1[j] * math.atan(ku))
+                du[s, c] += -p1[j] * p2[j] / (1.0 + ku * ku)
+            else:
+                qs = 0.0
+                for k in range(nc):
+                    qs += Vs[s, k] * Xn[k, c]
+                g = p1[j] + w * qs
+                if g <= 0.0:
+                    f[s, c] += w * (-(p2[j] * g + p3[j] * w * us))
+                    dq[s, c] += -p2[j]
+                    du[s, c] += -p3[j]
+    for i in range(nN):
+        for a in range(nc):
+            acc = 0.0
+            for s in range(Ns):
+                acc += E[a, s] * f[s, i]
+            Fn[a, i] = acc
+    if not jac:
+        return
+    Jn[:] = 0.0
+    idx = np.empty(Ns, dtype=np.int64)
+    for i in range(nN):
+        n_act = 0
+        for s in range(Ns):
+            if dq[s, i] != 0.0 or du[s, i] != 0.0:
+                idx[n_act] = s
+                n_act += 1
+        if n_act == 0:
+            continue
+        if 4 * n_act > Ns:  # dense: two matrix products
+            Ed = np.empty((nc, Ns))
+            Eu = np.empty((nc, Ns))
+            for a in range(nc):
+                for s in range(Ns):
+                    Ed[a, s] = E[a, s] * dq[s, i]
+                    Eu[a, s] = E[a, s] * du[s, i]
+            B = Ed @ Vs + Eu @ VsOm
+            for a in range(nc):
+                for b in range(nc):
+                    Jn[a, i, b, i] = B[a, b]
+        else:
+            for t in range(n_act):
+                s = idx[t]
+                cq = dq[s, i]
+                cu = du[s, i]
+                for a in range(nc):
+                    ea = E[a, s]
+                    if ea == 0.0:
+                        continue
+                    for b in range(nc):
+                        Jn[a, i, b, i] += ea * (cq * Vs[s, b] + cu * VsOm[s, b])
+
+
+def aft_forces_numpy(Xn, Vs, VsOm, E, kind, col, sign, p1, p2, p3, jac=True):
+    """NumPy twin of :func:`aft_forces`: returns ``(Fn, Jn)`` (``Jn`` None without ``jac``)."""
+    Ns, nc = Vs.shape
+    nN = Xn.shape[1]
+    q, u = Vs @ Xn, VsOm @ Xn
+    f, dq, du = np.zeros((Ns, nN)), np.zeros((Ns, nN)), np.zeros((Ns, nN))
+    for j in range(kind.size):
+        c, w = col[j], sign[j]
+        if kind[j] == KIND_FRICTION:
+            ku = p2[j] * w * u[:, c]
+            f[:, c] += -w * p1[j] * np.arctan(ku)
+            du[:, c] += -p1[j] * p2[j] / (1.0 + ku * ku)
+        else:
+            g = p1[j] + w * q[:, c]
+            closed = g <= 0.0
+            f[:, c] += np.where(closed, -w * (p2[j] * g + p3[j] * w * u[:, c]), 0.0)
+            dq[:, c] += np.where(closed, -p2[j], 0.0)
+            du[:, c] += np.where(closed, -p3[j], 0.0)
+    Fn = E @ f
+    if not jac:
+        return Fn, None
+    Jn = np.zeros((nc, nN, nc, nN))
+    for i in range(nN):
+        Jn[:, i, :, i] = (E * dq[:, i]) @ Vs + (E * du[:, i]) @ VsOm
+    return Fn, Jn

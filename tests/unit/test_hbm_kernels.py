@@ -1,0 +1,56 @@
+"""The compiled AFT kernel of HBM against its NumPy twin and against the generic element path."""
+import numpy as np
+import pytest
+
+import mshbm
+from mshbm import fourier
+from mshbm.elements import Contact, Friction
+from mshbm.methods import hbm_kernels as hk
+from mshbm.system import chain
+
+
+def _matrices(n_h, Ns, omega):
+    Vs = fourier.idft_matrix(Ns, n_h)
+    VsOm = np.ascontiguousarray(Vs @ fourier.derivative(np.eye(2 * n_h + 1), omega))
+    return Vs, VsOm, fourier.dft_matrix(Ns, n_h)
+
+
+@pytest.mark.parametrize("seed", range(5))
+@pytest.mark.parametrize("Ns", [64, 512])
+def test_aft_forces_matches_numpy_twin(seed, Ns):
+    rng = np.random.default_rng(seed)
+    n_h, nN, omega = 5, 3, 0.7
+    Vs, VsOm, E = _matrices(n_h, Ns, omega)
+    Xn = rng.normal(size=(2 * n_h + 1, nN))
+    # friction on column 0, contacts on 1 (closed part of the period) and 2 (with damping), friction on 2
+    kind = np.array([0, 1, 1, 0])
+    col = np.array([0, 1, 2, 2])
+    sign = np.array([1.0, -1.0, -1.0, 1.0])
+    p1 = np.array([0.6, 0.5 * rng.random(), -0.2, 0.3])
+    p2 = np.array([50.0, 1e3, 2e2, 10.0])
+    p3 = np.array([0.0, 0.0, 3.0, 0.0])
+    Fn, Jn = np.empty((2 * n_h + 1, nN)), np.empty((2 * n_h + 1, nN, 2 * n_h + 1, nN))
+    hk.aft_forces(Xn, Vs, VsOm, E, kind, col, sign, p1, p2, p3, True, Fn, Jn)
+    Fn2, Jn2 = hk.aft_forces_numpy(Xn, Vs, VsOm, E, kind, col, sign, p1, p2, p3)
+    scale = max(np.abs(Fn2).max(), 1.0)
+    np.testing.assert_allclose(Fn, Fn2, rtol=0, atol=1e-12 * scale)
+    np.testing.assert_allclose(Jn, Jn2, rtol=0, atol=1e-12 * max(np.abs(Jn2).max(), 1.0))
+    Fn3 = np.empty_like(Fn)
+    hk.aft_forces(Xn, Vs, VsOm, E, kind, col, sign, p1, p2, p3, False, Fn3, np.empty((0, 0, 0, 0)))
+    np.testing.assert_array_equal(Fn3, Fn)
+
+
+def test_kernel_path_equals_generic_path():
+    """HBMProblem.residual with the kernel equals the generic regularised_forces path (R and J)."""
+    s = chain([1.0, 2.0, 1.0], [1.0, 1.0, 1.0], 0.05, forcing=[{"dof": 2, "amplitude": 1.0}],
+              elements=[Friction(0, 0.3, 1.0), Contact(2, 0.4, 1.0, penalty_stiffness=500.0,
+                                                      penalty_damping=0.5)])
+    prob, _ = mshbm.build_problem(s, 0.9, "hbm", harmonics=7, steps=256)
+    assert prob._fast is not None
+    x = np.random.default_rng(1).normal(size=prob.n_unknowns)
+    R1, J1 = prob.residual(x)
+    fast, prob._fast = prob._fast, None
+    R2, J2 = prob.residual(x)
+    prob._fast = fast
+    np.testing.assert_allclose(R1, R2, rtol=0, atol=1e-11 * np.abs(R2).max())
+    np.testing.assert_allclose(J1, J2, rtol=0, atol=1e-11 * np.abs(J2).max())
