@@ -8,9 +8,16 @@ import matplotlib.pyplot as plt
 
 import nbcommon as nc
 
-MARK = {"hbm": "o", "mshbm": "s", "mshbm-fd": "D"}
-COL = {"hbm": nc.COLORS["hbm"], "mshbm": nc.COLORS["mshbm"], "mshbm-fd": "#ff7f0e"}
-LAB = {"hbm": "HBM", "mshbm": "MS-HBM", "mshbm-fd": "MS-HBM vs shooting, both FD Jacobian"}
+MARK = {"hbm": "o", "mshbm": "s", "dlft": "^", "mshbm-fd": "D"}
+COL = {"hbm": nc.COLORS["hbm"], "mshbm": nc.COLORS["mshbm"], "dlft": "#2ca02c", "mshbm-fd": "#ff7f0e"}
+LAB = {"hbm": "HBM", "mshbm": "MS-HBM", "dlft": "DLFT", "mshbm-fd": "MS-HBM vs shooting, both FD Jacobian"}
+#: the y position (axes fraction) of each method's "no convergence" markers
+FAIL_Y = {"hbm": 0.955, "mshbm": 0.915, "dlft": 0.875, "mshbm-fd": 0.915}
+
+
+def methods(rows):
+    """The harmonic methods of the sweep, in plotting order (DLFT only where the workflow solved it)."""
+    return [m for m in ("hbm", "mshbm", "dlft") if any(r["method"] == m for r in rows)]
 
 
 def series(rows, method):
@@ -29,7 +36,7 @@ def plot_points(ax, rows, method, yfun, connect=True):
     bad = [r for r in rows if not r["success"]]
     tr = blended_transform_factory(ax.transData, ax.transAxes)
     for r in bad:
-        ax.plot(r["harmonics"], 0.955 if method == "hbm" else 0.915, marker="x", color=COL[method], ms=6,
+        ax.plot(r["harmonics"], FAIL_Y[method], marker="x", color=COL[method], ms=6,
                 transform=tr, clip_on=False, ls="none")
 
 
@@ -68,29 +75,29 @@ def plot(cfg, S, out_png, out_pdf):
         if floor:
             ax.axhline(floor, color="k", ls="--", lw=0.9)
         ax.set_yscale("log")
-        for m in ("hbm", "mshbm"):
+        for m in methods(rows):
             ok = [r for r in series(rows, m) if r["success"]]
             if ok:
                 ax.plot([r["harmonics"] for r in ok], [max(r[key], 1e-12) for r in ok], ls="none")
         fail_band(ax, rows)
-        for m in ("hbm", "mshbm"):
+        for m in methods(rows):
             plot_points(ax, series(rows, m), m, lambda r, k=key: max(r[k], 1e-12))
         ax.set_title(f"relative amplitude error, {title}")
         ax.set_xlabel("$n_H$")
     a3.axhline(1.0, color="k", lw=0.9)
     a3.set_yscale("log")
-    for m, rr in (("hbm", series(rows, "hbm")), ("mshbm", series(rows, "mshbm")), ("mshbm-fd", fd_rows)):
+    for m, rr in [(m, series(rows, m)) for m in methods(rows)] + [("mshbm-fd", fd_rows)]:
         ok = [r for r in rr if r["success"] and r["effort"]]
         if ok:
             a3.plot([r["harmonics"] for r in ok], [r["effort"] for r in ok], ls="none")
     fail_band(a3, rows + fd_rows)
-    for m in ("hbm", "mshbm"):
+    for m in methods(rows):
         plot_points(a3, series(rows, m), m, lambda r: r["effort"])
     plot_points(a3, fd_rows, "mshbm-fd", lambda r: r["effort"])
     a3.set_title(f"effort: {CLOCK} time / full shooting")
     a3.set_xlabel("$n_H$")
     # work-precision: larger of the two errors vs effort
-    for m, rr in (("hbm", series(rows, "hbm")), ("mshbm", series(rows, "mshbm")), ("mshbm-fd", fd_rows)):
+    for m, rr in [(m, series(rows, m)) for m in methods(rows)] + [("mshbm-fd", fd_rows)]:
         ok = [r for r in rr if r["success"] and r["effort"]]
         if not ok:
             continue
@@ -106,7 +113,7 @@ def plot(cfg, S, out_png, out_pdf):
     a4.set_xscale("log"); a4.set_yscale("log")
     a4.set_xlabel(f"effort ({CLOCK} time / full shooting)")
     a4.set_title("work-precision: max. error of masses 1 and n")
-    handles = [Line2D([], [], marker=MARK[m], color=COL[m], ls="-", label=LAB[m]) for m in ("hbm", "mshbm")]
+    handles = [Line2D([], [], marker=MARK[m], color=COL[m], ls="-", label=LAB[m]) for m in methods(rows)]
     if fd_rows:
         handles.append(Line2D([], [], marker=MARK["mshbm-fd"], color=COL["mshbm-fd"], ls="--", label=LAB["mshbm-fd"]))
     handles += [Line2D([], [], marker="s", color="0.3", ls="none", label=f"start: own solution at {factor:g} ω"),

@@ -362,8 +362,13 @@ def _detect_other(branch, system):
     records = [bifurcations.point_from_solution(system, bp.solution) for bp in branch.points]
     found = bifurcations.detect(records, types=("period-doubling", "neimark-sacker", "grazing"))
     out = []
+    k = int(branch.period)
     for b in found:
         rec = b.as_dict()
+        if k > 1:  # the points' solutions live on the base frequency omega / k: report the forcing frequency
+            rec["omega"] = k * float(rec["omega"])
+            if "bracket" in rec:
+                rec["bracket"] = [k * float(v) for v in rec["bracket"]]
         rec["located"] = b.located
         if branch.parameter != "omega":
             rec["load"] = float(branch.points[b.index].load)

@@ -80,6 +80,10 @@ def solve_file(case, method, nh=None, reference=False, ext="json"):
     return f"{stem}.{ext}"
 
 
+#: the harmonic methods of the work-precision figures (Figs. 4, 8), each at every n_H of the figure
+SWEEP_METHODS = ("hbm", "mshbm", "dlft")
+
+
 def figure_solves(fig, ext="json"):
     """Named solve results a figure needs: ref, shooting, <method>_nh<n>."""
     fcfg = config["figures"][fig]
@@ -89,7 +93,7 @@ def figure_solves(fig, ext="json"):
     if fcfg.get("check_system"):
         out["check"] = solve_file(fcfg["check_system"], "shooting", ext=ext)
     if "harmonics" in fcfg:
-        for method in ("hbm", "mshbm"):
+        for method in SWEEP_METHODS:
             for nh in fcfg["harmonics"]:
                 out[f"{method}_nh{nh}"] = solve_file(case, method, nh, ext=ext)
         if fcfg.get("fd_harmonics"):
@@ -110,6 +114,16 @@ EXACT_FIGURES = ["fig4", "fig7", "fig8"]
 def exact_file(case):
     """Exact event-driven periodic solution of a system (rule ``exact_reference``)."""
     return f"{R}/solves/{case}/exact.json"
+
+
+#: the frequency-response curves of Fig. 9 by name (rules/branches.smk; config `branches` is a list, so
+#: that a second config file replaces it whole)
+BRANCHES = {b["name"]: b for b in config.get("branches") or []}
+
+
+def branch_files():
+    """Every branch job's output (rule `branch`)."""
+    return [f"{R}/branches/{name}/{method}.json" for name, b in BRANCHES.items() for method in b["methods"]]
 
 
 #: summaries beyond the figures' (other rule files append theirs); the paper reads every one
@@ -254,4 +268,6 @@ def notebook_inputs(name):
         out.update(npz_inputs(name))
     if "longrun" in data:
         out["npz_longrun"] = longrun_file(config["figures"][name]["system"], "npz")
+    if "branches" in data:
+        out["summary"] = f"{R}/summary/branches.json"
     return out

@@ -3,8 +3,9 @@
 # with MS-HBM, HBM and (where feasible) full shooting, timed (scripts/fe_example.py).
 #
 # On demand only (`snakemake --cores 2 results/fe_beam/solves.json`), not part of `all` and not in the paper:
-# on the 10^4-DOF mesh MS-HBM's Moreau-Jean steps are inaccurate for the stiff local DOF (sqrt(K_dd/M_dd)/omega
-# ~ 1e6) and its certificate does not catch it (README, known limitations).
+# on the 10^4-DOF mesh MS-HBM's Moreau-Jean steps are inaccurate for the stiff, Rayleigh-damped node DOF
+# (sqrt(K_dd/M_dd)/omega ~ 1e6); the certificate's time_discretisation check rejects those answers
+# (README, known limitations).
 
 
 rule fe_model:

@@ -4,7 +4,7 @@
 
 wildcard_constraints:
     case=r"[a-z][a-z0-9]*",
-    method=r"shooting|hbm|mshbm|mshbm-intermediate|shooting-fd|mshbm-fd|mshbm-intermediate-fd",
+    method=r"shooting|hbm|dlft|mshbm|mshbm-intermediate|shooting-fd|mshbm-fd|mshbm-intermediate-fd",
     nh=r"\d+",
     steps=r"\d+",
     fig=r"fig\d+",

@@ -27,7 +27,8 @@ import numpy as np  # noqa: E402
 from wfcore import md_table  # noqa: E402  (the script's directory is on sys.path)
 
 STYLE = {"shooting": ("k", "o", "full shooting"), "mshbm": ("tab:red", "s", "MS-HBM"),
-         "mshbm-intermediate": ("tab:orange", "D", "MS-HBM (intermediate)"), "hbm": ("tab:blue", "^", "HBM")}
+         "mshbm-intermediate": ("tab:orange", "D", "MS-HBM (intermediate)"), "hbm": ("tab:blue", "^", "HBM"),
+         "dlft": ("tab:green", "v", "DLFT")}
 TARGET_SPEEDUP = 20.0
 
 
@@ -73,7 +74,7 @@ def plot_workprecision(wp, path):
         ax.grid(True, which="both", alpha=0.3)
         ax = axes[1][j]
         levels = [e["error_level"] for e in d["targets"]["equal_error"]]
-        for method in ("mshbm", "mshbm-intermediate", "hbm"):
+        for method in ("mshbm", "mshbm-intermediate", "hbm", "dlft"):
             c, mk, label = STYLE[method]
             sp = [(lv, (e.get(method) or {}).get("speedup_over_shooting"))
                   for lv, e in zip(levels, d["targets"]["equal_error"])]
@@ -126,7 +127,7 @@ def section_workprecision(wp, sub):
             sh = e.get("shooting")
             cells = [d["system"], f"{e['error_level']:g}",
                      "–" if sh is None else f"{sh['time_s'] * 1e3:.3g} ms ({point_label(sh)})"]
-            for m in ("mshbm", "mshbm-intermediate", "hbm"):
+            for m in ("mshbm", "mshbm-intermediate", "hbm", "dlft"):
                 p = e.get(m)
                 cells.append("–" if p is None else
                              f"{p['time_s'] * 1e3:.3g} ms ({point_label(p)}): **{fmt(p['speedup_over_shooting'], '.3g')}×**"
@@ -135,7 +136,8 @@ def section_workprecision(wp, sub):
     lines += ["**Equal-error comparison.** For each error level, the cheapest converged point of each method "
               "that reaches it, and its speed-up over the cheapest full-shooting point that reaches it "
               "(median wall time of repeated solves, one process, numba compilation excluded).", "",
-              md_table(["system", "error level", "full shooting", "MS-HBM", "MS-HBM (intermediate)", "HBM"], rows),
+              md_table(["system", "error level", "full shooting", "MS-HBM", "MS-HBM (intermediate)", "HBM", "DLFT"],
+                       rows),
               ""]
     return lines
 
@@ -250,6 +252,17 @@ def numbers(wp, other, digest):
         num[f"shooting_order_{name}"] = d["targets"].get("shooting_order") if d else None
         hb = [r["error"] for r in d["rows"] if r["method"] == "hbm" and r["success"]] if d else []
         num[f"hbm_best_error_{name}"] = min(hb) if hb else None
+        dl = [r for r in d["rows"] if r["method"] == "dlft" and r["success"]] if d else []
+        best_dl = min(dl, key=lambda r: r["error"]) if dl else None
+        num[f"dlft_best_error_{name}"] = best_dl["error"] if best_dl else None
+        num[f"dlft_best_nh_{name}"] = best_dl["harmonics"] if best_dl else None
+        num[f"dlft_best_time_{name}"] = best_dl["time_s"] if best_dl else None
+        ms_ok = [r for r in ms if r["success"]]
+        if best_dl and ms_ok:  # the cheapest MS-HBM point at least as accurate as DLFT's best
+            hit = [r for r in ms_ok if r["error"] <= best_dl["error"]]
+            num[f"mshbm_time_at_dlft_best_{name}"] = min(r["time_s"] for r in hit) if hit else None
+        else:
+            num[f"mshbm_time_at_dlft_best_{name}"] = None
         conv = (d["reference"].get("convergence") or {}) if d else {}
         num[f"reference_variants_{name}"] = conv.get("max_relative_difference")
     diffs = [v for k, v in num.items() if k.startswith("reference_variants_") and v is not None]

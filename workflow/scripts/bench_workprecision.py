@@ -68,6 +68,8 @@ def points(bcfg):
     for n_h in bcfg["hbm_harmonics"]:
         for factor in bcfg["hbm_regularisation_factors"]:
             yield "hbm", {"harmonics": n_h, "regularisation_factor": factor}
+    for n_h in bcfg.get("dlft_harmonics", []):  # set-valued laws, AFT samples as HBM
+        yield "dlft", {"harmonics": n_h}
 
 
 def hbm_samples(bcfg, config, n_h):
@@ -112,7 +114,7 @@ def main(argv=None):
     for method, opts in points(bcfg):
         opts = dict(opts)
         factor = opts.pop("regularisation_factor", 1.0)
-        if method == "hbm":
+        if method in ("hbm", "dlft"):
             opts["steps"] = hbm_samples(bcfg, config, opts["harmonics"])
         sys_m = scaled_regularisation(system, factor) if method == "hbm" else system
         sol, times, nearby_ok = timed_solve(sys_m, omega, factor_nearby, method, int(bcfg["repeats"]),
@@ -210,7 +212,7 @@ def equal_error_ratios(rows, levels):
     for level in levels:
         entry = {"error_level": float(level)}
         shoot = cheapest(rows, "shooting", level)
-        for method in ("shooting", "mshbm", "mshbm-intermediate", "hbm"):
+        for method in ("shooting", "mshbm", "mshbm-intermediate", "hbm", "dlft"):
             best = cheapest(rows, method, level)
             entry[method] = None if best is None else {
                 "time_s": best["time_s"], "error": best["error"], "harmonics": best["harmonics"],
@@ -229,7 +231,7 @@ def targets(rows, target_error):
     """
     shoot = [r for r in rows if r["method"] == "shooting" and r["success"]]
     res = {"target_error": target_error}
-    for method in ("mshbm", "mshbm-intermediate", "hbm"):
+    for method in ("mshbm", "mshbm-intermediate", "hbm", "dlft"):
         best = None
         for r in rows:
             if r["method"] != method or not r["success"] or r["error"] > target_error:

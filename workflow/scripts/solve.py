@@ -57,7 +57,7 @@ def solve_options(method, n_h, steps, numerics):
     # once on the displayed solution (see `run`)
     kw = dict(harmonics=int(n_h), steps=int(steps), tol=float(numerics["tol"]),
               max_iter=int(numerics["max_iter"]), stability=False)
-    if base != "hbm":
+    if base not in ("hbm", "dlft"):
         kw.update(theta=float(numerics["theta"]), jacobian=jac or numerics["jacobian"])
     return base, kw
 

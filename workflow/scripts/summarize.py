@@ -323,14 +323,21 @@ def error_reference(res):
     return res["ref"], "shooting"
 
 
+def sweep_methods(res, nhs):
+    """The harmonic methods of a work-precision sweep present in ``res``: HBM and MS-HBM, and DLFT
+    (issue 16) when the workflow solved it (``SWEEP_METHODS`` of workflow/rules/common.smk)."""
+    return [m for m in ("hbm", "mshbm", "dlft") if m in ("hbm", "mshbm") or f"{m}_nh{nhs[0]}" in res]
+
+
 def summarize_sweep(fig, fcfg, res, clock="wall"):
     sh = res["shooting"]
     ref, ref_kind = error_reference(res)
     shref = res["ref"]
     nhs = list(fcfg["harmonics"])
     sh_times = sh.get(f"{clock}_time_median_by_start") or {}
+    methods = sweep_methods(res, nhs)
     rows = [sweep_row(method, nh, res[f"{method}_nh{nh}"], ref, sh, clock)
-            for method in ("hbm", "mshbm") for nh in nhs]
+            for method in methods for nh in nhs]
     fd_rows = []
     if "shooting-fd" in res:
         fd_rows = [sweep_row("mshbm-fd", nh, res[f"mshbm-fd_nh{nh}"], ref, res["shooting-fd"], clock)
@@ -371,7 +378,7 @@ def summarize_sweep(fig, fcfg, res, clock="wall"):
     num.update(stability_numbers("shooting", sh))
     for nh in nhs:
         num.update(stability_numbers(f"mshbm_nh{nh}", res[f"mshbm_nh{nh}"]))
-    for method in ("hbm", "mshbm"):  # verdicts of the converged solutions of the sweep
+    for method in methods:  # verdicts of the converged solutions of the sweep
         verdicts = [res[f"{method}_nh{nh}"].get("stable") for nh in nhs if res[f"{method}_nh{nh}"].get("success")]
         num[f"{method}_stable_count"] = sum(v is True for v in verdicts)
         num[f"{method}_unstable_count"] = sum(v is False for v in verdicts)
@@ -414,7 +421,7 @@ def summarize_sweep(fig, fcfg, res, clock="wall"):
         diffs = [abs(r["amplitude_first"] / exact[r["harmonics"]]["amplitude_first"] - 1)
                  for r in fd_rows if r["success"] and exact.get(r["harmonics"], {}).get("success")]
         num["mshbmfd_vs_exact_maxdiff"] = max(diffs) if diffs else None
-    for method in ("hbm", "mshbm"):
+    for method in methods:
         mrows = [r for r in rows if r["method"] == method]
         num[f"{method}_converged"] = sum(r["success"] for r in mrows)
         num[f"{method}_failed"] = sum(not r["success"] for r in mrows)
@@ -426,12 +433,26 @@ def summarize_sweep(fig, fcfg, res, clock="wall"):
         best = min(ok, key=emax) if ok else None
         num[f"{method}_best_err_max"] = emax(best) if best else None
         num[f"{method}_best_nh"] = best["harmonics"] if best else None
+        num[f"{method}_best_effort"] = best["effort"] if best else None
+        num[f"{method}_nhmax_effort"] = mrows[-1]["effort"] if mrows[-1]["success"] else None
+        num[f"{method}_nhmax_iterations"] = mrows[-1]["iterations"] if mrows[-1]["success"] else None
         num[f"{method}_nearby"] = sum(r["start"] == "nearby" for r in mrows)
         nres = [r["nearby_residual"] for r in mrows if r["nearby_success"] is False and r["nearby_residual"] is not None]
         num[f"{method}_nearby_failed"] = len(nres)
         num[f"{method}_nearby_fail_residual_min"] = min(nres) if nres else None
         num[f"{method}_nearby_fail_residual_max"] = max(nres) if nres else None
         num[f"{method}_linear"] = sum(r["start"] == "linear" for r in mrows)
+    if "dlft" in methods:  # DLFT (issue 16) against HBM and MS-HBM at equal n_H, where both converged
+        emax = lambda r: max(r["err_first"], r["err_last"])
+        by = {(r["method"], r["harmonics"]): r for r in rows}
+        for other in ("hbm", "mshbm"):
+            both = [nh for nh in nhs if by[("dlft", nh)]["success"] and by[(other, nh)]["success"]]
+            num[f"dlft_vs_{other}_both"] = len(both)
+            num[f"dlft_better_than_{other}"] = sum(emax(by[("dlft", nh)]) < emax(by[(other, nh)]) for nh in both)
+        ok = [nh for nh in nhs if by[("dlft", nh)]["success"] and by[("mshbm", nh)]["success"]]
+        ratios = [emax(by[("dlft", nh)]) / max(emax(by[("mshbm", nh)]), 1e-300) for nh in ok]
+        num["dlft_over_mshbm_error_min"] = min(ratios) if ratios else None
+        num["dlft_over_mshbm_error_max"] = max(ratios) if ratios else None
     num["n_harmonics"] = len(nhs)
     out["numbers"] = num
     out["claims"] = sweep_claims(fig, rows, num, nhs, fd_rows)

@@ -42,7 +42,7 @@ def hbm_samples(config, n_h):
 
 def method_steps(config, method, n_h, reference=False):
     """Time points per period used for a solve of ``method`` with ``n_h`` harmonics."""
-    if split_method(method)[0] == "hbm":
+    if split_method(method)[0] in ("hbm", "dlft"):  # the AFT samples (DLFT uses HBM's rule)
         return hbm_samples(config, n_h)
     return int(config["numerics"]["reference_steps" if reference else "steps"])
 

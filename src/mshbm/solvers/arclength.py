@@ -40,6 +40,7 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.sparse as sp
 
 __all__ = ["ContinuationPoint", "ContinuationResult", "continuation", "tangent"]
 
@@ -102,7 +103,10 @@ class _Evaluator:
             return R, s, r, None, None
         g = np.asarray(self.d_lam(x, lam), dtype=float)
         self.n_dlam += 1
-        return R, s, r, np.asarray(J, dtype=float), g
+        # the bordered systems are dense (the harmonic methods' unknowns are few; condense=False gives
+        # a sparse J of the same small size)
+        J = J.toarray() if sp.issparse(J) else np.asarray(J, dtype=float)
+        return R, s, r, J, g
 
 
 def tangent(J, g, s, w, lam_scale, previous=None):

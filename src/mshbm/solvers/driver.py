@@ -118,8 +118,10 @@ def _solve(system, omega, method, options):
             success, message = False, f"non-finite {key} in the solution ({message})"
     message = validate.overflow_message(success, message, res.residual_norm)
     rc = problem.conditioning()
-    if not success and rc is not None and rc.size and float(rc.min()) < 1e-4:
-        k = int(np.argmin(rc))
+    # a block far worse conditioned than the static one (k = 0, no resonance there): finite-element blocks
+    # have tiny pivot ratios at every harmonic, which is no resonance
+    if not success and rc is not None and rc.size > 1 and float(rc[1:].min()) < 1e-4 * float(rc[0]):
+        k = 1 + int(np.argmin(rc[1:]))
         message += (f"; note: the condensed block is nearly singular at harmonic k={k} (rcond {rc[k]:.1e}): "
                     "k*omega is at a resonance of the linear subsystem, where the periodic solution may be "
                     "non-unique or unbounded (add damping or move omega)")

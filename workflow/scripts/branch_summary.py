@@ -1,0 +1,66 @@
+#!/usr/bin/env python
+"""Summary of the frequency-response curves (Fig. 9): the branches of rule ``branch`` and the numbers of
+the paper (``{{branches.<key>}}``).
+
+    python workflow/scripts/branch_summary.py --out results/summary/branches.json BRANCH.json ...
+
+Numbers per branch ``<name>_<method>`` (period-k branches are their own names): ``ok`` (reached the end
+of the range), ``points``, ``time`` (s), ``omega_reached`` (the last frequency of the branch), ``stable``,
+``unstable`` and ``undecided`` point counts, and per bifurcation type the first frequency found
+(``pd``, ``ns``, ``fold``, ``grazing``; null if none).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+
+KEYS = {"period-doubling": "pd", "neimark-sacker": "ns", "fold": "fold", "grazing": "grazing"}
+
+
+def summarize(branches):
+    num, rows = {}, []
+    for b in branches:
+        p = f"{b['name']}_{b['method'].replace('-', '_')}"
+        st = b["stable"]
+        omega = b["omega"]
+        num[f"{p}_ok"] = bool(b["success"])
+        num[f"{p}_points"] = len(omega)
+        num[f"{p}_time"] = float(b["wall_time_s"])
+        num[f"{p}_omega_reached"] = omega[-1] if omega else None
+        num[f"{p}_omega_min"] = min(omega) if omega else None
+        num[f"{p}_omega_max"] = max(omega) if omega else None
+        num[f"{p}_stable"] = sum(v is True for v in st)
+        num[f"{p}_unstable"] = sum(v is False for v in st)
+        num[f"{p}_undecided"] = sum(v is None for v in st)
+        num[f"{p}_stable_first"] = st[0] if st else None  # the verdict at the start frequency
+        num[f"{p}_amp_first"] = b["amplitude"][0][0] if b["amplitude"] else None  # DOF 0 at the start
+        for t, k in KEYS.items():
+            ws = [f["omega"] for f in b["bifurcations"] if f["type"] == t]
+            num[f"{p}_{k}"] = min(ws) if ws else None
+            num[f"{p}_{k}_count"] = len(ws)
+        rows.append({"name": b["name"], "method": b["method"], "period": b["period"], "system": b["system"],
+                     "success": b["success"], "message": b["message"], "points": len(omega),
+                     "wall_time_s": b["wall_time_s"], "omega": omega, "amplitude": b["amplitude"], "stable": st,
+                     "bifurcations": b["bifurcations"], "options": b["options"], "n_dofs": b.get("n_dofs")})
+    return {"rows": rows, "numbers": num}
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", required=True)
+    ap.add_argument("branches", nargs="+")
+    a = ap.parse_args(argv)
+    data = []
+    for path in a.branches:
+        with open(path) as fh:
+            data.append(json.load(fh))
+    out = summarize(data)
+    os.makedirs(os.path.dirname(os.path.abspath(a.out)), exist_ok=True)
+    with open(a.out, "w") as fh:
+        json.dump(out, fh, indent=1)
+    print(f"{len(data)} branches -> {a.out}")
+
+
+if __name__ == "__main__":
+    main()
