@@ -181,6 +181,32 @@ def test_period_2_response_of_the_impact_chain_against_a_transient(impact5):
     np.testing.assert_allclose(sol.amplitude, amp, rtol=5e-3)
 
 
+def test_switch_at_the_period_doubling_of_the_impact_oscillator():
+    """Budd & Dux's impact oscillator (tests/closed_forms.py): the (1,1) branch by shooting has its period
+    doubling at the closed-form omega_PD (measured 2.4567142 against 2.4567154); switching there gives a
+    2T-periodic branch beyond it that is stable (supercritical), with 2T content (harmonics of omega/2
+    that are not harmonics of omega; measured 0.48-0.52 of the largest)."""
+    import sys
+    sys.path.insert(0, str(ROOT / "tests"))
+    import closed_forms as cf
+    from mshbm.period import subharmonic_content
+
+    s = cf.system()
+    b = mshbm.sweep(s, 2.42, 2.50, "shooting", steps=2048)
+    pds = [f for f in b.bifurcations if f["type"] == "period-doubling"]
+    assert len(pds) == 1 and pds[0]["omega"] == pytest.approx(cf.omega_pd(), rel=1e-4)
+    b2 = mshbm.switch_period_doubling(s, b, 2.50)
+    assert b2.period == 2 and len(b2) >= 5 and b2.origin["type"] == "period-doubling"
+    # the exact monodromy's eigenvalue at the branch point next to the bifurcation (measured -0.87)
+    assert -1.2 < b2.origin["multiplier"][0] < -0.7 and b2.origin["multiplier"][1] == 0.0
+    assert cf.omega_pd() < b2.omega[0] <= 1.01 * cf.omega_pd()
+    assert all(subharmonic_content(p.solution, 2) > 0.1 for p in b2.points)
+    assert all(p.certificate["passed"] for p in b2.points)
+    assert b2.stable[:3] == [True, True, True]
+    with pytest.raises(mshbm.InputError):  # a branch without a period doubling
+        mshbm.switch_period_doubling(s, mshbm.sweep(s, 2.0, 2.1, "shooting", steps=512, max_points=3), 2.5)
+
+
 def test_period_option_of_sweep_reports_forcing_frequency(impact5):
     b = mshbm.sweep(impact5, np.pi / 5, 0.64, "mshbm", period=2, harmonics=5, max_points=6)
     assert b.period == 2 and len(b) >= 2
