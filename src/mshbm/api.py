@@ -34,9 +34,11 @@ def solve(system, omega, method="mshbm", **options):
         ``harmonics`` (n_h, default 5; shooting: harmonics of the reported
         ``q_hat``, default 10), ``steps`` (time steps per period; default 4096,
         HBM: AFT samples, see :func:`default_steps`), ``guess`` (``None``:
-        a ladder of starts, the first accepted one wins, :mod:`mshbm.solvers.starts`;
+        a ladder of starts, the first accepted one wins, :mod:`mshbm.solvers.starts`, ending with
+        continuation in the forcing frequency from an anchor frequency where the ladder succeeds;
         ``"linear"``: linear response; ``"zero"``; a PeriodicSolution, e.g. at a
-        nearby frequency; a dict with ``q_hat``, ``q0``, ``u0``), ``tol``
+        nearby frequency; a dict with ``q_hat``, ``q0``, ``u0``; a given guess is the ladder's first
+        start, the default starts follow if its solution is not certified), ``tol``
         (Newton tolerance on the scaled residual ``||R / s||_inf``, rows scaled
         by the problem's ``residual_scale``, :mod:`mshbm.scaling`; default 1e-10), ``max_iter`` (default 50), ``line_search`` (default
         True), ``theta`` (Moreau-Jean, default 0.5), ``jacobian`` (``"exact"`` or
@@ -50,7 +52,7 @@ def solve(system, omega, method="mshbm", **options):
         the solve, default 1: the dense matrices are small, and one thread keeps
         results bit-identical across machines and parallel jobs from
         oversubscribing the cores; ``None`` leaves the setting alone),
-        ``continuation`` (``False``: Newton from the one start; mixed methods with
+        ``continuation`` (``False``: Newton from the one start (the guess), no ladder; mixed methods with
         a guess: ``True`` opts in to restarts and continuation fallbacks,
         :mod:`mshbm.solvers.continuation`; HBM: when Newton fails,
         follow the exact piecewise-linear solution path of penalty contacts

@@ -623,3 +623,13 @@ def continue_forcing(system, omega, load_start, load_end=1.0, method="mshbm", pe
     if a == b:
         raise InputError("load_end", "must differ from load_start")
     return _guarded(system, a, b, method, period, "forcing", w, options)
+
+
+def _register():
+    """Make :func:`sweep` the continuation driver of the start ladder's ``"frequency"`` start."""
+    from .solvers import starts
+
+    starts.SWEEP[0] = sweep
+
+
+_register()

@@ -80,13 +80,19 @@ def _solve(system, omega, method, options):
         x0 = problem.initial_guess(sopts.get("guess"))
         nkw = dict(tol=float(sopts.get("tol", 1e-10)), max_iter=int(sopts.get("max_iter", 50)),
                    line_search=bool(sopts.get("line_search", True)), callback=progress)
-        if sopts.get("guess") is None and sopts.get("continuation", True) and not starts.active():
-            # default start: a ladder of starts, the first accepted one wins (mshbm.solvers.starts)
+        if sopts.get("continuation", True) and not starts.active():
+            # a ladder of starts, the first accepted one wins (mshbm.solvers.starts); a caller's guess is its
+            # first rung, so a poor guess falls back to the default starts instead of failing
             res = starts.solve_from_starts(problem, method, system, omega, nkw,
                                            _certified_accept(problem, method, omega, sopts, nkw, system),
-                                           solve_options=options, solve=solve)
+                                           guess=sopts.get("guess"), solve_options=options, solve=solve)
         else:
             res = solve_problem(problem, x0, fallback=bool(sopts.get("continuation", True)), **nkw)
+        section = res.info.get("section")
+        if section is not None:
+            # the accepted start kept the Poincare section at t_s = k h (an impact near t = 0): its problem is
+            # certified as solved, the solution is reported in the original time (_unshift)
+            problem = res.info.pop("problem")
         path = problem.homotopy() if not res.success and sopts.get("continuation", True) \
             and "starts" not in res.info else []
         if path:
@@ -135,9 +141,35 @@ def _solve(system, omega, method, options):
                                      "bound": np.asarray(step_accuracy["bound"], dtype=float)}
     # success only if certified (mshbm.certificate)
     apply_certificate(problem, sol, nkw["tol"], step_accuracy)
+    if section is not None:
+        _unshift(sol, section)
     if not sol.success and sopts.get("raise_on_failure", False):
         raise ConvergenceError(sol.message)
     return sol
+
+
+def _unshift(sol, section):
+    """Report a solution computed with the Poincare section at ``t_s = k h`` in the original time, in place.
+
+    The problem with the moved section integrates ``q_s(t) = q(t + t_s)`` on the same grid, so the orbit is the
+    same discrete trajectory: the time series are rotated by ``k`` steps (``q(t_j) = q_s(t_{j-k})``, indices
+    modulo ``N``; the end-of-period mismatch of a orbit periodic to one step's accuracy then sits at ``t_s``,
+    where the certificate measured it) and the coefficients are delayed by ``t_s``.  ``x`` stays the state at
+    ``t_s``; ``info["section"]`` records ``k`` and ``t_s``.
+    """
+    k, ts = int(section[0]), float(section[1])
+    N = sol.t.size - 1
+    idx = np.r_[np.arange(N - k, N), np.arange(0, N - k + 1)]
+    sol.q_hat = starts._shift_hat(np.asarray(sol.q_hat), sol.omega, -ts)
+    sol.q_time, sol.u_time = sol.q_time[idx], sol.u_time[idx]
+    if sol.lam is not None and sol.lam.shape[0] == N + 1:
+        sol.lam = sol.lam[idx]
+    if sol.impulses is not None and sol.impulses.shape[0] == N:
+        sol.impulses = sol.impulses[(np.arange(N) - k) % N]
+    sol.info["section"] = {"steps": k, "time": ts,
+                           "note": f"solved with the Poincare section at t_s = {k}/{N} T (an impact near t = 0 makes "
+                                   "the state there ambiguous to one step); x is the state at t_s, the time series "
+                                   "and q_hat are in the original time"}
 
 
 def assemble(problem, method, x, parts, *, success, message, iterations, nfev, residual, wall_time):
@@ -162,13 +194,16 @@ def _certified_accept(problem, method, omega, sopts, nkw, system):
     """Acceptance test of the start ladder (:func:`mshbm.solvers.starts.solve_from_starts`): the ladder's own
     start-independent residual test (:func:`mshbm.solvers.starts.residual_accept`: physical units, no run-away
     orbits, one step's accuracy at impacts) *and* the certificate of the solution it would return."""
-    first = starts.residual_accept(problem, system, omega, max_iter=nkw["max_iter"])
+    firsts = {}
 
     def accept(attempt):
-        if not first(attempt):
+        prob = attempt.problem  # the requested problem, or the same with its section moved (Attempt.section)
+        if id(prob) not in firsts:
+            firsts[id(prob)] = (prob, starts.residual_accept(prob, prob.system, omega, max_iter=nkw["max_iter"]))
+        if not firsts[id(prob)][1](attempt):
             return False
-        sol = _solution(problem, method, attempt.newton, attempt.parts(), True, "", 0.0)
-        cert = certify(problem, sol, nkw["tol"], attempt.step_accuracy)
+        sol = _solution(prob, method, attempt.newton, attempt.parts(), True, "", 0.0)
+        cert = certify(prob, sol, nkw["tol"], attempt.step_accuracy)
         if not cert.passed:
             attempt.verdict = f"rejected by the certificate: {cert.describe_failures()}"
         return cert.passed

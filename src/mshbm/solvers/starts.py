@@ -88,12 +88,22 @@ __all__ = ["solve_from_starts", "residual_accept", "Attempt", "DEFAULT_STARTS", 
 
 #: default order of the starts (those that do not apply to a method or system are skipped)
 DEFAULT_STARTS = ("guess", "linear", "regularisation", "shifted", "clamped", "zero", "exact", "transient",
-                  "forcing", "friction")
+                  "forcing", "friction", "frequency")
+
+#: anchor frequencies ``omega * r`` of the ``"frequency"`` start, in the order tried
+FREQUENCY_RATIOS = (0.85, 1.18, 0.7, 1.4)
 
 #: largest system for which the ``"exact"`` start runs the event-driven solver
 EXACT_MAX_DOFS = 100
 
 _ACTIVE = contextvars.ContextVar("mshbm_starts_active", default=False)
+
+
+_FREQUENCY = contextvars.ContextVar("mshbm_starts_frequency", default=False)
+
+#: the continuation driver of the ``"frequency"`` start, ``[mshbm.branch.sweep]``: registered by
+#: :mod:`mshbm.branch` on import (which depends on this module, not the other way round)
+SWEEP = [None]
 
 
 def active():
@@ -141,6 +151,9 @@ class Attempt:
     #: one time step's accuracy: ``{"ratio": max_i |R_i| / bound_i, "bound": bound (ndarray), "verdict": str}``;
     #: the certificate then judges the residual and the periodicity by that bound
     step_accuracy: dict = None
+    #: ``(k, t_s)`` when ``problem`` is the requested one with its Poincare section moved to ``t_s = k h``
+    #: (:func:`section_problem`): ``x`` is then the state at ``t_s``; ``None`` for the section ``t = 0``
+    section: tuple = None
     _parts: dict = field(default=None, repr=False)
 
     @property
@@ -446,15 +459,20 @@ class _Runner:
         self.transient_seconds = float(transient_seconds)
         self.attempts = []
         self.n_h = int(problem.n_h)
+        self.deadline = None  # wall-clock end of the ladder's time budget (set once the first attempt is made)
 
     # -- helpers
-    def _newton(self, x0):
-        return solve_problem(self.problem, x0, fallback=self.fallback, **self.nkw)
+    def _newton(self, x0, problem=None):
+        return solve_problem(self.problem if problem is None else problem, x0, fallback=self.fallback, **self.nkw)
 
-    def _try(self, start, x0, note="", extra_iterations=0, t0=None):
+    def _try(self, start, x0, note="", extra_iterations=0, t0=None, problem=None, section=None, result=None):
+        """Newton from ``x0`` (or the given Newton ``result``) on ``problem`` (default: the requested one; a
+        section-shifted one with ``section = (k, t_s)``), judged by ``accept`` and recorded."""
         t0 = time.perf_counter() if t0 is None else t0
-        res = self._newton(x0)
-        att = Attempt(start, np.array(x0, dtype=float), res, self.problem, note, extra_iterations=extra_iterations)
+        problem = self.problem if problem is None else problem
+        res = self._newton(x0, problem) if result is None else result
+        att = Attempt(start, np.array(x0, dtype=float), res, problem, note, extra_iterations=extra_iterations,
+                      section=section)
         try:
             att.accepted = bool(self.accept(att))
         except (FloatingPointError, np.linalg.LinAlgError, ValueError, OverflowError) as exc:
@@ -463,6 +481,23 @@ class _Runner:
         att.wall_time = time.perf_counter() - t0
         self.attempts.append(att)
         return att
+
+    def _keep_one(self, n0):
+        """One record per start: of the attempts made since ``n0``, the accepted one, else the one with the
+        smallest residual (the others' notes are appended to its note)."""
+        mine = self.attempts[n0:]
+        if len(mine) <= 1:
+            return mine[0] if mine else None
+        won = next((a for a in mine if a.accepted), None)
+        if won is None:
+            fin = [a for a in mine if np.isfinite(a.newton.residual_norm)]
+            won = min(fin, key=lambda a: a.newton.residual_norm) if fin else mine[-1]
+            others = "; ".join(f"also tried: {a.note}" for a in mine if a is not won and a.note)
+            won.note = f"{won.note}; {others}" if others else won.note
+        won.extra_iterations += sum(a.newton.nit + a.extra_iterations for a in mine if a is not won)
+        del self.attempts[n0:]
+        self.attempts.append(won)
+        return won
 
     def _best(self):
         ok = [a for a in self.attempts if np.isfinite(a.newton.residual_norm)]
@@ -518,11 +553,8 @@ class _Runner:
         if parts is None or _event_steps(parts, self.system).size == 0:
             return None  # no event near which the section could lie
         k = _section_shift(parts, self.system, N)
-        T = 2 * math.pi / self.omega
-        ts = k * T / N
-        sysS = shifted_system(self.system, ts, self.omega)
         try:
-            probS, _ = build_problem(sysS, self.omega, self.method, **self.options)
+            probS, ts = self._section_problem(k)
         except InputError as exc:
             return self._try("shifted", self.problem.initial_guess("linear"), f"skipped: {exc}", 0, t0)
         rS = solve_problem(probS, probS.initial_guess("linear"), **self.nkw)
@@ -538,7 +570,20 @@ class _Runner:
         g["u0"][td] = pS["u_time"][N - k]
         if not all(np.all(np.isfinite(v)) for v in g.values()):
             return self._try("shifted", self.problem.initial_guess("linear"), note, rS.nit, t0)
-        return self._try("shifted", self.problem.initial_guess(g), note, rS.nit, t0)
+        att = self._try("shifted", self.problem.initial_guess(g), note, rS.nit, t0)
+        if att.accepted:
+            return att
+        # the orbit back at the section t = 0 is not accepted (an impact near t = 0 makes the state there
+        # ambiguous to one step): keep the section at t0 (the same discrete orbit on the same grid)
+        return self._try("shifted", probS.initial_guess("linear"), f"{note}; section kept at t0", 0, t0,
+                         problem=probS, section=(k, ts), result=rS)
+
+    def _section_problem(self, k):
+        """The requested problem with its Poincare section at ``t_s = k h`` (forcing advanced by ``t_s``:
+        :func:`shifted_system`), and ``t_s``."""
+        ts = k * (2 * math.pi / self.omega) / int(self.problem.steps)
+        probS, _ = build_problem(shifted_system(self.system, ts, self.omega), self.omega, self.method, **self.options)
+        return probS, ts
 
     def start_exact(self):
         if len(self.system.elements) != 1 or self.system.n > EXACT_MAX_DOFS:
@@ -570,10 +615,39 @@ class _Runner:
                 continue
             if ex.success and np.all(np.isfinite(ex.q_hat)):
                 gg = {"q_hat": ex.q_hat, "q0": ex.q[0].copy(), "u0": ex.u[0].copy()}
-                return self._try("exact", self.problem.initial_guess(gg), f"exact orbit: {ex.message}", 0, t0)
+                att = self._try("exact", self.problem.initial_guess(gg), f"exact orbit: {ex.message}", 0, t0)
+                if att.accepted or self.problem.time_step is None or ex.q.shape[0] != N + 1:
+                    return att
+                return self._exact_section(ex, N, att, t0)
             why.append(ex.message)
         return self._try("exact", self.problem.initial_guess("linear"),
                          "exact_periodic failed: " + "; ".join(w[:120] for w in why), 0, t0)
+
+    def _exact_section(self, ex, N, att, t0, start="exact"):
+        """The exact orbit ``ex`` (on the grid ``t_k = k T / N`` of the method) as the start of the problem with
+        its section at the step farthest from the orbit's events, when one lies within two steps of ``t = 0``
+        (an impact at the section: the state there is ambiguous to one step, and Newton cycles the impact
+        across the section)."""
+        T = 2 * math.pi / self.omega
+        ev = np.array([e.t for e in ex.info.get("events", [])], dtype=float)
+        if not ev.size:
+            return att
+        d = np.minimum(ev % T, T - ev % T)
+        if float(d.min()) > 2.0 * T / N:
+            return att
+        steps = np.unique(np.round(ev / (T / N)).astype(np.int64) % N)
+        grid = np.arange(N)
+        dist = np.abs(grid[:, None] - steps[None, :])
+        dist = np.minimum(dist, N - dist).min(axis=1)
+        k = int(np.argmax(dist))
+        try:
+            probS, ts = self._section_problem(k)
+        except InputError:
+            return att
+        # q_s(t) = q(t + t_s): coefficients advanced by t_s, the state at grid point k
+        gS = {"q_hat": _shift_hat(ex.q_hat, self.omega, ts), "q0": ex.q[k].copy(), "u0": ex.u[k].copy()}
+        return self._try(start, probS.initial_guess(gS), f"{att.note}; section at t0 = {k}/{N} T, away from the "
+                         "orbit's events", 0, t0, problem=probS, section=(k, ts))
 
     def start_transient(self):
         from ..integrators.moreau_jean import MAX_DENSE_DOFS, MoreauJean
@@ -665,6 +739,106 @@ class _Runner:
             x = self.problem.initial_guess("linear")
         return self._try(strategy, x, note, int(info.get("total_iterations", 0)), t0)
 
+    def start_frequency(self):
+        """Continuation in the forcing frequency from an anchor ``omega_a = r omega`` (``r`` in
+        :data:`FREQUENCY_RATIOS`) where the whole ladder (without this start) gives a certified solution: the
+        exact event-driven orbit continued to ``omega`` (one element; then as the ``"exact"`` start), else the
+        method's own branch (:func:`mshbm.sweep`) from the anchor to ``omega``."""
+        if self.solve is None or _FREQUENCY.get():
+            return None
+        sweep = SWEEP[0]
+
+        t0 = time.perf_counter()
+        opts = dict(self.options)
+        for key in ("tol", "max_iter", "line_search"):
+            if key in self.nkw:
+                opts[key] = self.nkw[key]
+        why = []
+        for r in FREQUENCY_RATIOS:
+            if self.deadline is not None and time.perf_counter() > self.deadline:
+                why.append("time budget spent")
+                break
+            wa = self.omega * r
+            tok_a, tok_f = _ACTIVE.set(False), _FREQUENCY.set(True)
+            try:
+                sol_a = self.solve(self.system, wa, self.method, stability=False, **opts)
+            except (InputError, FloatingPointError, np.linalg.LinAlgError, ValueError) as exc:
+                why.append(f"omega_a = {wa:.4g}: {type(exc).__name__}: {exc}"[:160])
+                continue
+            finally:
+                _FREQUENCY.reset(tok_f)
+                _ACTIVE.reset(tok_a)
+            if not sol_a.success:
+                why.append(f"no certified solution at omega_a = {wa:.4g}")
+                continue
+            att = self._exact_continuation(sol_a, wa, t0)
+            if att is not None and att.accepted:
+                return att
+            if sweep is None:
+                why.append("no continuation driver registered (mshbm.branch not imported)")
+                continue
+            left = None if self.deadline is None else max(1.0, self.deadline - time.perf_counter())
+            tok_a, tok_f = _ACTIVE.set(False), _FREQUENCY.set(True)
+            try:
+                br = sweep(self.system, wa, self.omega, self.method, guess=sol_a, stability=False, max_time=left,
+                           **{k: v for k, v in opts.items() if k not in ("guess", "stability")})
+            except (InputError, FloatingPointError, np.linalg.LinAlgError, ValueError) as exc:
+                why.append(f"branch from {wa:.4g}: {type(exc).__name__}: {exc}"[:160])
+                continue
+            finally:
+                _FREQUENCY.reset(tok_f)
+                _ACTIVE.reset(tok_a)
+            end = br.points[-1] if br.points else None
+            if end is None or not math.isclose(end.omega, self.omega, rel_tol=1e-9):
+                why.append(f"branch from {wa:.4g} stopped at omega = {end.omega if end else wa:.4g}: "
+                           f"{br.message}"[:200])
+                continue
+            att = self._try("frequency", self.problem.initial_guess(end.solution),
+                            f"branch from omega_a = {wa:.4g} ({len(br.points)} points)", 0, t0)
+            if att.accepted:
+                return att
+            why.append(f"branch from {wa:.4g} reached omega, Newton there: {att.verdict or att.newton.message}"[:200])
+        return self._try("frequency", self.problem.initial_guess("linear"), "; ".join(why) or "no anchor", 0, t0)
+
+    def _exact_continuation(self, sol_a, wa, t0):
+        """Natural-parameter continuation of the exact orbit (:func:`mshbm.exact_periodic`) from the anchor
+        solution ``sol_a`` at ``wa`` to ``omega`` (steps doubled after a success, halved after a failure, down
+        to 1/64 of the distance); the orbit at ``omega`` then starts Newton as in the ``"exact"`` start.
+        ``None`` where the exact solver does not apply or the continuation fails."""
+        if len(self.system.elements) != 1 or self.system.n > EXACT_MAX_DOFS or self.problem.time_step is None:
+            return None
+        from ..methods.exact import exact_periodic
+
+        N = int(self.problem.steps)
+        kw = dict(samples=max(N, 64), harmonics=max(self.n_h, 1), blas_threads=None)
+        try:
+            ex = exact_periodic(self.system, wa, guess=sol_a, **kw)
+        except (InputError, FloatingPointError, np.linalg.LinAlgError, ValueError):
+            return None
+        if not ex.success:
+            return None
+        lam, step, dist = wa, (self.omega - wa) / 4.0, self.omega - wa
+        while lam != self.omega:
+            if self.deadline is not None and time.perf_counter() > self.deadline:
+                return None
+            nxt = self.omega if abs(self.omega - lam) <= abs(step) * 1.0000001 else lam + step
+            try:
+                e2 = exact_periodic(self.system, nxt, guess=ex, **kw)
+            except (InputError, FloatingPointError, np.linalg.LinAlgError, ValueError):
+                e2 = None
+            if e2 is not None and e2.success:
+                ex, lam, step = e2, nxt, 2.0 * step if abs(2.0 * step) <= abs(dist) / 2 else step
+            else:
+                step /= 2.0
+                if abs(step) < abs(dist) / 64.0:
+                    return None
+        gg = {"q_hat": ex.q_hat, "q0": ex.q[0].copy(), "u0": ex.u[0].copy()}
+        att = self._try("frequency", self.problem.initial_guess(gg),
+                        f"exact orbit continued from omega_a = {wa:.4g}", 0, t0)
+        if att.accepted or ex.q.shape[0] != N + 1:
+            return att
+        return self._exact_section(ex, N, att, t0, start="frequency")
+
     def start_forcing(self):
         return self._continuation("forcing")
 
@@ -738,10 +912,15 @@ def solve_from_starts(problem, method, system, omega, newton_options, accept, *,
             if run.attempts and time.perf_counter() - t_start > max(LADDER_SECONDS, LADDER_FACTOR * run.attempts[0].wall_time):
                 skipped.append(name)  # the ladder's time budget is spent: report, do not try further starts
                 continue
+            if run.attempts and run.deadline is None:
+                run.deadline = t_start + max(LADDER_SECONDS, LADDER_FACTOR * run.attempts[0].wall_time)
+            n0 = len(run.attempts)
             if name == "guess":
                 att = run.start_guess(guess)
             else:
                 att = getattr(run, f"start_{name}")()
+            if att is not None:
+                att = run._keep_one(n0)
             if att is not None and att.accepted:
                 won = att
                 break
@@ -775,4 +954,8 @@ def solve_from_starts(problem, method, system, omega, newton_options, accept, *,
                         f"attempt)) spent, starts not tried: {', '.join(skipped)}")
     res.info["starts"] = records
     res.info["start_used"] = None if won is None else won.start
+    chosen = won if won is not None else (run._best() or run.attempts[-1])
+    if chosen.section is not None:
+        # x is the state at the moved section t_s of chosen.problem (see Attempt.section)
+        res.info["problem"], res.info["section"] = chosen.problem, chosen.section
     return res
