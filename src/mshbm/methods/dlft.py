@@ -235,7 +235,8 @@ class DLFTProblem(HarmonicProblem):
             self.eps = np.full(len(system.elements), float(dlft_penalty))
         # velocity predictor: eps_v = eps / (n_h omega) (N s/m), the impedance at the resolution of the series
         self.eps_v = self.eps / (self.n_h * self.omega)
-        VsOm = self.Vs @ self.Om
+        # d/dt of the series on the samples, Vs Om = -(Om Vs^T)^T (Om is antisymmetric), O(N_s n_h)
+        VsOm = -fourier.derivative(self.Vs.T, self.omega).T if any(map(self._velocity, system.elements)) else None
         # per element: rows of its DOF in the unknowns, the columns its demanded force depends on,
         # and Q = d y / d x on those columns (y = lambda_L - eps w q or lambda_L - eps_v w q', affine in x)
         self._el = []
