@@ -315,9 +315,8 @@ class DLFTProblem(HarmonicProblem):
             return R, None
         blocks = []
         for (el, j, rows, cols, sel, w, Q), (lam, state, ref, lamL) in zip(self._el, marched):
-            act = state.astype(bool)
-            dlam = np.zeros_like(Q)
-            dlam[act] = Q[act]
+            act = np.flatnonzero(state)  # only stick/closed samples carry a derivative
+            dlam = Q[act]
             if ref is not None:  # friction stick: minus the derivative of the memory
                 r = ref[act]
                 mem = np.zeros((r.size, Q.shape[1]))
@@ -328,8 +327,8 @@ class DLFTProblem(HarmonicProblem):
                     d0 = np.zeros(Q.shape[1])
                     d0[sel] = self.eps[j] * w * self.Vs[0]
                     mem[~has] = -d0
-                dlam[act] -= mem
-            blocks.append((rows, cols, w * (self.E @ dlam)))
+                dlam -= mem
+            blocks.append((rows, cols, w * (self.E[:, act] @ dlam)))
         if sp.issparse(self.A):
             rr = [np.repeat(rows, cols.size) for rows, cols, _ in blocks]
             cc = [np.tile(cols, rows.size) for rows, cols, _ in blocks]
