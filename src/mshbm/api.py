@@ -46,7 +46,8 @@ def solve(system, omega, method="mshbm", **options):
         DOF lists for subsystems 1 and 2), ``condense`` (HBM: eliminate linear
         DOFs exactly, default True), ``project`` (position projection of
         contacts, default True), ``dlft_penalty`` (DLFT: the parameter ``eps`` in N/m of every
-        element, default from the condensed dynamic stiffness, :mod:`mshbm.methods.dlft`), ``progress`` (print Newton progress to a
+        element, default from the condensed dynamic stiffness, :mod:`mshbm.methods.dlft`), ``dlft_predictor``
+        (DLFT friction: ``"velocity"``, the default, or ``"displacement"``), ``progress`` (print Newton progress to a
         terminal), ``raise_on_failure`` (raise ConvergenceError instead of
         returning ``success=False``), ``blas_threads`` (BLAS threads during
         the solve, default 1: the dense matrices are small, and one thread keeps

@@ -20,7 +20,8 @@ Common to all methods (:data:`COMMON`): ``guess``, ``tol``, ``max_iter``, ``line
 Per method (:data:`METHODS`): ``harmonics`` (n_h), ``steps`` (time steps or AFT samples per period,
 :func:`default_steps`), ``theta`` (Moreau-Jean), ``jacobian`` (``"exact"`` or ``"fd"``), ``project``
 (position projection of contacts), ``condense`` (HBM/DLFT: eliminate linear DOFs), ``partition``
-(DOFs of the nonlinear/time-stepped subsystem), ``dlft_penalty`` (DLFT's ``eps``, N/m).
+(DOFs of the nonlinear/time-stepped subsystem), ``dlft_penalty`` (DLFT's ``eps``, N/m), ``dlft_predictor`` (DLFT's friction predictor,
+``"velocity"`` or ``"displacement"``).
 """
 from __future__ import annotations
 
@@ -42,7 +43,7 @@ METHODS = {
     "hbm": frozenset({"harmonics", "steps", "condense", "partition"}),
     "mshbm": frozenset({"harmonics", "steps", "theta", "jacobian", "partition", "project"}),
     "mshbm-intermediate": frozenset({"harmonics", "steps", "theta", "jacobian", "partition", "project"}),
-    "dlft": frozenset({"harmonics", "steps", "condense", "partition", "dlft_penalty"}),
+    "dlft": frozenset({"harmonics", "steps", "condense", "partition", "dlft_penalty", "dlft_predictor"}),
 }
 
 
@@ -111,6 +112,8 @@ def check_options(method, options):
                 or not math.isfinite(float(ep)) or not 0.0 < float(ep) <= 1e100:
             raise InputError("dlft_penalty", f"must be a finite number > 0 (N/m), got {ep!r}")
         opts["dlft_penalty"] = float(ep)
+    if "dlft_predictor" in opts and opts["dlft_predictor"] not in ("velocity", "displacement"):
+        raise InputError("dlft_predictor", f"must be 'velocity' or 'displacement', got {opts['dlft_predictor']!r}")
     opts["stability"] = _stability.check_option(opts.get("stability"))
     return opts
 

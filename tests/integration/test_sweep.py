@@ -83,8 +83,9 @@ def test_den_hartog_branch_above_resonance(method, kw):
 
 
 def test_den_hartog_branch_dlft_converges_like_one_over_n_h():
-    """DLFT along the same branch: the error against the closed form halves when n_H doubles (measured
-    3.8 %, 2.0 %, 0.99 % at n_H = 10, 20, 40: the spurious stick at each slip reversal lasts ~T/n_H)."""
+    """DLFT along the same branch: the error against the closed form halves when n_H doubles (measured with
+    the default velocity predictor 1.01 %, 0.51 %, 0.26 % at n_H = 10, 20, 40; the displacement predictor
+    3.8 %, 2.0 %, 0.99 %: its force reverses late at each slip reversal, mshbm.methods.dlft)."""
     zeta, F, R = 0.05, 1.0, 0.3
     s = chain([1.0], 1.0, 2 * zeta, forcing=[{"dof": 0, "amplitude": F}], elements=[Friction(0, 1.0, R)])
     err = {}
@@ -95,7 +96,7 @@ def test_den_hartog_branch_dlft_converges_like_one_over_n_h():
         assert all(st is True for st in b.stable)
         exact = np.array([_den_hartog(w, zeta, F, R) for w in b.omega])
         err[n_h] = float(np.max(np.abs(b.amplitude[:, 0] / exact - 1.0)))
-    assert err[40] < 0.3 * err[10] and err[40] < 0.0125
+    assert err[40] < 0.3 * err[10] and err[40] < 0.004
 
 
 @pytest.mark.parametrize("method", ["hbm", "dlft"])
@@ -114,7 +115,8 @@ def test_sweep_without_condensation_equals_condensed(method):
 def test_dlft_branch_of_the_friction_chain_against_mshbm():
     """``mshbm sweep`` with DLFT on the paper's 3-DOF friction chain above its first resonance: the branch
     is traced to the end and approaches MS-HBM's as n_H grows (largest deviation over the branch,
-    measured: 18 % at n_H = 9, 5.4 % at 25 -- the stick phases of mass 1)."""
+    measured with the default velocity predictor: 8.7 % at n_H = 9, 1.8 % at 25 -- the stick phases of
+    mass 1; the displacement predictor: 21 %, 6.1 %)."""
     case = mshbm.load_case(ROOT / "examples" / "friction3.yaml")
     ms = mshbm.sweep(case.system, 0.7, 1.0, "mshbm", harmonics=9, steps=1024, stability=False)
     assert ms.success
@@ -125,7 +127,7 @@ def test_dlft_branch_of_the_friction_chain_against_mshbm():
         assert all(p.certificate["passed"] for p in b.points)
         ref = np.stack([np.interp(b.omega, ms.omega, ms.amplitude[:, j]) for j in range(3)], axis=1)
         dev[n_h] = float(np.max(np.abs(b.amplitude / ref - 1.0)))
-    assert dev[25] < 0.5 * dev[9] and dev[25] < 0.08
+    assert dev[25] < 0.5 * dev[9] and dev[25] < 0.03
 
 
 # ----------------------------------------------------------------------------- a fold of an impact oscillator

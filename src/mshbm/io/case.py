@@ -37,7 +37,8 @@ FRICTION_KEYS = {"dof": ..., "mu": ..., "normal_force": ..., "smoothing": 800.0,
 CONTACT_KEYS = {"dof": ..., "gap": ..., "restitution": 1.0, "penalty_stiffness": 8000.0,
                 "penalty_damping": 0.0, "relative_to": None}
 SOLVER_KEYS = ("method", "harmonics", "steps", "theta", "jacobian", "tol", "max_iter", "partition",
-               "condense", "project", "line_search", "continuation", "stability", "dlft_penalty")
+               "condense", "project", "line_search", "continuation", "stability", "dlft_penalty",
+               "dlft_predictor")
 
 
 
@@ -265,6 +266,9 @@ def _solver(value, n):
             v = _number(key, v)
             if not v > 0.0:
                 raise InputError(key, f"must be a number > 0 (N/m), got {v:g}")
+        elif k == "dlft_predictor":
+            if v not in ("velocity", "displacement"):
+                raise InputError(key, f"must be 'velocity' or 'displacement', got {_describe(v)}")
         elif k == "stability":  # true, false or "auto" (mshbm.stability)
             if not (isinstance(v, bool) or v == "auto"):
                 raise InputError(key, f"must be true, false or 'auto', got {_describe(v)}")

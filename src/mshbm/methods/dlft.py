@@ -17,63 +17,100 @@ harmonic (:class:`mshbm.condensation.Condensation`, ``condense=True``), or all D
 The DLFT element force (prediction, correction)
 -----------------------------------------------
 The force the linear part demands of element ``j`` is ``lambda_L(t) = w^T IDFT[A X - r]``
-(the contact force the harmonic balance needs).  DLFT adds a Lagrangian penalty-like term on
-the displacement and corrects it in the time domain, on the ``N_s`` AFT samples:
+(the contact force the harmonic balance needs).  DLFT adds a Lagrangian penalty-like term and
+corrects the prediction in the time domain, on the ``N_s`` AFT samples:
 
 * **Unilateral contact** (``g_N = gap - q_dof``): prediction
   ``lambda_pred(t_n) = lambda_L(t_n) - eps g_N(t_n)``; correction
   ``lambda_N = max(0, lambda_pred)`` (closed: ``lambda_N = lambda_pred``, open: 0).
-* **Coulomb friction** (slip displacement ``xi = q_dof``): prediction assuming stick since the
-  previous sample, ``lambda_pred(t_n) = lambda_L(t_n) - eps (xi(t_n) - xi_r(t_{n-1}))`` with the
-  Lagrangian slip displacement ``xi_r`` (the memory of the law); correction:
-  ``|lambda_pred| <= mu F_N``: stick, ``lambda = lambda_pred``, ``xi_r`` unchanged; otherwise
-  slip, ``lambda = mu F_N sign(lambda_pred)`` and ``xi_r`` such that
-  ``lambda = lambda_L - eps (xi - xi_r)``.  The march runs twice over the period (the first pass
-  builds the memory, started from ``xi_r = xi(0)``; the second is used), so the state at
-  ``t = 0`` is the one left by the last slip of the period
-  (:mod:`mshbm.methods.dlft_kernels`).
+* **Coulomb friction, velocity predictor** (``dlft_predictor="velocity"``, the default; slip
+  velocity ``u = w q'`` of the series): prediction ``lambda_pred(t_n) = lambda_L(t_n) - eps_v u(t_n)``
+  with ``eps_v = eps / (n_h omega)`` (N s/m); correction ``|lambda_pred| <= mu F_N``: stick,
+  ``lambda = lambda_pred``; otherwise slip, ``lambda = mu F_N sign(lambda_pred)``.  No memory, no
+  march: every sample is corrected on its own.
+* **Coulomb friction, displacement predictor** (``dlft_predictor="displacement"``; slip
+  displacement ``xi = w q``): the incremental stick prediction ``lambda_pred(t_n) = lambda(t_{n-1})
+  + lambda_L(t_n) - lambda_L(t_{n-1}) - eps (xi(t_n) - xi(t_{n-1}))``, written with the Lagrangian
+  slip displacement ``xi_r`` (the memory of the law) as ``lambda_L(t_n) - eps (xi(t_n) -
+  xi_r(t_{n-1}))``; correction as above, and in slip ``xi_r`` such that ``lambda = lambda_L - eps
+  (xi - xi_r)``.  The march runs twice over the period (the first pass builds the memory, started
+  from ``xi_r = xi(0)``; the second is used), so the state at ``t = 0`` is the one left by the last
+  slip of the period (:mod:`mshbm.methods.dlft_kernels`).
 
-Then ``F_nl = DFT[w lambda]``.  Since ``DFT[IDFT[A X - r]] = A X - r``, the residual is
-``R = w DFT[lambda_L - lambda]``: on closed/stick samples ``lambda_L - lambda = eps (w q -
-w q_r)`` is the penalty on the violation of the constraint, on open/slip samples the excess
-of the demanded force over the admissible one.  ``R = 0`` means that the harmonics
-``0..n_h`` of the displacement equal those of the corrected (Lagrangian) displacement, which
-satisfies the set-valued law exactly on every sample; no regularisation enters the law.
+Then ``F_nl = DFT[w lambda]`` and, since ``DFT[IDFT[A X - r]] = A X - r``, the residual is
+``R = w DFT[lambda_L - lambda]``.
 
-Jacobian (analytic, exact on each region of fixed sample states): with
-``y_n = lambda_L(t_n) - eps w q(t_n)`` (affine in ``X``), closed contact
-``d lambda_n = d y_n``, open 0; friction stick ``d lambda_n = d y_n - d y_m`` with ``m`` the last
-slip sample (the memory), slip 0 (the bound is constant; only its sign switches).
+What a converged DLFT solution is, and why it depends on ``eps``
+----------------------------------------------------------------
+``R = 0`` says ``lambda_L = P[lambda]``: the harmonic balance holds with the time-domain force
+``lambda`` (``P = IDFT DFT`` keeps the harmonics ``0..n_h`` of a sampled signal).  The law holds
+*exactly* on every sample, not on the series but on a Lagrangian variable:
+``xi_r = xi - (lambda_L - lambda) / eps`` (contact: ``g_r = g_N - (lambda_L - lambda) / eps``),
+``u_r = u - (lambda_L - lambda) / eps_v``.  Closed contact is ``g_r = 0``, open ``lambda = 0``
+and ``g_r >= 0``; friction stick is ``xi_r`` constant (``u_r = 0``), slip ``lambda = -mu F_N
+sign(Delta xi_r)`` (``-mu F_N sign(u_r)``).  At a solution ``lambda_L - lambda = -(I - P)
+lambda``, so::
+
+    xi_r = xi + (I - P)[lambda] / eps,       u_r = u + (I - P)[lambda] / eps_v:
+
+only the retained harmonics of the correction vanish.  In the time domain it is the Gibbs-like
+remainder of ``lambda`` near each jump or kink of the force (slip reversal, stick onset, impact),
+of the size of the jump over ``~ T / n_h``; this is why the converged solution depends on
+``eps``, whatever the number of samples.  It cannot be tuned away: the series itself differs from
+the exact orbit by ``-sum_{k > n_h} G_k lambda_k`` with the compliance ``G_k ~ -1 / (k omega)^2
+M_dd`` of the unresolved, mass-like harmonics, which a positive ``1 / eps`` does not represent.
+``eps`` is a tolerance: a true stick needs ``(I - P) lambda / eps`` to absorb the wiggles of the
+truncated series (``eps`` not too large), and at a slip reversal the same compliance turns the
+force over a finite time (``eps`` not too small).  As ``eps -> inf`` both predictors tend to the
+sign law on the series itself (Den Hartog ``n_h = 25``: -0.265 %), which cannot hold a stick.
+
+The two friction predictors differ in *where* that transition sits.  Velocity: at a slip
+reversal ``u ~ a t`` and ``lambda = lambda_L - eps_v u`` crosses the cone in ``|t| < b / (eps_v a)``
+centred on the zero of ``u``: the force reverses on time, and the orbit hardly notices
+(Den Hartog ``n_h = 25``: -0.277 % against the -0.265 % limit).  Displacement: the stick starts at the reversal and lasts until
+``eps (xi - xi_r) ~ eps a t^2 / 2`` has turned the force across the cone: the force reverses
+late by ``~ (b / (eps a))^(1/2)``, a lag of the force that costs amplitude (Den Hartog
+``n_h = 25``: -0.85 %).  Measured there (``N_s = 1024``): the force crosses zero 0.02 samples after
+the velocity of the series with the velocity predictor, 4.5 samples after it with the
+displacement predictor.  Its memory adds a second defect: after a stick onset the
+ringing series slips once more, which moves ``xi_r`` and shifts the force of the whole stick
+phase (friction chain: slip onsets ~26 samples of 1024 early at every ``n_h``); a larger ``eps``
+shortens the lag and amplifies this.  Too coarse a grid adds a lag of up to a sample: with
+``N_s = 2 n_h + 2`` (no unresolved harmonic on the grid, hence no ``eps`` dependence) Den Hartog
+``n_h = 25`` is -2.4 %; at the default samples (below) the grid's share is < 0.02 %.
+
+Jacobian (analytic, exact on each region of fixed sample states): with ``y_n`` the part of the
+prediction affine in ``X`` (contact and displacement friction ``y_n = lambda_L(t_n) - eps w
+q(t_n)``; velocity friction ``y_n = lambda_L(t_n) - eps_v w q'(t_n)``), closed contact and
+velocity stick ``d lambda_n = d y_n``; displacement stick ``d lambda_n = d y_n - d y_m`` with
+``m`` the last slip sample (the memory); open and slip 0 (the bound is constant; only its sign
+switches).
 
 The DLFT parameter ``eps``
 --------------------------
-``eps`` (N/m) scales the Lagrangian prediction.  It is *not* only a convergence parameter: the
-residual weighs the constraint violation on stick/closed samples by ``eps`` and the force
-excess on slip/open samples by 1, so with a truncated series the solution depends on it at the
-level of the truncation error.  Measured (friction chain ``examples/friction3.yaml``,
-``n_h = 25``, ``N_s = 4096``; relative amplitude error against the exact orbit):
-``eps = 2.3``: 4.2 %, ``22.8``: 3.6 %, ``228``: 1.5 %, ``2280``: 2.7 % with spurious
-stick-slip alternations.  A small ``eps`` lets the band-limited demanded force hold the
-element in a spurious stick at every slip reversal (about ``T / n_h`` long); a large one turns
-the wiggles of the truncated displacement during a true stick into spurious slips.
+``eps`` (N/m) scales the Lagrangian prediction; the velocity predictor uses ``eps_v = eps /
+(n_h omega)`` (N s/m).  Default, per element: ``eps = max_k |A_dd(k omega)|``, ``k = 0..n_h``,
+the largest diagonal entry of the condensed dynamic stiffness at its DOF over the harmonics --
+the stiffness at the resolution of the series (``~ (n_h omega)^2 M_dd``, so ``eps_v ~ n_h omega
+M_dd``, the impedance there), which scales the tolerance with the wiggles of the truncated series
+(:func:`default_penalty`).  If the rule gives 0, ``(n_h omega)^2 M_dd``.  Option ``dlft_penalty``: one ``eps`` (N/m, > 0) for all elements.
 
-Default, per element: ``eps = max_k |A_dd(k omega)|``, ``k = 0..n_h``, the largest diagonal
-entry of the condensed dynamic stiffness at its DOF over the harmonics -- the stiffness at the
-resolution of the series (``~ (n_h omega)^2 M_dd``), which keeps the spurious stick at a slip
-reversal within a few samples and the contact force of an impact on ~20 samples
-(:func:`default_penalty`).  Measured with the static / forcing-harmonic stiffness
-``max(|A_dd(0)|, |A_dd(omega)|)`` instead, the errors are larger at every ``n_h`` (impact chain,
-``n_h = 25``: 55 % instead of 25 %; friction chain: 3.6 % instead of 1.6 %).  If the rule gives
-0, ``(n_h omega)^2 M_dd``.  Option ``dlft_penalty``: one value (N/m, > 0) for all elements.
+Measured sensitivity (Den Hartog, ``n_h = 25``, ``eps`` = 1, 56, 224 (default), 896, 1e4): velocity
+-0.71, -0.34, -0.28, -0.26, -0.27 %; displacement -1.6, -1.1, -0.85, -0.60, -0.38 %.  Friction
+chain (``examples/friction3.yaml``, ``n_h = 10, 15, 20, 25, 30, 41``, largest amplitude error):
+velocity with ``eps`` = 0.25 ... 4 times the default 0.04-1.7 % (default: 0.70, 0.17, 0.78,
+0.48, 0.05, 0.11 %); displacement with 0.5 ... 64 times the default 0.4-7 %, erratic in both
+``eps`` and ``n_h`` (default: 4.8, 4.8, 3.3, 1.27, 1.9, 1.19 %).
 
 Accuracy (measured; see ``workflow/scripts/bench_dlft.py`` and ``tests/unit/test_dlft.py``)
 ------------------------------------------------------------------------------------
-Friction converges like ``1/n_h`` in the amplitude: Den Hartog's undamped Coulomb oscillator
-(``beta = 0.6``, ``mu F_N / P = 0.3``, no stick) -0.85 % at ``n_h = 25`` (HBM with the arctan law
-``kappa = 800``: -0.31 %); the friction chain 1.6 % at ``n_h = 25``, 0.6 % at 50.  The stick
-onset (slip -> stick) falls on the AFT sample after the exact one; the slip onset
-(stick -> slip) comes early by about ``T / (2 n_h)`` (0.2 s of ``T = 10`` s at ``n_h = 25``),
-and from ``n_h = 50`` the truncated series chatters there (short spurious stick intervals).
+Friction, default options: Den Hartog's undamped Coulomb oscillator (``beta = 0.6``, ``mu F_N /
+P = 0.3``, no stick) -1.37, -0.76, -0.46, -0.28, -0.17 % at ``n_h = 5, 9, 15, 25, 41`` (``n_h``
+times the error constant to 1 %; HBM with the arctan law ``kappa = 800``: -0.31 % at 25;
+displacement predictor -4.8, -2.5, -1.45, -0.85, -0.51 %).  The friction chain (``N_s = 1024``)
+0.70, 0.48, 0.11 % at ``n_h = 10, 25, 41`` (displacement predictor 4.9, 1.27, 1.19 %).  At
+``n_h = 25`` it has exactly the two stick intervals of the exact orbit; the stick onset is
+located to one AFT sample, the slip onset to ``~ 0.15 T / n_h`` (0.06 s of ``T = 10`` s).
 
 What DLFT represents for a gap (restitution)
 -------------------------------------------
@@ -113,7 +150,10 @@ from .base import HarmonicProblem
 from .common import guess_parts
 from .dlft_kernels import friction_march
 
-__all__ = ["DLFTProblem", "default_penalty"]
+__all__ = ["DLFTProblem", "default_penalty", "PREDICTORS"]
+
+#: friction predictors: the Lagrangian on the relative velocity (default) or on the displacement increment
+PREDICTORS = ("velocity", "displacement")
 
 
 def spla_solve(A, b):
@@ -151,11 +191,20 @@ class DLFTProblem(HarmonicProblem):
         DOFs kept with the nonlinear elements (default: the element DOFs).
     dlft_penalty : float, optional
         ``eps`` (N/m) for every element; default: per element from the dynamic stiffness.
+    dlft_predictor : {"velocity", "displacement"}
+        Friction predictor: the Lagrangian on the slip velocity (default, ``eps_v = eps / (n_h
+        omega)``) or on the slip-displacement increment (the marched memory).  Contacts always use
+        the gap.
     """
 
     method = "dlft"
 
-    def __init__(self, system, omega, harmonics, steps, condense=True, partition=None, dlft_penalty=None):
+    def __init__(self, system, omega, harmonics, steps, condense=True, partition=None, dlft_penalty=None,
+                 dlft_predictor="velocity"):
+        if dlft_predictor not in PREDICTORS:
+            raise InputError("dlft_predictor", f"must be one of {', '.join(map(repr, PREDICTORS))}, got "
+                                               f"{dlft_predictor!r}")
+        self.predictor = dlft_predictor
         n = system.n
         for el in system.elements:
             if el.relative_to is not None or el.history:
@@ -186,8 +235,12 @@ class DLFTProblem(HarmonicProblem):
             self.eps = np.array([default_penalty(diag[el.dof], Md[el.dof], self.omega) for el in system.elements])
         else:
             self.eps = np.full(len(system.elements), float(dlft_penalty))
+        # velocity predictor: eps_v = eps / (n_h omega) (N s/m), the impedance at the resolution of the series
+        self.eps_v = self.eps / (self.n_h * self.omega)
+        # d/dt of the series on the samples, Vs Om = -(Om Vs^T)^T (Om is antisymmetric), O(N_s n_h)
+        VsOm = -fourier.derivative(self.Vs.T, self.omega).T if any(map(self._velocity, system.elements)) else None
         # per element: rows of its DOF in the unknowns, the columns its demanded force depends on,
-        # and Q = d y / d x on those columns (y = lambda_L - eps w q, affine in x)
+        # and Q = d y / d x on those columns (y = lambda_L - eps w q or lambda_L - eps_v w q', affine in x)
         self._el = []
         A = self.A
         for j, el in enumerate(system.elements):
@@ -198,8 +251,15 @@ class DLFTProblem(HarmonicProblem):
             w = el.sign
             Q = w * (self.Vs @ Ai[:, cols])
             sel = np.searchsorted(cols, rows)
-            Q[:, sel] -= self.eps[j] * w * self.Vs
+            if self._velocity(el):  # y = lambda_L - eps_v w u
+                Q[:, sel] -= self.eps_v[j] * w * VsOm
+            else:  # y = lambda_L - eps w q (contact: minus eps times the gap)
+                Q[:, sel] -= self.eps[j] * w * self.Vs
             self._el.append((el, j, rows, cols, sel, w, Q))
+
+    def _velocity(self, el):
+        """True if element ``el`` uses the velocity predictor (friction with ``dlft_predictor="velocity"``)."""
+        return el.bounded and not el.unilateral and self.predictor == "velocity"
 
     # ------------------------------------------------------------------ the problem interface
     def residual_scale(self, x=None):
@@ -225,6 +285,12 @@ class DLFTProblem(HarmonicProblem):
         out = []
         for el, j, rows, cols, sel, w, Q in self._el:
             lamL = w * (self.Vs @ linear[rows])
+            if self._velocity(el):
+                y = lamL - self.eps_v[j] * (w * (self.Vs @ (self.Om @ x[rows])))
+                b = float(el.bound)
+                stick = np.abs(y) <= b
+                out.append((np.clip(y, -b, b), stick.astype(np.int8), None, lamL))
+                continue
             wq = w * (self.Vs @ x[rows])
             y = lamL - self.eps[j] * wq
             if el.unilateral:
@@ -251,9 +317,8 @@ class DLFTProblem(HarmonicProblem):
             return R, None
         blocks = []
         for (el, j, rows, cols, sel, w, Q), (lam, state, ref, lamL) in zip(self._el, marched):
-            act = state.astype(bool)
-            dlam = np.zeros_like(Q)
-            dlam[act] = Q[act]
+            act = np.flatnonzero(state)  # only stick/closed samples carry a derivative
+            dlam = Q[act]
             if ref is not None:  # friction stick: minus the derivative of the memory
                 r = ref[act]
                 mem = np.zeros((r.size, Q.shape[1]))
@@ -264,8 +329,8 @@ class DLFTProblem(HarmonicProblem):
                     d0 = np.zeros(Q.shape[1])
                     d0[sel] = self.eps[j] * w * self.Vs[0]
                     mem[~has] = -d0
-                dlam[act] -= mem
-            blocks.append((rows, cols, w * (self.E @ dlam)))
+                dlam -= mem
+            blocks.append((rows, cols, w * (self.E[:, act] @ dlam)))
         if sp.issparse(self.A):
             rr = [np.repeat(rows, cols.size) for rows, cols, _ in blocks]
             cc = [np.tile(cols, rows.size) for rows, cols, _ in blocks]
@@ -402,7 +467,10 @@ class DLFTProblem(HarmonicProblem):
             lam[:-1, j] = l
         lam[-1] = lam[0]
         info = {"condensed": self.condense,  # partition, conditioning: typed fields of the solution
-                "dlft_penalty": [float(e) for e in self.eps]}
+                "dlft_penalty": [float(e) for e in self.eps], "dlft_predictor": self.predictor}
+        if any(self._velocity(el) for el in self.system.elements):
+            info["dlft_velocity_penalty"] = [float(e) if self._velocity(el) else None
+                                             for e, el in zip(self.eps_v, self.system.elements)]
         fr = [j for j, el in enumerate(self.system.elements) if el.bounded]
         ct = [j for j, el in enumerate(self.system.elements) if el.unilateral]
         if fr:

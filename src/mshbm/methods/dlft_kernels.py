@@ -1,5 +1,8 @@
 """Time-marching correction of the DLFT friction law on raw arrays (numba), and its NumPy twin.
 
+Used by the displacement predictor (``dlft_predictor="displacement"``); the default velocity
+predictor corrects every sample on its own and needs no march.
+
 Notation of :mod:`mshbm.methods.dlft`: on the AFT samples ``t_n = n T / N_s`` of one friction
 element, ``y_n = lambda_L,n - eps w q_n`` is the *free* part of the Lagrangian prediction
 (``lambda_L`` the force the linear part demands, ``eps`` the DLFT parameter, ``w q`` the slip
