@@ -10,8 +10,9 @@
 # estimate exists), and period doubling, Neimark–Sacker, folds and grazing are located along it.
 #
 # (a) The 3-DOF friction chain (Table 1) over its resonances; (b) the 5-DOF impact chain (Table 2)
-# around π/5, its T-periodic branch and the 2T-periodic branch on which the chain settles from rest
-# at π/5.  Solid: stable; dashed: unstable; dotted: no valid stability estimate.
+# around π/5, its T-periodic branch, the 2T-periodic branch on which the chain settles from rest
+# at π/5, and the 2T-periodic branch born at the period doubling of the T-periodic one, found by branch
+# switching (`mshbm.switch_period_doubling`: the eigenvector of the multiplier −1 of the exact monodromy).  Solid: stable; dashed: unstable; dotted: no valid stability estimate.
 
 # %% tags=["parameters"]
 config = "results/config.json"
@@ -40,6 +41,7 @@ LAB = {"shooting": "full shooting", "mshbm": "MS-HBM", "hbm": "HBM", "dlft": "DL
 BIF = {"period-doubling": ("s", "period doubling"), "neimark-sacker": ("D", "Neimark–Sacker"),
        "fold": ("^", "fold"), "grazing": ("x", "grazing")}
 P2_COL = "#9467bd"
+PD_COL = "#8c564b"
 
 
 def draw(ax, r, dof, color, label):
@@ -74,8 +76,10 @@ for ax, (name, dof, title) in zip(axes[0], present):
     for r in rows:
         if r["name"] == name:
             draw(ax, r, dof, COL[r["method"]], LAB[r["method"]])
+        elif r["name"].startswith(name) and r["period"] > 1 and r["options"].get("parent"):
+            draw(ax, r, dof, PD_COL, f"period {r['period']}, switched at the PD ({LAB[r['method']]})")
         elif r["name"].startswith(name) and r["period"] > 1:
-            draw(ax, r, dof, P2_COL, f"period {r['period']} ({LAB[r['method']]})")
+            draw(ax, r, dof, P2_COL, f"period {r['period']} from π/5 ({LAB[r['method']]})")
     if name == "impact5":
         ax.axvline(np.pi / 5, color="0.6", lw=0.7, ls=":")
         ax.annotate("π/5", (np.pi / 5, 0.02), xycoords=("data", "axes fraction"), fontsize=7, color="0.4")

@@ -9,6 +9,10 @@ The JSON is :meth:`mshbm.branch.Branch.to_dict` without the per-point details, p
 ``system``, ``options`` (what the sweep was given) and ``wall_time_s`` (the whole sweep: start solve,
 continuation, certificates and stability analyses).  A sweep that stops early is a result, not an
 error: ``success`` is false and ``message`` says where and why.
+
+A branch with ``switch: {omega_end: W}`` is the period-``2k`` branch born at the first period doubling of the
+period-``k`` sweep over ``omega`` (:func:`mshbm.switch_period_doubling`), traced to ``W``; the wall time covers
+both sweeps and ``options.parent`` records the period-``k`` one.
 """
 from __future__ import annotations
 
@@ -34,11 +38,21 @@ def run(config, name, method, out):
     if "max_points" in bcfg:
         opts["max_points"] = int(bcfg["max_points"])
     t0 = time.perf_counter()
-    b = mshbm.sweep(system, w0, w1, method, period=period, **opts)
+    extra = {}
+    if "switch" in bcfg:
+        # the period-k sweep over omega locates the period doubling; the branch is the period-2k one born there
+        parent = mshbm.sweep(system, w0, w1, method, period=period, **opts)
+        w_end = float(bcfg["switch"]["omega_end"])
+        b = mshbm.switch_period_doubling(system, parent, w_end, **opts)
+        extra = {"parent": {"omega": [w0, w1], "period": period, "success": parent.success,
+                            "points": len(parent), "message": parent.message,
+                            "bifurcations": parent.bifurcations}, "omega_end": w_end}
+    else:
+        b = mshbm.sweep(system, w0, w1, method, period=period, **opts)
     wall = time.perf_counter() - t0
     d = b.to_dict()
     d.pop("points", None)
-    d.update(name=name, system=bcfg["system"], options=dict(opts, period=period, omega=[w0, w1]),
+    d.update(name=name, system=bcfg["system"], options=dict(opts, period=period, omega=[w0, w1], **extra),
              wall_time_s=wall, n_dofs=system.n)
     from mshbm.outfile import jsonable
 

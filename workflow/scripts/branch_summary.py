@@ -35,6 +35,7 @@ def summarize(branches):
         num[f"{p}_undecided"] = sum(v is None for v in st)
         num[f"{p}_stable_first"] = st[0] if st else None  # the verdict at the start frequency
         num[f"{p}_amp_first"] = b["amplitude"][0][0] if b["amplitude"] else None  # DOF 0 at the start
+        num[f"{p}_amp_last"] = b["amplitude"][-1][0] if b["amplitude"] else None  # DOF 0 at the end
         for t, k in KEYS.items():
             ws = [f["omega"] for f in b["bifurcations"] if f["type"] == t]
             num[f"{p}_{k}"] = min(ws) if ws else None

@@ -101,6 +101,10 @@ _ACTIVE = contextvars.ContextVar("mshbm_starts_active", default=False)
 
 _FREQUENCY = contextvars.ContextVar("mshbm_starts_frequency", default=False)
 
+#: wall-clock deadline inherited by nested ladders (the ``"frequency"`` start's anchor solves): a nested ladder
+#: stops trying starts at the earlier of its own budget's end and this one
+_DEADLINE = contextvars.ContextVar("mshbm_starts_deadline", default=None)
+
 #: the continuation driver of the ``"frequency"`` start, ``[mshbm.branch.sweep]``: registered by
 #: :mod:`mshbm.branch` on import (which depends on this module, not the other way round)
 SWEEP = [None]
@@ -759,13 +763,14 @@ class _Runner:
                 why.append("time budget spent")
                 break
             wa = self.omega * r
-            tok_a, tok_f = _ACTIVE.set(False), _FREQUENCY.set(True)
+            tok_a, tok_f, tok_d = _ACTIVE.set(False), _FREQUENCY.set(True), _DEADLINE.set(self.deadline)
             try:
                 sol_a = self.solve(self.system, wa, self.method, stability=False, **opts)
             except (InputError, FloatingPointError, np.linalg.LinAlgError, ValueError) as exc:
                 why.append(f"omega_a = {wa:.4g}: {type(exc).__name__}: {exc}"[:160])
                 continue
             finally:
+                _DEADLINE.reset(tok_d)
                 _FREQUENCY.reset(tok_f)
                 _ACTIVE.reset(tok_a)
             if not sol_a.success:
@@ -907,13 +912,17 @@ def solve_from_starts(problem, method, system, omega, newton_options, accept, *,
     run = _Runner(problem, method, system, omega, newton_options, accept, solve_options, fallback,
                   transient_periods, transient_budget, transient_seconds, solve)
     won, skipped, t_start = None, [], time.perf_counter()
+    inherited = _DEADLINE.get()
     with _activated():
         for name in starts:
-            if run.attempts and time.perf_counter() - t_start > max(LADDER_SECONDS, LADDER_FACTOR * run.attempts[0].wall_time):
+            if run.attempts and (time.perf_counter() - t_start > max(LADDER_SECONDS, LADDER_FACTOR * run.attempts[0].wall_time)
+                                 or (inherited is not None and time.perf_counter() > inherited)):
                 skipped.append(name)  # the ladder's time budget is spent: report, do not try further starts
                 continue
             if run.attempts and run.deadline is None:
                 run.deadline = t_start + max(LADDER_SECONDS, LADDER_FACTOR * run.attempts[0].wall_time)
+                if inherited is not None:
+                    run.deadline = min(run.deadline, inherited)
             n0 = len(run.attempts)
             if name == "guess":
                 att = run.start_guess(guess)
