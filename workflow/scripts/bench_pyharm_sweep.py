@@ -12,17 +12,19 @@ script re-runs itself with that interpreter (``--pyharm-python``, ``$PYHARM_PYTH
 gets ``"status": "unavailable"`` with the reason.
 
 Systems and discretisations (the workflow's Fig. 9 branches, config ``branches``, read from
-``workflow/config.yaml``):
+``--config``: the workflow passes its ``results/config.json``; default ``workflow/config.yaml``):
 
 * ``friction3`` (examples/friction3.yaml), omega in [0.55, 1.2].  Ours: shooting and MS-HBM with
   the set-valued Coulomb law and the workflow's steps, HBM (arctan law, kappa = 800) and DLFT (its
   default parameter) with the workflow's n_H; and the two laws pyHarm ships for friction, at
-  n_H = 9 and ``NTI_FRICTION`` AFT samples in both codes:
+  n_H = 9 and ``NTI_FRICTION`` = 512 AFT samples in both codes (our default sampling for n_H = 9,
+  that of the workflow's HBM and DLFT branches):
 
   - ``jenkins``: elastic Coulomb friction, tangential stiffness ``K_T`` (pyHarm ``Jenkins``,
     ours :class:`mshbm.elements.Jenkins` with HBM).  pyHarm has no arctan-regularised friction; its
     Jenkins element and ours are the same discrete equations (pyHarm's residual at our solution is
-    at rounding level, ``same_equations_check``);
+    at rounding level, ``same_equations_check``).  A second pair at ``NTI_FRICTION_COARSE`` = 128
+    samples, where pyHarm's continuation passes the stick transition near omega = 1;
   - ``dlft``: pyHarm ``DLFTFriction`` and our ``dlft``, both with DLFT parameter ``EPS_DLFT``.  The
     two DLFT formulations differ (pyHarm's residual at our solution is not small, and its converged
     point differs); compared through the reference branch below.
@@ -32,12 +34,12 @@ Systems and discretisations (the workflow's Fig. 9 branches, config ``branches``
   law (k_c = 8000, d_c = 0); pyHarm: ``PenaltyUnilateralGap`` (the same penalty law; HBM n_H = 5,
   512 AFT samples in both, the settings of ``bench_pyharm.py``).
 
-pyHarm runs (``PYHARM_RUNS``): its defaults (solver ``scipyroot`` = MINPACK hybr, tangent
+pyHarm runs (:func:`specs`): its defaults (solver ``scipyroot`` = MINPACK hybr, tangent
 predictor, ``arc_length`` corrector, step doubling/halving ``acceptance``, ``ds0 = ds_max = 1``,
 ``ds_min = 1e-8``, stop at the omega bounds or two steps at ``ds_min``) from its own start (the
-linear response at the first omega) and from our converged solution of the same law there, and on
-the impact chain also with ``ds_max = 0.1`` and with ``NewtonRaphson`` (``ds_max = 0.05``); each
-run stops at ``PYHARM_TIMEOUT`` seconds (pyHarm's own timeout option).
+linear response at the first omega); on the impact chain, where that start fails, also from our
+converged HBM solution there, with the defaults, with ``ds_max = 0.1`` and with ``NewtonRaphson``
+(``ds_max = 0.05``).  Each run stops at ``PYHARM_TIMEOUT`` seconds (pyHarm's own timeout option).
 
 Measured per branch: wall time (untimed warm-up first: numba/jax compilation), number of points,
 the omega range reached and why it stopped; pyHarm's accepted points also get their residual
@@ -53,7 +55,8 @@ from pyHarm's coefficients, and reports the difference at equal omega.
 
 Usage::
 
-    python workflow/scripts/bench_pyharm_sweep.py --out results/benchmarks/pyharm_sweep.json [--quick]
+    python workflow/scripts/bench_pyharm_sweep.py --out results/benchmarks/pyharm_sweep.json [--quick] \
+        [--config results/config.json] [--pyharm-python envs/pyharm/bin/python]
 """
 from __future__ import annotations
 
@@ -74,8 +77,11 @@ import numpy as np  # noqa: E402
 import benchlib as bl  # noqa: E402
 
 DEFAULT_PYHARM_PYTHON = os.path.join("envs", "pyharm", "bin", "python")
-#: friction laws shared with pyHarm: n_H, AFT samples, Jenkins tangential stiffness (N/m), DLFT parameter (N/m)
-N_H_FRICTION, NTI_FRICTION, K_T, EPS_DLFT = 9, 256, 100.0, 10.0
+#: friction laws shared with pyHarm: n_H, AFT samples (our default for n_H = 9, as in the workflow's HBM and
+#: DLFT branches), Jenkins tangential stiffness (N/m), DLFT parameter (N/m); and the coarser sampling of a
+#: second Jenkins pair (where pyHarm's continuation passes)
+N_H_FRICTION, NTI_FRICTION, K_T, EPS_DLFT = 9, 512, 100.0, 10.0
+NTI_FRICTION_COARSE = 128
 #: penalty contact (bench_pyharm.py's settings): n_H, AFT samples
 N_H_IMPACT, NTI_IMPACT = 5, 512
 #: seconds per pyHarm continuation run (its stop criterion's timeout), by profile
@@ -189,27 +195,46 @@ def unavailable(out, what, error):
 
 
 # ----------------------------------------------------------------------------- the systems
-def branch_config(name):
-    """``branches`` entry ``name`` of workflow/config.yaml (omega range, methods, max_points)."""
+def load_config(path=None):
+    """The workflow configuration: ``path`` (the workflow's ``results/config.json`` or a YAML file),
+    default workflow/config.yaml."""
+    import json
+
     from mshbm.io.yaml import load_yaml, read_text
 
-    cfg = load_yaml(read_text(CONFIG))
-    return next(b for b in cfg["branches"] if b["name"] == name)
+    path = path or CONFIG
+    if str(path).endswith(".json"):
+        with open(path) as fh:
+            return json.load(fh)
+    return load_yaml(read_text(path))
 
 
-def specs(profile):
+def branch_config(config, name):
+    """``branches`` entry ``name`` of the configuration (omega range, methods, max_points) and the case
+    file of its system."""
+    b = next((b for b in config["branches"] if b["name"] == name), None)
+    if b is None:
+        raise KeyError(f"the configuration has no branch {name!r} (config `branches`)")
+    return b, config["systems"][b["system"]]["case"]
+
+
+def specs(profile, config=None):
     """The systems, our runs and pyHarm's runs of a profile.
 
-    Returns a list of dicts ``{name, omega: [w0, w1], ours: [run], pyharm: [run], reference, pairs}``;
-    our run ``{name, case_element, method, options, law}``, pyHarm's ``{name, law, start, analysis}``.
+    ``config``: the workflow configuration (default :func:`load_config`); its branches ``friction3``
+    and ``impact5`` give the omega ranges, our methods' options and ``max_points``.
+    Returns a list of dicts ``{name, case, omega: [w0, w1], ours: [run], pyharm: [run], reference,
+    pairs}``; our run ``{name, method, options, law[, element]}``, pyHarm's ``{name, law, start, analysis}``.
     """
     quick = profile == "quick"
-    f_cfg, i_cfg = branch_config("friction3"), branch_config("impact5")
+    config = load_config() if config is None else config
+    (f_cfg, f_case), (i_cfg, i_case) = branch_config(config, "friction3"), branch_config(config, "impact5")
     fm, im = f_cfg["methods"], i_cfg["methods"]
     out = []
     # ---- friction3
     w = [0.55, 0.7] if quick else [float(v) for v in f_cfg["omega"]]
     jen = {"harmonics": N_H_FRICTION, "steps": NTI_FRICTION}
+    coarse = {"harmonics": N_H_FRICTION, "steps": NTI_FRICTION_COARSE}
     ours = [
         {"name": "shooting", "method": "shooting", "law": "set-valued Coulomb",
          "options": dict(fm["shooting"])},
@@ -220,14 +245,19 @@ def specs(profile):
          "options": dict(fm["dlft"])},
         {"name": "hbm-jenkins", "method": "hbm", "law": "jenkins", "element": {"tangential_stiffness": K_T},
          "options": dict(jen)},
+        {"name": f"hbm-jenkins-{NTI_FRICTION_COARSE}", "method": "hbm", "law": "jenkins",
+         "element": {"tangential_stiffness": K_T}, "options": dict(coarse)},
         {"name": "dlft-eps", "method": "dlft", "law": "dlft", "options": dict(jen, dlft_penalty=EPS_DLFT)},
     ]
-    py = [{"name": f"pyharm-{law}-{start}", "law": law, "start": start, "analysis": {}}
-          for law in ("jenkins", "dlft") for start in ("linear", "ours")]
-    out.append({"name": "friction3", "case": "friction3", "omega": w, "ours": ours, "pyharm": py,
-                "reference": "shooting", "n_h": N_H_FRICTION, "nti": NTI_FRICTION,
-                "pairs": [("hbm-jenkins", "pyharm-jenkins-linear"), ("hbm-jenkins", "pyharm-jenkins-ours"),
-                          ("dlft-eps", "pyharm-dlft-linear"), ("dlft-eps", "pyharm-dlft-ours")]})
+    # pyHarm from its own start (the linear response); from our start it reached the same omega to 1e-9
+    # in the measurements of the development runs, so only the impact chain (where its start fails) has both
+    py = [{"name": "pyharm-jenkins", "law": "jenkins", "start": "linear", "twin": "hbm-jenkins", "analysis": {}},
+          {"name": f"pyharm-jenkins-{NTI_FRICTION_COARSE}", "law": "jenkins", "start": "linear",
+           "twin": f"hbm-jenkins-{NTI_FRICTION_COARSE}", "analysis": {}},
+          {"name": "pyharm-dlft", "law": "dlft", "start": "linear", "twin": "dlft-eps", "analysis": {}}]
+    out.append({"name": "friction3", "case": f_case, "omega": w, "ours": ours, "pyharm": py,
+                "reference": "shooting",
+                "pairs": [(r["twin"], r["name"]) for r in py]})
     # ---- impact5
     w = [0.5, 0.56] if quick else [float(v) for v in i_cfg["omega"]]
     mp = {} if quick else {"max_points": int(i_cfg["max_points"])}
@@ -241,16 +271,16 @@ def specs(profile):
         {"name": "dlft", "method": "dlft", "law": "set-valued contact (DLFT, default parameter)",
          "options": dict(hb, **mp)},
     ]
-    py = [{"name": "pyharm-penalty-linear", "law": "penalty", "start": "linear", "analysis": {}},
-          {"name": "pyharm-penalty-ours", "law": "penalty", "start": "ours", "analysis": {}}]
+    py = [{"name": "pyharm-penalty-linear", "law": "penalty", "start": "linear", "twin": "hbm", "analysis": {}},
+          {"name": "pyharm-penalty-ours", "law": "penalty", "start": "ours", "twin": "hbm", "analysis": {}}]
     if not quick:
-        py += [{"name": "pyharm-penalty-ours-ds0.1", "law": "penalty", "start": "ours",
+        py += [{"name": "pyharm-penalty-ours-ds0.1", "law": "penalty", "start": "ours", "twin": "hbm",
                 "analysis": {"ds0": 0.1, "ds_max": 0.1}},
-               {"name": "pyharm-penalty-ours-newton", "law": "penalty", "start": "ours",
+               {"name": "pyharm-penalty-ours-newton", "law": "penalty", "start": "ours", "twin": "hbm",
                 "analysis": {"solver": "NewtonRaphson", "ds0": 0.05, "ds_max": 0.05}}]
-    out.append({"name": "impact5", "case": "impact5", "omega": w, "ours": ours, "pyharm": py,
-                "reference": "shooting", "n_h": N_H_IMPACT, "nti": NTI_IMPACT,
-                "pairs": [("hbm", p["name"]) for p in py]})
+    out.append({"name": "impact5", "case": i_case, "omega": w, "ours": ours, "pyharm": py,
+                "reference": "shooting",
+                "pairs": [(r["twin"], r["name"]) for r in py]})
     return out
 
 
@@ -260,10 +290,10 @@ def our_system(case, element=None):
     return wfcore.chain_case(case, **(element or {}))
 
 
-def law_twin(spec, law):
-    """Our run (name) with the same discrete law as pyHarm's ``law``: its start and its system."""
-    name = {"jenkins": "hbm-jenkins", "dlft": "dlft-eps", "penalty": "hbm"}[law]
-    return next(r for r in spec["ours"] if r["name"] == name)
+def twin_of(spec, run):
+    """Our run with the same law and discretisation as pyHarm's ``run`` (its ``twin``): its system, start, n_H
+    and AFT samples."""
+    return next(r for r in spec["ours"] if r["name"] == run["twin"])
 
 
 # ----------------------------------------------------------------------------- pyHarm side
@@ -356,7 +386,7 @@ def pyharm_branch(system, run, w0, w1, n_h, nti, x0, timeout_s):
              "omega": omega[conv].tolist(), "amplitude": [amp[i] for i in np.flatnonzero(conv)],
              "residual_note": f"omega/amplitude hold the accepted points with max|R|/max|f| <= {RESIDUAL_OK:g}"}
     q_hats = [np.asarray(acc[i].x[:-1], dtype=float).reshape(2 * n_h + 1, n) for i in np.flatnonzero(conv)]
-    return entry, q_hats
+    return entry, (q_hats, res[conv].tolist())
 
 
 def same_equations_check(system, run, w0, n_h, nti, q_hat):
@@ -410,7 +440,8 @@ def run_system(spec, profile, log):
             f"{e['omega_reached']:.4f}: {e['message'][:120]}")
     checks, q_hats = {}, {}
     for run in spec["pyharm"]:
-        twin = law_twin(spec, run["law"])
+        twin = twin_of(spec, run)
+        n_h, nti = int(twin["options"]["harmonics"]), int(twin["options"]["steps"])
         system = our_system(spec["case"], twin.get("element"))
         start = starts.get(twin["name"])
         x0 = None
@@ -420,12 +451,11 @@ def run_system(spec, profile, log):
                 continue
             x0 = start.q_hat
         try:
-            e, q_hats[run["name"]] = pyharm_branch(system, run, w0, w1, spec["n_h"], spec["nti"], x0,
-                                                   PYHARM_TIMEOUT[profile])
-            if start is not None and start.success and run["law"] not in checks:
-                checks[run["law"]] = {"our_run": twin["name"], "omega": w0,
-                                      "pyharm_residual_at_our_solution": same_equations_check(
-                                          system, run, w0, spec["n_h"], spec["nti"], start.q_hat)}
+            e, q_hats[run["name"]] = pyharm_branch(system, run, w0, w1, n_h, nti, x0, PYHARM_TIMEOUT[profile])
+            if start is not None and start.success and twin["name"] not in checks:
+                checks[twin["name"]] = {"law": run["law"], "omega": w0, "harmonics": n_h, "aft_samples": nti,
+                                        "pyharm_residual_at_our_solution": same_equations_check(
+                                            system, run, w0, n_h, nti, start.q_hat)}
         except Exception:
             errors[run["name"]] = traceback.format_exc()
             log(f"  {spec['name']} {run['name']}: FAILED\n{errors[run['name']]}")
@@ -444,16 +474,16 @@ def run_system(spec, profile, log):
             twin = next(r for r in spec["ours"] if r["name"] == a)
             pairs.append(dict(compare(entries[a], entries[b]), ours=a, pyharm=b, law=law_of(spec, b),
                               pointwise=pointwise(our_system(spec["case"], twin.get("element")), twin,
-                                                  entries[b], q_hats.get(b, []))))
-    return {"omega": [w0, w1], "reference": spec["reference"], "harmonics": spec["n_h"], "aft_samples": spec["nti"],
-            "entries": entries, "same_law_pairs": pairs, "same_equations_check": checks, "errors": errors}
+                                                  entries[b], *q_hats.get(b, ([], [])))))
+    return {"omega": [w0, w1], "reference": spec["reference"], "entries": entries, "same_law_pairs": pairs, "same_equations_check": checks, "errors": errors}
 
 
-def pointwise(system, run, entry, q_hats, n_points=POINTWISE):
+def pointwise(system, run, entry, q_hats, residuals, n_points=POINTWISE):
     """Our solve at ``n_points`` of pyHarm's converged points (evenly spaced along its branch), started
-    from pyHarm's coefficients there: the max relative amplitude difference
-    (``max_dof |A - A_py| / max_dof |A_py|``) and coefficient difference (``max |dq| / max |q_py|``);
-    the agreement of the two codes at equal omega, free of the interpolation in :func:`branch_difference`."""
+    from pyHarm's coefficients there (if that fails: from our default start): per point the relative
+    amplitude difference ``max_dof |A - A_py| / max_dof |A_py|`` and coefficient difference
+    ``max |dq| / max |q_py|``, and their maxima over the points where our solve converged; the agreement of
+    the two codes at equal omega, free of the interpolation in :func:`branch_difference`."""
     import mshbm
     from mshbm.branch import _CONT_KEYS
 
@@ -461,16 +491,26 @@ def pointwise(system, run, entry, q_hats, n_points=POINTWISE):
         return None
     opts = {k: v for k, v in run["options"].items() if k not in _CONT_KEYS}
     idx = np.unique(np.linspace(0, len(q_hats) - 1, min(n_points, len(q_hats))).round().astype(int))
-    amp, coef, conv = [], [], []
+    pts = []
     for i in idx:
         w = entry["omega"][i]
+        start = "pyHarm's point"
         sol = mshbm.solve(system, w, run["method"], guess={"q_hat": q_hats[i]}, stability=False, **opts)
-        conv.append(bool(sol.success))
+        if not sol.success:
+            start = "our default start"
+            sol = mshbm.solve(system, w, run["method"], stability=False, **opts)
         A_py = np.asarray(entry["amplitude"][i])
-        amp.append(float(np.max(np.abs(sol.amplitude - A_py)) / np.max(np.abs(A_py))))
-        coef.append(float(np.max(np.abs(sol.q_hat - q_hats[i])) / np.max(np.abs(q_hats[i]))))
-    return {"omega": [float(entry["omega"][i]) for i in idx], "ours_converged": conv,
-            "max_relative_amplitude_difference": max(amp), "max_relative_coefficient_difference": max(coef)}
+        ok = bool(sol.success)
+        pts.append({"omega": float(w), "pyharm_scaled_residual": float(residuals[i]), "ours_converged": ok,
+                    "ours_start": start,
+                    "amplitude_difference": float(np.max(np.abs(sol.amplitude - A_py)) / np.max(np.abs(A_py)))
+                    if ok else None,
+                    "coefficient_difference": float(np.max(np.abs(sol.q_hat - q_hats[i])) / np.max(np.abs(q_hats[i])))
+                    if ok else None})
+    ok = [p for p in pts if p["ours_converged"]]
+    return {"points": pts, "compared": len(ok),
+            "max_relative_amplitude_difference": max(p["amplitude_difference"] for p in ok) if ok else None,
+            "max_relative_coefficient_difference": max(p["coefficient_difference"] for p in ok) if ok else None}
 
 
 def law_of(spec, pyharm_name):
@@ -512,7 +552,7 @@ def run_here(args):
     warnings.filterwarnings("ignore")
     profile = "quick" if args.quick else args.profile
     systems = {}
-    for spec in specs(profile):
+    for spec in specs(profile, load_config(args.config)):
         try:
             systems[spec["name"]] = run_system(spec, profile, lambda m: print(m, flush=True))
         except Exception:
@@ -522,7 +562,8 @@ def run_here(args):
     data = {"benchmark": "pyharm_sweep", "status": "partial" if failed else "ok", "profile": profile,
             "quick": bool(args.quick), "machine": bl.machine_info(),
             "pyharm_version": getattr(pyHarm, "__version__", None), "python_executable": sys.executable,
-            "settings": {"friction": {"harmonics": N_H_FRICTION, "aft_samples": NTI_FRICTION, "jenkins_k_t": K_T,
+            "settings": {"friction": {"harmonics": N_H_FRICTION, "aft_samples": NTI_FRICTION,
+                                      "aft_samples_coarse_jenkins_pair": NTI_FRICTION_COARSE, "jenkins_k_t": K_T,
                                       "dlft_eps": EPS_DLFT},
                          "impact": {"harmonics": N_H_IMPACT, "aft_samples": NTI_IMPACT},
                          "pyharm_defaults": PYHARM_DEFAULTS, "pyharm_timeout_s": PYHARM_TIMEOUT[profile],
@@ -581,9 +622,14 @@ def main(argv=None):
     ap = bl.parser(__doc__.splitlines()[0], "results/benchmarks/pyharm_sweep.json")
     ap.add_argument("--pyharm-python", default=None,
                     help=f"interpreter with pyHarm ($PYHARM_PYTHON overrides; default {DEFAULT_PYHARM_PYTHON})")
+    ap.add_argument("--config", default=None,
+                    help="workflow configuration with the branches friction3 and impact5 (the workflow's "
+                         "results/config.json, or a YAML file; default workflow/config.yaml)")
     args = ap.parse_args(argv)
     prof = bl.profile(args)
     args.out = os.path.abspath(args.out)
+    if args.config:
+        args.config = os.path.abspath(args.config)
     try:
         import pyHarm  # noqa: F401
         return run_here(args)
@@ -599,7 +645,8 @@ def main(argv=None):
     env = dict(os.environ, _BENCH_PYHARM_CHILD="1",
                PYTHONPATH=os.pathsep.join([REPO_SRC, _mshbm_parent(), HERE]
                                           + [p for p in [os.environ.get("PYTHONPATH")] if p]))
-    cmd = [py, os.path.abspath(__file__), "--out", args.out, "--profile", prof]
+    cmd = [py, os.path.abspath(__file__), "--out", args.out, "--profile", prof] + \
+        (["--config", args.config] if args.config else [])
     print(f"re-running with the pyHarm environment: {' '.join(cmd)}", flush=True)
     proc = subprocess.run(cmd, env=env)
     if proc.returncode != 0 and not os.path.exists(args.out):
