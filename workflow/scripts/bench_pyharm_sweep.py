@@ -39,9 +39,11 @@ predictor, ``arc_length`` corrector, step doubling/halving ``acceptance``, ``ds0
 ``ds_min = 1e-8``, stop at the omega bounds or two steps at ``ds_min``) from its own start (the
 linear response at the first omega); on the impact chain, where that start fails, also from our
 converged HBM solution there, with the defaults, with ``ds_max = 0.1`` and with ``NewtonRaphson``
-(``ds_max = 0.05``).  Each run stops at ``PYHARM_TIMEOUT`` seconds (pyHarm's own timeout option).
+(``ds_max = 0.05``).  Each run stops after ``PYHARM_BUDGET`` seconds of CPU time (:func:`pyharm_branch`).
 
-Measured per branch: wall time (untimed warm-up first: numba/jax compilation), number of points,
+Measured per branch: wall and CPU time of this process (untimed warm-up first: numba/jax
+compilation; BLAS limited to one thread for both codes; CPU time is the fairer number on a loaded
+machine), number of points,
 the omega range reached and why it stopped; pyHarm's accepted points also get their residual
 (``max |R| / max |f|``, pyHarm's own residual function).  Amplitudes ``(max - min) / 2`` per DOF
 (pyHarm's points: the exact extrema of their Fourier series, :func:`mshbm.extrema.fourier_extrema`).
@@ -84,8 +86,8 @@ N_H_FRICTION, NTI_FRICTION, K_T, EPS_DLFT = 9, 512, 100.0, 10.0
 NTI_FRICTION_COARSE = 128
 #: penalty contact (bench_pyharm.py's settings): n_H, AFT samples
 N_H_IMPACT, NTI_IMPACT = 5, 512
-#: seconds per pyHarm continuation run (its stop criterion's timeout), by profile
-PYHARM_TIMEOUT = {"quick": 20, "default": 60, "full": 300}
+#: CPU seconds per pyHarm continuation run, by profile (:func:`pyharm_branch`)
+PYHARM_BUDGET = {"quick": 20, "default": 60, "full": 300}
 #: a pyHarm point counts as converged when max |R| / max |f| <= this
 RESIDUAL_OK = 1e-6
 #: pyHarm points per same-law pair at which our solver is run from pyHarm's solution (:func:`pointwise`)
@@ -331,22 +333,34 @@ def pyharm_input(system, law, w0, w1, n_h, nti, analysis, timeout_s):
             "analysis": {"frf": ana}}
 
 
-def pyharm_branch(system, run, w0, w1, n_h, nti, x0, timeout_s):
-    """pyHarm's continuation from ``x0`` (``q_hat`` (2 n_h + 1, n), or None: its linear start): the entry."""
+def pyharm_branch(system, run, w0, w1, n_h, nti, x0, budget_s):
+    """pyHarm's continuation from ``x0`` (``q_hat`` (2 n_h + 1, n), or None: its linear start): the entry.
+
+    pyHarm's FRF ``Solve`` loop (``initialise``, then ``makeStep`` and ``purge_jacobians`` until its stop
+    criterion holds), driven here so that it also stops after ``budget_s`` seconds of *CPU* time of this
+    process (pyHarm's own timeout counts wall time, which on a shared machine depends on the load)."""
     import pyHarm
     from mshbm.extrema import fourier_extrema
 
     n = system.n
-    inp = pyharm_input(system, run["law"], w0, w1, n_h, nti, run["analysis"], timeout_s)
+    inp = pyharm_input(system, run["law"], w0, w1, n_h, nti, run["analysis"], 100 * budget_s + 3600)
     start = None if x0 is None else np.asarray(x0, float).reshape(-1)
     # warm-up (compilation of pyHarm's numba kernels): model and first point, untimed
     warm = pyHarm.Maestro(inp)
     warm.nls["frf"].initialise(None if start is None else start.copy())
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     maestro = pyHarm.Maestro(inp)
     ana = maestro.nls["frf"]
-    ana.Solve(None if start is None else start.copy())
-    wall = time.perf_counter() - t0
+    ana.initialise(None if start is None else start.copy())
+    k, over_budget = 1, False
+    while not ana.stopper.getStopCriterionStatus(ana.SolList[-1], ana.SolList):
+        if time.process_time() - c0 > budget_s:
+            over_budget = True
+            break
+        ana.makeStep(index_insolve=k)
+        ana.purge_jacobians()
+        k += 1
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     sols = ana.SolList
     acc = [s for s in sols if s.flag_accepted]
     f_max = float(np.max(np.abs(system.f_hat)))
@@ -366,8 +380,8 @@ def pyharm_branch(system, run, w0, w1, n_h, nti, x0, timeout_s):
         stop = "reached omega_end"
     elif len(acc) > 1 and omega[-1] <= a["puls_inf"] * (1 + 1e-6):
         stop = "turned back and left the range at omega_start"
-    elif wall >= timeout_s * 0.98:
-        stop = f"timeout ({timeout_s} s)"
+    elif over_budget:
+        stop = f"CPU-time budget ({budget_s} s) spent"
     elif len(sols) >= 2 and sols[-1].ds == a["ds_min"] and sols[-2].ds == a["ds_min"]:
         stop = "step size at ds_min (stalled)"
     else:
@@ -375,7 +389,7 @@ def pyharm_branch(system, run, w0, w1, n_h, nti, x0, timeout_s):
     first_ok = bool(len(acc) and conv[0])
     entry = {"name": run["name"], "code": "pyharm", "law": run["law"], "start": run["start"],
              "analysis": {k: a[k] for k in ("solver", "predictor", "corrector", "stepsizer", "ds0", "ds_max", "ds_min")},
-             "harmonics": n_h, "aft_samples": nti, "wall_time_s": wall, "points": int(len(acc)),
+             "harmonics": n_h, "aft_samples": nti, "wall_time_s": wall, "cpu_time_s": cpu, "points": int(len(acc)),
              "solutions_tried": int(len(sols)), "points_converged": int(conv.sum()),
              "start_converged": first_ok, "stop": stop,
              "omega_reached": float(omega[conv].max()) if conv.any() else None,
@@ -408,13 +422,14 @@ def our_branch(system, run, w0, w1):
     opts = dict(run["options"])
     solve_opts = {k: v for k, v in opts.items() if k not in _CONT_KEYS}
     start = mshbm.solve(system, w0, run["method"], stability=False, **solve_opts)  # warm-up (compilation)
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     b = mshbm.sweep(system, w0, w1, run["method"], **opts)
-    wall = time.perf_counter() - t0
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     om = b.omega
     entry = {"name": run["name"], "code": "mshbm", "method": run["method"], "law": run["law"],
              "options": dict(opts, **({"element": run["element"]} if run.get("element") else {})),
-             "wall_time_s": wall, "points": len(b), "success": bool(b.success), "message": b.message,
+             "wall_time_s": wall, "cpu_time_s": cpu, "points": len(b), "success": bool(b.success),
+             "message": b.message,
              "omega_reached": float(om.max()) if len(b) else None, "omega_last": float(om[-1]) if len(b) else None,
              "reached_end": bool(len(b) and om.max() >= w1 * (1 - 1e-6)),
              "counters": b.counters,
@@ -436,7 +451,8 @@ def run_system(spec, profile, log):
             continue
         entries[run["name"]] = e
         starts[run["name"]] = start
-        log(f"  {spec['name']} ours {run['name']:12s} {e['wall_time_s']:8.2f} s {e['points']:4d} points, omega up to "
+        log(f"  {spec['name']} ours {run['name']:16s} {e['wall_time_s']:8.2f} s (CPU {e['cpu_time_s']:7.2f} s) "
+            f"{e['points']:4d} points, omega up to "
             f"{e['omega_reached']:.4f}: {e['message'][:120]}")
     checks, q_hats = {}, {}
     for run in spec["pyharm"]:
@@ -451,7 +467,7 @@ def run_system(spec, profile, log):
                 continue
             x0 = start.q_hat
         try:
-            e, q_hats[run["name"]] = pyharm_branch(system, run, w0, w1, n_h, nti, x0, PYHARM_TIMEOUT[profile])
+            e, q_hats[run["name"]] = pyharm_branch(system, run, w0, w1, n_h, nti, x0, PYHARM_BUDGET[profile])
             if start is not None and start.success and twin["name"] not in checks:
                 checks[twin["name"]] = {"law": run["law"], "omega": w0, "harmonics": n_h, "aft_samples": nti,
                                         "pyharm_residual_at_our_solution": same_equations_check(
@@ -462,7 +478,8 @@ def run_system(spec, profile, log):
             continue
         e["start_from"] = twin["name"] if run["start"] == "ours" else "pyHarm's linear response"
         entries[run["name"]] = e
-        log(f"  {spec['name']} {run['name']:27s} {e['wall_time_s']:8.2f} s {e['points']:5d} points "
+        log(f"  {spec['name']} {run['name']:27s} {e['wall_time_s']:8.2f} s (CPU {e['cpu_time_s']:7.2f} s) "
+            f"{e['points']:5d} points "
             f"({e['points_converged']} converged), omega up to {e['omega_reached']}, last {e['omega_last']}: "
             f"{e['stop']}")
     ref = entries.get(spec["reference"])
@@ -522,7 +539,8 @@ def summarise(systems):
     for name, s in systems.items():
         rows = {}
         for k, e in s["entries"].items():
-            rows[k] = {"wall_time_s": e["wall_time_s"], "points": e["points"], "omega_reached": e["omega_reached"],
+            rows[k] = {"wall_time_s": e["wall_time_s"], "cpu_time_s": e["cpu_time_s"], "points": e["points"],
+                       "omega_reached": e["omega_reached"],
                        "reached_end": e["reached_end"],
                        "vs_reference_max": (e.get("vs_reference") or {}).get("max")}
             if e["code"] == "pyharm":
@@ -552,12 +570,15 @@ def run_here(args):
     warnings.filterwarnings("ignore")
     profile = "quick" if args.quick else args.profile
     systems = {}
-    for spec in specs(profile, load_config(args.config)):
-        try:
-            systems[spec["name"]] = run_system(spec, profile, lambda m: print(m, flush=True))
-        except Exception:
-            systems[spec["name"]] = {"status": "failed", "error": traceback.format_exc(), "entries": {},
-                                     "same_law_pairs": []}
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(1):  # both codes single-threaded (mshbm.sweep's default; pyHarm's numpy/scipy)
+        for spec in specs(profile, load_config(args.config)):
+            try:
+                systems[spec["name"]] = run_system(spec, profile, lambda m: print(m, flush=True))
+            except Exception:
+                systems[spec["name"]] = {"status": "failed", "error": traceback.format_exc(), "entries": {},
+                                         "same_law_pairs": []}
     failed = any(s.get("status") == "failed" or s.get("errors") for s in systems.values())
     data = {"benchmark": "pyharm_sweep", "status": "partial" if failed else "ok", "profile": profile,
             "quick": bool(args.quick), "machine": bl.machine_info(),
@@ -566,10 +587,11 @@ def run_here(args):
                                       "aft_samples_coarse_jenkins_pair": NTI_FRICTION_COARSE, "jenkins_k_t": K_T,
                                       "dlft_eps": EPS_DLFT},
                          "impact": {"harmonics": N_H_IMPACT, "aft_samples": NTI_IMPACT},
-                         "pyharm_defaults": PYHARM_DEFAULTS, "pyharm_timeout_s": PYHARM_TIMEOUT[profile],
+                         "pyharm_defaults": PYHARM_DEFAULTS, "pyharm_cpu_budget_s": PYHARM_BUDGET[profile],
                          "residual_ok": RESIDUAL_OK,
-                         "timing": "wall time of mshbm.sweep (start solve, continuation, certificates, stability) "
-                                   "and of pyHarm.Maestro(input) + FRF Solve, each after an untimed warm-up"},
+                         "timing": "wall and CPU time of mshbm.sweep (start solve, continuation, certificates, "
+                                   "stability) and of pyHarm.Maestro(input) + its FRF continuation, each after an "
+                                   "untimed warm-up, one BLAS thread"},
             "systems": systems, "total_wall_s": None}
     data["summary"] = {"status": data["status"], "per_system": summarise(systems)}
     data["total_wall_s"] = time.perf_counter() - t_begin
@@ -601,7 +623,7 @@ def plot(data, png):
         ax.legend(fontsize=6, ncol=2)
         ax = axes[1, j]
         names = list(s["entries"])
-        t = [s["entries"][k]["wall_time_s"] for k in names]
+        t = [s["entries"][k]["cpu_time_s"] for k in names]
         colors = ["C0" if s["entries"][k]["code"] == "mshbm" else "C3" for k in names]
         ax.barh(range(len(names)), t, color=colors)
         for i, k in enumerate(names):
@@ -612,7 +634,7 @@ def plot(data, png):
         ax.set_yticks(range(len(names)))
         ax.set_yticklabels(names, fontsize=7)
         ax.set_xscale("log")
-        ax.set_xlabel("wall time (s); blue: mshbm.sweep, red: pyHarm")
+        ax.set_xlabel("CPU time (s); blue: mshbm.sweep, red: pyHarm")
     fig.tight_layout()
     fig.savefig(png, dpi=110)
     plt.close(fig)
