@@ -414,8 +414,13 @@ def same_equations_check(system, run, w0, n_h, nti, q_hat):
 
 
 # ----------------------------------------------------------------------------- our side
-def our_branch(system, run, w0, w1):
-    """``mshbm.sweep`` of one method (after an untimed warm-up solve): the entry and the start solution."""
+def our_branch(system, run, w0, w1, bare=False):
+    """``mshbm.sweep`` of one method (after an untimed warm-up solve): the entry and the start solution.
+
+    ``bare``: also time the sweep as pyHarm's continuation runs, for the same-law twins of pyHarm's runs:
+    from our converged start (``guess``: the start solve then takes one Newton step) and without the
+    stability analysis (``stability=False``; the certificate of every point stays), entry
+    ``continuation_only``."""
     import mshbm
     from mshbm.branch import _CONT_KEYS
 
@@ -435,16 +440,25 @@ def our_branch(system, run, w0, w1):
              "counters": b.counters,
              "bifurcations": [{"type": x["type"], "omega": x.get("omega")} for x in b.bifurcations],
              "omega": om.tolist(), "amplitude": b.amplitude.tolist(), "stable": b.stable}
+    if bare and start.success:
+        t0, c0 = time.perf_counter(), time.process_time()
+        b2 = mshbm.sweep(system, w0, w1, run["method"], guess={"q_hat": start.q_hat}, stability=False, **opts)
+        wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+        entry["continuation_only"] = {
+            "what": "mshbm.sweep(..., guess=our start solution, stability=False)", "wall_time_s": wall,
+            "cpu_time_s": cpu, "points": len(b2), "success": bool(b2.success),
+            "omega_reached": float(b2.omega.max()) if len(b2) else None}
     return entry, start
 
 
 def run_system(spec, profile, log):
     w0, w1 = spec["omega"]
     entries, starts, errors = {}, {}, {}
+    twins = {r["twin"] for r in spec["pyharm"]}
     for run in spec["ours"]:
         system = our_system(spec["case"], run.get("element"))
         try:
-            e, start = our_branch(system, run, w0, w1)
+            e, start = our_branch(system, run, w0, w1, bare=run["name"] in twins)
         except Exception:
             errors[run["name"]] = traceback.format_exc()
             log(f"  {spec['name']} {run['name']}: FAILED\n{errors[run['name']]}")
@@ -453,7 +467,9 @@ def run_system(spec, profile, log):
         starts[run["name"]] = start
         log(f"  {spec['name']} ours {run['name']:16s} {e['wall_time_s']:8.2f} s (CPU {e['cpu_time_s']:7.2f} s) "
             f"{e['points']:4d} points, omega up to "
-            f"{e['omega_reached']:.4f}: {e['message'][:120]}")
+            f"{e['omega_reached']:.4f}: {e['message'][:120]}"
+            + (f"; from our start without stability: CPU {e['continuation_only']['cpu_time_s']:.2f} s, "
+               f"{e['continuation_only']['points']} points" if e.get("continuation_only") else ""))
     checks, q_hats = {}, {}
     for run in spec["pyharm"]:
         twin = twin_of(spec, run)
@@ -541,6 +557,7 @@ def summarise(systems):
         for k, e in s["entries"].items():
             rows[k] = {"wall_time_s": e["wall_time_s"], "cpu_time_s": e["cpu_time_s"], "points": e["points"],
                        "omega_reached": e["omega_reached"],
+                       "continuation_only_cpu_time_s": (e.get("continuation_only") or {}).get("cpu_time_s"),
                        "reached_end": e["reached_end"],
                        "vs_reference_max": (e.get("vs_reference") or {}).get("max")}
             if e["code"] == "pyharm":
@@ -602,6 +619,8 @@ def run_here(args):
 
 
 def plot(data, png):
+    import matplotlib.ticker
+
     plt = bl.pyplot()
     systems = {k: s for k, s in data["systems"].items() if s.get("entries")}
     fig, axes = plt.subplots(2, max(1, len(systems)), figsize=(6.2 * max(1, len(systems)), 8.5), squeeze=False)
@@ -634,6 +653,7 @@ def plot(data, png):
         ax.set_yticks(range(len(names)))
         ax.set_yticklabels(names, fontsize=7)
         ax.set_xscale("log")
+        ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
         ax.set_xlabel("CPU time (s); blue: mshbm.sweep, red: pyHarm")
     fig.tight_layout()
     fig.savefig(png, dpi=110)
