@@ -295,7 +295,8 @@ def numbers(wp, other, digest):
     for system, s in ((sw.get("summary") or {}).get("per_system") or {}).items():
         for name, r in (s.get("branches") or {}).items():
             key = f"sweep_{system}_{re.sub(r'[^A-Za-z0-9]+', '_', name)}"  # e.g. sweep_impact5_pyharm_penalty_ours
-            num.update({f"{key}_time_s": r.get("wall_time_s"), f"{key}_points": r.get("points"),
+            num.update({f"{key}_time_s": r.get("wall_time_s"), f"{key}_cpu_s": r.get("cpu_time_s"),
+                        f"{key}_points": r.get("points"),
                         f"{key}_omega_reached": r.get("omega_reached")})
     sp = (other.get("scipy") or {}).get("summary", {})
     num.update(scipy_median_speedup=sp.get("median_speedup"), scipy_min_speedup=sp.get("min_speedup"))
