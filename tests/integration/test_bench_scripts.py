@@ -86,12 +86,13 @@ def test_bench_scaling_quick(tmp_path):
     assert "target" in data and "exponent_le_1" in data["target"]
 
 
-def test_bench_pyharm_reports_unavailable_with_both_outputs(tmp_path):
-    """Without a pyHarm environment the benchmark still writes its JSON (status and reason) and PNG,
-    the outputs the workflow declares, instead of failing the workflow."""
-    out = tmp_path / "pyharm.json"
+@pytest.mark.parametrize("bench", ["pyharm", "pyharm_sweep"])
+def test_bench_pyharm_reports_unavailable_with_both_outputs(tmp_path, bench):
+    """Without a pyHarm environment the benchmarks against pyHarm still write their JSON (status and
+    reason) and PNG, the outputs the workflow declares, instead of failing the workflow."""
+    out = tmp_path / f"{bench}.json"
     env = dict(os.environ, MPLBACKEND="Agg", PYHARM_PYTHON=str(tmp_path / "no-such-python"))
-    proc = subprocess.run([sys.executable, str(SCRIPTS / "bench_pyharm.py"), "--quick", "--out", str(out)],
+    proc = subprocess.run([sys.executable, str(SCRIPTS / f"bench_{bench}.py"), "--quick", "--out", str(out)],
                           cwd=ROOT, env=env, capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
     data = json.loads(out.read_text())

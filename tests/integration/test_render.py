@@ -148,14 +148,16 @@ def test_quick_pages_in_headless_chromium(pages, tmp_path):
 
 
 # ----------------------------------------------------------------------------- pyHarm in the default run
-def test_default_run_builds_pyharm_environment(workdir):
-    """The full configuration's pyHarm benchmark depends on rule pyharm_env (its own venv from the
-    pinned workflow/envs/pyharm.txt); $PYHARM_PYTHON replaces that environment."""
+@pytest.mark.parametrize("bench", ["pyharm", "pyharm_sweep"])
+def test_default_run_builds_pyharm_environment(workdir, bench):
+    """The full configuration's pyHarm benchmarks (single solves; branches with pyHarm's continuation)
+    depend on rule pyharm_env (its own venv from the pinned workflow/envs/pyharm.txt); $PYHARM_PYTHON
+    replaces that environment.  The branch benchmark reads its branches from the run's config.json."""
     import os
 
     from workflow_run import run
 
-    target = ["-n", "-p", "--cores", "1", "results/benchmarks/pyharm.json"]
+    target = ["-n", "-p", "--cores", "1", f"results/benchmarks/{bench}.json"]
     env_before = os.environ.pop("PYHARM_PYTHON", None)
     try:
         proc = run(target, workdir, timeout=300)
@@ -163,6 +165,7 @@ def test_default_run_builds_pyharm_environment(workdir):
         assert proc.returncode == 0, out[-3000:]
         assert "rule pyharm_env:" in out and "pip install --disable-pip-version-check -r workflow/envs/pyharm.txt" in out
         assert "--pyharm-python envs/pyharm/bin/python" in out
+        assert ("--config results/config.json" in out) == (bench == "pyharm_sweep")
         os.environ["PYHARM_PYTHON"] = "/opt/elsewhere/bin/python"
         proc = run(target, workdir, timeout=300)
         out = proc.stdout + proc.stderr

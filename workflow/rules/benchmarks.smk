@@ -1,5 +1,6 @@
 # Performance benchmarks (issue 4): work-precision against the exact reference, kernel speed,
-# scaling to 1e5 DOFs, the SciPy baseline and pyHarm.  Parameters: `benchmarks` of the config.
+# scaling to 1e5 DOFs, the SciPy baseline and pyHarm (single solves: `pyharm`; branch tracing with
+# pyHarm's own continuation, issue 13: `pyharm_sweep`).  Parameters: `benchmarks` of the config.
 #
 #   <results>/benchmarks/       profile `benchmarks.profile` (default): part of `snakemake`, since
 #                               the paper's Performance section embeds its summary
@@ -72,7 +73,7 @@ if BENCH:
         log:
             f"{R}/logs/{{bdir}}/{{bench}}.log",
         wildcard_constraints:
-            bench="kernel|scaling|scipy|pyharm",
+            bench="kernel|scaling|scipy|pyharm|pyharm_sweep",
             bdir=_BDIRS,
         params:
             argv=lambda w, output: ["--profile", bench_profile(w), "--out", output.json] + bench_args(w),

@@ -175,20 +175,28 @@ BENCH_PY = sys.executable
 #: later runs; $PYHARM_PYTHON (an interpreter that imports pyHarm) overrides it and skips the rule
 PYHARM_ENV = "envs/pyharm"
 PYHARM_PYTHON = os.environ.get("PYHARM_PYTHON")
+#: the stand-alone benchmarks that run in pyHarm's environment (scripts/bench_<name>.py re-run themselves there)
+PYHARM_BENCHES = ("pyharm", "pyharm_sweep")
 
 
 def bench_inputs(w):
-    """Extra inputs of a stand-alone benchmark: pyHarm's environment for `pyharm`."""
-    if w.bench == "pyharm" and not PYHARM_PYTHON:
-        return {"pyharm_env": f"{PYHARM_ENV}/installed.txt"}
-    return {}
+    """Extra inputs of a stand-alone benchmark: pyHarm's environment for `pyharm` and `pyharm_sweep`."""
+    inputs = {}
+    if w.bench in PYHARM_BENCHES and not PYHARM_PYTHON:
+        inputs["pyharm_env"] = f"{PYHARM_ENV}/installed.txt"
+    if w.bench == "pyharm_sweep":  # its branches are the config's (`branches` friction3, impact5)
+        inputs["config"] = f"{R}/config.json"
+    return inputs
 
 
 def bench_args(w):
     """Extra arguments of a stand-alone benchmark script (the interpreter with pyHarm)."""
-    if w.bench == "pyharm":
-        return ["--pyharm-python", PYHARM_PYTHON or os.path.join(PYHARM_ENV, "bin", "python")]
-    return []
+    args = []
+    if w.bench in PYHARM_BENCHES:
+        args += ["--pyharm-python", PYHARM_PYTHON or os.path.join(PYHARM_ENV, "bin", "python")]
+    if w.bench == "pyharm_sweep":
+        args += ["--config", f"{R}/config.json"]
+    return args
 
 
 def bench_profile(w):

@@ -1,7 +1,7 @@
 """Report of the benchmarks: the paper's "Performance" section, its plots and a JSON digest.
 
 Reads the work-precision files (``workprecision_<system>.json``) and the stand-alone
-benchmarks (``kernel``, ``scaling``, ``scipy``, ``pyharm``; any may be missing) and writes
+benchmarks (``kernel``, ``scaling``, ``scipy``, ``pyharm``, ``pyharm_sweep``; any may be missing) and writes
 
 * ``workprecision.png`` -- wall time against error, one panel per system, and the speed-up of
   each method over full shooting at equal error;
@@ -290,6 +290,14 @@ def numbers(wp, other, digest):
                pyharm_speedup_min=min(ps["speedups_same_start"]) if ps.get("speedups_same_start") else None,
                pyharm_speedup_max=max(ps["speedups_same_start"]) if ps.get("speedups_same_start") else None,
                pyharm_newton_speedup_min=min(ps["speedups_newton_only"]) if ps.get("speedups_newton_only") else None)
+    sw = other.get("pyharm_sweep") or {}  # branch tracing against pyHarm's continuation (issue 13)
+    num["pyharm_sweep_available"] = sw.get("status") in ("ok", "partial")
+    for system, s in ((sw.get("summary") or {}).get("per_system") or {}).items():
+        for name, r in (s.get("branches") or {}).items():
+            key = f"sweep_{system}_{re.sub(r'[^A-Za-z0-9]+', '_', name)}"  # e.g. sweep_impact5_pyharm_penalty_ours
+            num.update({f"{key}_time_s": r.get("wall_time_s"), f"{key}_cpu_s": r.get("cpu_time_s"),
+                        f"{key}_points": r.get("points"),
+                        f"{key}_omega_reached": r.get("omega_reached")})
     sp = (other.get("scipy") or {}).get("summary", {})
     num.update(scipy_median_speedup=sp.get("median_speedup"), scipy_min_speedup=sp.get("min_speedup"))
     return num

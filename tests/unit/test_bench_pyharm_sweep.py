@@ -1,0 +1,117 @@
+"""Pure helpers of the branch benchmark against pyHarm (workflow/scripts/bench_pyharm_sweep.py): the
+monotone pieces of a branch, the branch-to-branch amplitude difference (closed-form branches), and the
+benchmark's systems read from the workflow config.  pyHarm itself is not needed (its environment is
+not part of the test run; the benchmark's JSON is produced by the workflow)."""
+import importlib.util
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+_spec = importlib.util.spec_from_file_location("bench_pyharm_sweep",
+                                               ROOT / "workflow" / "scripts" / "bench_pyharm_sweep.py")
+bps = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(bps)
+
+
+def test_monotone_segments_split_at_folds_and_repeats():
+    assert bps.monotone_segments([0.0, 1.0, 2.0, 1.0, 0.0]) == [(0, 2), (2, 4)]   # fold at index 2
+    assert bps.monotone_segments([3.0, 2.0, 1.0]) == [(0, 2)]
+    assert bps.monotone_segments([0.0, 1.0, 1.0, 2.0]) == [(0, 1), (2, 3)]        # a stalled step
+    assert bps.monotone_segments([0.0, 1.0, 0.5, 0.7, 0.6]) == [(0, 1), (1, 2), (2, 3), (3, 4)]
+    assert bps.monotone_segments([1.0]) == [] and bps.monotone_segments([]) == []
+
+
+def test_branch_difference_uniform_offset_is_exact():
+    """b linear in omega (exact for linear interpolation), a = 1.02 b on another grid: 0.02 everywhere;
+    a's points outside b's range are not compared."""
+    wb = np.linspace(0.5, 1.0, 7)
+    Ab = np.column_stack([1.0 + 2.0 * wb, 3.0 - wb])
+    wa = np.linspace(0.4, 1.1, 15)
+    Aa = 1.02 * np.column_stack([1.0 + 2.0 * wa, 3.0 - wa])
+    d = bps.branch_difference(wa, Aa, wb, Ab)
+    inside = (wa >= 0.5) & (wa <= 1.0)
+    assert d["points_compared"] == int(inside.sum()) == 11
+    # max_dof |0.02 A| / max_dof |A| = 0.02 exactly
+    assert d["max"] == pytest.approx(0.02, rel=1e-12) and d["median"] == pytest.approx(0.02, rel=1e-12)
+    assert d["omega_range"] == pytest.approx([wa[inside].min(), wa[inside].max()])
+
+
+def test_branch_difference_relative_to_the_largest_dof():
+    """The difference of a DOF with a small amplitude counts relative to the largest amplitude at that omega."""
+    wb, Ab = np.array([0.0, 1.0]), np.array([[1.0, 10.0], [1.0, 10.0]])
+    d = bps.branch_difference([0.5], [[1.5, 10.0]], wb, Ab)
+    assert d["max"] == pytest.approx(0.05, rel=1e-14) and d["omega_at_max"] == 0.5
+
+
+def test_branch_difference_through_a_fold_uses_the_nearest_sheet():
+    """b turns at omega = 2 (a fold): lower sheet A = omega, upper sheet A = 4 - omega.  Points of a on
+    either sheet match exactly; a point 10 % above the upper sheet is 10 % off, not compared with the
+    lower sheet."""
+    wb = np.array([0.0, 1.0, 2.0, 1.0, 0.0])
+    Ab = np.array([[0.0], [1.0], [2.0], [3.0], [4.0]])
+    d = bps.branch_difference([0.5, 1.5, 0.5], [[3.5], [2.5], [0.5]], wb, Ab)
+    assert d["max"] == pytest.approx(0.0, abs=1e-15) and d["points_compared"] == 3
+    d = bps.branch_difference([0.5], [[1.1 * 3.5]], wb, Ab)
+    assert d["max"] == pytest.approx(0.1, rel=1e-12)
+
+
+def test_branch_difference_interpolation_error_is_second_order():
+    """a exact on a smooth curve A(omega) = 2 + sin(3 omega), b sampled with spacing h: the difference is
+    linear interpolation's error, <= h^2/8 max|A''| / min A, and quarters when h halves."""
+    def curve(w):
+        return (2.0 + np.sin(3.0 * w))[:, None]
+
+    wa = np.linspace(0.0, 1.0, 401)
+    errs = []
+    for m in (11, 21, 41):
+        wb = np.linspace(0.0, 1.0, m)
+        h = wb[1] - wb[0]
+        d = bps.branch_difference(wa, curve(wa), wb, curve(wb))
+        assert d["points_compared"] == wa.size
+        assert d["max"] <= h * h / 8.0 * 9.0 / (2.0 + np.sin(3.0)) * (1 + 1e-9)
+        errs.append(d["max"])
+    assert 3.5 < errs[0] / errs[1] < 4.5 and 3.5 < errs[1] / errs[2] < 4.5, errs
+
+
+def test_branch_difference_without_overlap_and_bad_shapes():
+    d = bps.branch_difference([2.0, 3.0], [[1.0], [1.0]], [0.0, 1.0], [[1.0], [1.0]])
+    assert d["points_compared"] == 0 and d["max"] is None
+    with pytest.raises(ValueError, match="DOF counts"):
+        bps.branch_difference([0.5], [[1.0, 2.0]], [0.0, 1.0], [[1.0], [1.0]])
+
+
+def test_compare_evaluates_at_the_sparser_branch():
+    dense = {"name": "dense", "omega": list(np.linspace(0.0, 1.0, 11)), "amplitude": [[1.0]] * 11}
+    sparse = {"name": "sparse", "omega": [0.25, 0.75], "amplitude": [[1.1], [1.1]]}
+    for a, b in ((dense, sparse), (sparse, dense)):
+        d = bps.compare(a, b)
+        assert d["evaluated_at"] == "sparse" and d["points_compared"] == 2
+        assert d["max"] == pytest.approx(0.1, rel=1e-12)
+    assert bps.compare({"name": "empty", "omega": [], "amplitude": []}, dense)["max"] is None
+
+
+def test_pyharm_timeout_string():
+    assert bps._timeout_str(60) == "00:00:01:00"
+    assert bps._timeout_str(90061) == "01:01:01:01"
+
+
+def test_specs_follow_the_workflow_branches():
+    """Our runs of the default profile are the workflow's Fig. 9 branches (config `branches`): the same
+    omega ranges, the same method options and max_points; every same-law pair names existing runs."""
+    from mshbm.io.yaml import load_yaml, read_text
+
+    cfg = {b["name"]: b for b in load_yaml(read_text(ROOT / "workflow" / "config.yaml"))["branches"]}
+    specs = {s["name"]: s for s in bps.specs("default")}
+    for name in ("friction3", "impact5"):
+        s, b = specs[name], cfg[name]
+        assert s["omega"] == [float(w) for w in b["omega"]]
+        ours = {r["name"]: r for r in s["ours"]}
+        for method, opts in b["methods"].items():
+            expect = dict(opts, **({"max_points": b["max_points"]} if "max_points" in b else {}))
+            assert ours[method]["options"] == expect, (name, method)
+        names = set(ours) | {r["name"] for r in s["pyharm"]}
+        assert all(a in names and p in names for a, p in s["pairs"])
+    quick = {s["name"]: s for s in bps.specs("quick")}
+    assert quick["friction3"]["omega"][1] < specs["friction3"]["omega"][1]
