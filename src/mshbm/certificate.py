@@ -290,11 +290,18 @@ def _certify(problem, sol, tol, cert, step_accuracy=None):
     if fr:
         ratios = []
         for j, e in fr:
-            lmax = float(np.max(np.abs(lam[:, j]), initial=0.0))
-            ratios.append(lmax / e.bound if e.bound > 0 else (0.0 if lmax == 0 else np.inf))
+            if e.normal_contact is None:
+                lmax = float(np.max(np.abs(lam[:, j]), initial=0.0))
+                ratios.append(lmax / e.bound if e.bound > 0 else (0.0 if lmax == 0 else np.inf))
+                continue
+            # normal load from a contact: the cone per sample, |lambda_T| <= mu (N_0 + lambda_N(t))
+            b, lt = e.bound_samples(lam), np.abs(lam[:, j])
+            big = float(np.max(b, initial=0.0))
+            r = np.where(b > 1e-12 * big, lt / np.where(b > 0, b, 1.0), np.where(lt <= 1e-12 * big, 0.0, np.inf))
+            ratios.append(float(np.max(r, initial=0.0)))
         val = max(ratios)
         cert.checks.append(Check("friction_cone", val, 1.0 + 1e-9, bool(val <= 1.0 + 1e-9),
-                                 note="max |lambda_T| / (mu F_N)"))
+                                 note="max |lambda_T| / (mu F_N) (per sample where F_N follows a contact)"))
     ct = [(j, e) for j, e in enumerate(els) if e.unilateral]
     if ct:
         pen, bnd, comp = 0.0, np.inf, 0.0

@@ -51,12 +51,21 @@ Elements of issue 15:
   report the structure's DOFs only.  In a motion that never slips ``z`` is free (a family of
   periodic solutions differing in the mean): HBM's march picks ``lambda = 0`` at its last sample, time
   stepping the start ``z = w^T q(0)`` of Newton's first iterate.
-* friction whose *normal load* comes from a contact on the same point (not implemented): its bound is
-  ``mu lambda_N`` of another element -- in the kernel a coupled local problem (PGS with the bound
-  updated each sweep, and in the sensitivities ``dP_T = -+mu dP_N`` while sliding); in HBM
-  ``lambda_T = mu lambda_N(g_N, gamma_N) (2/pi) arctan(kappa gamma_T)`` with Jacobian terms in the
-  normal and tangential DOFs (the coupling terms of :func:`regularised_forces`); the certificate's
-  cone ``|lambda_T| <= mu lambda_N`` per sample; exact flow: not supported.
+* friction whose *normal load* comes from a contact on the same point (``Friction(...,
+  normal_contact=c)``, shooting, both MS-HBM variants, HBM): the normal force is
+  ``F_N(t) = N_0 + lambda_N(t)`` with the preload ``N_0 = normal_force`` and the force
+  ``lambda_N >= 0`` of the contact element ``c`` (an index into the system's element list), so the
+  bound ``mu F_N(t)`` varies with the normal motion -- the 2-D frictional contact of a blade damper.
+  Time stepping: on the impulse level ``|P_T| <= mu (h N_0 + P_N)`` (Coulomb's cone); the kernel's
+  local problem is solved by projected Gauss-Seidel with the friction bound updated from the current
+  contact impulse in every sweep; the sensitivities are exact for the active set, a sliding friction
+  on a closed contact adding ``dP_T = sign(P_T) mu dP_N`` to the equality rows
+  (:mod:`mshbm.integrators.kernels`).  HBM: ``lambda_T = mu (N_0 + max(lambda_N, 0)) (2/pi)
+  arctan(kappa gamma_T)`` with the penalty force ``lambda_N`` (eq. 45), with the Jacobian terms in
+  the normal DOFs (the coupling terms of :func:`regularised_forces`).  The certificate checks the
+  cone ``|lambda_T| <= mu (N_0 + lambda_N)`` per sample (:meth:`Element.bound_samples`).  Not
+  supported: the exact/event-driven flow (more than one element), DLFT and Jenkins
+  (``tangential_stiffness``) with a normal contact (clean :class:`~mshbm.errors.InputError`).
 """
 from __future__ import annotations
 
@@ -192,6 +201,20 @@ class Element:
         """False if the element can never exert a force (friction with ``mu F_N = 0``)."""
         return True
 
+    #: index (into the system's element list) of the contact element whose force is this element's
+    #: normal load (friction with ``normal_contact``); ``None``: no such coupling
+    normal_contact = None
+
+    def kernel_coupling(self):
+        """``(c, mu)``: the Moreau-Jean kernel's normal-load coupling (``-1, 0``: none)."""
+        return -1, 0.0
+
+    def bound_samples(self, lam):
+        """Force bound per sample given the forces ``lam`` (shape (N, m)) of all the system's elements:
+        the constant :attr:`bound` (broadcast), or ``mu (N_0 + max(lam[:, c], 0))`` with a normal contact.
+        Only for :attr:`bounded` elements."""
+        return np.full(np.shape(lam)[0], float(self.bound))
+
     # ------------------------------------------------------------------ set-valued law
     def project(self, p, h):
         """Impulse ``p`` over a step ``h`` projected onto the admissible set of the set-valued law."""
@@ -241,12 +264,18 @@ class Friction(Element):
     mu : float
         Friction coefficient, ``>= 0``.
     normal_force : float
-        Normal force ``F_N`` (N), ``>= 0``.  The friction bound is ``mu*F_N``.
+        Normal force ``F_N`` (N), ``>= 0``.  The friction bound is ``mu*F_N``.  With
+        ``normal_contact``: the preload ``N_0`` added to the contact force.
     smoothing : float
         Regularisation ``kappa`` (s/m) of eq. (42), used by HBM only.
     relative_to : int or None
         Second DOF ``J``: the element then acts on ``q_dof - q_J`` (slip velocity ``u_dof - u_J``,
         ``w = e_dof - e_J``); ``None`` (default): between ``dof`` and the ground.
+    normal_contact : int or None
+        Index (into the system's element list) of a :class:`Contact` whose force ``lambda_N >= 0`` loads
+        this friction: the bound is then ``mu (N_0 + lambda_N(t))``, ``N_0 = normal_force`` (see the
+        module docstring).  The contact must act on other DOFs (the normal direction).  ``None``
+        (default): the constant normal force ``normal_force``.
     """
 
     dof: int
@@ -254,6 +283,7 @@ class Friction(Element):
     normal_force: float
     smoothing: float = 800.0
     relative_to: int | None = None
+    normal_contact: int | None = None
     kind: str = field(default="friction", init=False)
 
     kernel_code: ClassVar[int] = KIND_FRICTION
@@ -267,6 +297,12 @@ class Friction(Element):
         object.__setattr__(self, "smoothing",
                            _finite_number("friction.smoothing", self.smoothing, positive=True))
         self._check_relative()
+        if self.normal_contact is not None:
+            c = self.normal_contact
+            if isinstance(c, bool) or not isinstance(c, (int, np.integer)) or c < 0:
+                raise InputError("friction.normal_contact", f"must be the index (>= 0) of a contact element, "
+                                 f"got {c!r}")
+            object.__setattr__(self, "normal_contact", int(c))
 
     @property
     def sign(self):
@@ -275,12 +311,43 @@ class Friction(Element):
 
     @property
     def bound(self):
-        """Maximal friction force ``mu * F_N``."""
+        """Maximal friction force ``mu * F_N`` (with ``normal_contact``: its constant part ``mu N_0``)."""
         return self.mu * self.normal_force
 
     @property
     def acts(self):
+        if self.normal_contact is not None:
+            return self.mu > 0.0
         return self.bound > 0.0
+
+    def kernel_coupling(self):
+        """``(c, mu)`` with a normal contact ``c``, else ``(-1, 0)``."""
+        return (-1, 0.0) if self.normal_contact is None else (self.normal_contact, self.mu)
+
+    def bound_samples(self, lam):
+        """``mu (N_0 + max(lambda_N, 0))`` per sample (``lam``: forces of all elements, shape (N, m))."""
+        if self.normal_contact is None:
+            return np.full(np.shape(lam)[0], float(self.bound))
+        lN = np.maximum(np.asarray(lam)[:, self.normal_contact], 0.0)
+        return self.mu * (self.normal_force + lN)
+
+    def coupled_law(self, gamma, lam_n, dn_ds, dn_dgamma):
+        """Regularised law of a friction with a normal contact (HBM)::
+
+            lambda_T = -mu (N_0 + max(lambda_N, 0)) (2/pi) arctan(kappa gamma_T)
+
+        Parameters: slip velocity samples ``gamma``; the contact's force ``lam_n`` and its derivatives
+        ``dn_ds``, ``dn_dgamma`` (arrays or ``None``) with respect to its own ``s_N``, ``gamma_N``.
+        Returns ``(lam, dlam_dgamma_T, dlam_ds_N, dlam_dgamma_N)`` (``None`` for a vanishing term).
+        """
+        pos = lam_n > 0.0
+        FN = self.normal_force + np.where(pos, lam_n, 0.0)
+        ku = self.smoothing * gamma
+        phi = -(2.0 / np.pi) * np.arctan(ku)
+        dphi = -(2.0 / np.pi) * self.smoothing / (1.0 + ku * ku)
+        dsN = None if dn_ds is None else self.mu * phi * np.where(pos, dn_ds, 0.0)
+        dgN = None if dn_dgamma is None else self.mu * phi * np.where(pos, dn_dgamma, 0.0)
+        return self.mu * FN * phi, self.mu * FN * dphi, dsN, dgN
 
     def project(self, p, h):
         """``-lambda_T in mu F_N Sign(gamma_T)``: the impulse lies in ``[-h mu F_N, h mu F_N]``."""
@@ -291,7 +358,10 @@ class Friction(Element):
         return KIND_FRICTION, h * self.bound, 0.0, 0.0
 
     def regularised_law(self, s, gamma):
-        """Eq. (42): ``lambda_T = -mu F_N (2/pi) arctan(kappa gamma_T)``."""
+        """Eq. (42): ``lambda_T = -mu F_N (2/pi) arctan(kappa gamma_T)`` (constant ``F_N``; with a normal
+        contact: :meth:`coupled_law`)."""
+        if self.normal_contact is not None:
+            raise TypeError("friction with a normal contact: its law depends on the contact force (coupled_law)")
         a = self.bound * 2.0 / np.pi
         ku = self.smoothing * gamma
         return -a * np.arctan(ku), None, -a * self.smoothing / (1.0 + ku * ku)
@@ -301,7 +371,9 @@ class Friction(Element):
         return replace(self, smoothing=self.smoothing * factor)
 
     def bound_scaled(self, s):
-        """``F_N`` times ``s``."""
+        """``F_N`` times ``s`` (with ``normal_contact``: ``mu`` times ``s``, which scales the whole bound)."""
+        if self.normal_contact is not None:
+            return replace(self, mu=self.mu * s)
         return replace(self, normal_force=self.normal_force * s)
 
     def force_scale(self, stiffness, penalty=False):
@@ -422,6 +494,9 @@ class Jenkins(Friction):
         super().__post_init__()
         object.__setattr__(self, "tangential_stiffness",
                            _finite_number("friction.tangential_stiffness", self.tangential_stiffness, positive=True))
+        if self.normal_contact is not None:
+            raise InputError("friction.normal_contact", "elastic friction (tangential_stiffness, Jenkins) with a "
+                             "normal load from a contact is not supported")
 
     history: ClassVar[bool] = True
 
@@ -529,8 +604,23 @@ def regularised_forces(elements, local_dof, q, u, coupling=False, basis=None):
     dfdq = np.zeros((Ns, nN))
     dfdu = np.zeros((Ns, nN))
     offdiag = []
+    laws = {}  # element index -> (lam, dlam/ds, dlam/dgamma) of the contacts that load a friction
+    loads = {el.normal_contact for el in elements if el.normal_contact is not None}
+    cols_of = lambda d: (d,) if isinstance(d, (int, np.integer)) else tuple(d)
+
+    def add(i, k, cq, cu):  # d f_i / d (q_k, u_k) of one element: diagonal or coupling term
+        if i == k:
+            if cq is not None:
+                dfdq[:, i] += cq
+            if cu is not None:
+                dfdu[:, i] += cu
+        else:
+            offdiag.append((i, k, cq, cu))
+
     for j, (el, d) in enumerate(zip(elements, local_dof)):
         w = el.sign
+        if el.normal_contact is not None:
+            continue  # after the contacts (second pass)
         if el.history:  # dense in time: d lambda_k / d s_l, into the coupling terms as (N_s, N_s) matrices
             cols = (d,) if isinstance(d, (int, np.integer)) else tuple(d)
             wc = [(c, wi) for c, (_, wi) in zip(cols, el.direction)]
@@ -544,6 +634,8 @@ def regularised_forces(elements, local_dof, q, u, coupling=False, basis=None):
         if el.relative_to is None:
             d = d[0] if isinstance(d, tuple) else d
             lam[:, j], dl_ds, dl_dg = el.regularised_law(w * q[:, d], w * u[:, d])
+            if j in loads:
+                laws[j] = (lam[:, j], dl_ds, dl_dg)
             f[:, d] += w * lam[:, j]
             if dl_ds is not None:
                 dfdq[:, d] += (w * w) * dl_ds
@@ -552,6 +644,8 @@ def regularised_forces(elements, local_dof, q, u, coupling=False, basis=None):
             continue
         a, b = d
         lam[:, j], dl_ds, dl_dg = el.regularised_law(w * (q[:, a] - q[:, b]), w * (u[:, a] - u[:, b]))
+        if j in loads:
+            laws[j] = (lam[:, j], dl_ds, dl_dg)
         f[:, a] += w * lam[:, j]
         f[:, b] -= w * lam[:, j]
         for i, wi in ((a, w), (b, -w)):
@@ -565,6 +659,25 @@ def regularised_forces(elements, local_dof, q, u, coupling=False, basis=None):
                         dfdu[:, i] += cu
                 else:
                     offdiag.append((i, k, cq, cu))
+    # friction loaded by a contact: lambda_T = mu (N_0 + lambda_N) phi(gamma_T); d f / d (q, u) of the
+    # tangential DOFs (through gamma_T) and of the contact's DOFs (through lambda_N)
+    for j, (el, d) in enumerate(zip(elements, local_dof)):
+        if el.normal_contact is None:
+            continue
+        c = el.normal_contact
+        if c not in laws:
+            raise InputError("friction.normal_contact", f"element {c} is not a contact element")
+        wt = [(col, wi) for col, (_, wi) in zip(cols_of(d), el.direction)]
+        wn = [(col, wi) for col, (_, wi) in zip(cols_of(local_dof[c]), elements[c].direction)]
+        gam = sum(wi * u[:, col] for col, wi in wt)
+        lam[:, j], dl_dgt, dl_dsn, dl_dgn = el.coupled_law(gam, *laws[c])
+        for i, wi in wt:
+            f[:, i] += wi * lam[:, j]
+            for k, wk in wt:
+                add(i, k, None, (wi * wk) * dl_dgt)
+            for k, wk in wn:
+                add(i, k, None if dl_dsn is None else (wi * wk) * dl_dsn,
+                    None if dl_dgn is None else (wi * wk) * dl_dgn)
     if coupling:
         return lam, f, dfdq, dfdu, offdiag
     if offdiag:

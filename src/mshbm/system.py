@@ -147,6 +147,17 @@ class System:
                 where = f"DOF {el.dof}" if el.relative_to is None else f"DOFs {el.dof}-{el.relative_to}"
                 raise InputError(f"{el.kind}.dof", f"two {el.kind} elements on {where}")
             seen.add(key)
+        for i, el in enumerate(self.elements):
+            c = el.normal_contact
+            if c is None:
+                continue
+            if not 0 <= c < len(self.elements) or not self.elements[c].unilateral:
+                what = f"element {c} is a {self.elements[c].kind}" if 0 <= c < len(self.elements) else \
+                    f"no element {c} (the system has {len(self.elements)})"
+                raise InputError(f"{el.kind}.normal_contact", f"must be the index of a contact element: {what}")
+            if int(self.elements[c].dof) == int(el.dof):
+                raise InputError(f"{el.kind}.normal_contact", f"contact {c} acts on the friction's own DOF "
+                                 f"{el.dof}: the normal direction must be another DOF")
         self.name = str(name)
 
     # ------------------------------------------------------------------ basics

@@ -16,7 +16,10 @@ DOFs, ``w_j = sign[j] (e_dof[j] - e_dof2[j])`` and ``gamma_j = sign[j] (u[dof[j]
 ``D = G^T W G``, is:
 
 * friction (kind 0): ``gamma_j+ = 0`` if ``|P_j| < bound_j = h mu F_N`` else
-  ``P_j = -bound_j sign(gamma_j+)``;
+  ``P_j = -bound_j sign(gamma_j+)``; a friction whose normal load comes from a contact
+  (``nsrc[j] = c >= 0``, coefficient ``mu_n[j]``) has the bound ``bound_j + mu_n[j] P_c``
+  (Coulomb's cone on the impulse level, ``|P_T| <= mu (h N_0 + P_N)``, ``bound_j = h mu N_0`` the
+  preload part), updated in every projected Gauss-Seidel sweep;
 * contact (kind 1), active when the free end-of-step gap
   ``g_j(q + h((1-theta)u + theta u_free)) <= 0``:
   ``0 <= gamma_j+ + e_j gamma_j- _|_ P_j >= 0`` (Newton's law, ``gamma-`` at
@@ -29,7 +32,8 @@ back onto ``g_j = 0`` in the metric of ``M`` (no-op for ``e_N = 1``).
 Sensitivities with respect to ``(q0, u0, p)``, where the forcing increment
 depends on parameters ``p`` through ``db_k/dp = dB[k]``, are propagated exactly
 for the current active set (a stick/closed element has ``dP`` from the linear
-equality, a slip/open one ``dP = 0``).
+equality, a slip/open one ``dP = 0``; a slipping friction with its normal load from a closed contact
+``c``: ``dP_j = sign(P_j) mu_n[j] dP_c``, solved together with the equality rows).
 """
 from __future__ import annotations
 
@@ -56,7 +60,8 @@ def _rel(x, d, d2, s):
 
 
 @njit(cache=True)
-def _local_solve(uf, u, q_free_gap, kind, dof, dof2, sign, bound, e, Del, P, status, tol, max_iter, r, active):
+def _local_solve(uf, u, q_free_gap, kind, dof, dof2, sign, bound, e, nsrc, mu_n, Del, P, status, tol, max_iter,
+                 r, active):
     """Solve the local impulse problem; fills P and status; returns iterations.
 
     ``r`` and ``active`` are work arrays of length m (right-hand sides
@@ -67,7 +72,7 @@ def _local_solve(uf, u, q_free_gap, kind, dof, dof2, sign, bound, e, Del, P, sta
         gf = _rel(uf, dof[j], dof2[j], sign[j])
         if kind[j] == KIND_FRICTION:
             r[j] = gf
-            active[j] = bound[j] > 0.0
+            active[j] = bound[j] > 0.0 or nsrc[j] >= 0
         else:
             r[j] = gf + e[j] * _rel(u, dof[j], dof2[j], sign[j])
             active[j] = q_free_gap[j] <= 0.0
@@ -98,10 +103,13 @@ def _local_solve(uf, u, q_free_gap, kind, dof, dof2, sign, bound, e, Del, P, sta
                     res += Del[j, i] * P[i]
                 p = P[j] - res / Del[j, j]
                 if kind[j] == KIND_FRICTION:
-                    if p > bound[j]:
-                        p = bound[j]
-                    elif p < -bound[j]:
-                        p = -bound[j]
+                    b = bound[j]
+                    if nsrc[j] >= 0:
+                        b += mu_n[j] * P[nsrc[j]]
+                    if p > b:
+                        p = b
+                    elif p < -b:
+                        p = -b
                 elif p < 0.0:
                     p = 0.0
                 d = abs(p - P[j])
@@ -112,14 +120,36 @@ def _local_solve(uf, u, q_free_gap, kind, dof, dof2, sign, bound, e, Del, P, sta
                 P[j] = p
             if change <= tol * (1.0 + scale):
                 break
+        for j in range(m):  # the cone with the final normal impulse holds exactly
+            if kind[j] == KIND_FRICTION and nsrc[j] >= 0:
+                b = bound[j] + mu_n[j] * P[nsrc[j]]
+                if P[j] > b:
+                    P[j] = b
+                elif P[j] < -b:
+                    P[j] = -b
     for j in range(m):
         if not active[j]:
             status[j] = STATUS_OPEN
         elif kind[j] == KIND_FRICTION:
-            status[j] = STATUS_SLIP if abs(P[j]) >= bound[j] * (1.0 - 1e-14) else STATUS_STICK
+            b = bound[j]
+            if nsrc[j] >= 0:
+                b += mu_n[j] * P[nsrc[j]]
+            if b <= 0.0:
+                status[j] = STATUS_OPEN  # no normal load: no friction impulse
+            else:
+                status[j] = STATUS_SLIP if abs(P[j]) >= b * (1.0 - 1e-14) else STATUS_STICK
         else:
             status[j] = STATUS_CLOSED if P[j] > 0.0 else STATUS_OPEN
     return it
+
+
+@njit(cache=True)
+def _sens_row(j, status, nsrc):
+    """Element ``j`` has an impulse sensitivity row: stick, closed, or slip with the bound of a closed contact."""
+    st = status[j] & 3
+    if st == STATUS_STICK or st == STATUS_CLOSED:
+        return True
+    return st == STATUS_SLIP and nsrc[j] >= 0 and (status[nsrc[j]] & 3) == STATUS_CLOSED
 
 
 @njit(cache=True)
@@ -247,7 +277,7 @@ def _moreau_jean_scalar(q0, u0, aq, au, wg, dl, minvg, B, dB, theta, h, kind, si
 
 @njit(cache=True)
 def moreau_jean(q0, u0, Aq, Au, WG, Del, MinvG, B, dB, theta, h,
-                kind, dof, dof2, sign, bound, gap, e, project,
+                kind, dof, dof2, sign, bound, gap, e, nsrc, mu_n, project,
                 want_sens, store_q_sens, tol, max_iter, n_slider):
     """Integrate ``N = B.shape[0]`` Moreau-Jean steps.
 
@@ -260,6 +290,8 @@ def moreau_jean(q0, u0, Aq, Au, WG, Del, MinvG, B, dB, theta, h,
     theta, h : scheme parameter and step (s).
     kind, dof, dof2, sign, bound, gap, e : (m,) element data; ``bound = h mu F_N``; ``dof2 = -1``
         for an element on one DOF, else the second DOF of a relative element.
+    nsrc, mu_n : (m,) normal-load coupling of friction elements: ``nsrc[j]`` the index of the contact
+        whose impulse loads friction ``j`` (bound ``bound[j] + mu_n[j] P[nsrc[j]]``), ``-1``: none.
     project : bool, project penetrating contacts back to ``g = 0``.
     want_sens : bool, propagate sensitivities w.r.t. ``(q0, u0, p)``.
     store_q_sens : bool, also store ``dq_k/d(q0,u0,p)`` at every step.
@@ -341,8 +373,8 @@ def moreau_jean(q0, u0, Aq, Au, WG, Del, MinvG, B, dB, theta, h,
             else:
                 fgap[j] = 0.0
         if m > 0:
-            it = _local_solve(uf, u, fgap, kind, dof, dof2, sign, bound, e, Del, P, status, tol, max_iter,
-                              rwork, awork)
+            it = _local_solve(uf, u, fgap, kind, dof, dof2, sign, bound, e, nsrc, mu_n, Del, P, status, tol,
+                              max_iter, rwork, awork)
             if it > used:
                 used = it
         for i in range(n):
@@ -366,25 +398,36 @@ def moreau_jean(q0, u0, Aq, Au, WG, Del, MinvG, B, dB, theta, h,
                         if c >= 2 * n:
                             s += dB[k, i, c - 2 * n]
                         dUf[i, c] = s
-            # impulse sensitivities for equality-active elements
+            # impulse sensitivities for equality-active elements and for slipping friction whose
+            # bound follows a closed contact (dP_T = sign(P_T) mu dP_N)
             n_eq = 0
             for j in range(m):
-                if status[j] == STATUS_STICK or status[j] == STATUS_CLOSED:
+                if _sens_row(j, status, nsrc):
                     n_eq += 1
             for j in range(m):
                 for c in range(n_s):
                     dP[j, c] = 0.0
             if n_eq > 0:
                 idx = np.empty(n_eq, dtype=np.int64)
+                where = np.full(m, -1, dtype=np.int64)
                 t = 0
                 for j in range(m):
-                    if status[j] == STATUS_STICK or status[j] == STATUS_CLOSED:
+                    if _sens_row(j, status, nsrc):
                         idx[t] = j
+                        where[j] = t
                         t += 1
                 A = np.empty((n_eq, n_eq))
                 R = np.empty((n_eq, n_s))
                 for a in range(n_eq):
                     ja = idx[a]
+                    if status[ja] == STATUS_SLIP:  # coupled slip: dP_T - sign(P_T) mu dP_N = 0
+                        for b in range(n_eq):
+                            A[a, b] = 0.0
+                        A[a, a] = 1.0
+                        A[a, where[nsrc[ja]]] = mu_n[ja] if P[ja] < 0.0 else -mu_n[ja]
+                        for c in range(n_s):
+                            R[a, c] = 0.0
+                        continue
                     for b in range(n_eq):
                         A[a, b] = Del[ja, idx[b]]
                     d = dof[ja]
@@ -443,15 +486,18 @@ def moreau_jean(q0, u0, Aq, Au, WG, Del, MinvG, B, dB, theta, h,
 
 
 def moreau_jean_numpy(q0, u0, Aq, Au, WG, Del, MinvG, B, theta, h,
-                      kind, dof, sign, bound, gap, e, project=True, dof2=None, n_slider=0):
+                      kind, dof, sign, bound, gap, e, project=True, dof2=None, n_slider=0, nsrc=None, mu_n=None):
     """Plain NumPy version of :func:`moreau_jean` (no sensitivities), for testing.
 
     One element per step is solved in closed form; several by PGS as in the kernel.
     ``dof2``: second DOF of relative elements (-1: ground; default: all on one DOF).
+    ``nsrc, mu_n``: normal-load coupling of friction elements (default: none).
     Returns ``q, u, P`` with the shapes of the kernel's outputs.
     """
     N, n, m = B.shape[0], q0.size, kind.size
     dof2 = -np.ones(m, dtype=np.int64) if dof2 is None else np.asarray(dof2)
+    nsrc = -np.ones(m, dtype=np.int64) if nsrc is None else np.asarray(nsrc)
+    mu_n = np.zeros(m) if mu_n is None else np.asarray(mu_n, dtype=float)
     th = np.full(n, float(theta))
     th[n - n_slider:] = 1.0  # massless slider DOFs: theta = 1
     W = np.zeros((n, m))  # columns w_j
@@ -465,7 +511,7 @@ def moreau_jean_numpy(q0, u0, Aq, Au, WG, Del, MinvG, B, theta, h,
         uf = u + B[k] - Aq @ q - Au @ u
         P = np.zeros(m)
         qfree = q + h * (1 - th) * u + h * th * uf
-        active = np.array([bound[j] > 0 if kind[j] == KIND_FRICTION
+        active = np.array([(bound[j] > 0 or nsrc[j] >= 0) if kind[j] == KIND_FRICTION
                            else gap[j] + W[:, j] @ qfree <= 0 for j in range(m)], dtype=bool)
         r = np.array([W[:, j] @ uf + (e[j] * (W[:, j] @ u) if kind[j] == KIND_CONTACT else 0.0)
                       for j in range(m)])
@@ -473,7 +519,11 @@ def moreau_jean_numpy(q0, u0, Aq, Au, WG, Del, MinvG, B, theta, h,
             Pold = P.copy()
             for j in np.flatnonzero(active):
                 p = P[j] - (r[j] + Del[j] @ P) / Del[j, j]
-                P[j] = np.clip(p, -bound[j], bound[j]) if kind[j] == KIND_FRICTION else max(p, 0.0)
+                if kind[j] == KIND_FRICTION:
+                    b = bound[j] + (mu_n[j] * P[nsrc[j]] if nsrc[j] >= 0 else 0.0)
+                    P[j] = np.clip(p, -b, b)
+                else:
+                    P[j] = max(p, 0.0)
             if np.max(np.abs(P - Pold), initial=0.0) <= 1e-14 * (1 + np.max(np.abs(P), initial=0.0)):
                 break
         u_new = uf + WG @ P

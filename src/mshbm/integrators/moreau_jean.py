@@ -147,6 +147,9 @@ class MoreauJean:
         self.bound = np.zeros(m)
         self.gap = np.zeros(m)
         self.e = np.zeros(m)
+        #: normal-load coupling: index of the contact loading friction ``j`` (-1: none) and its ``mu``
+        self.nsrc = np.full(m, -1, dtype=np.int64)
+        self.mu_n = np.zeros(m)
         for j, el in enumerate(elements):
             for d, w in el.direction:
                 G[d, j] = w
@@ -154,6 +157,12 @@ class MoreauJean:
             if el.relative_to is not None:
                 self.dof2[j] = el.relative_to
             self.kind[j], self.bound[j], self.gap[j], self.e[j] = el.kernel_parameters(h)
+            self.nsrc[j], self.mu_n[j] = el.kernel_coupling()
+        for j in np.flatnonzero(self.nsrc >= 0):
+            c = int(self.nsrc[j])
+            if not (0 <= c < m and c != j and self.kind[c] == kernels.KIND_CONTACT):
+                raise InputError("friction.normal_contact", f"element {c} is not a contact element of this "
+                                 f"(sub)system of {m} elements")
         self.G = G
         self.WG = np.ascontiguousarray(self.W @ G)
         self.Del = np.ascontiguousarray(G.T @ self.WG)
@@ -242,17 +251,33 @@ class MoreauJean:
             self.Aq, self.Au, self.WG, self.Del, self.MinvG,
             np.ascontiguousarray(B, dtype=float), np.ascontiguousarray(dB, dtype=float),
             self.theta, self.h, self.kind, self.dof, self.dof2, self.sign, self.bound, self.gap, self.e,
-            self.project, bool(sensitivities or store_q_sensitivities), bool(store_q_sensitivities),
+            self.nsrc, self.mu_n, self.project, bool(sensitivities or store_q_sensitivities), bool(store_q_sensitivities),
             self.tol, self.max_iter, self.n - self.n_structure)
         return Trajectory(*out)
 
-    def step_jacobian(self, pattern):
+    @property
+    def coupled(self):
+        """True if a friction element takes its normal load from a contact (:attr:`nsrc`)."""
+        return bool(np.any(self.nsrc >= 0))
+
+    def slip_signs(self, P):
+        """``sign(P_j)`` of the normal-load-coupled friction elements per step (0 elsewhere), shape (N, m):
+        with :meth:`monodromy` the direction of the slip whose bound follows the contact impulse."""
+        S = np.zeros(P.shape, dtype=np.int64)
+        cols = np.flatnonzero(self.nsrc >= 0)
+        S[:, cols] = np.sign(P[:, cols]).astype(np.int64)
+        return S
+
+    def step_jacobian(self, pattern, slip_sign=None):
         """Jacobian ``d(q+, u+)/d(q, u)`` of one step for an active-set pattern.
 
         Parameters
         ----------
         pattern : sequence of int, length m
             Status codes of the elements in that step (see :mod:`mshbm.integrators.kernels`).
+        slip_sign : sequence of int, length m, optional
+            ``sign(P_j)`` of slipping friction elements whose bound follows a closed contact
+            (``dP_j = sign(P_j) mu dP_c``); needed only for such elements (:attr:`coupled`).
 
         Returns
         -------
@@ -264,14 +289,30 @@ class MoreauJean:
         dU = np.hstack([np.zeros((n, n)), I])
         pattern = np.asarray(pattern, dtype=np.int64)
         base = pattern & 3
-        E = np.flatnonzero(base >= kernels.STATUS_STICK)
+        eq = base >= kernels.STATUS_STICK
+        slip = np.zeros_like(eq)
+        for j in np.flatnonzero(self.nsrc >= 0):
+            c = self.nsrc[j]
+            if base[j] == kernels.STATUS_SLIP and base[c] == kernels.STATUS_CLOSED:
+                if slip_sign is None or slip_sign[j] == 0:
+                    raise ValueError("step_jacobian: a friction element slips with the bound of a closed "
+                                     "contact; pass slip_sign (MoreauJean.slip_signs)")
+                slip[j] = True
+        E = np.flatnonzero(eq | slip)
         dUn = dUf.copy()
         if E.size:
-            rows = np.empty((E.size, 2 * n))
+            rows = np.zeros((E.size, 2 * n))
+            A = np.zeros((E.size, E.size))
+            where = {int(j): a for a, j in enumerate(E)}
             for a, j in enumerate(E):
+                if slip[j]:  # dP_j - sign(P_j) mu dP_c = 0
+                    A[a, a] = 1.0
+                    A[a, where[int(self.nsrc[j])]] = -float(slip_sign[j]) * self.mu_n[j]
+                    continue
                 ee = self.e[j] if self.kind[j] == kernels.KIND_CONTACT else 0.0
                 rows[a] = -(self.G[:, j] @ dUf + ee * (self.G[:, j] @ dU))
-            dP = np.linalg.solve(self.Del[np.ix_(E, E)], rows)
+                A[a] = self.Del[j, E]
+            dP = np.linalg.solve(A, rows)
             dUn += self.WG[:, E] @ dP
         thd = self.theta_dofs[:, None]
         dQn = np.hstack([I, h * (1 - thd) * I]) + h * thd * dUn
@@ -280,8 +321,9 @@ class MoreauJean:
             dQn = dQn - np.outer(self.MinvG[:, j], (self.G[:, j] @ dQn) / w)
         return np.vstack([dQn, dUn])
 
-    def monodromy(self, status):
-        """Product of the step Jacobians along a trajectory, from its status array.
+    def monodromy(self, status, P=None):
+        """Product of the step Jacobians along a trajectory, from its status array (and, with
+        normal-load-coupled friction, :attr:`coupled`, its impulses ``P``: the slip directions).
 
         Consecutive steps with the same active set share one Jacobian, so the
         product is formed from matrix powers of runs: cost
@@ -290,6 +332,8 @@ class MoreauJean:
         Parameters
         ----------
         status : ndarray, shape (N, m)
+        P : ndarray, shape (N, m), optional
+            Impulses of the trajectory; required when :attr:`coupled`.
 
         Returns
         -------
@@ -300,13 +344,21 @@ class MoreauJean:
         cache = {}
         if self.m == 0:
             return np.linalg.matrix_power(self.step_jacobian(()), N)
-        codes = status.astype(np.int64) @ (8 ** np.arange(self.m))
+        signs = None
+        if self.coupled:
+            if P is None:
+                raise ValueError("monodromy: friction with a normal load from a contact needs the impulses P")
+            signs = self.slip_signs(np.asarray(P))
+            ext = np.hstack([status.astype(np.int64), signs])
+            codes = np.unique(ext, axis=0, return_inverse=True)[1].reshape(-1)
+        else:
+            codes = status.astype(np.int64) @ (8 ** np.arange(self.m))
         change = np.flatnonzero(np.diff(codes)) + 1
         starts = np.concatenate([[0], change])
         ends = np.concatenate([change, [N]])
         for s, e in zip(starts, ends):
             key = int(codes[s])
             if key not in cache:
-                cache[key] = self.step_jacobian(status[s])
+                cache[key] = self.step_jacobian(status[s], None if signs is None else signs[s])
             Phi = np.linalg.matrix_power(cache[key], int(e - s)) @ Phi
         return Phi

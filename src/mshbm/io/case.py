@@ -32,8 +32,10 @@ FORCING_KEYS = ("dof", "amplitude", "sin", "harmonic", "constant")
 #: element keys: default value, or ``...`` when required
 #: (``relative_to: J``: the element acts on ``q_dof - q_J`` instead of between ``dof`` and the ground)
 #: (``tangential_stiffness: k_t``: elastic friction, a Jenkins element, :class:`mshbm.elements.Jenkins`)
+#: (``normal_contact: i``: the normal load is ``normal_force`` (the preload N_0, default 0 then) plus the force
+#: of the ``contact`` entry ``i`` (0-based index into the ``contact`` list), :class:`mshbm.elements.Friction`)
 FRICTION_KEYS = {"dof": ..., "mu": ..., "normal_force": ..., "smoothing": 800.0, "relative_to": None,
-                 "tangential_stiffness": None}
+                 "tangential_stiffness": None, "normal_contact": None}
 CONTACT_KEYS = {"dof": ..., "gap": ..., "restitution": 1.0, "penalty_stiffness": 8000.0,
                 "penalty_damping": 0.0, "relative_to": None}
 SOLVER_KEYS = ("method", "harmonics", "steps", "theta", "jacobian", "tol", "max_iter", "partition",
@@ -188,21 +190,33 @@ def _forcing_hat(items, n):
     return f_hat
 
 
-def _elements(kind, value, n):
+def _elements(kind, value, n, contacts=()):
+    """Elements of one section; ``contacts``: the parsed ``contact`` entries (for ``normal_contact``, which
+    becomes an index into the system's element list: the friction entries come first)."""
     if value is None:
         return []
     cls, spec = (Friction, FRICTION_KEYS) if kind == "friction" else (Contact, CONTACT_KEYS)
     out, seen = [], {}
-    for key, item in _items(kind, value):
+    items = _items(kind, value)
+    for key, item in items:
         _check_keys(key, item, tuple(spec))
         vals = {}
         for name, default in spec.items():
             if name not in item:
-                if default is ...:
+                if default is ... and not (name == "normal_force" and item.get("normal_contact") is not None):
                     raise InputError(f"{key}.{name}", "missing (required)")
-                vals[name] = default
+                vals[name] = 0.0 if default is ... else default  # normal_force: no preload
             elif name in ("dof", "relative_to"):
                 vals[name] = _dof(f"{key}.{name}", item[name], n)
+            elif name == "normal_contact":
+                i = _integer(f"{key}.{name}", item[name], minimum=0)
+                if i >= len(contacts):
+                    raise InputError(f"{key}.{name}", f"no contact entry {i} (the case has {len(contacts)} "
+                                     "contact entries, indexed from 0)")
+                if contacts[i].dof == vals["dof"]:
+                    raise InputError(f"{key}.{name}", f"contact {i} acts on the friction's own DOF {vals['dof']}: "
+                                     "the normal direction must be another DOF")
+                vals[name] = len(items) + i
             else:
                 vals[name] = _number(f"{key}.{name}", item[name])
         if vals.get("relative_to") is not None and vals["relative_to"] == vals["dof"]:
@@ -394,7 +408,8 @@ def parse_case(data, name=None, source=None, base_dir=None):
         else:
             C = mats["C"]
         forcing = _forcing(data.get("forcing"), n)
-        elements = _elements("friction", data.get("friction"), n) + _elements("contact", data.get("contact"), n)
+        contacts = _elements("contact", data.get("contact"), n)
+        elements = _elements("friction", data.get("friction"), n, contacts) + contacts
         system = System(M, C, K, _forcing_hat(forcing, n), elements, name=name)
     else:
         if "masses" not in data:
@@ -408,7 +423,8 @@ def parse_case(data, name=None, source=None, base_dir=None):
         alpha_beta = _rayleigh(data["damping"], _number) if rayleigh else None
         damping = 0.0 if rayleigh else _per_spring("damping", data.get("damping", 0.0))
         forcing = _forcing(data.get("forcing"), n)
-        elements = _elements("friction", data.get("friction"), n) + _elements("contact", data.get("contact"), n)
+        contacts = _elements("contact", data.get("contact"), n)
+        elements = _elements("friction", data.get("friction"), n, contacts) + contacts
         system = chain(masses, stiffness, damping, forcing=forcing, elements=elements, name=name)
         if rayleigh:
             system = System(system.M, _rayleigh_damping(system.M, system.K, *alpha_beta), system.K,

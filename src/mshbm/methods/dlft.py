@@ -207,6 +207,9 @@ class DLFTProblem(HarmonicProblem):
         self.predictor = dlft_predictor
         n = system.n
         for el in system.elements:
+            if el.normal_contact is not None:
+                raise InputError("friction.normal_contact", "DLFT does not support friction with a normal load "
+                                 "from a contact (use shooting, mshbm or hbm)")
             if el.relative_to is not None or el.history:
                 what = "relative_to" if el.relative_to is not None else "tangential_stiffness"
                 raise InputError(f"{el.kind}.{what}", "DLFT supports ground friction and contact only (relative and "

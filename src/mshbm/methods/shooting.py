@@ -115,7 +115,7 @@ class ShootingProblem(PeriodicProblem):
         if not jac:
             return R, None
         if self.jacobian == "exact":
-            Phi = self.stepper.monodromy(tr.status)
+            Phi = self.stepper.monodromy(tr.status, tr.P)
         else:
             xe = np.concatenate([tr.q[-1], tr.u[-1]])
 
@@ -128,7 +128,8 @@ class ShootingProblem(PeriodicProblem):
 
     def monodromy(self, x):
         """Monodromy matrix ``d(q(T), u(T))/d(q0, u0)``, shape (2n, 2n)."""
-        return self.stepper.monodromy(self.simulate(x).status)
+        tr = self.simulate(x)
+        return self.stepper.monodromy(tr.status, tr.P)
 
     def solution_parts(self, x):
         """Time-domain data for :class:`PeriodicSolution`."""

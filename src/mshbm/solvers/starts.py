@@ -424,7 +424,7 @@ def _event_steps(parts, system):
         if el.unilateral:
             act = P[:, j] > 0
         else:
-            act = np.abs(P[:, j]) < (1.0 - 1e-9) * h * el.bound  # sticking
+            act = np.abs(P[:, j]) < (1.0 - 1e-9) * h * el.bound_samples(P / h)  # sticking
         change = np.nonzero(act != np.roll(act, 1))[0]
         ev.extend(change.tolist())
         if el.unilateral:
