@@ -550,7 +550,7 @@ class EventFlow:
         for a, k in enumerate(touch):
             if gam[k] < 0.0 and e[a] < 1.0:
                 zeno = self._zeno(st, k, z, gam[k])
-                if not zeno and self.accumulation == "moreau":
+                if not zeno and self.accumulation != "close":
                     imp = ctx["impacts"].setdefault(k, [])
                     if len(imp) >= 5:
                         from ..accumulation import find_accumulations

@@ -37,7 +37,7 @@ FRICTION_KEYS = {"dof": ..., "mu": ..., "normal_force": ..., "smoothing": 800.0,
 CONTACT_KEYS = {"dof": ..., "gap": ..., "restitution": 1.0, "penalty_stiffness": 8000.0,
                 "penalty_damping": 0.0, "relative_to": None}
 SOLVER_KEYS = ("method", "harmonics", "steps", "theta", "jacobian", "tol", "max_iter", "partition",
-               "condense", "project", "line_search", "continuation", "stability", "dlft_penalty")
+               "condense", "project", "line_search", "continuation", "stability", "dlft_penalty", "integrator")
 
 
 
@@ -256,6 +256,9 @@ def _solver(value, n):
         elif k == "jacobian":
             if v not in ("exact", "fd"):
                 raise InputError(key, f"must be 'exact' or 'fd', got {_describe(v)}")
+        elif k == "integrator":
+            if v not in ("moreau", "event"):
+                raise InputError(key, f"must be 'moreau' or 'event', got {_describe(v)}")
         elif k in ("condense", "project", "line_search", "continuation"):
             if not isinstance(v, bool):
                 raise InputError(key, f"must be true or false, got {_describe(v)}")
