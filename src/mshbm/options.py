@@ -21,7 +21,7 @@ Per method (:data:`METHODS`): ``harmonics`` (n_h), ``steps`` (time steps or AFT 
 :func:`default_steps`), ``theta`` (Moreau-Jean), ``jacobian`` (``"exact"`` or ``"fd"``), ``project``
 (position projection of contacts), ``condense`` (HBM/DLFT: eliminate linear DOFs), ``partition``
 (DOFs of the nonlinear/time-stepped subsystem), ``dlft_penalty`` (DLFT's ``eps``, N/m),
-``integrator`` (shooting: ``"moreau"`` or ``"event"``).
+``integrator`` (shooting and both MS-HBM variants: ``"moreau"`` or ``"event"``).
 
 Default integrator rule: ``"moreau"`` unless the user asks for ``"event"``.  The exact event-driven
 flow (:mod:`mshbm.integrators.event`) removes the time-discretisation error (first order at impacts
@@ -48,8 +48,9 @@ COMMON = frozenset({"guess", "tol", "max_iter", "line_search", "progress", "rais
 METHODS = {
     "shooting": frozenset({"steps", "theta", "jacobian", "harmonics", "project", "integrator"}),
     "hbm": frozenset({"harmonics", "steps", "condense", "partition"}),
-    "mshbm": frozenset({"harmonics", "steps", "theta", "jacobian", "partition", "project"}),
-    "mshbm-intermediate": frozenset({"harmonics", "steps", "theta", "jacobian", "partition", "project"}),
+    "mshbm": frozenset({"harmonics", "steps", "theta", "jacobian", "partition", "project", "integrator"}),
+    "mshbm-intermediate": frozenset({"harmonics", "steps", "theta", "jacobian", "partition", "project",
+                                     "integrator"}),
     "dlft": frozenset({"harmonics", "steps", "condense", "partition", "dlft_penalty"}),
 }
 

@@ -71,6 +71,12 @@ def test_budd_dux_11_orbit_shooting_and_exact():
     # the exact reference solver, now on the same engine
     ex = exact_periodic(s, OMEGA_BD, sol)
     assert ex.success and abs(ex.info["amplitude_exact"][0] - A_cf) <= 1e-9 * A_cf
+    # MS-HBM with the event integrator (the element DOF is the whole system: no truncation error left)
+    ms = mshbm.solve(s, OMEGA_BD, "mshbm", harmonics=5, integrator="event", steps=512)
+    assert ms.success, ms.message
+    imp = [e for e in ms.info["event_list"] if e.impulse > 0]
+    assert len(imp) == 1 and abs(imp[0].t - t0) <= 1e-10  # measured 3.3e-15
+    assert abs(ms.amplitude[0] - A_cf) <= 1e-9 * A_cf  # measured 2.6e-15 (absolute)
 
 
 # ----------------------------------------------------------------------------- Den Hartog
@@ -87,6 +93,9 @@ def test_den_hartog_coulomb_oscillator():
     assert abs(sol.info["q_max"][0] - X) <= 1e-9 * X and abs(sol.info["q_min"][0] + X) <= 1e-9 * X
     mj = mshbm.solve(s, beta, "shooting", steps=1024)
     assert abs(mj.amplitude[0] / X - 1.0) > 1e-5  # Moreau-Jean on 1024 steps: measured 3.3e-4
+    ms = mshbm.solve(s, beta, "mshbm", harmonics=5, integrator="event", steps=512)
+    assert ms.success, ms.message
+    assert abs(ms.amplitude[0] / X - 1.0) <= 1e-9  # measured 5.2e-13
 
 
 # ----------------------------------------------------------------------------- two elements, different times
@@ -262,7 +271,7 @@ def test_inputs():
                     integrator="rk4")
     assert err.value.key == "integrator"
     with pytest.raises(InputError) as err:
-        mshbm.solve(chain([1.0], 1.0, 0.1, forcing=[{"dof": 0, "amplitude": 1.0}]), 1.0, "mshbm",
+        mshbm.solve(chain([1.0], 1.0, 0.1, forcing=[{"dof": 0, "amplitude": 1.0}]), 1.0, "hbm",
                     integrator="event")
     assert err.value.key == "integrator"
 
@@ -284,3 +293,84 @@ def test_cli_integrator_option(tmp_path):
     assert ex.success
     np.testing.assert_allclose(amp, ex.info["amplitude_exact"], rtol=1e-9)  # the same exact orbit
     assert main(["solve", str(case), "--method", "shooting", "--integrator", "rk4", "--quiet"]) == 2
+
+
+# ----------------------------------------------------------------------------- MS-HBM with the event integrator
+def test_forcing_states_and_exact_fourier_coefficients():
+    """The coupling force as forcing states: the same flow as the force in f_hat, its sensitivities and those
+    of the exact Fourier coefficients against central differences."""
+    omega = 0.8
+    s = chain([1.0, 1.0], 1.0, 0.05, forcing=[{"dof": 1, "amplitude": 1.5}],
+              elements=[Friction(0, 1.0, 0.3), Contact(1, 0.8, 0.7)])
+    Fc = np.zeros((7, 2))
+    Fc[0, 0], Fc[1, 0], Fc[2, 1], Fc[5, 1] = 0.05, 0.3, -0.2, 0.1
+    fl = EventFlow(s, omega, coupling_harmonics=3)
+    fl.set_forcing(Fc)
+    fh = np.zeros((7, 2))
+    fh[:3] = s.f_hat
+    ref = EventFlow(System(s.M, s.C, s.K, fh + Fc, s.elements), omega)
+    q0, u0 = np.array([0.5, -1.0]), np.array([0.2, 0.1])
+    a = fl.simulate(0.0, fl.state(0.0, q0, u0), jac=True, jac_cols="all", fourier=5)
+    b = ref.simulate(0.0, ref.state(0.0, q0, u0), jac=True)
+    assert len(a["events"]) >= 4
+    assert np.abs(a["z"][:4] - b["z"][:4]).max() <= 1e-12  # measured 1.6e-15
+    assert np.abs(a["Phi"][:4, :4] - b["Phi"][:4, :4]).max() <= 1e-12
+    # Fourier coefficients against a fine trapezoidal rule (the orbit is not periodic: no FFT)
+    tt = np.linspace(0.0, fl.T, 400001)
+    q = fl.simulate(0.0, fl.state(0.0, q0, u0), sample_times=tt)["samples"][:2].T
+    B = fl._fourier_basis(tt, 5)
+    w = np.full(11, 2.0 / fl.T)
+    w[0] = 1.0 / fl.T
+    qh = np.trapezoid(B[:, :, None] * q[:, None, :], tt, axis=0) * w[:, None]
+    assert np.abs(qh - a["q_hat"]).max() <= 1e-9  # measured 4.6e-11 (the trapezoidal rule's error)
+    # sensitivities to q0, u0 and F_c (the forcing states at t = 0 are F_c) against central differences
+    cols = fl.jac_columns("all")
+    z0 = fl.state(0.0, q0, u0)
+    err_q = err_z = 0.0
+    d = 1e-6
+    for c_i, c in enumerate(cols):
+        if c < 4:
+            zp, zm = z0.copy(), z0.copy()
+            zp[c] += d
+            zm[c] -= d
+            op, om = fl.simulate(0.0, zp, fourier=5), fl.simulate(0.0, zm, fourier=5)
+        else:
+            k, i = divmod(c - fl.iy, 2)
+            Fp, Fm = Fc.copy(), Fc.copy()
+            Fp[k, i] += d
+            Fm[k, i] -= d
+            fl.set_forcing(Fp)
+            op = fl.simulate(0.0, z0, fourier=5)
+            fl.set_forcing(Fm)
+            om = fl.simulate(0.0, z0, fourier=5)
+            fl.set_forcing(Fc)
+        err_q = max(err_q, np.abs((op["q_hat"] - om["q_hat"]) / (2 * d) - a["dq_hat"][:, :, c_i]).max())
+        err_z = max(err_z, np.abs((op["z"][:4] - om["z"][:4]) / (2 * d) - a["Phi"][:4, c_i]).max())
+    # measured 2.1e-9 and 4.7e-9 (central differences), against max |.| ~ 2.2 and 3.5
+    assert err_q <= 1e-6 and err_z <= 1e-6
+
+
+def test_mshbm_event_converges_to_the_exact_orbit_with_the_harmonics():
+    """The paper's 5-DOF impact chain: with the event integrator MS-HBM's only error is the harmonic
+    truncation of the coupling; with Moreau-Jean it plateaus at the time-discretisation error."""
+    from paper_systems import OMEGA, impact_chain
+
+    s = impact_chain(5)
+    g = mshbm.solve(s, OMEGA, "shooting", steps=4096, stability=False)
+    ex = exact_periodic(s, OMEGA, g)
+    assert ex.success
+    ref = ex.info["amplitude_exact"]
+    err = {}
+    for nh in (9, 27, 81):
+        sol = mshbm.solve(s, OMEGA, "mshbm", harmonics=nh, integrator="event", steps=1024, guess=g,
+                          stability=False)
+        assert sol.success, sol.message
+        err[nh] = np.abs(sol.amplitude - ref).max() / np.abs(ref).max()
+    # measured 3.65e-4, 4.81e-5, 3.08e-7
+    assert err[9] > err[27] > err[81] and err[81] < 1e-6
+    mj = mshbm.solve(s, OMEGA, "mshbm", harmonics=81, steps=4096, guess=g, stability=False)
+    assert np.abs(mj.amplitude - ref).max() / np.abs(ref).max() > 1e-3  # measured 2.77e-3
+    inter = mshbm.solve(s, OMEGA, "mshbm-intermediate", harmonics=27, integrator="event", steps=1024, guess=g,
+                        stability=False)
+    assert inter.success
+    assert np.abs(inter.amplitude - ref).max() / np.abs(ref).max() < 1e-4  # measured 4.81e-5

@@ -100,6 +100,9 @@ MOREAU = -1
 #: where the event function starts at 0: geometric towards 0, then uniform
 _FIRST = np.concatenate([2.0 ** -np.arange(40, 6, -1), np.arange(1, 65) / 64.0])
 
+#: Gauss-Legendre nodes and weights on [-1, 1] of the Fourier quadrature on smooth pieces of the flow
+_GL_X, _GL_W = np.polynomial.legendre.leggauss(12)
+
 #: this many identical transitions at one instant: no progress (chattering)
 STALL_EVENTS = 50
 #: a Moreau-Jean segment ends after this many steps without impulse at the contacts / status change
@@ -188,9 +191,21 @@ class EventFlow:
         What to do at an accumulation of impacts or chattering (module docstring).
     moreau_steps : int
         Moreau-Jean steps per period in the fallback segments.
+    coupling_harmonics : int, optional
+        ``n_c``: append *forcing states* for an additional force ``f_c(t) = sum_k F_c[k] b_k(t)`` on every
+        DOF (``b = [1, cos(omega t), sin(omega t), ..., sin(n_c omega t)]``, coefficients ``F_c`` of
+        shape ``(2 n_c + 1, n)`` set by :meth:`set_forcing`): ``y_{k,i}(t) = F_c[k, i] b_k(t)``, shape
+        ``(2 n_c + 1) n``, evolving by the exact oscillator.  The mode matrices then do not depend on
+        ``F_c``, and the sensitivities to ``F_c`` are columns of the same monodromy
+        (``simulate(..., jac_cols="all")``).  Per DOF ``i`` and harmonic ``k`` with ``a = F_c[2k-1, i]``,
+        ``b = F_c[2k, i]`` the two states are the force ``Y1 = a cos(k omega t) + b sin(k omega t)`` and
+        ``Y2 = -a sin(k omega t) + b cos(k omega t)`` (``Y1' = k omega Y2``, ``Y2' = -k omega Y1``), plus the
+        constant ``F_c[0, i]``: at ``t = 0`` the forcing states are ``F_c`` itself, so the columns of
+        ``Phi`` for them are ``d / d F_c``.  MS-HBM uses it for the harmonic coupling forces.
     """
 
-    def __init__(self, system, omega, substeps=128, max_events=10000, accumulation="moreau", moreau_steps=4096):
+    def __init__(self, system, omega, substeps=128, max_events=10000, accumulation="moreau", moreau_steps=4096,
+                 coupling_harmonics=None):
         if not isinstance(system, System):
             raise InputError("system", f"must be an mshbm.System, got {type(system).__name__}")
         omega = float(omega)
@@ -219,19 +234,31 @@ class EventFlow:
         self.moreau_steps = int(moreau_steps)
         #: absolute ``time.perf_counter()`` after which :meth:`simulate` raises an EventError (None: no limit)
         self.deadline = None
-        D = 2 * n + 1 + 2 * nf
+        nx = 0 if coupling_harmonics is None else int(coupling_harmonics)
+        if coupling_harmonics is not None and nx < 0:
+            raise InputError("coupling_harmonics", f"must be >= 0, got {coupling_harmonics}")
+        self.nx = nx
+        self.ncx = (2 * nx + 1) if coupling_harmonics is not None else 0  # forcing components per DOF
+        self.iy = 2 * n + 1 + 2 * nf  # first forcing state
+        D = self.iy + self.ncx * n
         self.D, self.i1 = D, 2 * n
+        self.Fc = np.zeros((self.ncx, n))
         self.M = M
         self.Minv = sla.cho_solve(sla.cho_factor(M), np.eye(n))
         Rr = np.zeros((n, D))  # r = f_ex - C u - K q as a row block on z
         Rr[:, :n], Rr[:, n:2 * n] = -K, -C
-        Rr[:, 2 * n:] = system.f_hat.T
+        Rr[:, 2 * n:self.iy] = system.f_hat.T
+        for k in ([0] + list(range(1, self.ncx, 2))) if self.ncx else []:  # the constant and the Y1 states
+            Rr[np.arange(n), self.iy + k * n + np.arange(n)] = 1.0
         self.Rr = Rr
         base = np.zeros((D, D))
         base[:n, n:2 * n] = np.eye(n)
         for k in range(1, nf + 1):
             ic, is_ = 2 * n + 2 * k - 1, 2 * n + 2 * k
             base[ic, is_], base[is_, ic] = -k * omega, k * omega
+        for k in range(1, nx + 1):  # (Y1, Y2)' = k omega (Y2, -Y1)
+            ic, is_ = self.iy + (2 * k - 1) * n + np.arange(n), self.iy + 2 * k * n + np.arange(n)
+            base[ic, is_], base[is_, ic] = k * omega, -k * omega
         self.base = base
         #: the acting elements (indices into system.elements) and their data
         self.index = [j for j, el in enumerate(system.elements) if el.acts]
@@ -249,6 +276,7 @@ class EventFlow:
         self.gap = np.array([el.gap if el.unilateral else 0.0 for el in self.elements])
         self.e = np.array([el.restitution if el.unilateral else 0.0 for el in self.elements])
         kmax, mmax = np.abs(K).max(), np.abs(M).max()
+        self._kmax, self._mmax = kmax, mmax
         fmax = np.abs(system.f_hat).max()
         # reference displacement (thresholds when the state itself is ~0)
         self.qref = max(fmax / kmax if kmax > 0 else fmax / (mmax * omega ** 2) if mmax > 0 else 0.0,
@@ -350,7 +378,56 @@ class EventFlow:
 
     def state(self, t, q, u):
         """Augmented state ``z`` at time ``t``, shape (D,)."""
-        return np.concatenate([q, u, self.osc(t)])
+        return np.concatenate([q, u, self.exo(t)])
+
+    def basis_c(self, t):
+        """``b(t) = [1, cos(omega t), sin(omega t), ...]`` of the coupling forcing, shape (2 n_c + 1,) or (k, 2 n_c + 1)."""
+        t = np.asarray(t, dtype=float)
+        out = np.empty(t.shape + (self.ncx,))
+        if self.ncx:
+            out[..., 0] = 1.0
+            for k in range(1, self.nx + 1):
+                out[..., 2 * k - 1], out[..., 2 * k] = np.cos(k * self.omega * t), np.sin(k * self.omega * t)
+        return out
+
+    def exo(self, t):
+        """The exosystem part of ``z`` at time ``t``: the oscillator and the forcing states, shape (D - 2n,)."""
+        if not self.ncx:
+            return self.osc(t)
+        Y = np.empty_like(self.Fc)
+        Y[0] = self.Fc[0]
+        for k in range(1, self.nx + 1):
+            c, s_ = math.cos(k * self.omega * t), math.sin(k * self.omega * t)
+            a, b = self.Fc[2 * k - 1], self.Fc[2 * k]
+            Y[2 * k - 1], Y[2 * k] = a * c + b * s_, -a * s_ + b * c
+        return np.concatenate([self.osc(t), Y.reshape(-1)])
+
+    def set_forcing(self, Fc):
+        """Coefficients ``F_c`` (shape ``(2 n_c + 1, n)``) of the coupling force (``coupling_harmonics``)."""
+        Fc = np.asarray(Fc, dtype=float)
+        if Fc.shape != (self.ncx, self.n):
+            raise InputError("coupling forcing", f"must have shape {(self.ncx, self.n)}, got {Fc.shape}")
+        self.Fc = Fc.copy()
+        fmax = max(np.abs(self.system.f_hat).max(), np.abs(Fc).max())
+        kmax, mmax = self._kmax, self._mmax
+        self.qref = max(fmax / kmax if kmax > 0 else fmax / (mmax * self.omega ** 2) if mmax > 0 else 0.0,
+                        float(np.abs(self.gap).max()) if self.m else 0.0, 1e-300)
+
+    def forcing_at(self, t):
+        """External plus coupling force at times ``t``, shape (k, n)."""
+        f = self.system.forcing(t, self.omega)
+        if self.ncx:
+            f = f + self.basis_c(t) @ self.Fc
+        return f
+
+    def jac_columns(self, which="state"):
+        """Indices of ``z`` whose sensitivities ``Phi`` holds: ``"state"`` ``(q, u)``; ``"all"`` also the
+        forcing states (``(q, u, y)``, ``y`` component-major: index ``k n + i``; from ``t0 = 0``:
+        ``d / d F_c[k, i]``)."""
+        cols = np.arange(2 * self.n)
+        if which == "all" and self.ncx:
+            cols = np.concatenate([cols, self.iy + np.arange(self.ncx * self.n)])
+        return cols
 
     def powers(self, mode, z):
         """``W`` with ``W[:, j] = A^j z / j!`` so that ``z(s) = W @ s^j``."""
@@ -610,7 +687,7 @@ class EventFlow:
             self._mj[key] = MoreauJean(s.M, s.C, s.K, self.elements, h, 0.5, True)
         return self._mj[key]
 
-    def _moreau(self, a, z, T_end, Phi, sample, nodes, reason):
+    def _moreau(self, a, z, T_end, Phi, sample, nodes, reason, fourier=None):
         """Moreau-Jean steps from ``(a, z)`` until the phase ends (or ``T_end``).  Returns ``(a, z, Phi,
         segment)``."""
         n = self.n
@@ -631,11 +708,14 @@ class EventFlow:
                 h = rem / k
             mj = self._stepper(h)
             tt = a + h * np.arange(k + 1)
-            tr = mj.run(q, u, mj.increments(self.system.forcing(tt, self.omega)))
-            if Phi is not None:
+            tr = mj.run(q, u, mj.increments(self.forcing_at(tt)))
+            if Phi is not None:  # d(q, u) through the segment; the forcing states' influence is neglected
                 J = mj.monodromy(tr.status)
                 Phi = np.vstack([J @ Phi[:2 * n], Phi[2 * n:]])
-            Zs = np.vstack([tr.q.T, tr.u.T, np.array([self.osc(x) for x in tt]).T])
+            Zs = np.vstack([tr.q.T, tr.u.T, np.array([self.exo(x) for x in tt]).T])
+            if fourier is not None:  # trapezoidal quadrature of the Fourier integrals on the steps
+                Bq = self._fourier_basis(tt, fourier[0])[:, :, None] * tr.q[:, None, :n]
+                fourier[1] += 0.5 * h * (Bq[:-1] + Bq[1:]).sum(axis=0)
             sample(tt, Zs)
             if nodes is not None:
                 for i in range(1, k + 1):
@@ -650,14 +730,15 @@ class EventFlow:
             q, u = tr.q[-1].copy(), tr.u[-1].copy()
             a = float(tt[-1])
             steps += k
-        z = np.concatenate([q, u, self.osc(a)])
+        z = np.concatenate([q, u, self.exo(a)])
         tm = np.concatenate([f[0] for f in forces])
         lm = np.vstack([f[1] for f in forces])
         return a, z, Phi, {"t_start": t_start, "t_end": a, "steps": steps, "reason": reason,
                            "force_times": tm, "forces": lm}
 
     # ------------------------------------------------------------------ simulation
-    def simulate(self, t0, z0, duration=None, jac=False, sample_times=None, record=False, mode=None):
+    def simulate(self, t0, z0, duration=None, jac=False, sample_times=None, record=False, mode=None,
+                 jac_cols="state", fourier=None):
         """Event-driven flow from ``(t0, z0)`` over ``duration`` (default one period).
 
         Parameters
@@ -673,6 +754,16 @@ class EventFlow:
             Keep the nodes (samples and events) for dense output and extrema.
         mode : int or tuple, optional
             Initial mode (default: the consistent mode at ``z0``).
+        jac_cols : {"state", "all"}
+            Columns of ``Phi`` (:meth:`jac_columns`): ``d z / d (q0, u0)``, or also ``d z / d y0`` (the
+            forcing states of ``coupling_harmonics``).
+        fourier : int, optional
+            ``n_f``: also return the Fourier coefficients of ``q`` over ``[t0, t0 + duration]``,
+            ``q_hat`` shape ``(2 n_f + 1, n)`` (rows ``[a_0, a_1, b_1, ...]`` with ``q ~ a_0 + sum a_k
+            cos(k omega t) + b_k sin(k omega t)``, the mean over ``duration`` divided like a period), by
+            Gauss-Legendre quadrature on every smooth piece of the exact flow (exact to rounding), and with
+            ``jac`` their sensitivities ``dq_hat`` shape ``(2 n_f + 1, n, n_cols)`` (``q`` is continuous at
+            events, so the event-time variations add nothing).  Trapezoidal on Moreau-Jean segments.
 
         Returns
         -------
@@ -681,14 +772,20 @@ class EventFlow:
         ``(t, z_left, z_right, mode code)``), ``mode_time`` (time per mode code), ``end_mode``,
         ``moreau`` (list of the Moreau-Jean segments: ``t_start, t_end, steps, reason`` and the mean element
         forces ``forces`` (k, m) of the steps, impulse / h, at their midpoints ``force_times``),
-        ``switched`` (bool), ``jacobian_exact`` (False after a Moreau-Jean segment) and ``message``.
+        ``switched`` (bool), ``jacobian_exact`` (False after a Moreau-Jean segment) and ``message``;
+        with ``fourier`` also ``q_hat`` and ``dq_hat``.
         """
         n, D = self.n, self.D
         duration = self.T if duration is None else float(duration)
         T_end = t0 + duration
         z = np.array(z0, dtype=float)
-        z[2 * n:] = self.osc(t0)
-        Phi = np.eye(D)[:, :2 * n].copy() if jac else None
+        z[2 * n:] = self.exo(t0)
+        cols = self.jac_columns(jac_cols)
+        Phi = np.eye(D)[:, cols].copy() if jac else None
+        four = None
+        if fourier is not None:
+            nfr = int(fourier)
+            four = [nfr, np.zeros((2 * nfr + 1, n)), np.zeros((2 * nfr + 1, n, cols.size)) if jac else None]
         sts = np.asarray(sample_times if sample_times is not None else [], dtype=float)
         samples = np.empty((D, sts.size))
         smodes = np.empty(sts.size, dtype=np.int64)
@@ -816,6 +913,10 @@ class EventFlow:
                         nodes.append((sts[jj], samples[:, jj].copy(), samples[:, jj].copy(), md.code))
                 isamp[0] = j1
             mode_time[md.code] = mode_time.get(md.code, 0.0) + s_end
+            if four is not None and s_end > 0.0:
+                if W is None:
+                    W = self.powers(md, z)
+                self._fourier_piece(md, W, Phi, a, s_end, four)
             if s_ev is None:
                 if jac:
                     Phi = md.E @ Phi if h == md.h else self.propagate_matrix(md, Phi, h)
@@ -826,7 +927,7 @@ class EventFlow:
             if jac:
                 Phi = self.propagate_matrix(md, Phi, s_ev)
             a += s_ev
-            z[2 * n:] = self.osc(a)
+            z[2 * n:] = self.exo(a)
             try:
                 new, zp, Dg, evs = self._transition(md, i_ev, z, a, ctx)
                 stall = self._stalled(events + evs, a)
@@ -837,7 +938,7 @@ class EventFlow:
             except _Switch as sw:
                 if record:
                     nodes.append((a, z.copy(), z.copy(), MOREAU))
-                a, z, Phi, seg = self._moreau(a, z, T_end, Phi, sample_at, nodes, sw.reason)
+                a, z, Phi, seg = self._moreau(a, z, T_end, Phi, sample_at, nodes, sw.reason, four)
                 moreau.append(seg)
                 mode_time[MOREAU] = mode_time.get(MOREAU, 0.0) + seg["t_end"] - seg["t_start"]
                 ctx["impacts"].clear()
@@ -854,7 +955,7 @@ class EventFlow:
                 raise EventError(f"more than {self.max_events} events in one period (accumulation: the last "
                                  f"{len(last)} events lie in t = [{last[0].t:.9g}, {last[-1].t:.9g}], kinds "
                                  f"{sorted({e.kind for e in last})})")
-            z[2 * n:] = self.osc(a)
+            z[2 * n:] = self.exo(a)
             md, thr, est = enter(st, z)
         if record:
             nodes.append((T_end, z.copy(), z.copy(), md.code))
@@ -865,9 +966,43 @@ class EventFlow:
         if moreau:
             msg = (f"switched to Moreau-Jean ({self.moreau_steps} steps per period) in {len(moreau)} segment(s): "
                    + "; ".join(f"{s['reason']}, until t = {s['t_end']:.9g}" for s in moreau))
-        return dict(z=z, Phi=Phi, events=events, samples=samples, sample_modes=smodes, nodes=nodes,
-                    mode_time=mode_time, end_mode=md.code, moreau=moreau, switched=bool(moreau),
-                    jacobian_exact=not moreau, message=msg)
+        res = dict(z=z, Phi=Phi, events=events, samples=samples, sample_modes=smodes, nodes=nodes,
+                   mode_time=mode_time, end_mode=md.code, moreau=moreau, switched=bool(moreau),
+                   jacobian_exact=not moreau, message=msg)
+        if four is not None:
+            scale = np.full(2 * four[0] + 1, 2.0 / duration)
+            scale[0] = 1.0 / duration
+            res["q_hat"] = four[1] * scale[:, None]
+            res["dq_hat"] = None if four[2] is None else four[2] * scale[:, None, None]
+        return res
+
+    def _fourier_basis(self, t, nfr):
+        """``[1, cos(k omega t), sin(k omega t)]`` at times ``t``, shape (k_t, 2 n_f + 1)."""
+        t = np.asarray(t, dtype=float)
+        out = np.empty(t.shape + (2 * nfr + 1,))
+        out[..., 0] = 1.0
+        for k in range(1, nfr + 1):
+            out[..., 2 * k - 1], out[..., 2 * k] = np.cos(k * self.omega * t), np.sin(k * self.omega * t)
+        return out
+
+    def _fourier_piece(self, md, W, Phi, a, s, four):
+        """Add ``int_a^{a+s} q(t) b(t) dt`` (and of ``Phi_q``) by Gauss-Legendre quadrature on the flow."""
+        n = self.n
+        ss = 0.5 * s * (_GL_X + 1.0)
+        wts = 0.5 * s * _GL_W
+        P = self.spow(ss, md.n_taylor)  # (g, n_taylor)
+        Q = P @ W[:n].T  # (g, n): q at the nodes
+        B = self._fourier_basis(a + ss, four[0]) * wts[:, None]  # (g, nc)
+        four[1] += B.T @ Q
+        if four[2] is not None and Phi is not None:
+            acc = [Phi[:n]]
+            term = Phi
+            for j in range(1, md.n_taylor):
+                term = (md.A @ term) / j
+                acc.append(term[:n])
+            WP = np.array(acc)  # (n_taylor, n, cols)
+            PhiQ = np.tensordot(P, WP, axes=(1, 0))  # (g, n, cols)
+            four[2] += np.tensordot(B, PhiQ, axes=(0, 0))
 
     def _event(self, md, i_ev, z, t, ctx, Phi, events, nodes, new=None, zp=None, Dg=None, evs=None):
         """Apply the transition of event ``i_ev`` of mode ``md`` at ``(t, z)``: saltation of ``Phi``, events
