@@ -168,7 +168,7 @@ class Event:
 
 
 class _Mode:
-    __slots__ = ("st", "A", "Lam", "C", "CA", "ev", "h", "E", "n_taylor", "code")
+    __slots__ = ("st", "A", "Lam", "C", "CA", "ev", "h", "E", "n_taylor", "code", "Eg")
 
 
 class EventFlow:
@@ -349,6 +349,7 @@ class EventFlow:
                 ev.append((j, "lift", 0))
         md = _Mode()
         md.st, md.A, md.Lam, md.code = st, A, Lam, mode_code(st)
+        md.Eg = None
         md.C = np.array(rows) if rows else np.zeros((0, D))
         md.CA = md.C @ A
         md.ev = ev
@@ -994,7 +995,13 @@ class EventFlow:
         Q = P @ W[:n].T  # (g, n): q at the nodes
         B = self._fourier_basis(a + ss, four[0]) * wts[:, None]  # (g, nc)
         four[1] += B.T @ Q
-        if four[2] is not None and Phi is not None:
+        if four[2] is not None and Phi is not None and s == md.h:
+            # a full sub-step: the q rows of exp(A s_g) at the nodes once per mode, then one product
+            if md.Eg is None:
+                md.Eg = np.array([sla.expm(md.A * x)[:n] for x in ss])  # (g, n, D)
+            G = np.einsum("gk,gnd->knd", B, md.Eg)
+            four[2] += (G.reshape(-1, self.D) @ Phi).reshape(B.shape[1], n, -1)
+        elif four[2] is not None and Phi is not None:
             acc = [Phi[:n]]
             term = Phi
             for j in range(1, md.n_taylor):
