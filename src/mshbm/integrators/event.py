@@ -586,6 +586,7 @@ class EventFlow:
             return self._impact(st, j, z, t, ctx)
         z = z.copy()
         allowed = {}
+        gam0 = self.gammas(z)
         if kind == "slip":
             z[n + self.dof[j]] = 0.0
             allowed[j] = [STICK, SLIP_M if st[j] == SLIP_P else SLIP_P]
@@ -593,7 +594,6 @@ class EventFlow:
             allowed[j] = [SLIP_M if sgn > 0 else SLIP_P]
         else:  # lift
             allowed[j] = [FREE]
-        gam0 = self.gammas(z)
         new, z = self.select(z, st, allowed)
         evs = [Event(t, f"{MODE_NAMES[st[k]]}->{MODE_NAMES[new[k]]}", 0.0, float(gam0[k]), self.index[k])
                for k in range(self.m) if k == j or new[k] != st[k]]
@@ -828,7 +828,14 @@ class EventFlow:
         if pen:
             md0 = self.mode(st)
             i_ev = next(i for i, (j, kd, _) in enumerate(md0.ev) if j == pen[0] and kd == "gap")
-            st, z, Phi = self._event(md0, i_ev, z, a, ctx, Phi, events, nodes)
+            try:
+                st, z, Phi = self._event(md0, i_ev, z, a, ctx, Phi, events, nodes)
+            except _Switch:  # a negligible first bounce: close the contact (what Moreau-Jean would do too)
+                saved, self.accumulation = self.accumulation, "close"
+                try:
+                    st, z, Phi = self._event(md0, i_ev, z, a, ctx, Phi, events, nodes)
+                finally:
+                    self.accumulation = saved
         if isamp[0] < sts.size and sts[0] <= a:
             while isamp[0] < sts.size and sts[isamp[0]] <= a:
                 samples[:, isamp[0]], smodes[isamp[0]] = z, mode_code(st)
