@@ -626,7 +626,7 @@ class EventFlow:
         touch = [k for k in range(self.m) if self.is_contact[k] and (k == j or st[k] == CLOSED or abs(g[k]) <= qt)]
         e = self.e[touch].copy()
         for a, k in enumerate(touch):
-            if gam[k] < 0.0 and e[a] < 1.0:
+            if gam[k] < 0.0 and 0.0 < e[a] < 1.0:  # (e = 0: plastic, the contact closes at once)
                 zeno = self._zeno(st, k, z, gam[k])
                 if not zeno and self.accumulation != "close":
                     imp = ctx["impacts"].setdefault(k, [])
