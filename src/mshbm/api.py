@@ -60,7 +60,8 @@ def solve(system, omega, method="mshbm", **options):
         (:meth:`mshbm.methods.hbm.HBMProblem.newton_fallback`), else
         retry by continuation from softened regularisations; default True),
         ``stability`` (``"auto"``, default: Floquet multipliers and verdict from the exact
-        event-driven flow with saltation terms for systems with at most one element and up to
+        event-driven flow with saltation terms for systems with friction and contact elements on
+        single DOFs (any number) and up to
         :data:`mshbm.stability.MAX_EXACT_DOFS` DOFs, else a labelled estimate or none;
         ``True``: also above that size; ``False``: skip.  Not part of ``wall_time``; see
         :mod:`mshbm.stability`), ``period`` (``k``, default 1: a ``kT``-periodic solution, solved on

@@ -11,8 +11,8 @@
    ``problem.residual_scale``; it passes folds (turning points).
 3. Every point is certified (:func:`mshbm.certificate.certify` at the corrector's tolerance): a point
    whose certificate fails is rejected and the step is shortened.  Its stability is that of
-   :func:`mshbm.stability.assess` (exact event-driven multipliers with saltation terms for at most
-   one element, else a verdict only for smooth motion, else ``None``).
+   :func:`mshbm.stability.assess` (exact event-driven multipliers with saltation terms for elements on
+   single DOFs, else a verdict only for smooth motion, else ``None``).
 4. Folds are located from the sign change of the tangent's ``omega`` component (to ``1e-3``
    relative); other bifurcations come from :func:`mshbm.bifurcations.detect` when that module exists.
 

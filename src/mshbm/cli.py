@@ -39,6 +39,9 @@ def _parser():
                    help="solution method (default: the case's solver.method, else mshbm)")
     s.add_argument("--harmonics", type=int, default=None, metavar="N", help="number of harmonics n_h")
     s.add_argument("--steps", type=int, default=None, metavar="N", help="time steps (samples) per period")
+    s.add_argument("--integrator", choices=("moreau", "event"), default=None,
+                   help="time integration of shooting: Moreau-Jean time stepping (default) or the exact "
+                   "event-driven flow (mshbm.integrators.event: friction and contact on single DOFs)")
     s.add_argument("--period", type=int, default=None, metavar="K",
                    help="look for a K T-periodic solution (default 1; see mshbm.period)")
     s.add_argument("--out", default=None, metavar="FILE.json",
@@ -101,7 +104,8 @@ def _solve(args):
 
         check_out(args.out, args.case)  # --out rules: mshbm.outfile
     case = load_case(args.case)
-    cli_opts = {k: getattr(args, k) for k in ("harmonics", "steps", "period") if getattr(args, k) is not None}
+    cli_opts = {k: getattr(args, k) for k in ("harmonics", "steps", "period", "integrator")
+                if getattr(args, k) is not None}
     try:
         sol = case.solve(args.method, progress=not args.quiet, **cli_opts)
     except InputError as exc:

@@ -38,8 +38,8 @@ Elements of issue 15:
   ``w = sign (e_I - e_J)`` (:attr:`Element.direction`, :meth:`Element.local`); the laws are the same
   functions of ``(s, gamma)``.  :func:`regularised_forces` adds the off-diagonal Jacobian terms of
   ``w w^T``; the Moreau-Jean kernel takes the second DOF as ``dof2`` (``-1``: the ground); the exact
-  flow and hence exact Floquet multipliers handle one element on one DOF only (InputError; stability
-  falls back to the step map with the reason).
+  event-driven flow and hence exact Floquet multipliers handle elements on one DOF only (any number;
+  InputError; stability falls back to the step map with the reason).
 * :class:`Jenkins` friction (tangential stiffness ``k_t`` in series with the slider; all methods but
   the exact flow): a law with an internal state (the slider position ``z``), :attr:`Element.history`.
   HBM evaluates it along the period twice (:meth:`Jenkins.history_law`, derivative with respect to

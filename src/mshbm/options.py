@@ -21,7 +21,14 @@ Per method (:data:`METHODS`): ``harmonics`` (n_h), ``steps`` (time steps or AFT 
 :func:`default_steps`), ``theta`` (Moreau-Jean), ``jacobian`` (``"exact"`` or ``"fd"``), ``project``
 (position projection of contacts), ``condense`` (HBM/DLFT: eliminate linear DOFs), ``partition``
 (DOFs of the nonlinear/time-stepped subsystem), ``dlft_penalty`` (DLFT's ``eps``, N/m), ``dlft_predictor`` (DLFT's friction predictor,
-``"velocity"`` or ``"displacement"``).
+``"velocity"`` or ``"displacement"``), ``integrator`` (shooting and both MS-HBM variants: ``"moreau"`` or ``"event"``).
+
+Default integrator rule: ``"moreau"`` unless the user asks for ``"event"``.  The exact event-driven
+flow (:mod:`mshbm.integrators.event`) removes the time-discretisation error (first order at impacts
+and stick-slip for Moreau-Jean) and gives the exact saltation-corrected monodromy, but it supports
+friction and contact between a DOF and the ground only (no relative or Jenkins elements), uses dense
+matrices (small systems) and its cost grows with the number of events; Moreau-Jean handles every
+element, any accumulation, and large subsystems.
 """
 from __future__ import annotations
 
@@ -39,10 +46,11 @@ COMMON = frozenset({"guess", "tol", "max_iter", "line_search", "progress", "rais
                     "stability"})
 #: options accepted by each method besides the common ones (the method registry's option table)
 METHODS = {
-    "shooting": frozenset({"steps", "theta", "jacobian", "harmonics", "project"}),
+    "shooting": frozenset({"steps", "theta", "jacobian", "harmonics", "project", "integrator"}),
     "hbm": frozenset({"harmonics", "steps", "condense", "partition"}),
-    "mshbm": frozenset({"harmonics", "steps", "theta", "jacobian", "partition", "project"}),
-    "mshbm-intermediate": frozenset({"harmonics", "steps", "theta", "jacobian", "partition", "project"}),
+    "mshbm": frozenset({"harmonics", "steps", "theta", "jacobian", "partition", "project", "integrator"}),
+    "mshbm-intermediate": frozenset({"harmonics", "steps", "theta", "jacobian", "partition", "project",
+                                     "integrator"}),
     "dlft": frozenset({"harmonics", "steps", "condense", "partition", "dlft_penalty", "dlft_predictor"}),
 }
 
@@ -95,6 +103,8 @@ def check_options(method, options):
             raise InputError("theta", f"must be a number in [0.5, 1], got {th!r}")
     if opts.get("jacobian", "exact") not in ("exact", "fd"):
         raise InputError("jacobian", f"must be 'exact' or 'fd', got {opts['jacobian']!r}")
+    if opts.get("integrator", "moreau") not in ("moreau", "event"):
+        raise InputError("integrator", f"must be 'moreau' or 'event', got {opts['integrator']!r}")
     if "tol" in opts:
         tol = opts["tol"]
         if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not (0 < float(tol) < 1):

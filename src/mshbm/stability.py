@@ -17,8 +17,9 @@ Every result of :func:`mshbm.solve` carries
 
 How (:func:`assess`):
 
-1. **At most one element, n <= MAX_EXACT_DOFS** (or ``stability=True``): the exact
-   event-driven flow (:mod:`mshbm.integrators.exact_flow`) is shot to periodicity, started from the
+1. **Friction and contact elements on single DOFs (any number), n <= MAX_EXACT_DOFS** (or
+   ``stability=True``): the exact event-driven flow (:mod:`mshbm.integrators.event`, several
+   elements with simultaneous events since issue 14) is shot to periodicity, started from the
    converged solution of whichever method (a few Newton iterations), and the multipliers
    are those of its exact monodromy matrix: the products of the closed-form mode flows and
    the saltation matrices ``S = R + (f+ - R f-) c^T / (c^T f-)`` at every impact
@@ -27,7 +28,7 @@ How (:func:`assess`):
    ``MAX_ORBIT_DISTANCE`` (relative) of the solution, else the verdict is ``None``: the exact
    flow found another orbit.  The multipliers are those of the nonsmooth system (Newton's
    impact law, set-valued friction), also for HBM solutions of its regularised laws.
-2. **Otherwise** (several elements, exact flow failed, or too large): the Moreau-Jean step
+2. **Otherwise** (relative elements, exact flow failed, or too large): the Moreau-Jean step
    map of the whole system over one period from the solution's state at ``t = 0``
    (``steps`` steps).  Its step Jacobians hold no saltation terms, so it is an *estimate*,
    labelled :data:`STEP_MAP`, and it decides only when the motion is smooth over the period
@@ -116,8 +117,8 @@ def _assess(system, sol, stability, steps, theta, t0):
                     "elastic friction (Jenkins) has a slider state that neither the exact flow nor the "
                     "Moreau-Jean step map carries: no multipliers")
     if any(el.relative_to is not None for el in system.elements):
-        reason_exact = "an element relative to a second DOF (the exact flow handles one element on one DOF); "
-    elif len(system.elements) <= 1:
+        reason_exact = "an element relative to a second DOF (the exact flow handles elements on one DOF); "
+    else:
         res = _exact(system, sol)
         if res.get("ok"):
             mult = res.pop("mult")
@@ -133,8 +134,6 @@ def _assess(system, sol, stability, steps, theta, t0):
             return _set(sol, mult, stable, EXACT, reason, tolerance=EXACT_TOL, time_s=time.perf_counter() - t0,
                         **res)
         reason_exact = f"exact flow failed ({res['message']}); "
-    else:
-        reason_exact = f"{len(system.elements)} elements (the exact flow handles at most one); "
     return _step_map(system, sol, steps, theta, reason_exact, t0)
 
 

@@ -224,11 +224,12 @@ def test_energy_balance_friction(fric3):
 # ----------------------------------------------------------------------------- failures and inputs
 def test_unsupported_and_failures(imp5):
     sys, ex = imp5
+    # several elements are supported (tests/unit/test_event_integrator.py); relative elements are not
     two = chain([1.0, 1.0], 1.0, 0.0, forcing=[{"dof": 1, "amplitude": 1.0}],
-                elements=[Friction(0, 0.5, 1.0), Contact(1, 0.1)])
+                elements=[Friction(0, 0.5, 1.0, relative_to=1), Contact(1, 0.1)])
     with pytest.raises(InputError) as err:
         exact_periodic(two, OMEGA)
-    assert err.value.key == "elements"
+    assert err.value.key == "friction.relative_to"
     bad = exact_periodic(sys, OMEGA, ex, max_events=0)
     assert not bad.success and "events in one period" in bad.message
 

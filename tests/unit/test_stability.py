@@ -221,24 +221,38 @@ def test_unconverged_solution_has_no_verdict(impact5):
     assert not sol.success and sol.stable is None and sol.floquet_multipliers.size == 0
 
 
-def test_several_elements_use_the_labelled_step_map():
-    # contact far away (never touched) and friction with bound 0 on another DOF: smooth motion
+def test_several_elements_get_the_exact_flow_verdict():
+    """Several elements (issue 14): the exact event-driven flow decides, as for one element."""
+    # contact far away (never touched) and friction with bound 0 on another DOF: the linear flow
     far = chain([1.0, 1.0], 1.0, 0.2, forcing=[{"dof": 1, "amplitude": 1.0}],
                 elements=[Contact(0, 100.0, 1.0), Friction(1, 0.0, 1.0)])
     sol = mshbm.solve(far, OMEGA, "shooting", steps=2048)
-    assert sol.stability_method == stability.STEP_MAP and sol.stable is True
-    # the same structure alone: exact multipliers (linear flow) agree with the step map to O(h^2)
+    assert sol.stability_method == stability.EXACT and sol.stable is True
     alone = mshbm.solve(chain([1.0, 1.0], 1.0, 0.2, forcing=[{"dof": 1, "amplitude": 1.0}]), OMEGA, "shooting",
                         steps=2048)
     assert alone.stability_method == stability.EXACT
     np.testing.assert_allclose(np.sort(np.abs(sol.floquet_multipliers)), np.sort(np.abs(alone.floquet_multipliers)),
-                               atol=1e-5)
-    # with impacts: multipliers reported as an estimate, no verdict
-    hit = chain([1.0, 1.0], 1.0, 0.2, forcing=[{"dof": 1, "amplitude": 1.0}],
-                elements=[Contact(0, 0.05, 1.0), Friction(1, 0.0, 1.0)])
-    sol = mshbm.solve(hit, OMEGA, "shooting", steps=2048)
-    assert sol.success and sol.stable is None and sol.stability_method == stability.STEP_MAP
-    assert sol.floquet_multipliers.size == 4 and "impacts" in sol.stability_reason
+                               atol=1e-10)  # measured: equal
+    # with impacts (and slip reversals): an exact verdict, checked against the decay of a perturbation along
+    # the dominant eigenvector in an event-driven simulation over 8 periods
+    for bound, rel in ((0.0, 1e-3), (0.2, 0.05)):  # measured: 1.3e-5 (real multiplier), 1.9e-2 (complex pair)
+        hit = chain([1.0, 1.0], 1.0, 0.2, forcing=[{"dof": 1, "amplitude": 1.0}],
+                    elements=[Contact(0, 0.05, 1.0), Friction(1, bound, 1.0)])
+        sol = mshbm.solve(hit, OMEGA, "shooting", steps=2048)
+        assert sol.success and sol.stability_method == stability.EXACT and sol.stable is True
+        assert sol.floquet_multipliers.size == 4
+        ex = exact_periodic(hit, OMEGA, guess=sol)
+        assert ex.info["n_impacts"] >= 3
+        x, ts = ex.info["state_at_section"], ex.info["section_time"]
+        w, V = np.linalg.eig(ex.info["monodromy"])
+        rho = float(np.max(np.abs(w)))
+        assert rho == pytest.approx(float(np.max(np.abs(sol.floquet_multipliers))), rel=1e-6)
+        vec = np.real(V[:, np.argmax(np.abs(w))])
+        fl = ExactFlow(hit, OMEGA)
+        z0 = np.concatenate([x + 1e-6 * vec / np.max(np.abs(vec)), fl.osc(ts)])
+        out = fl.simulate(ts, z0, duration=8 * fl.T, sample_times=ts + fl.T * np.arange(1, 9) - 1e-12)
+        dist = np.max(np.abs(out["samples"][:4].T - x), axis=1)
+        assert (dist[-1] / dist[0]) ** (1.0 / 7.0) == pytest.approx(rho, rel=rel)
 
 
 def test_json_fields(impact5, tmp_path):

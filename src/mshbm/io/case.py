@@ -40,7 +40,7 @@ CONTACT_KEYS = {"dof": ..., "gap": ..., "restitution": 1.0, "penalty_stiffness":
                 "penalty_damping": 0.0, "relative_to": None}
 SOLVER_KEYS = ("method", "harmonics", "steps", "theta", "jacobian", "tol", "max_iter", "partition",
                "condense", "project", "line_search", "continuation", "stability", "dlft_penalty",
-               "dlft_predictor")
+               "dlft_predictor", "integrator")
 
 
 
@@ -271,6 +271,9 @@ def _solver(value, n):
         elif k == "jacobian":
             if v not in ("exact", "fd"):
                 raise InputError(key, f"must be 'exact' or 'fd', got {_describe(v)}")
+        elif k == "integrator":
+            if v not in ("moreau", "event"):
+                raise InputError(key, f"must be 'moreau' or 'event', got {_describe(v)}")
         elif k in ("condense", "project", "line_search", "continuation"):
             if not isinstance(v, bool):
                 raise InputError(key, f"must be true or false, got {_describe(v)}")

@@ -1,9 +1,10 @@
-"""Exact event-driven periodic reference solutions (one local element).
+"""Exact event-driven periodic reference solutions (any number of local elements).
 
-The flow between events is exact (closed-form modal flows of the linear structure with a
-constant or constraint element force, events located to ~1e-15 s, Newton impacts and
-saltation matrices): :mod:`mshbm.integrators.exact_flow`.  This module finds the periodic
-solution on that flow.
+The flow between events is exact (closed-form modal flows of the linear structure with
+constant or constraint element forces, events located to ~1e-15 s, active sets of simultaneous
+events, Newton impacts and saltation matrices): :mod:`mshbm.integrators.event` (the one
+event-driven engine; :class:`~mshbm.integrators.exact_flow.ExactFlow` is it with the exact Zeno
+closure of accumulations).  This module finds the periodic solution on that flow.
 
 The periodic solution is found by shooting on this exact map with Newton's
 method from a section time chosen far from the events of the guess; the
@@ -25,7 +26,8 @@ from .base import central_difference_jacobian
 from .common import linear_response
 from ..errors import InputError
 # ExactFlow, ExactTrajectory, Event, EventError and _extrema are re-exported (their former home)
-from ..integrators.exact_flow import CLOSED, MODE_NAMES, STICK, Event, EventError, ExactFlow, ExactTrajectory, _extrema
+from ..integrators.event import CLOSED, MODE_NAMES, MOREAU, STICK, mode_tuple
+from ..integrators.exact_flow import Event, EventError, ExactFlow, ExactTrajectory, _extrema
 from ..result import PeriodicSolution
 
 __all__ = ["exact_periodic", "ExactFlow", "ExactTrajectory", "Event", "EventError"]
@@ -34,29 +36,38 @@ __all__ = ["exact_periodic", "ExactFlow", "ExactTrajectory", "Event", "EventErro
 def _section_index(flow, q, u):
     """Grid index in the middle of the longest event-free stretch of a sampled guess.
 
-    Friction: runs of constant slip direction or stick (``|u_dof| <= 1e-6 max|u|``);
-    contact: the longest run with the contact clearly open.
+    Every element is classified per sample (friction: slip direction or stick, ``|gamma| <= 1e-6
+    max|u|``; contact: clearly open, ``g_N > 1e-3 max g_N``, or not); the longest run of one
+    combined class is taken, preferring runs with all contacts open.
     """
     N = q.shape[0]
-    if flow.kind is None or N < 2:
+    if flow.m == 0 or N < 2:
         return 0
-    d = flow.dof
-    if not flow.unilateral:  # friction: slip directions and stick
-        v = u[:, d]
-        tol = 1e-6 * max(np.abs(u).max(), 1e-300)
-        cls = np.where(v > tol, 1, np.where(v < -tol, -1, 0))
-    else:
-        g = flow.element.gap - q[:, d]
-        cls = (g > 1e-3 * max(g.max(), 1e-300)).astype(np.int64)
+    tol = 1e-6 * max(np.abs(u).max(), 1e-300)
+    cls = np.zeros(N, dtype=np.int64)
+    open_all = np.ones(N, dtype=bool)
+    for j in range(flow.m):
+        d, sg = flow.dof[j], flow.sign[j]
+        if flow.is_contact[j]:
+            g = flow.gap[j] + sg * q[:, d]
+            c = (g > 1e-3 * max(g.max(), 1e-300)).astype(np.int64)
+            open_all &= c == 1
+        else:
+            v = sg * u[:, d]
+            c = np.where(v > tol, 1, np.where(v < -tol, -1, 0)) + 1
+        cls = 3 * cls + c
     starts = np.nonzero(cls != np.roll(cls, 1))[0]
     if starts.size == 0:
-        return int(np.argmax(flow.element.gap - q[:, d])) if flow.unilateral else 0
+        if flow.is_contact.any():
+            j = int(np.nonzero(flow.is_contact)[0][0])
+            return int(np.argmax(flow.gap[j] + flow.sign[j] * q[:, flow.dof[j]]))
+        return 0
     lengths = (np.roll(starts, -1) - starts) % N
     lengths[lengths == 0] = N
-    if flow.unilateral:
-        open_ = cls[starts] == 1
-        if np.any(open_):
-            lengths = np.where(open_, lengths, -1)
+    if flow.is_contact.any():
+        op = open_all[starts]
+        if np.any(op):
+            lengths = np.where(op, lengths, -1)
     i = int(np.argmax(lengths))
     return int((starts[i] + lengths[i] // 2) % N)
 
@@ -94,8 +105,9 @@ def _start(flow, guess, omega):
 
 
 def exact_periodic(system, omega, guess=None, samples=4096, tol=1e-11, max_iter=30, harmonics=25,
-                   jacobian="saltation", substeps=128, max_events=10000, blas_threads=1, time_limit=None):
-    """Exact periodic solution of a linear structure with one local element.
+                   jacobian="saltation", substeps=128, max_events=10000, blas_threads=1, time_limit=None,
+                   accumulation="close"):
+    """Exact periodic solution of a linear structure with local elements (any number).
 
     Shooting on the exact event-driven flow (see the module docstring): the
     unknowns are ``x = (q(t_s), u(t_s))`` at a section time ``t_s`` chosen far
@@ -107,8 +119,8 @@ def exact_periodic(system, omega, guess=None, samples=4096, tol=1e-11, max_iter=
     Parameters
     ----------
     system : System
-        ``M q'' + C q' + K q = f_ex(t) + w lambda`` with at most one element
-        (Friction or Contact).
+        ``M q'' + C q' + K q = f_ex(t) + sum_j w_j lambda_j`` with Friction and Contact elements
+        between a DOF and the ground (any number).
     omega : float
         Forcing angular frequency (rad/s), period ``T = 2 pi / omega``.
     guess : PeriodicSolution, dict, str or None
@@ -134,6 +146,10 @@ def exact_periodic(system, omega, guess=None, samples=4096, tol=1e-11, max_iter=
     time_limit : float, optional
         Seconds of wall time; a simulation still running then ends with an EventError, and the
         solve fails with that message (``None``, the default: no limit).
+    accumulation : {"close", "moreau", "error"}
+        At an accumulation of impacts: close the contact exactly (default), switch to Moreau-Jean for
+        that phase (then ``info["moreau"]`` lists the segments and the monodromy is no longer exact),
+        or fail (:class:`mshbm.integrators.event.EventFlow`).
     blas_threads : int or None
         OpenBLAS threads during the solve (restored afterwards); ``None``
         leaves them alone.  The matrices are small, so 1 is fastest.
@@ -148,7 +164,8 @@ def exact_periodic(system, omega, guess=None, samples=4096, tol=1e-11, max_iter=
         of every ``q_j`` from the true extrema), ``q_max``, ``q_min``,
         ``events`` (list of :class:`Event`, times in ``[0, T)``),
         ``n_impacts``, ``impulses`` (times and impulses of the impacts),
-        ``stick_fraction`` (time fraction in stick or closed contact),
+        ``stick_fraction`` (time fraction with an element in stick or closed contact),
+        ``element_stick_fraction`` (per element), ``moreau`` (Moreau-Jean segments, if any),
         ``residual_history``, ``floquet_multipliers``, ``section_time`` and
         ``trajectory`` (:class:`ExactTrajectory` for dense output).  The stability fields
         (``floquet_multipliers``, ``stable``, ``stability_method``) come from the exact
@@ -157,12 +174,13 @@ def exact_periodic(system, omega, guess=None, samples=4096, tol=1e-11, max_iter=
     Raises
     ------
     InputError
-        More than one element, invalid ``omega``, ``samples`` or guess.
+        Unsupported elements (relative, Jenkins), invalid ``omega``, ``samples`` or guess.
     """
     t_wall = time.perf_counter()
     with _blas_threads(blas_threads):
         sol = _exact_periodic(system, omega, guess, samples, tol, max_iter, harmonics, jacobian, substeps,
-                              max_events, None if time_limit is None else t_wall + float(time_limit))
+                              max_events, None if time_limit is None else t_wall + float(time_limit),
+                              accumulation)
     sol.wall_time = time.perf_counter() - t_wall
     from ..floquet import set_exact
 
@@ -170,7 +188,7 @@ def exact_periodic(system, omega, guess=None, samples=4096, tol=1e-11, max_iter=
 
 
 def _exact_periodic(system, omega, guess, samples, tol, max_iter, harmonics, jacobian, substeps, max_events,
-                    deadline=None):
+                    deadline=None, accumulation="close"):
     t_wall = time.perf_counter()
     if isinstance(omega, bool) or not isinstance(omega, (int, float, np.integer, np.floating)):
         raise InputError("omega", f"must be a number, got {omega!r}")
@@ -180,7 +198,7 @@ def _exact_periodic(system, omega, guess, samples, tol, max_iter, harmonics, jac
         raise InputError("tol", f"must be a number in (0, 1), got {tol!r}")
     if jacobian not in ("saltation", "fd"):
         raise InputError("jacobian", f"must be 'saltation' or 'fd', got {jacobian!r}")
-    flow = ExactFlow(system, omega, substeps=substeps, max_events=max_events)
+    flow = ExactFlow(system, omega, substeps=substeps, max_events=max_events, accumulation=accumulation)
     flow.deadline = deadline
     n, D, T = flow.n, flow.D, flow.T
     omega = flow.omega
@@ -253,7 +271,7 @@ def _exact_periodic(system, omega, guess, samples, tol, max_iter, harmonics, jac
             "taylor_terms": flow.n_taylor}
     q_time = np.full((N + 1, n), np.nan)
     u_time = np.full((N + 1, n), np.nan)
-    m_el = 0 if flow.element is None else 1
+    m_el = len(system.elements)
     lam_t = np.full((N + 1, m_el), np.nan)
     try:
         out = flow.simulate(t_s, np.concatenate([x, z_osc]), jac=True, sample_times=tau[order], record=True)
@@ -269,11 +287,13 @@ def _exact_periodic(system, omega, guess, samples, tol, max_iter, harmonics, jac
         q_time[N], u_time[N] = q_time[0], u_time[0]
         if m_el:
             for md in np.unique(modes):
+                if md == MOREAU:
+                    continue
                 sel = modes == md
-                lam_t[:N][sel, 0] = flow.force(int(md), Zs[:, sel])
+                lam_t[:N][sel] = flow.full_force(int(md), Zs[:, sel]).T
             lam_t[N] = lam_t[0]
         qmax, qmin, n_roots = _extrema(flow, out["nodes"])
-        evs = [Event(float(np.mod(e.t, T)), e.kind, e.impulse, e.velocity) for e in out["events"]]
+        evs = [Event(float(np.mod(e.t, T)), e.kind, e.impulse, e.velocity, e.element) for e in out["events"]]
         evs.sort(key=lambda e: e.t)
         Phi = out["Phi"][:2 * n]
         mult = np.linalg.eigvals(Phi)
@@ -283,12 +303,16 @@ def _exact_periodic(system, omega, guess, samples, tol, max_iter, harmonics, jac
             events=evs, n_events=len(evs),
             n_impacts=sum(1 for e in evs if e.impulse != 0.0),
             impulses=np.array([[e.t, e.impulse] for e in evs if e.impulse != 0.0]).reshape(-1, 2),
-            stick_fraction=float(out["mode_time"].get(STICK, 0.0) + out["mode_time"].get(CLOSED, 0.0)) / T,
-            mode_fractions={MODE_NAMES[m]: v / T for m, v in out["mode_time"].items()},
+            stick_fraction=_stick_fraction(flow, out["mode_time"], None) / T,
+            element_stick_fraction=[_stick_fraction(flow, out["mode_time"], j) / T for j in range(flow.m)],
+            mode_fractions={_mode_name(flow, m): v / T for m, v in out["mode_time"].items()},
+            moreau=out["moreau"], jacobian_exact=out["jacobian_exact"],
             floquet_multipliers=mult, max_floquet_modulus=float(np.max(np.abs(mult))),
             monodromy=Phi, state_at_section=x.copy(),
             periodicity_error=float(np.max(np.abs(x_end - x))),
             trajectory=ExactTrajectory(flow, out["nodes"], t_s))
+    if out is not None and out["moreau"]:
+        message = f"{message}; {out['message']}"
     n_h = min(int(harmonics), (N - 1) // 2)
     q_hat = fourier.fft(q_time[:N], n_h) if out is not None else np.full((2 * n_h + 1, n), np.nan)
     residual_norm = hist[-1] if hist else np.inf
@@ -297,3 +321,25 @@ def _exact_periodic(system, omega, guess, samples, tol, max_iter, harmonics, jac
                             residual=residual_norm, wall_time=time.perf_counter() - t_wall, t=t,
                             q_hat=q_hat, time_dofs=np.arange(n), q_time=q_time, u_time=u_time, lam=lam_t,
                             impulses=None, x=np.concatenate([q_time[0], u_time[0]]), info=info)
+
+
+def _mode_name(flow, code):
+    """``"slip+"`` (one element) or ``"(stick,free)"`` (several); ``"moreau-jean"`` for the fallback."""
+    if code == MOREAU:
+        return "moreau-jean"
+    st = mode_tuple(code, flow.m)
+    names = [MODE_NAMES[s] for s in st]
+    return names[0] if len(names) == 1 else "(" + ",".join(names) + ")"
+
+
+def _stick_fraction(flow, mode_time, j):
+    """Time (s) with element ``j`` (None: any element) in stick or closed contact."""
+    tot = 0.0
+    for code, dt in mode_time.items():
+        if code == MOREAU:
+            continue
+        st = mode_tuple(code, flow.m)
+        sel = st if j is None else (st[j],)
+        if any(s in (STICK, CLOSED) for s in sel):
+            tot += dt
+    return float(tot)

@@ -27,6 +27,17 @@ In both variants the time-domain forcing of the integrated subsystem is affine
 in the harmonic unknowns, so the exact Jacobian follows from the sensitivities
 of the Moreau-Jean steps (``jacobian="exact"``); forward differences are
 available (``jacobian="fd"``, the paper's choice).
+
+``integrator="event"`` (both variants): the subsystem is integrated by the exact event-driven flow
+(:class:`mshbm.integrators.event.EventFlow`).  Between events it is linear and forced by a
+trigonometric polynomial (its external force plus the harmonic coupling force
+``V(t)^T c``, ``c = c0 + Tr p``); the coupling coefficients are *forcing states* of the augmented
+state (``coupling_harmonics=n_h``), so the mode matrices do not depend on ``p`` and the
+sensitivities to ``p`` are columns of the same saltation-corrected monodromy.  The Fourier
+coefficients ``FFT(q_1)`` of the residual are the exact ones of the flow (Gauss-Legendre quadrature
+on every smooth piece, exact to rounding, with their exact sensitivities), so the only error left is
+the harmonic truncation of the coupling.  ``steps`` is then the output grid (and the Moreau-Jean
+steps per period of the fallback at accumulations, reported in ``info["event_integrator"]``).
 """
 from __future__ import annotations
 
@@ -39,6 +50,7 @@ from .common import guess_parts
 from ..errors import InputError
 from ..condensation import Condensation
 from ..integrators.moreau_jean import MoreauJean
+from ..system import System
 
 __all__ = ["MixedProblem", "IntermediateProblem", "auto_intermediate_partition"]
 
@@ -127,10 +139,115 @@ class _MixedBase(PeriodicProblem):
 
     @property
     def time_step(self):
-        return self.td.h
+        return None if self.integrator == "event" else self.td.h
 
     def time_stepper(self):
-        return self.td.stepper
+        return None if self.integrator == "event" else self.td.stepper
+
+    def _setup_integrator(self, integrator, system, dofs, c0, Tr):
+        """``integrator="event"``: the event-driven flow of the time-domain subsystem with the coupling force
+        as forcing states (module docstring)."""
+        self.integrator = integrator
+        if integrator != "event":
+            return
+        from ..integrators.event import EventFlow
+
+        dense = lambda A: A.toarray() if sp.issparse(A) else np.asarray(A, dtype=float)
+        M, C, K = (dense(_sub(getattr(system, a), dofs, dofs)) for a in "MCK")
+        sub = System(M, C, K, system.f_hat[:, dofs], _local_elements(system, dofs), name=f"{system.name}-sub")
+        self.flow = EventFlow(sub, self.omega, accumulation="moreau", moreau_steps=self.td.N,
+                              coupling_harmonics=self.n_h)
+        self._c0 = np.asarray(c0, dtype=float).reshape(-1)
+        self._Tr = dense(Tr)
+        self._ev_cache = None
+
+    def _event_run(self, x, sens, record=False):
+        from ..integrators.event import EventError
+
+        key = (np.asarray(x).tobytes(), sens, record)
+        if self._ev_cache is not None and self._ev_cache[0] == key:
+            return self._ev_cache[1]
+        p, q0, u0 = self._split(x)
+        n1 = self._time.size
+        fl = self.flow
+        fl.set_forcing((self._c0 + self._Tr @ p).reshape(self.nc, n1))
+        try:
+            out = fl.simulate(0.0, fl.state(0.0, q0, u0), jac=sens, jac_cols="all", fourier=self.n_h,
+                              sample_times=self.td.t if record else None, record=record)
+        except (EventError, ValueError) as exc:  # ValueError: event bracketing lost to rounding
+            self.last_error = f"{type(exc).__name__}: {exc}"
+            out = None
+        self._ev_cache = (key, out)
+        return out
+
+    def _event_residual(self, x, jac):
+        n1, a = self._time.size, self.nc * self._harm.size
+        p, q0, u0 = self._split(x)
+        out = self._event_run(x, jac and self.jacobian == "exact")
+        if out is None:
+            return np.full(x.size, np.nan), (np.full((x.size, x.size), np.nan) if jac else None)
+        R = np.concatenate([self._balance(out["q_hat"].reshape(-1), p), out["z"][:n1] - q0,
+                            out["z"][n1:2 * n1] - u0])
+        if not jac:
+            return R, None
+        if self.jacobian == "fd":
+            return R, forward_difference_jacobian(lambda xp: self._event_residual(xp, False)[0], x, R)
+        # Phi columns: [q0, u0, forcing states = d/dc]; x = [p, q0, u0], dc/dp = Tr
+        dq = out["dq_hat"].reshape(self.nc * n1, -1)
+        Dq = np.hstack([dq[:, 2 * n1:] @ self._Tr, dq[:, :2 * n1]])
+        Pz = out["Phi"][:2 * n1]
+        Dz = np.hstack([Pz[:, 2 * n1:] @ self._Tr, Pz[:, :2 * n1]])
+        J = np.zeros((x.size, x.size))
+        J[:a] = self._balance_dq(Dq)
+        J[:a, :a] += self._balance_dp()
+        J[a:] = Dz
+        J[a:, a:] -= np.eye(2 * n1)
+        return R, J
+
+    def _event_solution_parts(self, x):
+        from ..extrema import fourier_extrema
+        from ..integrators.event import MOREAU, extrema
+
+        p, q0, u0 = self._split(x)
+        out = self._event_run(x, False, record=True)
+        if out is None:
+            raise FloatingPointError(f"event-driven flow failed: {getattr(self, 'last_error', '')}")
+        fl, n1, N = self.flow, self._time.size, self.td.N
+        Z = out["samples"]
+        q_t, u_t = Z[:n1].T.copy(), Z[n1:2 * n1].T.copy()
+        X = p.reshape(self.nc, self._harm.size)
+        q_hat = np.zeros((self.nc, self.system.n))
+        q_hat[:, self._time] = out["q_hat"]
+        if not self._harmonic_dofs_are_time_dofs:
+            q_hat[:, self._harm] = X
+        if self._cond_dofs.size:
+            q_hat[:, self._cond_dofs] = fourier.from_complex(self.cond.recover(fourier.to_complex(X)))
+        lam = np.full((N + 1, len(self.system.elements)), np.nan)
+        modes = out["sample_modes"]
+        for code in np.unique(modes):
+            sel = modes == code
+            lam[sel] = (fl.moreau_force(out["moreau"], self.td.t[sel]) if code == MOREAU
+                        else fl.full_force(int(code), Z[:, sel]).T)
+        P = np.nan_to_num(lam[:-1]) * self.td.h
+        for ev in out["events"]:
+            if ev.impulse != 0.0:
+                P[min(int(ev.t / self.td.h), N - 1), ev.element] += ev.impulse
+        hi, lo = fourier_extrema(q_hat)
+        qmax, qmin, _ = extrema(fl, out["nodes"])  # time DOFs: the true extrema of the flow
+        hi[self._time], lo[self._time] = qmax, qmin
+        info = {**self._info(p, q_hat),
+                "amplitude_exact": 0.5 * (hi - lo),
+                "event_integrator": {
+                    "events": len(out["events"]),
+                    "impacts": sum(1 for e in out["events"] if e.impulse != 0.0),
+                    "switched_to_moreau": out["switched"],
+                    "moreau_segments": [{k: v for k, v in seg.items() if k not in ("force_times", "forces")}
+                                        for seg in out["moreau"]],
+                    "message": out["message"] or "exact event-driven flow over the whole period",
+                    "monodromy_exact": out["jacobian_exact"]},
+                "event_list": out["events"]}
+        return dict(t=self.td.t, q_hat=q_hat, time_dofs=self._time, q_time=q_t, u_time=u_t,
+                    lam=lam, impulses=P, harmonics=self.n_h, info=info)
 
     def partition(self):
         return Partition(time=self._time.copy(), harmonic=self._harm.copy(), condensed=self._cond_dofs.copy())
@@ -168,6 +285,8 @@ class _MixedBase(PeriodicProblem):
 
     def residual(self, x, jac=True):
         """``(R, J)``, shapes ``(n_x,)`` and ``(n_x, n_x)``."""
+        if self.integrator == "event":
+            return self._event_residual(np.asarray(x, dtype=float), jac)
         if not jac:
             return self._eval(x, False)[0], None
         if self.jacobian == "fd":
@@ -190,6 +309,8 @@ class _MixedBase(PeriodicProblem):
         return R, J
 
     def solution_parts(self, x):
+        if self.integrator == "event":
+            return self._event_solution_parts(np.asarray(x, dtype=float))
         p, q0, u0 = self._split(x)
         tr = self.td.run(q0, u0, p, sens=False)
         X = p.reshape(self.nc, self._harm.size)
@@ -224,6 +345,8 @@ class MixedProblem(_MixedBase):
     partition : array of int, optional
         DOFs of ``N`` (default: the DOFs carrying elements).
     project : bool
+    integrator : {"moreau", "event"}
+        Moreau-Jean time stepping (default) or the exact event-driven flow (module docstring).
 
     Residual scale
     --------------
@@ -238,7 +361,7 @@ class MixedProblem(_MixedBase):
     method = "mshbm"
 
     def __init__(self, system, omega, harmonics, steps, theta=0.5, jacobian="exact", partition=None,
-                 project=True):
+                 project=True, integrator="moreau"):
         self.system, self.omega, self.n_h = system, float(omega), int(harmonics)
         self.jacobian = jacobian
         n = system.n
@@ -257,6 +380,7 @@ class MixedProblem(_MixedBase):
         self.nc = 2 * self.n_h + 1
         self._time, self._harm, self._cond_dofs = self.Nd, self.Nd, self.Ld
         self.nA = self.td.stepper.n  # integrated: N, then one slider per Jenkins element
+        self._setup_integrator(integrator, system, self.Nd, c0, Tr)
 
     # the mixed residual (27): harmonic-balance rows of N are the connectivity q_hat_N - FFT(q_N)
     _force_rows = False
@@ -308,7 +432,7 @@ class IntermediateProblem(_MixedBase):
     ----------
     system : System
     omega : float
-    harmonics, steps, theta, jacobian, project :
+    harmonics, steps, theta, jacobian, project, integrator :
         As for :class:`MixedProblem`.
     partition : (array of int, array of int), optional
         DOFs of subsystems 1 and 2 (subsystem 3 is the rest); default
@@ -326,7 +450,7 @@ class IntermediateProblem(_MixedBase):
     method = "mshbm-intermediate"
 
     def __init__(self, system, omega, harmonics, steps, theta=0.5, jacobian="exact", partition=None,
-                 project=True):
+                 project=True, integrator="moreau"):
         self.system, self.omega, self.n_h = system, float(omega), int(harmonics)
         self.jacobian = jacobian
         n = system.n
@@ -368,6 +492,7 @@ class IntermediateProblem(_MixedBase):
         self.nc, self.n1, self.n2 = nc, I1.size, I2.size
         self._time, self._harm, self._cond_dofs = I1, I2, I3
         self.nA = self.td.stepper.n  # integrated: subsystem 1, then one slider per Jenkins element
+        self._setup_integrator(integrator, system, I1, np.zeros(nc * I1.size), Tr)
 
     # residual (39): harmonic-balance rows of subsystem 2 are forces
     _force_rows = True

@@ -11,6 +11,14 @@ positions are periodic too; the reported solution has the structure's DOFs only)
 product of the step Jacobians for the active sets met along the trajectory
 (formed from matrix powers of runs of equal active sets,
 :meth:`MoreauJean.monodromy`), or forward finite differences (``jacobian="fd"``).
+
+``integrator="event"``: the period is integrated by the exact event-driven flow
+(:class:`mshbm.integrators.event.EventFlow`: closed-form flows between events, events to ~1e-15 s,
+Newton impacts) and ``Phi`` is its saltation-corrected monodromy, exact.  The only errors left are
+Newton's tolerance and rounding; ``steps`` is then the number of output samples (and the Moreau-Jean
+steps per period of the fallback at accumulations of impacts or chattering, which the solution's
+``info["event_integrator"]`` reports).  Supported: friction and contact between a DOF and the ground
+(InputError otherwise).  The default is ``"moreau"`` (see :mod:`mshbm.options`).
 """
 from __future__ import annotations
 
@@ -42,6 +50,8 @@ class ShootingProblem(PeriodicProblem):
         ``n_h`` of the reported Fourier coefficients ``q_hat``.
     project : bool
         Position projection of penetrating contacts.
+    integrator : {"moreau", "event"}
+        Moreau-Jean time stepping (default) or the exact event-driven flow (module docstring).
 
     Residual scale
     --------------
@@ -54,16 +64,26 @@ class ShootingProblem(PeriodicProblem):
 
     method = "shooting"
 
-    def __init__(self, system, omega, steps, theta=0.5, jacobian="exact", harmonics=10, project=True):
+    def __init__(self, system, omega, steps, theta=0.5, jacobian="exact", harmonics=10, project=True,
+                 integrator="moreau"):
         self.system, self.omega, self.N = system, float(omega), int(steps)
         self.T = 2 * np.pi / self.omega
         self.h = self.T / self.N
         self.jacobian, self.n_h = jacobian, int(harmonics)
-        self.stepper = MoreauJean(system.M, system.C, system.K, system.elements, self.h, theta, project)
+        self.integrator = integrator
         self.t = np.linspace(0.0, self.T, self.N + 1)
+        self.ns = system.n
+        if integrator == "event":
+            from ..integrators.event import EventFlow
+
+            self.flow = EventFlow(system, self.omega, accumulation="moreau", moreau_steps=self.N)
+            self.stepper = None
+            self.n = system.n
+            self._cache = None
+            return
+        self.stepper = MoreauJean(system.M, system.C, system.K, system.elements, self.h, theta, project)
         self.B = self.stepper.increments(system.forcing(self.t, self.omega))
         self.n = self.stepper.n  # integrated DOFs (the structure's, then the Jenkins sliders')
-        self.ns = system.n
 
     @property
     def n_unknowns(self):
@@ -75,10 +95,21 @@ class ShootingProblem(PeriodicProblem):
 
     @property
     def time_step(self):
-        return self.h
+        return None if self.integrator == "event" else self.h
 
     def time_stepper(self):
         return self.stepper
+
+    def _event_run(self, x, jac=False, record=False):
+        """Event-driven flow over one period from ``x = (q0, u0)`` at ``t = 0`` (samples on ``self.t``)."""
+        key = (x.tobytes(), jac, record)
+        if self._cache is not None and self._cache[0] == key:
+            return self._cache[1]
+        fl = self.flow
+        out = fl.simulate(0.0, fl.state(0.0, x[:self.n], x[self.n:]), jac=jac,
+                          sample_times=self.t if record else None, record=False)
+        self._cache = (key, out)
+        return out
 
     def partition(self):
         return Partition(time=np.arange(self.ns), harmonic=np.zeros(0, np.int64), condensed=np.zeros(0, np.int64))
@@ -100,6 +131,8 @@ class ShootingProblem(PeriodicProblem):
 
     def initial_guess(self, guess=None):
         _, q0, u0 = guess_parts(guess, self.system, self.omega, self.n_h)
+        if self.stepper is None:
+            return np.concatenate([q0, u0])
         return np.concatenate(self.stepper.with_slider_state(q0, u0))
 
     def simulate(self, x, sensitivities=False):
@@ -110,6 +143,8 @@ class ShootingProblem(PeriodicProblem):
     def residual(self, x, jac=True):
         """``(R, J)`` with ``R`` shape (2n,) and ``J`` shape (2n, 2n) (``None`` if not ``jac``)."""
         n = self.n
+        if self.integrator == "event":
+            return self._event_residual(np.asarray(x, dtype=float), jac)
         tr = self.simulate(x)
         R = np.concatenate([tr.q[-1] - x[:n], tr.u[-1] - x[n:]])
         if not jac:
@@ -126,13 +161,80 @@ class ShootingProblem(PeriodicProblem):
             Phi = forward_difference_jacobian(end_state, x, xe)
         return R, Phi - np.eye(2 * n)
 
+    def _event_residual(self, x, jac):
+        from ..integrators.event import EventError
+
+        n = self.n
+        try:
+            out = self._event_run(x, jac=jac and self.jacobian == "exact")
+        except (EventError, ValueError) as exc:  # ValueError: event bracketing lost to rounding
+            self.last_error = f"{type(exc).__name__}: {exc}"
+            return np.full(2 * n, np.nan), (np.full((2 * n, 2 * n), np.nan) if jac else None)
+        R = out["z"][:2 * n] - x
+        if not jac:
+            return R, None
+        if self.jacobian == "exact":
+            Phi = out["Phi"][:2 * n]
+        else:
+            def end_state(xp):
+                try:
+                    return self._event_run(xp)["z"][:2 * n]
+                except (EventError, ValueError):
+                    return np.full(2 * n, np.nan)
+
+            Phi = forward_difference_jacobian(end_state, x, out["z"][:2 * n])
+        return R, Phi - np.eye(2 * n)
+
     def monodromy(self, x):
         """Monodromy matrix ``d(q(T), u(T))/d(q0, u0)``, shape (2n, 2n)."""
+        if self.integrator == "event":
+            return self._event_run(np.asarray(x, dtype=float), jac=True)["Phi"][:2 * self.n]
         tr = self.simulate(x)
         return self.stepper.monodromy(tr.status, tr.P)
 
+    def _event_solution_parts(self, x):
+        from ..integrators.event import MOREAU, extrema
+
+        fl, n, N = self.flow, self.n, self.N
+        out = fl.simulate(0.0, fl.state(0.0, x[:n], x[n:]), jac=True, sample_times=self.t, record=True)
+        qmax, qmin, _ = extrema(fl, out["nodes"])  # true extrema from the flow (zeros of u between nodes)
+        Z = out["samples"]
+        q, u = Z[:n].T.copy(), Z[n:2 * n].T.copy()
+        m_all = len(self.system.elements)
+        lam = np.full((N + 1, m_all), np.nan)
+        modes = out["sample_modes"]
+        for code in np.unique(modes):
+            sel = modes == code
+            if code == MOREAU:  # inside a Moreau-Jean segment: impulse / h of the step
+                lam[sel] = fl.moreau_force(out["moreau"], self.t[sel])
+                continue
+            lam[sel] = fl.full_force(int(code), Z[:, sel]).T
+        # impulse of every sampling interval: the element force times h plus the impacts in it
+        P = np.nan_to_num(lam[:-1]) * self.h
+        for ev in out["events"]:
+            if ev.impulse != 0.0:
+                k = min(int(ev.t / self.h), N - 1)
+                P[k, ev.element] += ev.impulse
+        n_h = min(self.n_h, (N - 1) // 2)
+        Phi = out["Phi"][:2 * n]
+        mult = np.linalg.eigvals(Phi)
+        info = {"event_integrator": {
+                    "events": len(out["events"]),
+                    "impacts": sum(1 for e in out["events"] if e.impulse != 0.0),
+                    "switched_to_moreau": out["switched"],
+                    "moreau_segments": [{k: v for k, v in seg.items() if k not in ("force_times", "forces")}
+                                        for seg in out["moreau"]],
+                    "message": out["message"] or "exact event-driven flow over the whole period",
+                    "monodromy_exact": out["jacobian_exact"]},
+                "event_multipliers": mult, "event_list": out["events"],
+                "amplitude_exact": 0.5 * (qmax - qmin), "q_max": qmax, "q_min": qmin}
+        return dict(t=self.t, q_hat=fourier.fft(q[:-1], n_h), time_dofs=np.arange(n), q_time=q, u_time=u,
+                    lam=lam, impulses=P, harmonics=n_h, info=info)
+
     def solution_parts(self, x):
         """Time-domain data for :class:`PeriodicSolution`."""
+        if self.integrator == "event":
+            return self._event_solution_parts(np.asarray(x, dtype=float))
         tr = self.simulate(x)
         n_h = min(self.n_h, (self.N - 1) // 2)
         ns = self.ns
