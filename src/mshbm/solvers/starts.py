@@ -46,7 +46,15 @@ its residual (:func:`mshbm.api.build_problem`).  The starts, in the default orde
     (``n^2 x steps x periods``) and ``transient_seconds``.  Finds attracting orbits;
 ``"forcing"``, ``"friction"``
     natural-parameter continuation in the forcing amplitude / the friction bound
-    (:mod:`mshbm.solvers.continuation`), from the side where the linear response is exact.
+    (:mod:`mshbm.solvers.continuation`), from the side where the linear response is exact;
+``"section"`` (time-stepping methods)
+    the ``"shifted"`` start's solution with the section *kept* at ``t0`` when the orbit mapped back to
+    ``t = 0`` was not accepted (an impact near ``t = 0`` makes the state there ambiguous to one step): the
+    same discrete orbit on the same grid, reported in the original time (``info["section"]``);
+``"frequency"``
+    continuation in the forcing frequency from an anchor ``r omega`` (:data:`FREQUENCY_RATIOS`) where the
+    ladder without this start succeeds: the exact event-driven orbit continued (one element; with the
+    section moved off its events when one lies at ``t = 0``), else the method's own branch.
 
 Every start ends in an ordinary Newton solve of the *original* problem, so all
 accepted results are solutions of the requested discretisation; the starts only
@@ -88,7 +96,7 @@ __all__ = ["solve_from_starts", "residual_accept", "Attempt", "DEFAULT_STARTS", 
 
 #: default order of the starts (those that do not apply to a method or system are skipped)
 DEFAULT_STARTS = ("guess", "linear", "regularisation", "shifted", "clamped", "zero", "exact", "transient",
-                  "forcing", "friction", "frequency")
+                  "forcing", "friction", "section", "frequency")
 
 #: anchor frequencies ``omega * r`` of the ``"frequency"`` start, in the order tried
 FREQUENCY_RATIOS = (0.85, 1.18, 0.7, 1.4)
@@ -422,7 +430,7 @@ def _event_steps(parts, system):
     ev = []
     for j, el in enumerate(system.elements):
         if el.unilateral:
-            act = P[:, j] > 0
+            act = P[:, j] > 1e-12 * float(np.max(np.abs(P[:, j]), initial=0.0))  # not rounding-level impulses
         else:
             act = np.abs(P[:, j]) < (1.0 - 1e-9) * h * el.bound_samples(P / h)  # sticking
         change = np.nonzero(act != np.roll(act, 1))[0]
@@ -575,11 +583,21 @@ class _Runner:
         if not all(np.all(np.isfinite(v)) for v in g.values()):
             return self._try("shifted", self.problem.initial_guess("linear"), note, rS.nit, t0)
         att = self._try("shifted", self.problem.initial_guess(g), note, rS.nit, t0)
-        if att.accepted:
-            return att
-        # the orbit back at the section t = 0 is not accepted (an impact near t = 0 makes the state there
-        # ambiguous to one step): keep the section at t0 (the same discrete orbit on the same grid)
-        return self._try("shifted", probS.initial_guess("linear"), f"{note}; section kept at t0", 0, t0,
+        if not att.accepted:
+            # the orbit back at the section t = 0 is not accepted (an impact near t = 0 makes the state there
+            # ambiguous to one step): the start "section" keeps the section at t0, if no other start succeeds
+            self._section_candidate = (probS, rS, k, ts, note)
+        return att
+
+    def start_section(self):
+        """The ``"shifted"`` start's solution with the section kept at ``t0`` (the same discrete orbit on the
+        same grid, reported in the original time by the driver), when the orbit mapped back to ``t = 0`` was
+        not accepted."""
+        cand = getattr(self, "_section_candidate", None)
+        if cand is None:
+            return None
+        probS, rS, k, ts, note = cand
+        return self._try("section", probS.initial_guess("linear"), f"{note}; section kept at t0", 0,
                          problem=probS, section=(k, ts), result=rS)
 
     def _section_problem(self, k):
