@@ -63,7 +63,19 @@ def solve(system, omega, method="mshbm", **options):
         with validate.quiet_floats():
             sol = solve_with_continuation(system, omega, method, solve=solve, stability=False,
                                           **{k: v for k, v in options.items() if k != "continuation"})
+        if sol.success or starts.active():
             return _stability.assess(system, sol, stab, theta=options.get("theta", 0.5))
+        # the restarts and continuations from the guess failed: the start ladder (the guess first), as without
+        # the explicit opt-in
+        first = sol
+        with blas_threads(check_threads(options.get("blas_threads", 1))), validate.quiet_floats():
+            sol = _solve(system, omega, method, {k: v for k, v in options.items() if k != "blas_threads"})
+        if not sol.success:
+            sol.message = f"{sol.message}; before that, restarts and continuation from the guess: {first.message}"
+        else:
+            sol.wall_time += first.wall_time
+        sol.info["continuation"] = first.info.get("continuation")
+        return _stability.assess(system, sol, stab, theta=options.get("theta", 0.5))
     with blas_threads(check_threads(options.pop("blas_threads", 1))), validate.quiet_floats():
         sol = _solve(system, omega, method, options)
         return _stability.assess(system, sol, stab, theta=options.get("theta", 0.5))
