@@ -243,6 +243,12 @@ class EventFlow:
         D = self.iy + self.ncx * n
         self.D, self.i1 = D, 2 * n
         self.Fc = np.zeros((self.ncx, n))
+        # the forcing states' rotation pairs (relative to iy): Y1 rows _yc, Y2 rows _ys, frequencies _yw
+        kk = np.repeat(np.arange(1, nx + 1), n)
+        ii = np.tile(np.arange(n), nx)
+        self._yc, self._ys = (2 * kk - 1) * n + ii, 2 * kk * n + ii
+        self._yw = kk * omega
+        self._ck = (self.omega * np.arange(1, nx + 1))
         self.M = M
         self.Minv = sla.cho_solve(sla.cho_factor(M), np.eye(n))
         Rr = np.zeros((n, D))  # r = f_ex - C u - K q as a row block on z
@@ -397,10 +403,10 @@ class EventFlow:
             return self.osc(t)
         Y = np.empty_like(self.Fc)
         Y[0] = self.Fc[0]
-        for k in range(1, self.nx + 1):
-            c, s_ = math.cos(k * self.omega * t), math.sin(k * self.omega * t)
-            a, b = self.Fc[2 * k - 1], self.Fc[2 * k]
-            Y[2 * k - 1], Y[2 * k] = a * c + b * s_, -a * s_ + b * c
+        if self.nx:
+            c, s_ = np.cos(self._ck * t)[:, None], np.sin(self._ck * t)[:, None]
+            a, b = self.Fc[1::2], self.Fc[2::2]
+            Y[1::2], Y[2::2] = a * c + b * s_, -a * s_ + b * c
         return np.concatenate([self.osc(t), Y.reshape(-1)])
 
     def set_forcing(self, Fc):
@@ -444,14 +450,43 @@ class EventFlow:
         s = np.asarray(s, dtype=float)
         return s[..., None] ** np.arange(n_taylor) if s.ndim else s ** np.arange(n_taylor)
 
-    @staticmethod
-    def propagate_matrix(md, P, s):
+    def propagate_matrix(self, md, P, s):
         """``exp(A s) P`` for ``0 <= s <= h_s`` (Taylor)."""
         acc, term = P.copy(), P
         for j in range(1, md.n_taylor):
-            term = (md.A @ term) * (s / j)
+            term = self.amul(md, term) * (s / j)
             acc += term
         return acc
+
+    def amul(self, md, P):
+        """``A P`` for a matrix ``P`` of ``D`` rows; the rows of the forcing states (block rotations) are
+        formed from their structure (with ``coupling_harmonics`` they are most of ``A``)."""
+        if not self.ncx:
+            return md.A @ P
+        dx = self.iy
+        out = np.empty_like(P)
+        out[:dx] = md.A[:dx] @ P
+        Py = P[dx:]
+        oy = out[dx:]
+        oy[:self.n] = 0.0
+        oy[self._yc] = self._yw[:, None] * Py[self._ys]
+        oy[self._ys] = -self._yw[:, None] * Py[self._yc]
+        return out
+
+    def emul(self, md, P):
+        """``exp(A h_s) P`` over a full sub-step of mode ``md`` (structured in the forcing states)."""
+        if not self.ncx:
+            return md.E @ P
+        dx = self.iy
+        out = np.empty_like(P)
+        out[:dx] = md.E[:dx] @ P
+        Py = P[dx:]
+        oy = out[dx:]
+        c, s_ = np.cos(self._yw * md.h)[:, None], np.sin(self._yw * md.h)[:, None]
+        oy[:self.n] = Py[:self.n]
+        oy[self._yc] = c * Py[self._yc] + s_ * Py[self._ys]
+        oy[self._ys] = -s_ * Py[self._yc] + c * Py[self._ys]
+        return out
 
     def force(self, mode, z):
         """Element forces ``lambda`` (acting elements) in ``mode`` at state(s) ``z``: shape (m,) or (m, k)."""
@@ -922,12 +957,10 @@ class EventFlow:
                 isamp[0] = j1
             mode_time[md.code] = mode_time.get(md.code, 0.0) + s_end
             if four is not None and s_end > 0.0:
-                if W is None:
-                    W = self.powers(md, z)
-                self._fourier_piece(md, W, Phi, a, s_end, four)
+                self._fourier_piece(md, z, W, Phi, a, s_end, four)
             if s_ev is None:
                 if jac:
-                    Phi = md.E @ Phi if h == md.h else self.propagate_matrix(md, Phi, h)
+                    Phi = self.emul(md, Phi) if h == md.h else self.propagate_matrix(md, Phi, h)
                 a += h
                 z = zb
                 continue
@@ -989,30 +1022,37 @@ class EventFlow:
         t = np.asarray(t, dtype=float)
         out = np.empty(t.shape + (2 * nfr + 1,))
         out[..., 0] = 1.0
-        for k in range(1, nfr + 1):
-            out[..., 2 * k - 1], out[..., 2 * k] = np.cos(k * self.omega * t), np.sin(k * self.omega * t)
+        if nfr:
+            wt = np.multiply.outer(t, self.omega * np.arange(1, nfr + 1))
+            out[..., 1::2], out[..., 2::2] = np.cos(wt), np.sin(wt)
         return out
 
-    def _fourier_piece(self, md, W, Phi, a, s, four):
-        """Add ``int_a^{a+s} q(t) b(t) dt`` (and of ``Phi_q``) by Gauss-Legendre quadrature on the flow."""
+    def _fourier_piece(self, md, z, W, Phi, a, s, four):
+        """Add ``int_a^{a+s} q(t) b(t) dt`` (and of ``Phi_q``) by Gauss-Legendre quadrature on the flow from
+        the state ``z`` at ``a`` (``W``: its Taylor powers, or None)."""
         n = self.n
         ss = 0.5 * s * (_GL_X + 1.0)
         wts = 0.5 * s * _GL_W
-        P = self.spow(ss, md.n_taylor)  # (g, n_taylor)
-        Q = P @ W[:n].T  # (g, n): q at the nodes
         B = self._fourier_basis(a + ss, four[0]) * wts[:, None]  # (g, nc)
+        full = s == md.h
+        if full and md.Eg is None:  # the q rows of exp(A s_g) at the nodes of a full sub-step, once per mode
+            md.Eg = np.array([sla.expm(md.A * x)[:n] for x in ss])  # (g, n, D)
+        if full:
+            Q = md.Eg @ z  # (g, n): q at the nodes
+        else:
+            if W is None:
+                W = self.powers(md, z)
+            P = self.spow(ss, md.n_taylor)  # (g, n_taylor)
+            Q = P @ W[:n].T
         four[1] += B.T @ Q
-        if four[2] is not None and Phi is not None and s == md.h:
-            # a full sub-step: the q rows of exp(A s_g) at the nodes once per mode, then one product
-            if md.Eg is None:
-                md.Eg = np.array([sla.expm(md.A * x)[:n] for x in ss])  # (g, n, D)
+        if four[2] is not None and Phi is not None and full:
             G = np.einsum("gk,gnd->knd", B, md.Eg)
             four[2] += (G.reshape(-1, self.D) @ Phi).reshape(B.shape[1], n, -1)
         elif four[2] is not None and Phi is not None:
             acc = [Phi[:n]]
             term = Phi
             for j in range(1, md.n_taylor):
-                term = (md.A @ term) / j
+                term = self.amul(md, term) / j
                 acc.append(term[:n])
             WP = np.array(acc)  # (n_taylor, n, cols)
             PhiQ = np.tensordot(P, WP, axes=(1, 0))  # (g, n, cols)
@@ -1029,11 +1069,19 @@ class EventFlow:
             c = md.C[i_ev]
             fm = md.A @ z
             fp = nmd.A @ zp
-            Dgm = np.eye(D) if Dg is None else Dg
             den = float(c @ fm)
             if den == 0.0:
                 den = 1e-300
-            Phi = (Dgm + np.outer(fp - Dgm @ fm, c) / den) @ Phi
+            cP = c @ Phi
+            if Dg is None:  # S Phi = Phi + (f+ - f-) (c^T Phi) / (c^T f-)
+                Phi = Phi + np.outer(fp - fm, cP / den)
+            else:  # D_g differs from the identity in the velocity block only (the impact law)
+                n = self.n
+                Dfm = fm.copy()
+                Dfm[n:2 * n] = Dg[n:2 * n, n:2 * n] @ fm[n:2 * n]
+                Phi = Phi.copy()
+                Phi[n:2 * n] = Dg[n:2 * n, n:2 * n] @ Phi[n:2 * n]
+                Phi += np.outer(fp - Dfm, cP / den)
         events += evs
         if nodes is not None:
             nodes.append((t, z.copy(), zp.copy(), mode_code(new)))
