@@ -274,7 +274,7 @@ class EventFlow:
         for a, el in enumerate(self.elements):
             self.W[el.dof, a] = el.sign
         self.MW = self.Minv @ self.W
-        self.sw = np.einsum("ij,ij->j", self.W, self.MW) if m else np.zeros(0)
+        self.sw_all = np.einsum("ij,ij->j", self.W, self.MW) if m else np.zeros(0)  # w_j^T M^-1 w_j
         self.dof = np.array([el.dof for el in self.elements], dtype=np.int64)
         self.sign = np.array([el.sign for el in self.elements])
         self.is_contact = np.array([el.unilateral for el in self.elements], dtype=bool)
@@ -595,7 +595,7 @@ class EventFlow:
         for j in which:
             s = st[j]
             ga = self.sign[j] * acc[self.dof[j]]
-            fs = max(self.bound[j], ascale / self.sw[j])
+            fs = max(self.bound[j], ascale / self.sw_all[j])
             if s == STICK:
                 x = (abs(lam[j]) - self.bound[j]) / fs
             elif s == CLOSED:
@@ -649,7 +649,7 @@ class EventFlow:
         zz = z.copy()
         zz[n + self.dof[j]] = 0.0
         lam = float(md.Lam[j] @ zz)
-        height = (e * gam) ** 2 / (2.0 * self.sw[j] * lam) if lam > 0.0 else np.inf
+        height = (e * gam) ** 2 / (2.0 * self.sw_all[j] * lam) if lam > 0.0 else np.inf
         return height <= 1e-10 * max(abs(self.gap[j]), np.abs(z[:n]).max(), self.qref)
 
     def _impact(self, st, j, z, t, ctx):
