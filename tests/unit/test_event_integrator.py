@@ -266,6 +266,11 @@ def test_inputs():
     with pytest.raises(InputError) as err:
         EventFlow(chain([1.0], 1.0), 1.0, accumulation="ignore")
     assert err.value.key == "accumulation"
+    from mshbm.integrators import event
+
+    with pytest.raises(InputError) as err:
+        EventFlow(chain([1.0] * (event.MAX_DOFS + 1), 1.0, sparse=True), 1.0)
+    assert err.value.key == "integrator" and "dense" in err.value.problem
     with pytest.raises(InputError) as err:
         mshbm.solve(chain([1.0], 1.0, 0.1, forcing=[{"dof": 0, "amplitude": 1.0}]), 1.0, "shooting",
                     integrator="rk4")

@@ -121,6 +121,8 @@ STALL_EVENTS = 50
 RELEASE_STEPS = 8
 #: largest number of element-status combinations enumerated at one event
 MAX_COMBINATIONS = 6561
+#: largest (sub)system the dense event-driven flow accepts (matrix exponentials of size ~2n)
+MAX_DOFS = 1000
 
 
 class EventError(RuntimeError):
@@ -223,6 +225,10 @@ class EventFlow:
         omega = float(omega)
         if not math.isfinite(omega) or omega <= 0:
             raise InputError("omega", f"must be finite and > 0, got {omega}")
+        if system.n > MAX_DOFS:
+            raise InputError("integrator", f"the event-driven flow uses dense {2 * system.n}-square matrix "
+                             f"exponentials; {system.n} DOFs is more than {MAX_DOFS}: use the Moreau-Jean "
+                             "integrator, or MS-HBM (its time-domain subsystem is small)")
         if accumulation not in ("moreau", "close", "error"):
             raise InputError("accumulation", f"must be 'moreau', 'close' or 'error', got {accumulation!r}")
         for el in system.elements:
