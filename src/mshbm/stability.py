@@ -42,7 +42,8 @@ How (:func:`assess`):
 ``MAX_EXACT_DOFS = 200``: the exact flow works with dense ``(2n+1+2n_f)``-square matrices
 (matrix exponentials, monodromy products), so its cost grows like ``n^3``; measured on the
 damped impact chain (one thread): 0.05 s at n = 5, 0.2-0.4 s at 50, 0.75 s at 100, 2.3 s at
-200, 9.5 s at 400.  ``stability=True`` lifts the limit.
+200, 9.5 s at 400.  ``stability=True`` lifts the limit (up to the event flow's own
+:data:`mshbm.integrators.event.MAX_DOFS` = 1000; above it the step map's estimate with the reason).
 """
 from __future__ import annotations
 

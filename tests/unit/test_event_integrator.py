@@ -266,6 +266,11 @@ def test_inputs():
     with pytest.raises(InputError) as err:
         EventFlow(chain([1.0], 1.0), 1.0, accumulation="ignore")
     assert err.value.key == "accumulation"
+    from mshbm.integrators import event
+
+    with pytest.raises(InputError) as err:
+        EventFlow(chain([1.0] * (event.MAX_DOFS + 1), 1.0, sparse=True), 1.0)
+    assert err.value.key == "integrator" and "dense" in err.value.problem
     with pytest.raises(InputError) as err:
         mshbm.solve(chain([1.0], 1.0, 0.1, forcing=[{"dof": 0, "amplitude": 1.0}]), 1.0, "shooting",
                     integrator="rk4")
@@ -316,13 +321,13 @@ def test_forcing_states_and_exact_fourier_coefficients():
     assert np.abs(a["z"][:4] - b["z"][:4]).max() <= 1e-12  # measured 1.6e-15
     assert np.abs(a["Phi"][:4, :4] - b["Phi"][:4, :4]).max() <= 1e-12
     # Fourier coefficients against a fine trapezoidal rule (the orbit is not periodic: no FFT)
-    tt = np.linspace(0.0, fl.T, 400001)
+    tt = np.linspace(0.0, fl.T, 200001)
     q = fl.simulate(0.0, fl.state(0.0, q0, u0), sample_times=tt)["samples"][:2].T
     B = fl._fourier_basis(tt, 5)
     w = np.full(11, 2.0 / fl.T)
     w[0] = 1.0 / fl.T
     qh = np.trapezoid(B[:, :, None] * q[:, None, :], tt, axis=0) * w[:, None]
-    assert np.abs(qh - a["q_hat"]).max() <= 1e-9  # measured 4.6e-11 (the trapezoidal rule's error)
+    assert np.abs(qh - a["q_hat"]).max() <= 1e-9  # measured 2.1e-10 (the trapezoidal rule's error)
     # sensitivities to q0, u0 and F_c (the forcing states at t = 0 are F_c) against central differences
     cols = fl.jac_columns("all")
     z0 = fl.state(0.0, q0, u0)
@@ -374,3 +379,35 @@ def test_mshbm_event_converges_to_the_exact_orbit_with_the_harmonics():
                         stability=False)
     assert inter.success
     assert np.abs(inter.amplitude - ref).max() / np.abs(ref).max() < 1e-4  # measured 4.81e-5
+
+
+def test_sweep_with_the_event_integrator_follows_den_hartog_exactly():
+    """Frequency continuation of the damped Coulomb oscillator x'' + 2 zeta x' + x = F cos(omega t) - R sign(x')
+    above resonance (continuous motion): every point against the half-period closed form (the symmetric
+    solution x(0) = -X, x(pi/omega) = X from the exact linear flow)."""
+    from scipy.linalg import expm
+    from scipy.optimize import fsolve
+
+    zeta, F, R = 0.05, 1.0, 0.3
+
+    def closed_form(w):
+        E = expm(np.array([[0.0, 1.0], [-1.0, -2 * zeta]]) * np.pi / w)
+        H = F / (1 - w ** 2 + 2j * zeta * w)
+
+        def part(t, phi):
+            z = H * np.exp(1j * (w * t + phi))
+            return np.array([z.real - R, (1j * w * z).real])
+
+        def res(p):
+            return E @ (np.array([-p[0], 0.0]) - part(0.0, p[1])) + part(np.pi / w, p[1]) - np.array([p[0], 0.0])
+
+        p = fsolve(res, [abs(H), 0.0], xtol=1e-13)
+        assert np.max(np.abs(res(p))) < 1e-12
+        return p[0]
+
+    s = chain([1.0], 1.0, 2 * zeta, forcing=[{"dof": 0, "amplitude": F}], elements=[Friction(0, 1.0, R)])
+    b = mshbm.sweep(s, 1.5, 3.0, "shooting", steps=512, integrator="event")
+    assert b.success and len(b) >= 5
+    exact = np.array([closed_form(w) for w in b.omega])
+    # measured 4.8e-11 (Moreau-Jean with 4096 steps: 5e-3 is the bound of tests/integration/test_sweep.py)
+    np.testing.assert_allclose(b.amplitude[:, 0], exact, rtol=1e-8)

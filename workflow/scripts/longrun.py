@@ -115,7 +115,7 @@ def run(config, case, stem, log=print):
             if e.impulse > 0.0:
                 u_before = float(el.sign * e.velocity)  # gamma = w^T u, w = sign e_dof
                 imps.append({"t_mod_T": float(np.mod(e.t, T)), "u_before": u_before,
-                             "u_after": u_before + float(e.impulse * flow.mw[flow.dof])})
+                             "u_after": u_before + float(e.impulse * flow.mw[el.dof])})
         impacts.append(imps)
         z = out["z"]
         t += T
