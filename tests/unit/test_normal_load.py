@@ -206,13 +206,14 @@ def test_hbm_jacobian_against_differences():
 
 
 # ----------------------------------------------------------------------------- cross-method agreement
+@pytest.mark.parametrize("method", ["mshbm", "mshbm-intermediate"])
 @pytest.mark.parametrize("F0", [1.0, 0.3], ids=["closed", "lift-off"])
-def test_shooting_and_mshbm_agree(F0):
+def test_shooting_and_mshbm_agree(F0, method):
     """Same Moreau-Jean scheme (8192 steps); MS-HBM with 15 harmonics on the blade DOF.  Measured
     relative differences of the amplitudes: 1e-6 (closed), 3e-6 (lift-off); Moreau-Jean's own error
     (2048 against 8192 steps): 1e-5 (closed), 1.2e-4 (lift-off)."""
     a = _solve(damper(F0=F0), "shooting", steps=8192)
-    b = _solve(damper(F0=F0), "mshbm", harmonics=15, steps=8192)
+    b = _solve(damper(F0=F0), method, harmonics=15, steps=8192)
     amp_a, amp_b = np.asarray(a.amplitude), np.asarray(b.amplitude)
     assert np.abs(amp_a - amp_b).max() <= 2e-5 * amp_a.max()
     assert np.abs(a.q - b.q).max() <= 2e-5 * np.abs(a.q).max()
@@ -228,6 +229,18 @@ def test_hbm_converges_to_shooting_as_the_regularisation_stiffens():
         errs.append(np.abs(amp[:2] - ref[:2]).max() / ref[:2].max())
     assert errs[1] <= 0.005
     assert errs[1] < errs[0] / 2
+
+
+def test_element_bound_per_sample_and_scaling():
+    fr = Friction(0, 0.5, 0.2, normal_contact=1)
+    lam = np.array([[0.0, 1.0], [0.0, 0.0], [0.0, -3.0]])  # a negative (penalty) force is no load
+    assert np.allclose(fr.bound_samples(lam), [0.5 * 1.2, 0.5 * 0.2, 0.5 * 0.2], rtol=1e-15)
+    assert fr.kernel_coupling() == (1, 0.5) and Friction(0, 0.5, 1.0).kernel_coupling() == (-1, 0.0)
+    assert Friction(0, 0.5, 0.0, normal_contact=1).acts and not Friction(0, 0.5, 0.0).acts
+    half = fr.bound_scaled(0.5)  # the whole bound mu (N_0 + lambda_N) times 0.5
+    assert np.allclose(half.bound_samples(lam), 0.5 * fr.bound_samples(lam), rtol=1e-15)
+    with pytest.raises(TypeError):
+        fr.regularised_law(np.zeros(2), np.zeros(2))  # needs the contact force: coupled_law
 
 
 # ----------------------------------------------------------------------------- inputs
