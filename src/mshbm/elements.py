@@ -57,9 +57,10 @@ Elements of issue 15:
   ``F_N(t) = N_0 + lambda_N(t)`` with the preload ``N_0 = normal_force`` and the force
   ``lambda_N >= 0`` of the contact element ``c`` (an index into the system's element list), so the
   bound ``mu F_N(t)`` varies with the normal motion -- the 2-D frictional contact of a blade damper.
-  Time stepping: on the impulse level ``|P_T| <= mu (h N_0 + P_N)`` (Coulomb's cone); the kernel's
-  local problem is solved by projected Gauss-Seidel with the friction bound updated from the current
-  contact impulse in every sweep; the sensitivities are exact for the active set, a sliding friction
+  Time stepping: on the impulse level ``|P_T| <= mu (h N_0 + P_N)`` (Coulomb's cone); in the kernel's
+  projected Gauss-Seidel the friction and its contact form one block solved exactly (closed-stick,
+  closed-slip in either direction, open; a contact loading several frictions: scalar updates with the
+  bound from the current contact impulse); the sensitivities are exact for the active set, a sliding friction
   on a closed contact adding ``dP_T = sign(P_T) mu dP_N`` to the equality rows
   (:mod:`mshbm.integrators.kernels`).  HBM: ``lambda_T = mu (N_0 + max(lambda_N, 0)) (2/pi)
   arctan(kappa gamma_T)`` with the penalty force ``lambda_N`` (eq. 45), with the Jacobian terms in

@@ -153,6 +153,38 @@ def test_kernel_matches_numpy_twin_with_coupling():
     assert np.abs(P - tr.P).max() <= 1e-10 * np.abs(tr.P).max()
 
 
+@pytest.mark.parametrize("mu", [0.5, 2.0])
+def test_local_problem_solved_exactly_with_strong_delassus_coupling(mu):
+    """A mass coupling M_12 = 0.2 between the tangential and normal DOFs (D_TN / D_TT = 0.67): the pair
+    (friction, contact) is one exactly solved block; measured: 2 sweeps per step (the scalar projected
+    Gauss-Seidel did not converge in 500 sweeps for mu = 2).  Checked on every step from the velocities
+    alone: stick gamma_T+ = 0, slip P_T = -+mu P_N against the sign of gamma_T+, closed gamma_N+ = 0
+    (e = 0), open P_N = 0."""
+    s = damper(F0=0.3, mu=mu)
+    M = s.dense("M").copy()
+    M[1, 2] = M[2, 1] = 0.2
+    s = System(M, s.C, s.K, s.f_hat, s.elements)
+    N, T = 2048, 2 * np.pi / OMEGA
+    sol = _solve(s, "shooting", steps=N)
+    st = MoreauJean(s.M, s.C, s.K, s.elements, T / N)
+    tr = st.run(sol.q[0], sol.u[0], st.increments(s.forcing(np.linspace(0, T, N + 1), OMEGA)))
+    assert tr.pgs_iterations <= 3
+    assert st.Del[0, 1] / st.Del[0, 0] > 0.6
+    PT, PN = tr.P[:, 0], tr.P[:, 1]
+    gT, gN = tr.u[1:, 1], -tr.u[1:, 2]
+    vs = np.abs(tr.u).max()
+    base = tr.status & 3
+    stick, slip = base[:, 0] == kernels.STATUS_STICK, base[:, 0] == kernels.STATUS_SLIP
+    closed = base[:, 1] == kernels.STATUS_CLOSED
+    assert stick.any() and slip.any() and closed.any() and (~closed).any()
+    assert np.abs(gT[stick]).max() <= 1e-12 * vs
+    assert np.allclose(np.abs(PT[slip]), mu * PN[slip], rtol=1e-12, atol=0)
+    assert np.all(PT[slip] * gT[slip] <= 1e-12 * vs * np.abs(PT[slip]))
+    assert np.all(np.abs(PT) <= mu * PN * (1 + 1e-12))
+    assert np.abs(gN[closed]).max() <= 1e-12 * vs
+    assert np.all(PN[~closed] == 0.0)
+
+
 @pytest.mark.parametrize("F0", [1.0, 0.3])
 def test_sensitivities_are_exact(F0):
     """d(q_N, u_N)/d(q_0, u_0) of the kernel = central differences = monodromy from status and slip signs."""
