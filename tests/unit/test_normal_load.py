@@ -293,6 +293,14 @@ def test_python_api_errors():
     assert exc.value.key == "friction.normal_contact"
 
 
+def test_exact_flow_rejects_it_cleanly():
+    """The event-driven flow does not support the coupling (``Element.normal_contact`` is the flag)."""
+    from mshbm.methods.exact import exact_periodic
+
+    with pytest.raises(InputError):
+        exact_periodic(damper(), OMEGA)
+
+
 def test_dlft_displacement_predictor_rejects_it_cleanly():
     with pytest.raises(InputError) as exc:
         mshbm.solve(damper(), OMEGA, "dlft", harmonics=5, dlft_predictor="displacement")
