@@ -206,7 +206,7 @@ def _contact_info(system, sol):
             info = sol.info.get("stability", {})
             stick = info.get("stick_fraction")
             rec["stick_fraction"] = None if stick is None else float(stick)
-            rec["active"] = el.bound > 0.0
+            rec["active"] = bool(el.acts)
         out.append(rec)
     return out
 

@@ -26,7 +26,9 @@ DOFs, ``w_j = sign[j] (e_dof[j] - e_dof2[j])`` and ``gamma_j = sign[j] (u[dof[j]
   the start of the step); inactive: ``P_j = 0``.
 
 One element is solved in closed form; several by projected Gauss-Seidel on
-``D`` (exact to ``tol``).  After the step a contact that penetrates is projected
+``D`` (exact to ``tol``), a friction loaded by a contact (that loads no other friction) together
+with it as one exactly solved 2x2 block (:func:`_pair_solve`; with scalar updates instead, the
+sweeps did not converge in 500 iterations for ``mu = 2`` and ``D_TN / D_TT = 0.67``).  After the step a contact that penetrates is projected
 back onto ``g_j = 0`` in the metric of ``M`` (no-op for ``e_N = 1``).
 
 Sensitivities with respect to ``(q0, u0, p)``, where the forcing increment
@@ -92,11 +94,62 @@ def _local_solve(uf, u, q_free_gap, kind, dof, dof2, sign, bound, e, nsrc, mu_n,
                 p = -r[0] / Del[0, 0]
                 P[0] = p if p > 0.0 else 0.0
     else:
+        # a contact loading exactly one friction forms a pair solved exactly as a 2x2 block
+        # (:func:`_pair_solve`) inside the sweep; pair[j] = c for its friction j, -2 for the contact c
+        pair = np.full(m, -1, dtype=np.int64)
+        for j in range(m):
+            if nsrc[j] >= 0:
+                pair[nsrc[j]] = -2 if pair[nsrc[j]] == -1 else -3  # -3: loads several frictions
+        for j in range(m):
+            if nsrc[j] >= 0 and pair[nsrc[j]] == -2:
+                pair[j] = nsrc[j]
+        for c in range(m):
+            if pair[c] == -3:
+                pair[c] = -1
         for it in range(1, max_iter + 1):
             change = 0.0
             scale = 0.0
             for j in range(m):
-                if not active[j]:
+                if pair[j] == -2 or (not active[j] and pair[j] < 0):
+                    continue  # a paired contact is solved with its friction
+                if pair[j] >= 0:
+                    c = pair[j]
+                    rT = r[j]
+                    rN = r[c]
+                    for i in range(m):
+                        if i != j and i != c:
+                            rT += Del[j, i] * P[i]
+                            rN += Del[c, i] * P[i]
+                    pt, pn, ok = _pair_solve(rT, rN, Del[j, j], Del[j, c], Del[c, j], Del[c, c], bound[j],
+                                             mu_n[j], active[c])
+                    if ok:
+                        for i, v in ((j, pt), (c, pn)):
+                            d = abs(v - P[i])
+                            if d > change:
+                                change = d
+                            if abs(v) > scale:
+                                scale = abs(v)
+                            P[i] = v
+                        continue
+                    # no consistent case (found none in the measurements): scalar updates of both
+                    for i in (j, c):
+                        if not active[i]:
+                            continue
+                        res = r[i]
+                        for k in range(m):
+                            res += Del[i, k] * P[k]
+                        p = P[i] - res / Del[i, i]
+                        if i == j:
+                            b = bound[j] + mu_n[j] * P[c]
+                            p = b if p > b else (-b if p < -b else p)
+                        elif p < 0.0:
+                            p = 0.0
+                        d = abs(p - P[i])
+                        if d > change:
+                            change = d
+                        if abs(p) > scale:
+                            scale = abs(p)
+                        P[i] = p
                     continue
                 res = r[j]
                 for i in range(m):
@@ -141,6 +194,51 @@ def _local_solve(uf, u, q_free_gap, kind, dof, dof2, sign, bound, e, nsrc, mu_n,
         else:
             status[j] = STATUS_CLOSED if P[j] > 0.0 else STATUS_OPEN
     return it
+
+
+@njit(cache=True)
+def _pair_solve(rT, rN, Dtt, Dtn, Dnt, Dnn, bT, mu, closable):
+    """Exact solution of one friction ``T`` whose bound ``bT + mu P_N`` follows one contact ``N``.
+
+    With the other elements' impulses fixed, ``gamma_T = rT + Dtt P_T + Dtn P_N`` and ``gamma_N = rN + Dnt P_T
+    + Dnn P_N`` (``gamma_N`` including ``e gamma_N-``).  The cases are tried in turn: contact closed and
+    friction sticking (``gamma_T = gamma_N = 0``), closed and slipping (``P_T = s (bT + mu P_N)``,
+    ``s gamma_T <= 0``, ``gamma_N = 0``), open (``P_N = 0``, ``gamma_N >= 0``, friction with the bound
+    ``bT``); ``closable``: the contact is active in this step (else open).  Returns ``(P_T, P_N, ok)``.
+    """
+    pt0 = -rT / Dtt
+    if pt0 > bT:
+        pt0 = bT
+    elif pt0 < -bT:
+        pt0 = -bT
+    if not closable:
+        return pt0, 0.0, True
+    tolr = 1e-12 * (abs(rT) + abs(rN))
+    det = Dtt * Dnn - Dtn * Dnt
+    if det != 0.0:
+        pt = (-rT * Dnn + rN * Dtn) / det
+        pn = (-rN * Dtt + rT * Dnt) / det
+        if pn >= 0.0:
+            b = bT + mu * pn
+            if abs(pt) <= b * (1.0 + 1e-12):
+                if pt > b:
+                    pt = b
+                elif pt < -b:
+                    pt = -b
+                return pt, pn, True
+    for s in (1.0, -1.0):
+        den = Dnn + s * mu * Dnt
+        if den > 0.0:
+            pn = -(rN + Dnt * s * bT) / den
+            if pn >= 0.0:
+                pt = s * (bT + mu * pn)
+                gT = rT + Dtt * pt + Dtn * pn
+                if s * gT <= tolr + 1e-12 * (abs(Dtt * pt) + abs(Dtn * pn)):
+                    return pt, pn, True
+    gN = rN + Dnt * pt0
+    if gN >= -(tolr + 1e-12 * abs(Dnt * pt0)):
+        return pt0, 0.0, True
+    return 0.0, 0.0, False
 
 
 @njit(cache=True)

@@ -13,6 +13,10 @@ A case file is a top-level mapping.  A wall-spring-mass chain (see
     friction: {dof: 0, mu: 0.8, normal_force: 9.81, smoothing: 800}
     # or: contact: {dof: 0, gap: 0.1, restitution: 1, penalty_stiffness: 8000, penalty_damping: 0}
     # friction/contact may also be lists of such mappings
+    # friction with its normal load from a contact (a blade damper, examples/damper2d.yaml):
+    #   friction: {dof: 1, mu: 0.5, normal_contact: 0}   # bound mu (normal_force + lambda_N(t)),
+    #   contact: {dof: 2, gap: 0, restitution: 0}        # normal_contact indexes the contact list;
+    #                                                    # normal_force (the preload) defaults to 0
     # a forcing harmonic k needs harmonics >= k (HBM; the harmonic DOFs of MS-HBM) and steps > 2k
     # (time-stepped DOFs): otherwise the case is refused, never truncated (README: "What mshbm refuses")
     solver: {method: mshbm, harmonics: 3, steps: 4096}   # optional defaults for solve

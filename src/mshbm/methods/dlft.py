@@ -27,7 +27,10 @@ corrects the prediction in the time domain, on the ``N_s`` AFT samples:
   velocity ``u = w q'`` of the series): prediction ``lambda_pred(t_n) = lambda_L(t_n) - eps_v u(t_n)``
   with ``eps_v = eps / (n_h omega)`` (N s/m); correction ``|lambda_pred| <= mu F_N``: stick,
   ``lambda = lambda_pred``; otherwise slip, ``lambda = mu F_N sign(lambda_pred)``.  No memory, no
-  march: every sample is corrected on its own.
+  march: every sample is corrected on its own.  A friction whose normal load comes from a contact
+  (``normal_contact``, :class:`mshbm.elements.Friction`) has the per-sample bound
+  ``mu (N_0 + lambda_N(t_n))`` with the contact's corrected force (the contacts are corrected first);
+  while it slips on a closed sample, ``d lambda = sign(lambda) mu d lambda_N`` (velocity predictor only).
 * **Coulomb friction, displacement predictor** (``dlft_predictor="displacement"``; slip
   displacement ``xi = w q``): the incremental stick prediction ``lambda_pred(t_n) = lambda(t_{n-1})
   + lambda_L(t_n) - lambda_L(t_{n-1}) - eps (xi(t_n) - xi(t_{n-1}))``, written with the Lagrangian
@@ -207,9 +210,9 @@ class DLFTProblem(HarmonicProblem):
         self.predictor = dlft_predictor
         n = system.n
         for el in system.elements:
-            if el.normal_contact is not None:
-                raise InputError("friction.normal_contact", "DLFT does not support friction with a normal load "
-                                 "from a contact (use shooting, mshbm or hbm)")
+            if el.normal_contact is not None and dlft_predictor != "velocity":
+                raise InputError("friction.normal_contact", "DLFT supports friction with a normal load from a "
+                                 "contact with dlft_predictor 'velocity' only")
             if el.relative_to is not None or el.history:
                 what = "relative_to" if el.relative_to is not None else "tangential_stiffness"
                 raise InputError(f"{el.kind}.{what}", "DLFT supports ground friction and contact only (relative and "
@@ -285,27 +288,31 @@ class DLFTProblem(HarmonicProblem):
         """
         if linear is None:
             linear = self.A @ x - self.r
-        out = []
-        for el, j, rows, cols, sel, w, Q in self._el:
+        out = [None] * len(self._el)
+        # friction loaded by a contact last: its bound mu (N_0 + lambda_N) needs the contact's force
+        order = sorted(range(len(self._el)), key=lambda k: self._el[k][0].normal_contact is not None)
+        for k in order:
+            el, j, rows, cols, sel, w, Q = self._el[k]
             lamL = w * (self.Vs @ linear[rows])
             if self._velocity(el):
                 y = lamL - self.eps_v[j] * (w * (self.Vs @ (self.Om @ x[rows])))
-                b = float(el.bound)
+                b = el.bound_samples(np.stack([o[0] if o is not None else np.zeros(self.Ns) for o in out], axis=1)) \
+                    if el.normal_contact is not None else float(el.bound)
                 stick = np.abs(y) <= b
-                out.append((np.clip(y, -b, b), stick.astype(np.int8), None, lamL))
+                out[k] = (np.clip(y, -b, b), stick.astype(np.int8), None, lamL)
                 continue
             wq = w * (self.Vs @ x[rows])
             y = lamL - self.eps[j] * wq
             if el.unilateral:
                 y = y - self.eps[j] * el.gap
                 closed = y > 0.0
-                out.append((np.where(closed, y, 0.0), closed.astype(np.int8), None, lamL))
+                out[k] = (np.where(closed, y, 0.0), closed.astype(np.int8), None, lamL)
             else:
                 lam = np.empty(self.Ns)
                 slip = np.empty(self.Ns, dtype=np.int8)
                 ref = np.empty(self.Ns, dtype=np.int64)
                 friction_march(y, float(el.bound), float(lamL[0] - y[0]), lam, slip, ref)
-                out.append((lam, (1 - slip).astype(np.int8), ref, lamL))
+                out[k] = (lam, (1 - slip).astype(np.int8), ref, lamL)
         return out
 
     def residual(self, x, jac=True):
@@ -334,6 +341,13 @@ class DLFTProblem(HarmonicProblem):
                     mem[~has] = -d0
                 dlam -= mem
             blocks.append((rows, cols, w * (self.E[:, act] @ dlam)))
+            c = el.normal_contact
+            if c is not None:  # slip on a closed contact: d lambda_T = sign(lambda_T) mu d lambda_N
+                _, _, _, cols_c, _, _, Q_c = self._el[c]
+                sl = np.flatnonzero((state == 0) & (marched[c][1] == 1))
+                if sl.size:
+                    g = (el.mu * np.sign(lam[sl]))[:, None] * Q_c[sl]
+                    blocks.append((rows, cols_c, w * (self.E[:, sl] @ g)))
         if sp.issparse(self.A):
             rr = [np.repeat(rows, cols.size) for rows, cols, _ in blocks]
             cc = [np.tile(cols, rows.size) for rows, cols, _ in blocks]
