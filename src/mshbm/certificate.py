@@ -366,6 +366,7 @@ def _time_discretisation(problem, sol, system, omega, stepper, D, cert):
     qh = np.asarray(sol.q_hat, dtype=float)
     if T.size == 0 or qh.shape[0] < 3:
         return
+    from .condensation import solve_dynamic
     from .fourier import to_complex
 
     X = to_complex(qh)  # (n_h + 1, n): X_k = xc_k - i xs_k
@@ -388,13 +389,12 @@ def _time_discretisation(problem, sol, system, omega, stepper, D, cert):
             continue
         rhs = np.stack([r, Fk[k]], axis=1)  # the warping error and the linear structure's own response
         try:
-            if sp.issparse(system.K):
-                H = (system.K - w ** 2 * system.M + 1j * w * system.C).tocsc()
-                from scipy.sparse.linalg import splu
-                sol_k = splu(H).solve(rhs)
-            else:
-                H = np.asarray(system.K) - w ** 2 * np.asarray(system.M) + 1j * w * np.asarray(system.C)
-                sol_k = np.linalg.solve(H, rhs)
+            # the method's own factorisations (MS-HBM: its condensation; r vanishes off T), else a solve of H_k
+            cols = [problem.linear_solve(k, rhs[T, 0], False), problem.linear_solve(k, rhs[T, 1], True)]
+            if cols[0] is not None and cols[1] is not None:
+                sol_k = np.stack(cols, axis=1)
+            else:  # dense, banded LAPACK or sparse LU
+                sol_k = solve_dynamic(system.M, system.C, system.K, w, rhs)
         except (RuntimeError, np.linalg.LinAlgError):  # an undamped resonance: undamped_resonance decides
             linear_max = np.inf
             continue
@@ -443,7 +443,9 @@ def _energy(problem, sol, system, omega, h, N, is_hbm, stepper, els, col, qe, ue
         # the grid; the block of the other Fourier DOFs by Parseval (exact, and cheap for large L)
         Cr, Kr = sp.csr_matrix(C), sp.csr_matrix(system.K)
         td = np.asarray(sol.time_dofs, dtype=np.int64)
-        Ld = np.setdiff1d(np.arange(n), td)
+        from .methods.common import complement
+
+        Ld = complement(n, td)
         cl = np.setdiff1d(Cr[td].nonzero()[1], td) if td.size else np.zeros(0, dtype=np.int64)
         kl = np.setdiff1d(Kr[td].nonzero()[1], td) if td.size else np.zeros(0, dtype=np.int64)
         dofs = np.union1d(np.union1d(td, cl), kl).astype(np.int64)
@@ -594,14 +596,17 @@ def _resonance(problem, sol, system, omega, h, is_hbm, els, lam, cert):
     cert.checks.append(Check("undamped_resonance", worst, worst_bound, bool(ok), True, note))
 
 
-def apply_certificate(problem, sol, tol, step_accuracy=None):
+def apply_certificate(problem, sol, tol, step_accuracy=None, cert=None):
     """Attach ``certify(problem, sol, tol)`` to ``sol.certificate`` and gate ``sol.success`` on it.
 
     ``success`` stays True only if it was True (Newton converged) and every gating check
     passed; otherwise the message names the failed checks.  Non-gating checks (the truncation
-    estimates) stay in the certificate and are not named in the message.
+    estimates) stay in the certificate and are not named in the message.  ``cert``: the certificate
+    already computed for the same problem, unknowns and ``step_accuracy`` (the start ladder's
+    acceptance test), attached instead of computing it again.
     """
-    cert = certify(problem, sol, tol, step_accuracy)
+    if cert is None:
+        cert = certify(problem, sol, tol, step_accuracy)
     sol.certificate = cert
     if sol.success and not cert.passed:
         sol.success = False
