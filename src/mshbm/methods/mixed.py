@@ -118,6 +118,11 @@ class _Block:
         nc, nb = V.shape[1], dofs.size
         # coefficient c_(k, i) of the force on subsystem DOF i (harmonic-major): the block's columns
         self.cidx = (np.arange(nc)[:, None] * n1 + dofs[None, :]).reshape(-1)
+        # where the block's sensitivities go in the subsystem's (rows; columns [q0 (n_A), u0 (n_A), p])
+        nA = n1 + len(slider_row)
+        r = self.rows
+        self.at_q0, self.at_u0 = np.ix_(r, r), np.ix_(r, nA + r)
+        self.at_hat_q0, self.at_hat_u0 = np.ix_(self.cidx, r), np.ix_(self.cidx, nA + r)
         # d f / d c_(k, a) = V_k(t) e_a  ->  increments, shape (N, n_block, nc * nb)
         dF = np.zeros((V.shape[0], nb, nc, nb))
         for a in range(nb):
@@ -226,14 +231,13 @@ class _TimeDomainPart:
             # kernel columns of the block: [q0_b (nb), u0_b (nb), c_b (nc nsb)]; d/dp = d/dc_b Tr[c_b]
             Trb = self.Tr[b.cidx]
             for S_out, S_b in ((Sq, tr.Sq), (Su, tr.Su)):
-                S_out[np.ix_(r, r)] = S_b[:, :nb]
-                S_out[np.ix_(r, nA + r)] = S_b[:, nb:2 * nb]
+                S_out[b.at_q0] = S_b[:, :nb]
+                S_out[b.at_u0] = S_b[:, nb:2 * nb]
                 S_out[r, 2 * nA:] = S_b[:, 2 * nb:] @ Trb
             D = self.project(tr.Sq_traj[:-1, :nsb]).reshape(nc * nsb, -1)  # rows (k, a) -> row k n1 + dofs[a]
-            rows = b.cidx
-            dqh[np.ix_(rows, r)] = D[:, :nb]
-            dqh[np.ix_(rows, nA + r)] = D[:, nb:2 * nb]
-            dqh[rows, 2 * nA:] = D[:, 2 * nb:] @ Trb
+            dqh[b.at_hat_q0] = D[:, :nb]
+            dqh[b.at_hat_u0] = D[:, nb:2 * nb]
+            dqh[b.cidx, 2 * nA:] = D[:, 2 * nb:] @ Trb
         out = Trajectory(q, u, P, status, Sq, Su, None, pgs)
         out.q_hat_sensitivity = dqh
         return out
