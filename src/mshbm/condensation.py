@@ -75,7 +75,7 @@ class Banded:
             return None
         bands = []
         for i, j, v in ijv:
-            b = np.zeros((rows, n))
+            b = np.zeros((n, rows)).T  # Fortran order, as LAPACK takes it (no transposing copy per factor)
             b[kl + ku + i - j, j] = v
             bands.append(b)
         return cls(kl, ku, bands)
@@ -83,7 +83,7 @@ class Banded:
     def factor(self, w):
         """``(lu, piv, rcond)`` of ``H(w)``; ``rcond = min |U_ii| / max |U_ii|`` (0 if exactly singular)."""
         Mb, Cb, Kb = self.bands
-        ab = np.empty(Kb.shape, dtype=complex)  # K - w^2 M + i w C, without complex temporaries
+        ab = np.empty(Kb.shape[::-1], dtype=complex).T  # K - w^2 M + i w C, Fortran order, no temporaries
         ab.real = Kb - w ** 2 * Mb
         ab.imag = w * Cb
         gbtrf, = sla.get_lapack_funcs(("gbtrf",), (ab,))
@@ -97,7 +97,8 @@ class Banded:
         lu, piv, _ = factors
         rhs = np.asarray(rhs, dtype=complex)
         gbtrs, = sla.get_lapack_funcs(("gbtrs",), (lu,))
-        x, info = gbtrs(lu, self.kl, self.ku, rhs.reshape(rhs.shape[0], -1), piv)
+        x, info = gbtrs(lu, self.kl, self.ku, np.asfortranarray(rhs.reshape(rhs.shape[0], -1)), piv,
+                        overwrite_b=True)
         return x.reshape(rhs.shape)
 
 
@@ -180,12 +181,13 @@ class Condensation:
                             _sub(A, self.keep, self.elim))
         # banded H_EE (chains, beams): LAPACK band LU, O(n_E) a harmonic; else one sparse LU a harmonic
         band = Banded.build(*(blocks[a][0] for a in "MCK"))
+        F_E = F[:, self.elim]
         for k in range(n_h + 1):
             w = k * omega
             H_ER = dynamic_stiffness(blocks["M"][1], blocks["C"][1], blocks["K"][1], w)
             H_RE = dynamic_stiffness(blocks["M"][2], blocks["C"][2], blocks["K"][2], w)
-            rhs = np.empty((nE, nR + 1), dtype=complex)
-            rhs[:, 0] = F[k, self.elim]
+            rhs = np.empty((nE, nR + 1), dtype=complex, order="F")
+            rhs[:, 0] = F_E[k]
             rhs[:, 1:] = H_ER.toarray()
             if band is not None:
                 factors = band.factor(w)
