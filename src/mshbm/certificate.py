@@ -472,18 +472,19 @@ def _energy(problem, sol, system, omega, h, N, is_hbm, stepper, els, col, qe, ue
         if cl.size:
             D_C += 2.0 * h * float(np.sum(vt * (Cr[td][:, cl] @ vc.T).T))
         if Ld.size:
+            # the coefficients of the L DOFs as full-length rows, zero on td: no submatrix of size n_L
             qh = np.asarray(sol.q_hat)
             n_h = (qh.shape[0] - 1) // 2
-            fh = system.forcing_hat(n_h)[:, Ld]
+            fh = system.forcing_hat(n_h)
             k = np.arange(1, n_h + 1)[:, None]
-            a, b = qh[1::2][:, Ld], qh[2::2][:, Ld]
+            onL = np.zeros(n)
+            onL[Ld] = 1.0
+            a, b = qh[1::2] * onL, qh[2::2] * onL
             pw = 0.5 * T * k * omega * (fh[1::2] * b - fh[2::2] * a)
             W_in += float(np.sum(pw))
             E_in += float(np.sum(np.abs(pw)))
-            CLL = Cr[Ld][:, Ld]
-            if CLL.nnz:
-                ka, kb = k * omega * a, k * omega * b
-                D_C += float(0.5 * T * (np.sum(ka * (CLL @ ka.T).T) + np.sum(kb * (CLL @ kb.T).T)))
+            ka, kb = k * omega * a, k * omega * b  # C_LL's quadratic form = C's on rows zero off L
+            D_C += float(0.5 * T * (np.sum(ka * (Cr @ ka.T).T) + np.sum(kb * (Cr @ kb.T).T)))
         P = np.asarray(sol.impulses)
         vj = [v[:, pos[int(e.dof)]] if e.relative_to is None else e.sign * e.local(v, pos) for e in els]
         Wj = np.array([float(np.sum(sign[j] * P[:, j] * vj[j])) for j in range(len(els))])

@@ -27,6 +27,13 @@ In both variants the time-domain forcing of the integrated subsystem is affine
 in the harmonic unknowns, so the exact Jacobian follows from the sensitivities
 of the Moreau-Jean steps (``jacobian="exact"``); forward differences are
 available (``jacobian="fd"``, the paper's choice).
+
+Many nonlinear DOFs: the integrated subsystem couples to the rest only through the harmonic force
+coefficients ``c`` (the condensed compliance).  Where its own ``M, C, K`` and elements split it into
+independent blocks (elements spread along a structure), each block is integrated alone with
+sensitivities only with respect to its states and its own ``(2 n_h + 1) n_b`` coefficients of ``c``;
+``d/dp`` follows by the chain rule through ``dc/dp`` (:class:`_TimeDomainPart`).  The cost of a
+Jacobian is then linear in the number of blocks instead of cubic in ``n_N``.
 """
 from __future__ import annotations
 
