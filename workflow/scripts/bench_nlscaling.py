@@ -21,7 +21,8 @@ built outside), median of the repeats after a warm-up solve.  Exponent: least-sq
 log(time) against log(m) over m >= 5.  Where the time goes, per point: the set-up of the problem
 (condensation of the linear DOFs, ``mshbm.build_problem``), one residual-and-Jacobian evaluation
 (Moreau-Jean with sensitivities; Newton makes about one per iteration plus line-search residuals),
-the Newton iterations, and the rest (start ladder's acceptance, certificate, solution assembly).
+one Newton linear solve (dense LU of the (2 n_H + 3) n_N square Jacobian), the Newton iterations, and
+the rest (line search and watchdog steps, start ladder's acceptance, certificate, solution assembly).
 
 Large cases: 10^4 masses with 50 elements (same layout); 10^6 masses with one friction element on mass
 1 and the force on the last mass (``bench_scaling.py``'s chain; the wave has decayed at mass 1, which
@@ -73,6 +74,12 @@ def end_chain(n, local=False):
                  elements=[Friction(0, MU, F_N, 800.0)], name=f"chain{n}{'-local' if local else ''}")
 
 
+def _timed(fn):
+    t0 = time.perf_counter()
+    fn()
+    return time.perf_counter() - t0
+
+
 def solve_once(system):
     import mshbm
     gc.collect()
@@ -94,21 +101,28 @@ def solve_once(system):
 
 
 def breakdown(system, solve_s, iterations):
-    """Set-up time and the time of one residual-and-Jacobian evaluation at the linear start."""
+    """Set-up time and the time of one residual-and-Jacobian evaluation at the linear start (one BLAS
+    thread, as inside ``mshbm.solve``)."""
+    from mshbm._blas import blas_threads
+    with blas_threads(1):
+        return _breakdown(system, solve_s, iterations)
+
+
+def _breakdown(system, solve_s, iterations):
     import mshbm
     t0 = time.perf_counter()
     problem, _ = mshbm.build_problem(system, OMEGA, "mshbm", harmonics=N_H, steps=STEPS)
     setup = time.perf_counter() - t0
     x = problem.initial_guess("linear")
-    t0 = time.perf_counter()
-    problem.residual(x, jac=True)
-    jac = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    problem.residual(x, jac=False)
-    res = time.perf_counter() - t0
-    newton = iterations * jac
-    return {"setup_s": setup, "residual_and_jacobian_s": jac, "residual_only_s": res,
-            "n_unknowns": int(problem.n_unknowns),
+    jac = min(_timed(lambda: problem.residual(x, jac=True)) for _ in range(3))
+    res = min(_timed(lambda: problem.residual(x, jac=False)) for _ in range(3))
+    from mshbm.solvers.newton import _solve as newton_step
+    R, J = problem.residual(x, jac=True)
+    s = problem.residual_scale(x)
+    lu = min(_timed(lambda: newton_step(J, R, s)) for _ in range(3))  # Newton's dense LU step on J
+    newton = iterations * (jac + lu)
+    return {"setup_s": setup, "residual_and_jacobian_s": jac, "residual_only_s": res,  # best of 3
+            "newton_linear_solve_s": lu, "n_unknowns": int(problem.n_unknowns),
             "newton_estimate_s": newton, "rest_s": max(0.0, solve_s - setup - newton)}
 
 
@@ -127,7 +141,8 @@ def run_sweep(ms, repeats, log):
         points.append(point)
         b = point["breakdown"]
         log(f"  m={m:4d} solve {point['solve']['median_s']:8.3f} s  it {rec['iterations']:3d}  ok {rec['success']}  "
-            f"setup {b['setup_s']:.3f} s  R+J {b['residual_and_jacobian_s']:.4f} s  n_x {b['n_unknowns']}  "
+            f"setup {b['setup_s']:.3f} s  R+J {b['residual_and_jacobian_s']:.4f} s  "
+            f"LU {b['newton_linear_solve_s']:.4f} s  n_x {b['n_unknowns']}  "
             f"stick {rec['stick_fraction_min']:.2f}..{rec['stick_fraction_max']:.2f}")
     return points
 
