@@ -12,8 +12,8 @@ with the force only at the chain's end the wave has decayed (damping) long befor
 elements, which then stick for the whole period; a force of amplitude 5 N on each element's own mass,
 above its friction limit mu F_N = 4 N but of the same order, makes every element slip over part of the
 period and stick around its velocity reversals.  The JSON records each point's smallest and largest
-stick fraction over the elements (measured: 0.35 ... 0.58 for every m of the sweep on 1000 masses, i.e.
-stick-slip everywhere, never all stuck or all sliding).
+stick fraction over the elements (measured: between 0.05 and 0.75 for every element at every m of the
+sweep on 1000 masses, i.e. stick-slip everywhere, never all stuck or all sliding).
 
 Sweep: n = 1000 masses, m = 1 ... 100 elements (n_N = m nonlinear DOFs), MS-HBM with n_H = 5, 4096
 steps, the default start ladder, certificate included; time = wall time of ``mshbm.solve`` (system
@@ -30,8 +30,8 @@ sticks) and on mass 1 (``-local``: stick-slip).  Each is timed with its system b
 its peak extra memory, its CPU time and the 1-minute load average (the machine is shared: with a load
 above the number of cores the wall time overstates the cost).
 
-Profiles: ``quick`` (m <= 10, 10^4/50 only; tests), ``default`` (the sweep, both large cases; part of
-``snakemake``), ``full`` (the same with 3 repeats).
+Profiles: ``quick`` (m <= 10, 10^4/50 only; tests), ``default`` (the sweep and the three large chains;
+part of ``snakemake``), ``full`` (the same with 3 repeats of each sweep point).
 
 Usage::
 
