@@ -11,10 +11,66 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
+from numba import njit
 
 from .fourier import real_block, to_complex
 
 __all__ = ["dynamic_stiffness", "dynamic_stiffness_stack", "Condensation", "SingularHarmonicError"]
+
+
+#: largest ``n_E`` whose per-harmonic LUs run in the compiled batch :func:`_lu_solve_batch` (LAPACK above)
+SMALL_LU = 32
+
+
+@njit(cache=True)
+def _lu_solve_batch(H, rhs, sol, rcond):  # pragma: no cover - compiled
+    """``sol[k] = H[k]^-1 rhs[k]`` for every ``k`` by LU with partial pivoting (the pivot of largest
+    ``|Re| + |Im|``, as LAPACK's ``zgetrf``), and ``rcond[k] = min |U_ii| / max |U_ii|`` (0 for an
+    exactly singular ``H[k]``, whose ``sol[k]`` is then left unset)."""
+    nk, n, _ = H.shape
+    m = rhs.shape[2]
+    for k in range(nk):
+        A = H[k].copy()
+        b = rhs[k].copy()
+        singular = False
+        for j in range(n):
+            p, big = j, -1.0
+            for i in range(j, n):
+                v = abs(A[i, j].real) + abs(A[i, j].imag)
+                if v > big:
+                    p, big = i, v
+            if big == 0.0:
+                singular = True
+                break
+            if p != j:
+                for c in range(n):
+                    A[j, c], A[p, c] = A[p, c], A[j, c]
+                for c in range(m):
+                    b[j, c], b[p, c] = b[p, c], b[j, c]
+            inv = 1.0 / A[j, j]
+            for i in range(j + 1, n):
+                f = A[i, j] * inv
+                A[i, j] = f
+                for c in range(j + 1, n):
+                    A[i, c] -= f * A[j, c]
+                for c in range(m):
+                    b[i, c] -= f * b[j, c]
+        if singular:
+            rcond[k] = 0.0
+            continue
+        dmin, dmax = np.inf, 0.0
+        for j in range(n):
+            d = abs(A[j, j])
+            dmin = min(dmin, d)
+            dmax = max(dmax, d)
+        rcond[k] = dmin / dmax if dmax > 0.0 else 0.0
+        for c in range(m):
+            for i in range(n - 1, -1, -1):
+                s = b[i, c]
+                for l in range(i + 1, n):
+                    s -= A[i, l] * b[l, c]
+                b[i, c] = s / A[i, i]
+        sol[k] = b
 
 
 class SingularHarmonicError(ArithmeticError):
@@ -72,6 +128,10 @@ class Condensation:
         ``H_RE H_EE^-1 H_ER``.
     g : complex ndarray, shape (n_h+1, n_R)
         ``H_RE H_EE^-1 F_E``.
+    F : complex ndarray, shape (n_h+1, n)
+        Complex forcing harmonics of all DOFs.
+    H_RR : complex ndarray, shape (n_h+1, n_R, n_R), or None
+        The kept block of the dynamic stiffness (dense path only; ``None`` otherwise).
     rcond : ndarray, shape (n_h+1,)
         Reciprocal condition estimate of each ``H_EE,k`` (1 for an empty E).
     name : str
@@ -82,7 +142,8 @@ class Condensation:
         self.keep = np.asarray(keep, dtype=np.int64)
         self.elim = np.asarray(eliminate, dtype=np.int64)
         nR, nE = self.keep.size, self.elim.size
-        F = to_complex(system.forcing_hat(n_h))
+        F = self.F = to_complex(system.forcing_hat(n_h))
+        self.H_RR = None
         self.z = np.zeros((n_h + 1, nE), dtype=complex)
         self.Z = np.zeros((n_h + 1, nE, nR), dtype=complex)
         self.T = np.zeros((n_h + 1, nR, nR), dtype=complex)
@@ -127,39 +188,47 @@ class Condensation:
 
     def _dense(self, M, C, K, F, omega, n_h, rcond_min, name):
         """The dense path (``n_E <= 400`` or dense matrices): the blocks of all harmonics at once,
-        one LAPACK LU per harmonic."""
+        one LU per harmonic (a compiled batch for small ``H_EE``, LAPACK otherwise).
+
+        Sets ``H_RR`` (complex, ``(n_h + 1, n_R, n_R)``) too: the kept block of the same dynamic
+        stiffness, which the harmonic-balance methods need next to ``T``."""
         e, r = self.elim, self.keep
-        dense = lambda A: A.toarray() if sp.issparse(A) else np.asarray(A, dtype=float)
-        if sp.issparse(M):  # small sparse model: only the rows needed
-            M, C, K = (A.tocsr() for A in (M, C, K))
-            idx = np.concatenate([e, r])
-            M, C, K = (dense(A[idx][:, idx]) for A in (M, C, K))
-            e, r = np.arange(e.size), np.arange(e.size, idx.size)
-        else:
-            M, C, K = dense(M), dense(C), dense(K)
-        w = omega * np.arange(n_h + 1)
-
-        def H(a, b):  # H_ab,k for all k, shape (n_h + 1, |a|, |b|)
-            ab = np.ix_(a, b)
-            return dynamic_stiffness_stack(M[ab], C[ab], K[ab], w)
-
-        H_EE, H_ER, H_RE = H(e, e), H(e, r), H(r, e)
         nE, nR = e.size, r.size
+        idx = np.concatenate([e, r])  # [E, R]: every block below is a slice of one (n_h + 1, n', n') stack
+        if sp.issparse(M):  # small sparse model: only the rows needed
+            M, C, K = (A.tocsr()[idx][:, idx].toarray() for A in (M, C, K))
+        else:
+            ii = np.ix_(idx, idx)
+            M, C, K = (np.asarray(A, dtype=float)[ii] for A in (M, C, K))
+        w = omega * np.arange(n_h + 1)
+        H = dynamic_stiffness_stack(M, C, K, w)
+        H_EE, H_RE = H[:, :nE, :nE], H[:, nE:, :nE]
+        self.H_RR = H[:, nE:, nE:]
         rhs = np.empty((n_h + 1, nE, nR + 1), dtype=complex)
-        rhs[:, :, 0] = F[:, self.elim]
-        rhs[:, :, 1:] = H_ER
-        getrf, getrs = sla.get_lapack_funcs(("getrf", "getrs"), (H_EE[0],))
-        sol = np.empty_like(rhs)
-        for k in range(n_h + 1):
-            # LAPACK directly: the scipy wrappers' checks cost more than the LU of a small H_EE
-            lu, piv, info = getrf(H_EE[k])
-            d = np.abs(np.diag(lu))
-            self.rcond[k] = d.min() / d.max() if info == 0 and d.max() > 0 else 0.0
-            if self.rcond[k] < rcond_min:
-                raise SingularHarmonicError(
-                    f"{name} is singular at harmonic k={k} (k*omega={w[k]:.6g}, rcond~{self.rcond[k]:.1e})")
-            sol[k], info = getrs(lu, piv, rhs[k])
-        if not np.all(np.isfinite(sol)):
+        rhs[:, :, 0] = F[:, e]
+        rhs[:, :, 1:] = H[:, :nE, nE:]
+        if nE <= SMALL_LU:
+            # one compiled pass over all harmonics: the per-call cost of LAPACK through Python
+            # (~4 us a call) exceeds the LU of a small H_EE
+            H_EE = np.ascontiguousarray(H_EE)
+            sol = np.empty_like(rhs)
+            _lu_solve_batch(H_EE, rhs, sol, self.rcond)
+        else:
+            getrf, getrs = sla.get_lapack_funcs(("getrf", "getrs"), (H_EE[0],))
+            sol = np.empty_like(rhs)
+            for k in range(n_h + 1):
+                lu, piv, info = getrf(H_EE[k])
+                d = np.abs(np.diag(lu))
+                self.rcond[k] = d.min() / d.max() if info == 0 and d.max() > 0 else 0.0
+                if self.rcond[k] < rcond_min:
+                    break
+                sol[k], info = getrs(lu, piv, rhs[k])
+        bad = np.flatnonzero(self.rcond < rcond_min)
+        if bad.size:
+            k = int(bad[0])
+            raise SingularHarmonicError(
+                f"{name} is singular at harmonic k={k} (k*omega={w[k]:.6g}, rcond~{self.rcond[k]:.1e})")
+        if not np.isfinite(sol).all():
             k = int(np.argmax(~np.isfinite(sol).all(axis=(1, 2))))
             raise SingularHarmonicError(
                 f"{name} is singular at harmonic k={k} (k*omega={w[k]:.6g}, rcond~{self.rcond[k]:.1e})")
@@ -182,7 +251,11 @@ class Condensation:
         a, b = Zs.shape[1], Zs.shape[2]
         out = np.zeros(((2 * n_h + 1) * a, (2 * n_h + 1) * b))
         out[:a, :b] = Zs[0].real
-        for k in range(1, n_h + 1):
-            r, c = (2 * k - 1) * a, (2 * k - 1) * b
-            out[r:r + 2 * a, c:c + 2 * b] = real_block(Zs[k], k)
+        if n_h:
+            # harmonic k >= 1: [[A, B], [-B, A]] with Zs[k] = A + iB (fourier.real_block), all k at once
+            A, B = Zs[1:].real, Zs[1:].imag
+            blk = np.empty((n_h, 2, a, 2, b))
+            blk[:, 0, :, 0], blk[:, 0, :, 1], blk[:, 1, :, 0], blk[:, 1, :, 1] = A, B, -B, A
+            kk = np.arange(n_h)
+            out[a:, b:].reshape(n_h, 2 * a, n_h, 2 * b)[kk, :, kk, :] = blk.reshape(n_h, 2 * a, 2 * b)
         return out

@@ -118,16 +118,18 @@ class HBMProblem(HarmonicProblem):
         self.local_dof = [pos[el.dof] if el.relative_to is None else tuple(pos[d] for d in el.dofs)
                           for el in system.elements]
         self.nl_cols = np.array(sorted({pos[d] for el in system.elements for d in el.dofs}), dtype=np.int64)
-        self.VsOm = np.ascontiguousarray(self.Vs @ self.Om)
         self._fast = _fast_laws(system.elements, self.nl_cols, pos)
 
     def residual_scale(self, x=None):
         """Per-row scale of the residual, shape ``(n_x,)``: the force scale ``F`` (N) on every row."""
         from ..scaling import force_scale
 
-        if "_F" not in self.__dict__:
+        s = self.__dict__.get("_scale")
+        if s is None:  # independent of x: one read-only array for all iterates
             self._F = force_scale(self.system, penalty=True)
-        return np.full(self.n_unknowns, self._F)
+            s = self._scale = np.full(self.n_unknowns, self._F)
+            s.flags.writeable = False
+        return s
 
     def homotopy(self, factors=(1e-3, 1e-2, 3e-2, 0.1, 0.3)):
         """Problems with softened laws (``kappa`` and ``k_c, d_c`` times each factor), ending with ``self``.
