@@ -99,8 +99,9 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 
+from . import fourier
 from .solvers.newton import scaled_norm
-from .scaling import displacement_floor, force_scale
+from .scaling import diagonals, displacement_floor, force_scale
 
 __all__ = ["Check", "Certificate", "certify", "apply_certificate"]
 
@@ -184,8 +185,28 @@ STEP_ACCURACY_NOTE = ("periodic to one time step's accuracy: the Moreau-Jean map
                       "moves by one step (mshbm.solvers.starts.residual_accept)")
 
 
-def _diag(A):
-    return np.asarray(A.diagonal() if sp.issparse(A) else np.diag(np.asarray(A)), dtype=float)
+def _max_abs(a):
+    """``max |a|`` (0 for an empty array)."""
+    return float(np.abs(a).max(initial=0.0))
+
+
+def _element_series(sol, dofs, N):
+    """``q(t_k)`` and ``u(t_k)`` of ``dofs``, ``k = 0..N``, each (N+1, len(dofs)): as
+    ``sol.displacement(dofs)``, ``sol.velocity(dofs)``; for a solution given by its Fourier series
+    alone (HBM, DLFT) both from one product with the inverse DFT matrix."""
+    if not dofs.size:
+        return np.zeros((N + 1, 0)), np.zeros((N + 1, 0))
+    qh = np.asarray(sol.q_hat)
+    nc, m = qh.shape[0], dofs.size
+    if np.size(sol.time_dofs) or not (nc <= 64 and N > 2 * (nc // 2)):
+        return sol.displacement(dofs), sol.velocity(dofs)
+    coef = np.empty((nc, 2 * m))
+    coef[:, :m] = qh[:, dofs]
+    coef[:, m:] = fourier.derivative(coef[:, :m], sol.omega)
+    out = np.empty((N + 1, 2 * m))
+    np.matmul(fourier.idft_matrix(N, nc // 2), coef, out=out[:N])
+    out[N] = out[0]  # t_N = T: periodic
+    return out[:, :m], out[:, m:]
 
 
 def certify(problem, sol, tol, step_accuracy=None):
@@ -248,10 +269,10 @@ def _certify(problem, sol, tol, cert, step_accuracy=None):
 
     # sizes of the solution (from the Fourier coefficients and the time series)
     qh = np.asarray(sol.q_hat)
-    amp_h = np.abs(qh[0]) + np.hypot(qh[1::2], qh[2::2]).sum(axis=0) if qh.shape[0] > 1 else np.abs(qh[0])
-    D = max(D0, float(np.max(amp_h, initial=0.0)),
-            float(np.max(np.abs(sol.q_time), initial=0.0)))
-    V = max(omega * D, float(np.max(np.abs(sol.u_time), initial=0.0)))
+    mags = np.hypot(qh[1::2], qh[2::2])  # (n_h, n): harmonic magnitudes (also the truncation check's)
+    amp_h = np.abs(qh[0]) + mags.sum(axis=0) if qh.shape[0] > 1 else np.abs(qh[0])
+    D = max(D0, float(amp_h.max(initial=0.0)), _max_abs(sol.q_time))
+    V = max(omega * D, _max_abs(sol.u_time))
     cert.info.update(force_scale=F, displacement_scale=D, velocity_scale=V)
 
     # 2. periodicity of the time-stepped DOFs
@@ -280,8 +301,7 @@ def _certify(problem, sol, tol, cert, step_accuracy=None):
         _time_discretisation(problem, sol, system, omega, stepper, D, cert)
 
     # element time series: displacement and velocity of the element DOFs on the grid
-    qe = sol.displacement(el_dofs) if el_dofs.size else np.zeros((N + 1, 0))
-    ue = sol.velocity(el_dofs) if el_dofs.size else np.zeros((N + 1, 0))
+    qe, ue = _element_series(sol, el_dofs, N)
     col = {int(d): i for i, d in enumerate(el_dofs)}
     lam = np.asarray(sol.lam)
 
@@ -290,7 +310,7 @@ def _certify(problem, sol, tol, cert, step_accuracy=None):
     if fr:
         ratios = []
         for j, e in fr:
-            lmax = float(np.max(np.abs(lam[:, j]), initial=0.0))
+            lmax = _max_abs(lam[:, j])
             ratios.append(lmax / e.bound if e.bound > 0 else (0.0 if lmax == 0 else np.inf))
         val = max(ratios)
         cert.checks.append(Check("friction_cone", val, 1.0 + 1e-9, bool(val <= 1.0 + 1e-9),
@@ -301,7 +321,7 @@ def _certify(problem, sol, tol, cert, step_accuracy=None):
         for j, e in ct:
             g = e.gap + e.local(qe, col)  # g_N = gap + w^T q (relative contacts: on q_I - q_J)
             p = max(0.0, float(-g.min()))
-            umax = float(np.max(np.abs(e.local(ue, col))))
+            umax = _max_abs(e.local(ue, col))
             if is_dlft:  # the law holds on the Lagrangian displacement; the truncated series may cross
                 b = None
             elif is_hbm:
@@ -335,23 +355,22 @@ def _certify(problem, sol, tol, cert, step_accuracy=None):
     # 6. harmonic truncation (HBM, MS-HBM)
     if problem.method != "shooting":
         n_h = int(sol.harmonics)
-        mags = np.hypot(qh[1::2], qh[2::2])  # (n_h, n)
-        top = float(np.max(mags, initial=0.0))
-        eq = float(np.max(mags[-1])) / top if top > 0 and mags.shape[0] else 0.0
+        top = float(mags.max(initial=0.0))
+        eq = float(mags[-1].max()) / top if top > 0 and mags.shape[0] else 0.0
         cert.checks.append(Check("truncation_solution", eq, TRUNCATION_BOUND, bool(eq <= TRUNCATION_BOUND), False,
                                  f"|q_hat| at harmonic {n_h} / largest harmonic"))
         if els:
             # displacement that the element-force harmonics above n_h would cause at the element DOF,
             # through the diagonal dynamic stiffness |K_dd - (k omega)^2 M_dd + i k omega C_dd|
             Z = np.fft.rfft(lam[:-1], axis=0) * (2.0 / N)  # (N/2+1, m): complex amplitudes
-            kk = np.arange(Z.shape[0])
-            Kd, Md, Cd = _diag(system.K), _diag(system.M), _diag(system.C)
+            kw = np.arange(n_h + 1, Z.shape[0])[:, None] * omega  # the harmonics above n_h
+            Kd, Md, Cd = diagonals(system)
+            d = np.array([e.dof for e in els], dtype=np.int64)
+            Hd = np.abs(Kd[d] - kw ** 2 * Md[d] + 1j * kw * Cd[d])  # (harmonics above n_h, m)
+            tail = np.abs(Z[n_h + 1:]) / np.maximum(Hd, 1e-300)
             ef = 0.0
-            for j, e in enumerate(els):
-                d = e.dof
-                Hd = np.abs(Kd[d] - (kk * omega) ** 2 * Md[d] + 1j * kk * omega * Cd[d])
-                tail = np.abs(Z[n_h + 1:, j]) / np.maximum(Hd[n_h + 1:], 1e-300)
-                ef = max(ef, float(np.sqrt(np.sum(tail ** 2))) / D)
+            for v in np.sqrt((tail ** 2).sum(axis=0)).tolist():
+                ef = max(ef, v / D)
             cert.checks.append(Check("truncation_force", ef, TRUNCATION_BOUND, bool(ef <= TRUNCATION_BOUND), False,
                                      f"displacement of the element-force harmonics above {n_h} "
                                      "(diagonal dynamic stiffness) / D"))
@@ -425,19 +444,25 @@ def _energy(problem, sol, system, omega, h, N, is_hbm, stepper, els, col, qe, ue
         qh = np.asarray(sol.q_hat)
         n_h = (qh.shape[0] - 1) // 2
         fh = system.forcing_hat(n_h)
-        k = np.arange(1, n_h + 1)[:, None]
+        kw = np.arange(1, n_h + 1)[:, None] * omega
         a, b = qh[1::2], qh[2::2]
-        W_in = float(0.5 * T * np.sum(k * omega * (fh[1::2] * b - fh[2::2] * a)))
-        E_in = float(0.5 * T * np.sum(np.abs(k * omega * (fh[1::2] * b - fh[2::2] * a))))
-        ka, kb = k * omega * a, k * omega * b  # (n_h, n): velocity coefficients (sin, cos parts)
+        pw = kw * (fh[1::2] * b - fh[2::2] * a)  # (n_h, n): power of the forcing per harmonic and DOF
+        W_in = float(0.5 * T * pw.sum())
+        E_in = float(0.5 * T * np.abs(pw).sum())
+        kab = np.concatenate([kw * a, kw * b])  # (2 n_h, n): velocity coefficients (sin, cos parts)
         Cd = C if sp.issparse(C) else np.asarray(C)
-        D_C = float(0.5 * T * (np.sum(ka * (Cd @ ka.T).T) + np.sum(kb * (Cd @ kb.T).T)))
-        uj = [ue[:-1, col[e.dof]] if e.relative_to is None else sign[j] * e.local(ue[:-1], col)
-              for j, e in enumerate(els)]  # sign * w^T u: the element's velocity along +-e_dof
-        Wj = np.array([h * float(np.sum(sign[j] * lam[:-1, j] * uj[j])) for j, e in enumerate(els)])
-        Ej = np.array([h * float(np.sum(np.abs(lam[:-1, j] * uj[j]))) for j, e in enumerate(els)])
+        D_C = float(0.5 * T * (kab * (Cd @ kab.T).T).sum())
+        if els:
+            # sign * w^T u: the element's velocity along +-e_dof, (N, m)
+            U = np.stack([ue[:-1, col[e.dof]] if e.relative_to is None else sign[j] * e.local(ue[:-1], col)
+                          for j, e in enumerate(els)], axis=1)
+            lu = lam[:-1] * U
+            Wj = h * (sign * lu).sum(axis=0)
+            Ej = h * np.abs(lu).sum(axis=0)
+        else:
+            Wj = Ej = np.zeros(0)
         bound_rel, gate, note = ENERGY_TOL, True, "HBM: Parseval and AFT quadrature"
-        step_work = h * float(np.max(np.abs(lam), initial=0.0)) * float(np.max(np.abs(ue), initial=0.0))
+        step_work = h * _max_abs(lam) * _max_abs(ue)
     else:
         # integrated DOFs (and the Fourier DOFs coupled to them by C or K) by the scheme's discrete work on
         # the grid; the block of the other Fourier DOFs by Parseval (exact, and cheap for large L)
@@ -551,13 +576,9 @@ def _energy(problem, sol, system, omega, h, N, is_hbm, stepper, els, col, qe, ue
 
 
 def _resonance(problem, sol, system, omega, h, is_hbm, els, lam, cert):
-    acting = []
-    for j, e in enumerate(els):  # a bounded (friction) law acts whenever its bound is positive
-        if e.bounded:
-            acting.append(e.acts)
-        else:
-            acting.append(bool(np.any(np.abs(lam[:, j]) > 0)))
-    if any(acting):
+    nonzero = (np.abs(lam) > 0).any(axis=0) if len(els) else ()
+    # a bounded (friction) law acts whenever its bound is positive
+    if any(e.acts if e.bounded else bool(nonzero[j]) for j, e in enumerate(els)):
         return
     n = system.n
     if n > MAX_EIG_DOFS:

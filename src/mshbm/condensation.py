@@ -11,66 +11,14 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
-from numba import njit
 
 from .fourier import real_block, to_complex
 
 __all__ = ["dynamic_stiffness", "dynamic_stiffness_stack", "Condensation", "SingularHarmonicError"]
 
 
-#: largest ``n_E`` whose per-harmonic LUs run in the compiled batch :func:`_lu_solve_batch` (LAPACK above)
-SMALL_LU = 32
-
-
-@njit(cache=True)
-def _lu_solve_batch(H, rhs, sol, rcond):  # pragma: no cover - compiled
-    """``sol[k] = H[k]^-1 rhs[k]`` for every ``k`` by LU with partial pivoting (the pivot of largest
-    ``|Re| + |Im|``, as LAPACK's ``zgetrf``), and ``rcond[k] = min |U_ii| / max |U_ii|`` (0 for an
-    exactly singular ``H[k]``, whose ``sol[k]`` is then left unset)."""
-    nk, n, _ = H.shape
-    m = rhs.shape[2]
-    for k in range(nk):
-        A = H[k].copy()
-        b = rhs[k].copy()
-        singular = False
-        for j in range(n):
-            p, big = j, -1.0
-            for i in range(j, n):
-                v = abs(A[i, j].real) + abs(A[i, j].imag)
-                if v > big:
-                    p, big = i, v
-            if big == 0.0:
-                singular = True
-                break
-            if p != j:
-                for c in range(n):
-                    A[j, c], A[p, c] = A[p, c], A[j, c]
-                for c in range(m):
-                    b[j, c], b[p, c] = b[p, c], b[j, c]
-            inv = 1.0 / A[j, j]
-            for i in range(j + 1, n):
-                f = A[i, j] * inv
-                A[i, j] = f
-                for c in range(j + 1, n):
-                    A[i, c] -= f * A[j, c]
-                for c in range(m):
-                    b[i, c] -= f * b[j, c]
-        if singular:
-            rcond[k] = 0.0
-            continue
-        dmin, dmax = np.inf, 0.0
-        for j in range(n):
-            d = abs(A[j, j])
-            dmin = min(dmin, d)
-            dmax = max(dmax, d)
-        rcond[k] = dmin / dmax if dmax > 0.0 else 0.0
-        for c in range(m):
-            for i in range(n - 1, -1, -1):
-                s = b[i, c]
-                for l in range(i + 1, n):
-                    s -= A[i, l] * b[l, c]
-                b[i, c] = s / A[i, i]
-        sol[k] = b
+#: LAPACK's complex LU and solve (looked up once: the lookup costs more than the LU of a small block)
+_GETRF, _GETRS = sla.get_lapack_funcs(("getrf", "getrs"), (np.zeros((1, 1), dtype=complex),))
 
 
 class SingularHarmonicError(ArithmeticError):
@@ -188,7 +136,7 @@ class Condensation:
 
     def _dense(self, M, C, K, F, omega, n_h, rcond_min, name):
         """The dense path (``n_E <= 400`` or dense matrices): the blocks of all harmonics at once,
-        one LU per harmonic (a compiled batch for small ``H_EE``, LAPACK otherwise).
+        one LAPACK LU per harmonic.
 
         Sets ``H_RR`` (complex, ``(n_h + 1, n_R, n_R)``) too: the kept block of the same dynamic
         stiffness, which the harmonic-balance methods need next to ``T``."""
@@ -207,22 +155,18 @@ class Condensation:
         rhs = np.empty((n_h + 1, nE, nR + 1), dtype=complex)
         rhs[:, :, 0] = F[:, e]
         rhs[:, :, 1:] = H[:, :nE, nE:]
-        if nE <= SMALL_LU:
-            # one compiled pass over all harmonics: the per-call cost of LAPACK through Python
-            # (~4 us a call) exceeds the LU of a small H_EE
-            H_EE = np.ascontiguousarray(H_EE)
-            sol = np.empty_like(rhs)
-            _lu_solve_batch(H_EE, rhs, sol, self.rcond)
-        else:
-            getrf, getrs = sla.get_lapack_funcs(("getrf", "getrs"), (H_EE[0],))
-            sol = np.empty_like(rhs)
-            for k in range(n_h + 1):
-                lu, piv, info = getrf(H_EE[k])
-                d = np.abs(np.diag(lu))
-                self.rcond[k] = d.min() / d.max() if info == 0 and d.max() > 0 else 0.0
-                if self.rcond[k] < rcond_min:
-                    break
-                sol[k], info = getrs(lu, piv, rhs[k])
+        # LAPACK directly, one LU per harmonic: the scipy wrappers' checks cost more than the LU of a
+        # small H_EE; the pivot ratios of all harmonics at once afterwards
+        sol = np.empty_like(rhs)
+        piv_abs = np.empty((n_h + 1, nE), dtype=complex)
+        for k in range(n_h + 1):
+            lu, piv, info = _GETRF(H_EE[k])
+            piv_abs[k] = lu.diagonal()  # info > 0: an exactly zero pivot, rcond 0
+            sol[k], info = _GETRS(lu, piv, rhs[k])
+        piv_abs = np.abs(piv_abs)
+        dmax = piv_abs.max(axis=1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            self.rcond[:] = np.where(dmax > 0, piv_abs.min(axis=1) / np.where(dmax > 0, dmax, 1.0), 0.0)
         bad = np.flatnonzero(self.rcond < rcond_min)
         if bad.size:
             k = int(bad[0])

@@ -439,8 +439,10 @@ class HBMProblem(HarmonicProblem):
         info = {"condensed": self.condense}  # partition, conditioning: typed fields of the solution
         contacts = self._contacts()
         if contacts:
-            # AFT resolution of each contact: samples with g_N <= 0 (a few only: increase ``steps``)
-            info["closed_samples"] = [int(n) for n in (self._gaps(x) <= 0.0).sum(axis=0)]
+            # AFT resolution of each contact: samples with g_N <= 0 (a few only: increase ``steps``);
+            # g_N = gap + w^T q on the samples q above (as :meth:`_gaps`)
+            col = {int(self.keep[c]): i for i, c in enumerate(self.nl_cols)}
+            info["closed_samples"] = [int(np.count_nonzero(el.gap + el.local(q, col) <= 0.0)) for _, el in contacts]
         return dict(t=t, q_hat=q_hat, time_dofs=np.zeros(0, dtype=np.int64),
                     q_time=np.zeros((self.Ns + 1, 0)), u_time=np.zeros((self.Ns + 1, 0)),
                     lam=lam, impulses=None, harmonics=self.n_h, info=info)
