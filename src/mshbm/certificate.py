@@ -98,6 +98,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
+from numba import njit
 
 from . import fourier
 from .solvers.newton import scaled_norm
@@ -183,6 +184,58 @@ class Certificate:
 STEP_ACCURACY_NOTE = ("periodic to one time step's accuracy: the Moreau-Jean map moves impacts by whole steps and "
                       "has no exact periodic point here; bound per entry: the jump of the residual when an impact "
                       "moves by one step (mshbm.solvers.starts.residual_accept)")
+
+
+#: columns of :func:`_element_terms`' output
+_S_MIN, _WU_MAX, _LAM_MAX, _LAM_MIN, _LAM_ABS, _WORK, _WORK_ABS, _ACTS = range(8)
+
+
+@njit(cache=True)
+def _element_terms(q, u, lam, I, J, sign, N, out):  # pragma: no cover - compiled
+    """Per element ``j`` on the grid (``q, u``: (N+1, n_e) of the element DOFs' columns ``I[j]``, ``J[j]``
+    (``-1``: single-DOF element); ``lam``: (N+1, m)), in ``out[j]`` (NaN-propagating like NumPy's
+    ``min``/``max``): ``min w^T q``, ``max |w^T u|``, ``max lambda``, ``min lambda``, ``max |lambda|``
+    (all N+1 points), the work ``sum_k<N sign lambda u_j`` and ``sum_k<N |lambda u_j|`` with ``u_j = sign
+    w^T u`` (the velocity along ``+e_dof``), and 1 if some ``lambda != 0``."""
+    rows = q.shape[0]
+    nan = np.nan
+    for j in range(lam.shape[1]):
+        a, c, w = I[j], J[j], sign[j]
+        smin, umax, lmax, lmin, labs, W, Ea, acts = np.inf, 0.0, -np.inf, np.inf, 0.0, 0.0, 0.0, 0.0
+        bad_s, bad_u, bad_l = False, False, False
+        for t in range(rows):
+            if c >= 0:
+                s = w * (q[t, a] - q[t, c])
+                wu = w * (u[t, a] - u[t, c])
+            else:
+                s = w * q[t, a]
+                wu = w * u[t, a]
+            lt = lam[t, j]
+            if s != s:
+                bad_s = True
+            if wu != wu:
+                bad_u = True
+            if lt != lt:
+                bad_l = True
+            smin = min(smin, s)
+            umax = max(umax, abs(wu))
+            lmax = max(lmax, lt)
+            lmin = min(lmin, lt)
+            labs = max(labs, abs(lt))
+            if abs(lt) > 0.0:
+                acts = 1.0
+            if t < N:
+                uj = w * wu
+                W += w * lt * uj
+                Ea += abs(lt * uj)
+        out[j, 0] = nan if bad_s else smin
+        out[j, 1] = nan if bad_u else umax
+        out[j, 2] = nan if bad_l else lmax
+        out[j, 3] = nan if bad_l else lmin
+        out[j, 4] = nan if bad_l else labs
+        out[j, 5] = W
+        out[j, 6] = Ea
+        out[j, 7] = acts
 
 
 def _max_abs(a):
@@ -304,13 +357,20 @@ def _certify(problem, sol, tol, cert, step_accuracy=None):
     qe, ue = _element_series(sol, el_dofs, N)
     col = {int(d): i for i, d in enumerate(el_dofs)}
     lam = np.asarray(sol.lam)
+    # per element: extremes of w^T q, w^T u, lambda on the grid and the element's work (one compiled pass)
+    terms = np.zeros((len(els), 8))
+    if els:
+        I = np.array([col[int(e.dof)] for e in els], dtype=np.int64)
+        J = np.array([-1 if e.relative_to is None else col[int(e.relative_to)] for e in els], dtype=np.int64)
+        _element_terms(np.ascontiguousarray(qe), np.ascontiguousarray(ue), np.ascontiguousarray(lam, dtype=float),
+                       I, J, np.array([float(e.sign) for e in els]), N, terms)
 
     # 3. element laws
     fr = [(j, e) for j, e in enumerate(els) if e.bounded]
     if fr:
         ratios = []
         for j, e in fr:
-            lmax = _max_abs(lam[:, j])
+            lmax = float(terms[j, _LAM_ABS])  # max |lambda_j|
             ratios.append(lmax / e.bound if e.bound > 0 else (0.0 if lmax == 0 else np.inf))
         val = max(ratios)
         cert.checks.append(Check("friction_cone", val, 1.0 + 1e-9, bool(val <= 1.0 + 1e-9),
@@ -319,13 +379,13 @@ def _certify(problem, sol, tol, cert, step_accuracy=None):
     if ct:
         pen, bnd, comp = 0.0, np.inf, 0.0
         for j, e in ct:
-            g = e.gap + e.local(qe, col)  # g_N = gap + w^T q (relative contacts: on q_I - q_J)
-            p = max(0.0, float(-g.min()))
-            umax = _max_abs(e.local(ue, col))
+            # g_N = gap + w^T q (relative contacts: on q_I - q_J): min g_N = gap + min w^T q
+            p = max(0.0, float(-(e.gap + terms[j, _S_MIN])))
+            umax = float(terms[j, _WU_MAX])  # max |w^T u|
             if is_dlft:  # the law holds on the Lagrangian displacement; the truncated series may cross
                 b = None
             elif is_hbm:
-                b = (max(0.0, float(lam[:, j].max())) + e.penalty_damping * umax) / e.penalty_stiffness + 1e-9 * D
+                b = (max(0.0, float(terms[j, _LAM_MAX])) + e.penalty_damping * umax) / e.penalty_stiffness + 1e-9 * D
             elif stepper is not None and stepper.project:
                 b = 1e-9 * D
             else:
@@ -334,7 +394,7 @@ def _certify(problem, sol, tol, cert, step_accuracy=None):
                 pen = max(pen, p)
             elif p - b > pen - bnd or bnd == np.inf:
                 pen, bnd = p, b
-            comp = max(comp, float(-lam[:, j].min()) / F)
+            comp = max(comp, float(-terms[j, _LAM_MIN]) / F)
         if is_dlft:
             cert.checks.append(Check("non_penetration", pen, None, True, False,
                                      "max(0, -min g_N) in m of the truncated Fourier series; DLFT enforces the "
@@ -347,10 +407,10 @@ def _certify(problem, sol, tol, cert, step_accuracy=None):
                                      note="-min lambda_N / F"))
 
     # 4. energy balance
-    _energy(problem, sol, system, omega, h, N, is_hbm, stepper, els, col, qe, ue, lam, cert)
+    _energy(problem, sol, system, omega, h, N, is_hbm, stepper, els, col, qe, ue, lam, cert, terms)
 
     # 5. undamped resonance
-    _resonance(problem, sol, system, omega, h, is_hbm, els, lam, cert)
+    _resonance(problem, sol, system, omega, h, is_hbm, els, lam, cert, terms)
 
     # 6. harmonic truncation (HBM, MS-HBM)
     if problem.method != "shooting":
@@ -435,7 +495,7 @@ def _time_discretisation(problem, sol, system, omega, stepper, D, cert):
                                                         "than 10 times the solution (the elements dominate)")))
 
 
-def _energy(problem, sol, system, omega, h, N, is_hbm, stepper, els, col, qe, ue, lam, cert):
+def _energy(problem, sol, system, omega, h, N, is_hbm, stepper, els, col, qe, ue, lam, cert, terms):
     n = system.n
     T = 2.0 * np.pi / omega
     C = system.C
@@ -452,17 +512,12 @@ def _energy(problem, sol, system, omega, h, N, is_hbm, stepper, els, col, qe, ue
         kab = np.concatenate([kw * a, kw * b])  # (2 n_h, n): velocity coefficients (sin, cos parts)
         Cd = C if sp.issparse(C) else np.asarray(C)
         D_C = float(0.5 * T * (kab * (Cd @ kab.T).T).sum())
-        if els:
-            # sign * w^T u: the element's velocity along +-e_dof, (N, m)
-            U = np.stack([ue[:-1, col[e.dof]] if e.relative_to is None else sign[j] * e.local(ue[:-1], col)
-                          for j, e in enumerate(els)], axis=1)
-            lu = lam[:-1] * U
-            Wj = h * (sign * lu).sum(axis=0)
-            Ej = h * np.abs(lu).sum(axis=0)
-        else:
-            Wj = Ej = np.zeros(0)
+        # AFT quadrature of the element work: h sum_k sign lambda u_j, u_j = sign w^T u the element's
+        # velocity along +-e_dof (_element_terms)
+        Wj = h * terms[:, _WORK]
+        Ej = h * terms[:, _WORK_ABS]
         bound_rel, gate, note = ENERGY_TOL, True, "HBM: Parseval and AFT quadrature"
-        step_work = h * _max_abs(lam) * _max_abs(ue)
+        step_work = h * float(terms[:, _LAM_ABS].max(initial=0.0)) * _max_abs(ue)
     else:
         # integrated DOFs (and the Fourier DOFs coupled to them by C or K) by the scheme's discrete work on
         # the grid; the block of the other Fourier DOFs by Parseval (exact, and cheap for large L)
@@ -575,10 +630,9 @@ def _energy(problem, sol, system, omega, h, N, is_hbm, stepper, els, col, qe, ue
                                  note="work of the contact forces (0 for elastic impacts, <= 0 otherwise)"))
 
 
-def _resonance(problem, sol, system, omega, h, is_hbm, els, lam, cert):
-    nonzero = (np.abs(lam) > 0).any(axis=0) if len(els) else ()
-    # a bounded (friction) law acts whenever its bound is positive
-    if any(e.acts if e.bounded else bool(nonzero[j]) for j, e in enumerate(els)):
+def _resonance(problem, sol, system, omega, h, is_hbm, els, lam, cert, terms):
+    # a bounded (friction) law acts whenever its bound is positive, another one where lambda != 0
+    if any(e.acts if e.bounded else bool(terms[j, _ACTS]) for j, e in enumerate(els)):
         return
     n = system.n
     if n > MAX_EIG_DOFS:

@@ -12,13 +12,10 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from ._lapack import lu_solve_batch
 from .fourier import real_block, to_complex
 
-__all__ = ["dynamic_stiffness", "dynamic_stiffness_stack", "Condensation", "SingularHarmonicError"]
-
-
-#: LAPACK's complex LU and solve (looked up once: the lookup costs more than the LU of a small block)
-_GETRF, _GETRS = sla.get_lapack_funcs(("getrf", "getrs"), (np.zeros((1, 1), dtype=complex),))
+__all__ = ["dynamic_stiffness", "dynamic_stiffness_stack", "permuted_blocks", "Condensation", "SingularHarmonicError"]
 
 
 class SingularHarmonicError(ArithmeticError):
@@ -36,9 +33,29 @@ def dynamic_stiffness(M, C, K, k_omega):
 
 def dynamic_stiffness_stack(M, C, K, omegas):
     """``H(w) = K - w^2 M + i w C`` for every ``w`` in ``omegas`` at once (dense ``M, C, K``), shape
-    ``(len(omegas), n, m)``."""
+    ``(len(omegas), n, m)``: real part ``K - w^2 M``, imaginary part ``w C``."""
     w = np.asarray(omegas, dtype=float)[:, None, None]
-    return np.asarray(K)[None] - w ** 2 * np.asarray(M)[None] + 1j * w * np.asarray(C)[None]
+    K, M, C = np.asarray(K), np.asarray(M), np.asarray(C)
+    H = np.empty((w.shape[0],) + np.broadcast_shapes(K.shape, M.shape, C.shape), dtype=complex)
+    H.real = K[None] - w ** 2 * M[None]
+    H.imag = w * C[None]
+    return H
+
+
+def permuted_blocks(system, idx):
+    """Dense ``M, C, K`` of ``system`` restricted to the rows and columns ``idx`` (in that order), each
+    ``(len(idx), len(idx))``, read-only; cached on the system (:meth:`mshbm.System.derived`)."""
+    idx = np.asarray(idx, dtype=np.int64)
+
+    def compute():
+        out = []
+        for A in (system.M, system.C, system.K):
+            B = A.tocsr()[idx][:, idx].toarray() if sp.issparse(A) else np.asarray(A, dtype=float)[np.ix_(idx, idx)]
+            B.flags.writeable = False
+            out.append(B)
+        return tuple(out)
+
+    return system.derived(("permuted_blocks", idx.tobytes()), ("M", "C", "K"), compute)
 
 
 def _sub(A, rows, cols):
@@ -101,7 +118,7 @@ class Condensation:
             return
         M, C, K = system.M, system.C, system.K
         if not (sp.issparse(M) and nE > 400):
-            self._dense(M, C, K, F, omega, n_h, rcond_min, name)
+            self._dense(system, F, omega, n_h, rcond_min, name)
             return
         blocks = {}
         for mat, A in (("M", M), ("C", C), ("K", K)):
@@ -134,7 +151,7 @@ class Condensation:
             self.T[k] = H_RE @ self.Z[k]
             self.g[k] = H_RE @ self.z[k]
 
-    def _dense(self, M, C, K, F, omega, n_h, rcond_min, name):
+    def _dense(self, system, F, omega, n_h, rcond_min, name):
         """The dense path (``n_E <= 400`` or dense matrices): the blocks of all harmonics at once,
         one LAPACK LU per harmonic.
 
@@ -143,11 +160,7 @@ class Condensation:
         e, r = self.elim, self.keep
         nE, nR = e.size, r.size
         idx = np.concatenate([e, r])  # [E, R]: every block below is a slice of one (n_h + 1, n', n') stack
-        if sp.issparse(M):  # small sparse model: only the rows needed
-            M, C, K = (A.tocsr()[idx][:, idx].toarray() for A in (M, C, K))
-        else:
-            ii = np.ix_(idx, idx)
-            M, C, K = (np.asarray(A, dtype=float)[ii] for A in (M, C, K))
+        M, C, K = permuted_blocks(system, idx)
         w = omega * np.arange(n_h + 1)
         H = dynamic_stiffness_stack(M, C, K, w)
         H_EE, H_RE = H[:, :nE, :nE], H[:, nE:, :nE]
@@ -155,18 +168,16 @@ class Condensation:
         rhs = np.empty((n_h + 1, nE, nR + 1), dtype=complex)
         rhs[:, :, 0] = F[:, e]
         rhs[:, :, 1:] = H[:, :nE, nE:]
-        # LAPACK directly, one LU per harmonic: the scipy wrappers' checks cost more than the LU of a
-        # small H_EE; the pivot ratios of all harmonics at once afterwards
+        # LAPACK's zgetrf/zgetrs for all harmonics in one compiled call (mshbm._lapack: the same routines
+        # as scipy.linalg.lapack, without the wrappers' per-call cost); the pivot ratios afterwards
         sol = np.empty_like(rhs)
         piv_abs = np.empty((n_h + 1, nE), dtype=complex)
-        for k in range(n_h + 1):
-            lu, piv, info = _GETRF(H_EE[k])
-            piv_abs[k] = lu.diagonal()  # info > 0: an exactly zero pivot, rcond 0
-            sol[k], info = _GETRS(lu, piv, rhs[k])
+        lu_solve_batch(np.ascontiguousarray(H_EE), rhs, sol, piv_abs)  # an exactly zero pivot: rcond 0
         piv_abs = np.abs(piv_abs)
         dmax = piv_abs.max(axis=1)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            self.rcond[:] = np.where(dmax > 0, piv_abs.min(axis=1) / np.where(dmax > 0, dmax, 1.0), 0.0)
+        ok = dmax > 0  # rcond = min |U_ii| / max |U_ii|, 0 where max |U_ii| is 0 (or NaN)
+        self.rcond[:] = 0.0
+        self.rcond[ok] = piv_abs.min(axis=1)[ok] / dmax[ok]
         bad = np.flatnonzero(self.rcond < rcond_min)
         if bad.size:
             k = int(bad[0])

@@ -119,6 +119,23 @@ def aft_forces(Xn, Vs, VsOm, E, kind, col, sign, p1, p2, p3, jac, Fn, Jn):  # pr
                         Jn[a, i, b, i] += ea * (cq * Vs[s, b] + cu * VsOm[s, b])
 
 
+@njit(cache=True)
+def element_forces(q, u, kind, col, sign, p1, p2, p3, lam):  # pragma: no cover - compiled
+    """Element forces ``lam[s, j] = lambda_j(t_s)`` of the laws of :func:`aft_forces` at samples ``q, u``
+    (``N_s x n_N``) of the nonlinear DOFs (the formulas of :meth:`mshbm.elements.Element.regularised_law`:
+    friction ``-p1 arctan(p2 w u)``, contact ``-(p2 g + p3 w u)`` while ``g = p1 + w q <= 0``)."""
+    for j in range(kind.shape[0]):
+        c = col[j]
+        w = sign[j]
+        for s in range(q.shape[0]):
+            gamma = w * u[s, c]
+            if kind[j] == 0:
+                lam[s, j] = -p1[j] * math.atan(p2[j] * gamma)
+            else:
+                g = p1[j] + w * q[s, c]
+                lam[s, j] = -(p2[j] * g + p3[j] * gamma) if g <= 0.0 else 0.0
+
+
 def aft_forces_numpy(Xn, Vs, VsOm, E, kind, col, sign, p1, p2, p3, jac=True):
     """NumPy twin of :func:`aft_forces`: returns ``(Fn, Jn)`` (``Jn`` None without ``jac``)."""
     Ns, nc = Vs.shape

@@ -199,7 +199,8 @@ def _newton(fun, x, tol, max_iter, line_search, callback, scale, watchdog=None, 
         if not np.isfinite(R).all():
             return NewtonResult(x, False, f"residual is not finite at iteration {it}", it, nfev, np.inf, hist)
         s = scale(x)
-        r = scaled_norm(R, s)
+        Rs = R / s
+        r = float(np.abs(Rs).max(initial=0.0))  # scaled_norm(R, s): R is finite here
         hist.append(r)
         if callback is not None:
             callback(it, x, r)
@@ -216,7 +217,7 @@ def _newton(fun, x, tol, max_iter, line_search, callback, scale, watchdog=None, 
             return NewtonResult(x, False, f"Jacobian is singular at iteration {it} (||R||_inf = {r:.2e})",
                                 it, nfev, r, hist)
         lam = 1.0
-        r2 = _norm2(R / s)
+        r2 = _norm2(Rs)
         best = None
         watched = None
         full = None
