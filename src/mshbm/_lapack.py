@@ -25,10 +25,11 @@ _zgetrs = types.ExternalFunction("mshbm_zgetrs", types.void(_vp, _vp, _vp, _vp, 
 
 
 @njit(cache=True)
-def lu_solve_batch(H, rhs, sol, pivots):  # pragma: no cover - compiled
+def lu_solve_batch(H, rhs, sol, rcond):  # pragma: no cover - compiled
     """For every ``k``: LU of ``H[k]`` (``n x n``, complex) with partial pivoting (``zgetrf``), then
-    ``sol[k] = H[k]^-1 rhs[k]`` (``zgetrs``, ``rhs[k]`` of shape ``n x m``); ``pivots[k]`` gets the
-    diagonal of ``U`` (an exactly zero entry: ``H[k]`` is singular, ``sol[k]`` is then not finite)."""
+    ``sol[k] = H[k]^-1 rhs[k]`` (``zgetrs``, ``rhs[k]`` of shape ``n x m``); ``rcond[k]`` gets the pivot
+    ratio ``min |U_ii| / max |U_ii|`` (0 if ``max |U_ii|`` is 0 or NaN; an exactly zero pivot means a
+    singular ``H[k]``, whose ``sol[k]`` is then not finite)."""
     nk, n, _ = H.shape
     m = rhs.shape[2]
     dims = np.empty(3, np.int32)  # n, m, info
@@ -46,8 +47,14 @@ def lu_solve_batch(H, rhs, sol, pivots):  # pragma: no cover - compiled
             for c in range(m):
                 b[c, r] = rhs[k, r, c]
         _zgetrf(pn, pn, a.ctypes, pn, ipiv.ctypes, pinfo)
+        dmin, dmax, nan = np.inf, 0.0, False
         for j in range(n):
-            pivots[k, j] = a[j, j]
+            d = abs(a[j, j])
+            if d != d:
+                nan = True
+            dmin = min(dmin, d)
+            dmax = max(dmax, d)
+        rcond[k] = dmin / dmax if dmax > 0.0 and not nan else 0.0
         _zgetrs(trans.ctypes, pn, pm, a.ctypes, pn, ipiv.ctypes, b.ctypes, pn, pinfo)
         for r in range(n):
             for c in range(m):

@@ -36,9 +36,9 @@ def dynamic_stiffness_stack(M, C, K, omegas):
     ``(len(omegas), n, m)``: real part ``K - w^2 M``, imaginary part ``w C``."""
     w = np.asarray(omegas, dtype=float)[:, None, None]
     K, M, C = np.asarray(K), np.asarray(M), np.asarray(C)
-    H = np.empty((w.shape[0],) + np.broadcast_shapes(K.shape, M.shape, C.shape), dtype=complex)
-    H.real = K[None] - w ** 2 * M[None]
-    H.imag = w * C[None]
+    H = np.empty((w.shape[0],) + K.shape, dtype=complex)  # M, C, K of one shape
+    np.subtract(K, w * w * M, out=H.real)  # w ** 2 is w * w
+    np.multiply(w, C, out=H.imag)
     return H
 
 
@@ -169,15 +169,9 @@ class Condensation:
         rhs[:, :, 0] = F[:, e]
         rhs[:, :, 1:] = H[:, :nE, nE:]
         # LAPACK's zgetrf/zgetrs for all harmonics in one compiled call (mshbm._lapack: the same routines
-        # as scipy.linalg.lapack, without the wrappers' per-call cost); the pivot ratios afterwards
+        # as scipy.linalg.lapack, without the wrappers' per-call cost), with the pivot ratios
         sol = np.empty_like(rhs)
-        piv_abs = np.empty((n_h + 1, nE), dtype=complex)
-        lu_solve_batch(np.ascontiguousarray(H_EE), rhs, sol, piv_abs)  # an exactly zero pivot: rcond 0
-        piv_abs = np.abs(piv_abs)
-        dmax = piv_abs.max(axis=1)
-        ok = dmax > 0  # rcond = min |U_ii| / max |U_ii|, 0 where max |U_ii| is 0 (or NaN)
-        self.rcond[:] = 0.0
-        self.rcond[ok] = piv_abs.min(axis=1)[ok] / dmax[ok]
+        lu_solve_batch(np.ascontiguousarray(H_EE), rhs, sol, self.rcond)  # an exactly zero pivot: rcond 0
         bad = np.flatnonzero(self.rcond < rcond_min)
         if bad.size:
             k = int(bad[0])

@@ -133,11 +133,17 @@ def idft_derivative_matrix(N, n_h, omega):
     """``Vs Om``: samples of the time derivative, ``ifft(derivative(x_hat, omega), N) = (Vs Om) @ x_hat``,
     shape ``(N, 2 n_h + 1)``.  Each column of ``Om`` has one entry ``+-k omega``, so the product is the
     column-swapped ``Vs`` (cached like :func:`idft_matrix`) times those entries: the same numbers."""
-    kw = np.arange(1, n_h + 1) * float(omega)
+    return _swapped(N, n_h) * (_signed_k(int(n_h)) * float(omega))  # the entries +-(k omega) of Om
+
+
+@functools.lru_cache(maxsize=32)
+def _signed_k(n_h):
+    """``[0, -1, 1, -2, 2, ..., -n_h, n_h]`` (read-only): the entries of ``Om`` per column, per unit omega."""
     s = np.zeros(2 * n_h + 1)
-    s[2::2] = kw
-    s[1::2] = -kw
-    return _swapped(N, n_h) * s
+    s[2::2] = np.arange(1, n_h + 1)
+    s[1::2] = -s[2::2]
+    s.flags.writeable = False
+    return s
 
 
 def _swapped_columns(N, n_h):

@@ -193,9 +193,9 @@ def _guess_array(key, value, shape_text, ok):
 def check_guess_values(key, arr):
     """NaN/inf and absurd sizes (``> GUESS_LIMIT``) are input errors."""
     arr = np.asarray(arr, dtype=float)
-    if not np.all(np.isfinite(arr)):
+    if not np.isfinite(arr).all():
         raise InputError(key, "contains NaN or inf")
-    big = float(np.max(np.abs(arr), initial=0.0))
+    big = float(np.abs(arr).max(initial=0.0))
     if big > GUESS_LIMIT:
         raise InputError(key, f"has entries of size {big:.3g}, beyond {GUESS_LIMIT:.0e} (their squares "
                               "overflow): give a guess of the size of the expected response")

@@ -76,8 +76,9 @@ def guess_parts(guess, system, omega, n_h):
                                   f"{guess!r:.40}")
     if q0 is None:
         q0 = q_hat[0] + q_hat[1::2].sum(axis=0)  # V(0)^T q_hat
-    if u0 is None:
-        u0 = fourier.derivative(q_hat, omega)[1::2].sum(axis=0)
+    if u0 is None:  # fourier.derivative(q_hat, omega)[1::2].sum(axis=0): the cosine rows k omega xs_k
+        k = (np.arange(1, (q_hat.shape[0] - 1) // 2 + 1) * omega)[:, None]
+        u0 = (k * q_hat[2::2]).sum(axis=0)
     if guess is not None and not isinstance(guess, str):
         for key, a in (("guess.q_hat", q_hat), ("guess.q0", q0), ("guess.u0", u0))[int(checked):]:
             check_guess_values(key, a)
