@@ -179,8 +179,8 @@ class System:
         (e.g. ``f_hat`` replaced by a writeable array on a copy) is not cached: ``compute()`` runs every
         time.  The value is shared between calls: callers must not modify it."""
         cache = self.__dict__.get("_derived")
-        if cache is None or cache.get(None) is not self:  # none yet, or the dict of the system copied from
-            cache = self.__dict__["_derived"] = {None: self}
+        if cache is None or cache[None] != id(self):  # none yet, or the dict of the system copied from
+            cache = self.__dict__["_derived"] = {None: id(self)}  # (entries are checked by their deps anyway)
         hit = cache.get(name)
         if hit is not None:
             for d, o in zip(deps, hit[0]):
