@@ -142,3 +142,39 @@ def test_harmonic_power_and_force_tail_match_numpy():
     k = np.arange(n_h + 1, 33)[:, None] * omega
     Hd = np.abs(Kd[d] - k ** 2 * Md[d] + 1j * k * Cd[d])
     np.testing.assert_allclose(tail, np.sqrt(((np.abs(Z[n_h + 1:]) / Hd) ** 2).sum(axis=0)), rtol=1e-13)
+
+
+def _old_solve(J, R, s):
+    """The Newton step as computed through SciPy's wrappers (mshbm.solvers.newton._solve before issue 16)."""
+    J, R = J / s[:, None], R / s
+    if np.all(np.isfinite(J)):
+        lu, piv, info = sla.lapack.dgetrf(J)
+        if info == 0:
+            anorm = float(np.max(np.abs(J).sum(axis=0), initial=0.0))
+            rcond, _ = sla.lapack.dgecon(lu, anorm, norm="1")
+            if rcond > 1e-15:
+                return sla.lapack.dgetrs(lu, piv, R)[0], True
+    return np.linalg.lstsq(J, R, rcond=None)[0], False
+
+
+@pytest.mark.parametrize("n", [1, 11, 40])
+def test_newton_step_kernel_is_scipys_lapack(n):
+    from mshbm._lapack import scaled_lu_solve
+    from mshbm.solvers.newton import _solve
+
+    rng = np.random.default_rng(n)
+    for case in range(4):
+        J = rng.normal(size=(n, n)) * 10.0 ** rng.uniform(-3, 3, size=(n, 1))
+        R, s = rng.normal(size=n), 10.0 ** rng.uniform(-2, 2, size=n)
+        if case == 1 and n > 1:
+            J[:, 0] = J[:, 1]  # exactly singular: least squares
+        if case == 2 and n > 1:
+            J[:, 0] = J[:, 1] * (1.0 + 1e-17)  # numerically singular (rcond below 1e-15)
+        if case == 3:  # not finite: the kernel declines (the caller's least squares is not run here: LAPACK's
+            J[0, 0] = np.inf  # SVD does not return on inf; Newton stops on a non-finite Jacobian before)
+            assert not scaled_lu_solve(J, R, s, 1e-15, np.empty(n))
+            continue
+        ref, used_lu = _old_solve(J, R, s)
+        dx = np.empty(n)
+        assert bool(scaled_lu_solve(J, R, s, 1e-15, dx)) == used_lu
+        np.testing.assert_array_equal(_solve(J, R, s), ref)

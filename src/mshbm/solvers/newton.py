@@ -34,6 +34,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from .._lapack import scaled_lu_solve
 _dgetrf, _dgecon, _dgetrs = sla.lapack.dgetrf, sla.lapack.dgecon, sla.lapack.dgetrs
 
 
@@ -75,6 +76,11 @@ def _solve(J, R, s=None):
         s = np.asarray(s, dtype=float)
         if s.shape != np.shape(R):
             s = np.broadcast_to(s, np.shape(R))
+        if type(J) is np.ndarray and J.dtype == np.float64 and J.ndim == 2 and R.dtype == np.float64:
+            # the steps below in one compiled call (the same LAPACK routines and numbers)
+            dx = np.empty(R.shape[0])
+            if scaled_lu_solve(J, R, np.ascontiguousarray(s), 1e-15, dx):
+                return dx
         J = (sp.diags(1.0 / s) @ J) if sp.issparse(J) else J / s[:, None]
         R = R / s
     if sp.issparse(J):
