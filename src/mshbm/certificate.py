@@ -240,6 +240,83 @@ def _element_terms(q, u, lam, I, J, sign, N, out):  # pragma: no cover - compile
 
 
 @njit(cache=True)
+def _element_terms_fourier(coef, V, omega, lam, I, J, sign, N, out):  # pragma: no cover - compiled
+    """:func:`_element_terms` for a solution given by Fourier coefficients alone (HBM, DLFT): the grid
+    values ``q = V coef``, ``u = V (Om coef)`` of the element DOFs' columns (``coef`` (2 n_h + 1, n_e),
+    ``V`` the inverse DFT (N, 2 n_h + 1)) are summed here instead of stored (``t_N = T`` repeats ``t_0``).
+    Returns ``max |u|`` over the element DOFs and the grid."""
+    nc, ne = coef.shape
+    m = lam.shape[1]
+    dcoef = np.zeros((nc, ne))  # Om coef: the velocity's coefficients
+    for k in range(1, (nc - 1) // 2 + 1):
+        kw = k * omega
+        for i in range(ne):
+            dcoef[2 * k - 1, i] = kw * coef[2 * k, i]
+            dcoef[2 * k, i] = -kw * coef[2 * k - 1, i]
+    q = np.empty(ne)
+    u = np.empty(ne)
+    acc = np.zeros((m, 8))
+    for j in range(m):
+        acc[j, 0], acc[j, 2], acc[j, 3] = np.inf, -np.inf, np.inf
+    bad = np.zeros((m, 3), dtype=np.bool_)
+    uall = 0.0
+    bad_all = False
+    for t in range(N):
+        for i in range(ne):
+            qs, us = 0.0, 0.0
+            for k in range(nc):
+                qs += V[t, k] * coef[k, i]
+                us += V[t, k] * dcoef[k, i]
+            q[i], u[i] = qs, us
+            if us != us:
+                bad_all = True
+            uall = max(uall, abs(us))
+        for j in range(m):
+            a, c, w = I[j], J[j], sign[j]
+            if c >= 0:
+                sv = w * (q[a] - q[c])
+                wu = w * (u[a] - u[c])
+            else:
+                sv = w * q[a]
+                wu = w * u[a]
+            lt = lam[t, j]
+            if sv != sv:
+                bad[j, 0] = True
+            if wu != wu:
+                bad[j, 1] = True
+            if lt != lt:
+                bad[j, 2] = True
+            acc[j, 0] = min(acc[j, 0], sv)
+            acc[j, 1] = max(acc[j, 1], abs(wu))
+            acc[j, 2] = max(acc[j, 2], lt)
+            acc[j, 3] = min(acc[j, 3], lt)
+            acc[j, 4] = max(acc[j, 4], abs(lt))
+            if abs(lt) > 0.0:
+                acc[j, 7] = 1.0
+            uj = w * wu
+            acc[j, 5] += w * lt * uj
+            acc[j, 6] += abs(lt * uj)
+    for j in range(m):
+        lt = lam[N, j]  # lambda at t_N (its own row; equal to t_0 for a periodic series)
+        if lt != lt:
+            bad[j, 2] = True
+        acc[j, 2] = max(acc[j, 2], lt)
+        acc[j, 3] = min(acc[j, 3], lt)
+        acc[j, 4] = max(acc[j, 4], abs(lt))
+        if abs(lt) > 0.0:
+            acc[j, 7] = 1.0
+        for col in range(8):
+            out[j, col] = acc[j, col]
+        if bad[j, 0]:
+            out[j, 0] = np.nan
+        if bad[j, 1]:
+            out[j, 1] = np.nan
+        if bad[j, 2]:
+            out[j, 2] = out[j, 3] = out[j, 4] = np.nan
+    return np.nan if bad_all else uall
+
+
+@njit(cache=True)
 def _harmonic_power(qh, fh, C, omega, out):  # pragma: no cover - compiled
     """Parseval sums of a Fourier solution ``qh`` (2 n_h + 1, n) under forcing ``fh`` (same shape) with
     dense damping ``C`` (n, n), per unit ``T / 2``: ``out[0] = sum_k,i k omega (fc_ki xs_ki - fs_ki xc_ki)``
@@ -394,16 +471,26 @@ def _certify(problem, sol, tol, cert, step_accuracy=None):
         _time_discretisation(problem, sol, system, omega, stepper, D, cert)
 
     # element time series: displacement and velocity of the element DOFs on the grid
-    qe, ue = _element_series(sol, el_dofs, N)
     col = {int(d): i for i, d in enumerate(el_dofs)}
     lam = np.asarray(sol.lam)
     # per element: extremes of w^T q, w^T u, lambda on the grid and the element's work (one compiled pass)
     terms = np.zeros((len(els), 8))
-    if els:
-        I = np.array([col[int(e.dof)] for e in els], dtype=np.int64)
-        J = np.array([-1 if e.relative_to is None else col[int(e.relative_to)] for e in els], dtype=np.int64)
-        _element_terms(np.ascontiguousarray(qe), np.ascontiguousarray(ue), np.ascontiguousarray(lam, dtype=float),
-                       I, J, np.array([float(e.sign) for e in els]), N, terms)
+    I = np.array([col[int(e.dof)] for e in els], dtype=np.int64)
+    J = np.array([-1 if e.relative_to is None else col[int(e.relative_to)] for e in els], dtype=np.int64)
+    sign = np.array([float(e.sign) for e in els])
+    nc = qh.shape[0]
+    if els and not np.size(sol.time_dofs) and nc <= 64 and N > 2 * (nc // 2) and lam.shape[0] == N + 1:
+        # Fourier series alone (HBM, DLFT): the grid values of the element DOFs are summed in the pass
+        qe = ue = None
+        ue_max = _element_terms_fourier(np.ascontiguousarray(qh[:, el_dofs], dtype=float),
+                                        fourier.idft_matrix(N, nc // 2), omega,
+                                        np.ascontiguousarray(lam, dtype=float), I, J, sign, N, terms)
+    else:
+        qe, ue = _element_series(sol, el_dofs, N)
+        ue_max = _max_abs(ue)
+        if els:
+            _element_terms(np.ascontiguousarray(qe), np.ascontiguousarray(ue), np.ascontiguousarray(lam, dtype=float),
+                           I, J, sign, N, terms)
 
     # 3. element laws
     fr = [(j, e) for j, e in enumerate(els) if e.bounded]
@@ -447,7 +534,7 @@ def _certify(problem, sol, tol, cert, step_accuracy=None):
                                      note="-min lambda_N / F"))
 
     # 4. energy balance
-    _energy(problem, sol, system, omega, h, N, is_hbm, stepper, els, col, qe, ue, lam, cert, terms)
+    _energy(problem, sol, system, omega, h, N, is_hbm, stepper, els, col, ue_max, lam, cert, terms)
 
     # 5. undamped resonance
     _resonance(problem, sol, system, omega, h, is_hbm, els, lam, cert, terms)
@@ -533,7 +620,7 @@ def _time_discretisation(problem, sol, system, omega, stepper, D, cert):
                                                         "than 10 times the solution (the elements dominate)")))
 
 
-def _energy(problem, sol, system, omega, h, N, is_hbm, stepper, els, col, qe, ue, lam, cert, terms):
+def _energy(problem, sol, system, omega, h, N, is_hbm, stepper, els, col, ue_max, lam, cert, terms):
     n = system.n
     T = 2.0 * np.pi / omega
     C = system.C
@@ -560,7 +647,7 @@ def _energy(problem, sol, system, omega, h, N, is_hbm, stepper, els, col, qe, ue
         Wj = h * terms[:, _WORK]
         Ej = h * terms[:, _WORK_ABS]
         bound_rel, gate, note = ENERGY_TOL, True, "HBM: Parseval and AFT quadrature"
-        step_work = h * float(terms[:, _LAM_ABS].max(initial=0.0)) * _max_abs(ue)
+        step_work = h * float(terms[:, _LAM_ABS].max(initial=0.0)) * ue_max
     else:
         # integrated DOFs (and the Fourier DOFs coupled to them by C or K) by the scheme's discrete work on
         # the grid; the block of the other Fourier DOFs by Parseval (exact, and cheap for large L)
@@ -638,7 +725,7 @@ def _energy(problem, sol, system, omega, h, N, is_hbm, stepper, els, col, qe, ue
         gate = abs(theta - 0.5) < 1e-12
         if not gate:
             note += f"; theta = {theta:g} dissipates numerically: not gating"
-        umax = float(np.max(np.abs(ue), initial=0.0))
+        umax = ue_max
         step_work = float(np.max(np.abs(P), initial=0.0)) * umax if P.size else 0.0
     # energy scale: the magnitudes of the terms, at least F D (the work of the force scale along the
     # displacement scale; without it a balance of terms that all vanish would compare rounding to rounding)
