@@ -113,6 +113,13 @@ class System:
         Local nonlinear elements (Friction, Contact).
     name : str
         Label used in outputs.
+
+    Notes
+    -----
+    The system keeps its own copies of dense ``M, C, K`` and of ``f_hat``, read-only: quantities
+    derived from them (diagonals, scales, validation verdicts, dense blocks) are cached per system
+    (:meth:`derived`) and stay valid.  To change a matrix, build a new System (or assign a new array
+    to the attribute: the cache checks the objects' identity).
     """
 
     def __init__(self, M, C, K, f_hat, elements=(), name="system"):
