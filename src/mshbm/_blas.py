@@ -3,7 +3,8 @@
 ``threadpoolctl.threadpool_limits`` rescans every loaded shared library on each call
 (1.4 ms here, about 6 ms in an environment with more native libraries), which dominated
 the solve of a 5-mass chain.  A :class:`threadpoolctl.ThreadpoolController` created once
-(after numpy and scipy are imported) makes entering the limit cost about 35 µs.
+(after numpy and scipy are imported) makes entering the limit cost about 35 µs; reading and setting
+the BLAS libraries' thread counts directly (:func:`blas_threads`) a few µs.
 """
 from __future__ import annotations
 
@@ -31,11 +32,36 @@ def check_threads(k):
     return k
 
 
+def _blas_libs():
+    """Controllers of the loaded BLAS libraries (selected once, like the controller)."""
+    global _BLAS_LIBS
+    if _BLAS_LIBS is None:
+        _BLAS_LIBS = controller().select(user_api="blas").lib_controllers
+    return _BLAS_LIBS
+
+
+_BLAS_LIBS = None
+
+
 @contextlib.contextmanager
 def blas_threads(k):
-    """Limit the BLAS threads of numpy/scipy to ``k`` inside the block (``None``: leave as is)."""
+    """Limit the BLAS threads of numpy/scipy to ``k`` inside the block (``None``: leave as is).
+
+    What ``controller().limit(limits=k, user_api="blas")`` does, without its snapshot of every
+    library's full info: each BLAS library's thread count is read, set to ``k`` where it differs,
+    and set back on exit."""
     if k is None:
         yield
         return
-    with controller().limit(limits=int(k), user_api="blas"):
+    k = int(k)
+    changed = []
+    try:
+        for lib in _blas_libs():
+            n = lib.get_num_threads()
+            if n != k:
+                lib.set_num_threads(k)
+                changed.append((lib, n))
         yield
+    finally:
+        for lib, n in reversed(changed):
+            lib.set_num_threads(n)

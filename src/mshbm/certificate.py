@@ -93,14 +93,17 @@ Checks
 """
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
+from numba import njit
 
+from . import fourier
 from .solvers.newton import scaled_norm
-from .scaling import displacement_floor, force_scale
+from .scaling import diagonals, displacement_floor, force_scale
 
 __all__ = ["Check", "Certificate", "certify", "apply_certificate"]
 
@@ -184,8 +187,196 @@ STEP_ACCURACY_NOTE = ("periodic to one time step's accuracy: the Moreau-Jean map
                       "moves by one step (mshbm.solvers.starts.residual_accept)")
 
 
-def _diag(A):
-    return np.asarray(A.diagonal() if sp.issparse(A) else np.diag(np.asarray(A)), dtype=float)
+#: columns of :func:`_element_terms`' output
+_S_MIN, _WU_MAX, _LAM_MAX, _LAM_MIN, _LAM_ABS, _WORK, _WORK_ABS, _ACTS = range(8)
+
+
+@njit(cache=True)
+def _element_terms(q, u, lam, I, J, sign, N, out):  # pragma: no cover - compiled
+    """Per element ``j`` on the grid (``q, u``: (N+1, n_e) of the element DOFs' columns ``I[j]``, ``J[j]``
+    (``-1``: single-DOF element); ``lam``: (N+1, m)), in ``out[j]`` (NaN-propagating like NumPy's
+    ``min``/``max``): ``min w^T q``, ``max |w^T u|``, ``max lambda``, ``min lambda``, ``max |lambda|``
+    (all N+1 points), the work ``sum_k<N sign lambda u_j`` and ``sum_k<N |lambda u_j|`` with ``u_j = sign
+    w^T u`` (the velocity along ``+e_dof``), and 1 if some ``lambda != 0``."""
+    rows = q.shape[0]
+    nan = np.nan
+    for j in range(lam.shape[1]):
+        a, c, w = I[j], J[j], sign[j]
+        smin, umax, lmax, lmin, labs, W, Ea, acts = np.inf, 0.0, -np.inf, np.inf, 0.0, 0.0, 0.0, 0.0
+        bad_s, bad_u, bad_l = False, False, False
+        for t in range(rows):
+            if c >= 0:
+                s = w * (q[t, a] - q[t, c])
+                wu = w * (u[t, a] - u[t, c])
+            else:
+                s = w * q[t, a]
+                wu = w * u[t, a]
+            lt = lam[t, j]
+            if s != s:
+                bad_s = True
+            if wu != wu:
+                bad_u = True
+            if lt != lt:
+                bad_l = True
+            smin = min(smin, s)
+            umax = max(umax, abs(wu))
+            lmax = max(lmax, lt)
+            lmin = min(lmin, lt)
+            labs = max(labs, abs(lt))
+            if abs(lt) > 0.0:
+                acts = 1.0
+            if t < N:
+                uj = w * wu
+                W += w * lt * uj
+                Ea += abs(lt * uj)
+        out[j, 0] = nan if bad_s else smin
+        out[j, 1] = nan if bad_u else umax
+        out[j, 2] = nan if bad_l else lmax
+        out[j, 3] = nan if bad_l else lmin
+        out[j, 4] = nan if bad_l else labs
+        out[j, 5] = W
+        out[j, 6] = Ea
+        out[j, 7] = acts
+
+
+@njit(cache=True)
+def _element_terms_fourier(coef, V, omega, lam, I, J, sign, N, out):  # pragma: no cover - compiled
+    """:func:`_element_terms` for a solution given by Fourier coefficients alone (HBM, DLFT): the grid
+    values ``q = V coef``, ``u = V (Om coef)`` of the element DOFs' columns (``coef`` (2 n_h + 1, n_e),
+    ``V`` the inverse DFT (N, 2 n_h + 1)) are summed here instead of stored (``t_N = T`` repeats ``t_0``).
+    Returns ``max |u|`` over the element DOFs and the grid."""
+    nc, ne = coef.shape
+    m = lam.shape[1]
+    dcoef = np.zeros((nc, ne))  # Om coef: the velocity's coefficients
+    for k in range(1, (nc - 1) // 2 + 1):
+        kw = k * omega
+        for i in range(ne):
+            dcoef[2 * k - 1, i] = kw * coef[2 * k, i]
+            dcoef[2 * k, i] = -kw * coef[2 * k - 1, i]
+    q = np.empty(ne)
+    u = np.empty(ne)
+    acc = np.zeros((m, 8))
+    for j in range(m):
+        acc[j, 0], acc[j, 2], acc[j, 3] = np.inf, -np.inf, np.inf
+    bad = np.zeros((m, 3), dtype=np.bool_)
+    uall = 0.0
+    bad_all = False
+    for t in range(N):
+        for i in range(ne):
+            qs, us = 0.0, 0.0
+            for k in range(nc):
+                qs += V[t, k] * coef[k, i]
+                us += V[t, k] * dcoef[k, i]
+            q[i], u[i] = qs, us
+            if us != us:
+                bad_all = True
+            uall = max(uall, abs(us))
+        for j in range(m):
+            a, c, w = I[j], J[j], sign[j]
+            if c >= 0:
+                sv = w * (q[a] - q[c])
+                wu = w * (u[a] - u[c])
+            else:
+                sv = w * q[a]
+                wu = w * u[a]
+            lt = lam[t, j]
+            if sv != sv:
+                bad[j, 0] = True
+            if wu != wu:
+                bad[j, 1] = True
+            if lt != lt:
+                bad[j, 2] = True
+            acc[j, 0] = min(acc[j, 0], sv)
+            acc[j, 1] = max(acc[j, 1], abs(wu))
+            acc[j, 2] = max(acc[j, 2], lt)
+            acc[j, 3] = min(acc[j, 3], lt)
+            acc[j, 4] = max(acc[j, 4], abs(lt))
+            if abs(lt) > 0.0:
+                acc[j, 7] = 1.0
+            uj = w * wu
+            acc[j, 5] += w * lt * uj
+            acc[j, 6] += abs(lt * uj)
+    for j in range(m):
+        lt = lam[N, j]  # lambda at t_N (its own row; equal to t_0 for a periodic series)
+        if lt != lt:
+            bad[j, 2] = True
+        acc[j, 2] = max(acc[j, 2], lt)
+        acc[j, 3] = min(acc[j, 3], lt)
+        acc[j, 4] = max(acc[j, 4], abs(lt))
+        if abs(lt) > 0.0:
+            acc[j, 7] = 1.0
+        for col in range(8):
+            out[j, col] = acc[j, col]
+        if bad[j, 0]:
+            out[j, 0] = np.nan
+        if bad[j, 1]:
+            out[j, 1] = np.nan
+        if bad[j, 2]:
+            out[j, 2] = out[j, 3] = out[j, 4] = np.nan
+    return np.nan if bad_all else uall
+
+
+@njit(cache=True)
+def _harmonic_power(qh, fh, C, omega, out):  # pragma: no cover - compiled
+    """Parseval sums of a Fourier solution ``qh`` (2 n_h + 1, n) under forcing ``fh`` (same shape) with
+    dense damping ``C`` (n, n), per unit ``T / 2``: ``out[0] = sum_k,i k omega (fc_ki xs_ki - fs_ki xc_ki)``
+    (input work), ``out[1]`` the same sum of magnitudes, ``out[2] = sum_k (k omega)^2 (xc_k^T C xc_k +
+    xs_k^T C xs_k)`` (damper dissipation)."""
+    n = qh.shape[1]
+    W, Ea, Dc = 0.0, 0.0, 0.0
+    for k in range(1, (qh.shape[0] - 1) // 2 + 1):
+        kw = k * omega
+        a, b = qh[2 * k - 1], qh[2 * k]
+        for i in range(n):
+            p = kw * (fh[2 * k - 1, i] * b[i] - fh[2 * k, i] * a[i])
+            W += p
+            Ea += abs(p)
+        for i in range(n):
+            ca, cb = 0.0, 0.0
+            for l in range(n):
+                ca += C[i, l] * a[l]
+                cb += C[i, l] * b[l]
+            Dc += kw * kw * (a[i] * ca + b[i] * cb)
+    out[0], out[1], out[2] = W, Ea, Dc
+
+
+@njit(cache=True)
+def _force_tail(Z, Kd, Md, Cd, d, omega, n_h, out):  # pragma: no cover - compiled
+    """``out[j] = sqrt(sum_k>n_h (|Z_kj| / |K_dd - (k omega)^2 M_dd + i k omega C_dd|)^2)``, ``d = d[j]``:
+    the displacement of the element-force harmonics ``Z`` (N/2+1, m) above ``n_h`` at the element DOF."""
+    for j in range(Z.shape[1]):
+        dj = d[j]
+        acc = 0.0
+        for k in range(n_h + 1, Z.shape[0]):
+            w = k * omega
+            Hd = math.hypot(Kd[dj] - w * w * Md[dj], w * Cd[dj])
+            t = abs(Z[k, j]) / max(Hd, 1e-300)
+            acc += t * t
+        out[j] = math.sqrt(acc)
+
+
+def _max_abs(a):
+    """``max |a|`` (0 for an empty array)."""
+    return float(np.abs(a).max(initial=0.0))
+
+
+def _element_series(sol, dofs, N):
+    """``q(t_k)`` and ``u(t_k)`` of ``dofs``, ``k = 0..N``, each (N+1, len(dofs)): as
+    ``sol.displacement(dofs)``, ``sol.velocity(dofs)``; for a solution given by its Fourier series
+    alone (HBM, DLFT) both from one product with the inverse DFT matrix."""
+    if not dofs.size:
+        return np.zeros((N + 1, 0)), np.zeros((N + 1, 0))
+    qh = np.asarray(sol.q_hat)
+    nc, m = qh.shape[0], dofs.size
+    if np.size(sol.time_dofs) or not (nc <= 64 and N > 2 * (nc // 2)):
+        return sol.displacement(dofs), sol.velocity(dofs)
+    coef = np.empty((nc, 2 * m))
+    coef[:, :m] = qh[:, dofs]
+    coef[:, m:] = fourier.derivative(coef[:, :m], sol.omega)
+    out = np.empty((N + 1, 2 * m))
+    np.matmul(fourier.idft_matrix(N, nc // 2), coef, out=out[:N])
+    out[N] = out[0]  # t_N = T: periodic
+    return out[:, :m], out[:, m:]
 
 
 def certify(problem, sol, tol, step_accuracy=None):
@@ -248,10 +439,10 @@ def _certify(problem, sol, tol, cert, step_accuracy=None):
 
     # sizes of the solution (from the Fourier coefficients and the time series)
     qh = np.asarray(sol.q_hat)
-    amp_h = np.abs(qh[0]) + np.hypot(qh[1::2], qh[2::2]).sum(axis=0) if qh.shape[0] > 1 else np.abs(qh[0])
-    D = max(D0, float(np.max(amp_h, initial=0.0)),
-            float(np.max(np.abs(sol.q_time), initial=0.0)))
-    V = max(omega * D, float(np.max(np.abs(sol.u_time), initial=0.0)))
+    mags = np.hypot(qh[1::2], qh[2::2])  # (n_h, n): harmonic magnitudes (also the truncation check's)
+    amp_h = np.abs(qh[0]) + mags.sum(axis=0) if qh.shape[0] > 1 else np.abs(qh[0])
+    D = max(D0, float(amp_h.max(initial=0.0)), _max_abs(sol.q_time))
+    V = max(omega * D, _max_abs(sol.u_time))
     cert.info.update(force_scale=F, displacement_scale=D, velocity_scale=V)
 
     # 2. periodicity of the time-stepped DOFs
@@ -280,10 +471,26 @@ def _certify(problem, sol, tol, cert, step_accuracy=None):
         _time_discretisation(problem, sol, system, omega, stepper, D, cert)
 
     # element time series: displacement and velocity of the element DOFs on the grid
-    qe = sol.displacement(el_dofs) if el_dofs.size else np.zeros((N + 1, 0))
-    ue = sol.velocity(el_dofs) if el_dofs.size else np.zeros((N + 1, 0))
     col = {int(d): i for i, d in enumerate(el_dofs)}
     lam = np.asarray(sol.lam)
+    # per element: extremes of w^T q, w^T u, lambda on the grid and the element's work (one compiled pass)
+    terms = np.zeros((len(els), 8))
+    I = np.array([col[int(e.dof)] for e in els], dtype=np.int64)
+    J = np.array([-1 if e.relative_to is None else col[int(e.relative_to)] for e in els], dtype=np.int64)
+    sign = np.array([float(e.sign) for e in els])
+    nc = qh.shape[0]
+    if els and not np.size(sol.time_dofs) and nc <= 64 and N > 2 * (nc // 2) and lam.shape[0] == N + 1:
+        # Fourier series alone (HBM, DLFT): the grid values of the element DOFs are summed in the pass
+        qe = ue = None
+        ue_max = _element_terms_fourier(np.ascontiguousarray(qh[:, el_dofs], dtype=float),
+                                        fourier.idft_matrix(N, nc // 2), omega,
+                                        np.ascontiguousarray(lam, dtype=float), I, J, sign, N, terms)
+    else:
+        qe, ue = _element_series(sol, el_dofs, N)
+        ue_max = _max_abs(ue)
+        if els:
+            _element_terms(np.ascontiguousarray(qe), np.ascontiguousarray(ue), np.ascontiguousarray(lam, dtype=float),
+                           I, J, sign, N, terms)
 
     # 3. element laws
     fr = [(j, e) for j, e in enumerate(els) if e.bounded]
@@ -291,7 +498,7 @@ def _certify(problem, sol, tol, cert, step_accuracy=None):
         ratios = []
         for j, e in fr:
             if e.normal_contact is None:
-                lmax = float(np.max(np.abs(lam[:, j]), initial=0.0))
+                lmax = float(terms[j, _LAM_ABS])  # max |lambda_j|
                 ratios.append(lmax / e.bound if e.bound > 0 else (0.0 if lmax == 0 else np.inf))
                 continue
             # normal load from a contact: the cone per sample, |lambda_T| <= mu (N_0 + lambda_N(t))
@@ -306,13 +513,13 @@ def _certify(problem, sol, tol, cert, step_accuracy=None):
     if ct:
         pen, bnd, comp = 0.0, np.inf, 0.0
         for j, e in ct:
-            g = e.gap + e.local(qe, col)  # g_N = gap + w^T q (relative contacts: on q_I - q_J)
-            p = max(0.0, float(-g.min()))
-            umax = float(np.max(np.abs(e.local(ue, col))))
+            # g_N = gap + w^T q (relative contacts: on q_I - q_J): min g_N = gap + min w^T q
+            p = max(0.0, float(-(e.gap + terms[j, _S_MIN])))
+            umax = float(terms[j, _WU_MAX])  # max |w^T u|
             if is_dlft:  # the law holds on the Lagrangian displacement; the truncated series may cross
                 b = None
             elif is_hbm:
-                b = (max(0.0, float(lam[:, j].max())) + e.penalty_damping * umax) / e.penalty_stiffness + 1e-9 * D
+                b = (max(0.0, float(terms[j, _LAM_MAX])) + e.penalty_damping * umax) / e.penalty_stiffness + 1e-9 * D
             elif stepper is not None and stepper.project:
                 b = 1e-9 * D
             else:
@@ -321,7 +528,7 @@ def _certify(problem, sol, tol, cert, step_accuracy=None):
                 pen = max(pen, p)
             elif p - b > pen - bnd or bnd == np.inf:
                 pen, bnd = p, b
-            comp = max(comp, float(-lam[:, j].min()) / F)
+            comp = max(comp, float(-terms[j, _LAM_MIN]) / F)
         if is_dlft:
             cert.checks.append(Check("non_penetration", pen, None, True, False,
                                      "max(0, -min g_N) in m of the truncated Fourier series; DLFT enforces the "
@@ -334,31 +541,28 @@ def _certify(problem, sol, tol, cert, step_accuracy=None):
                                      note="-min lambda_N / F"))
 
     # 4. energy balance
-    _energy(problem, sol, system, omega, h, N, is_hbm, stepper, els, col, qe, ue, lam, cert)
+    _energy(problem, sol, system, omega, h, N, is_hbm, stepper, els, col, ue_max, lam, cert, terms)
 
     # 5. undamped resonance
-    _resonance(problem, sol, system, omega, h, is_hbm, els, lam, cert)
+    _resonance(problem, sol, system, omega, h, is_hbm, els, lam, cert, terms)
 
     # 6. harmonic truncation (HBM, MS-HBM)
     if problem.method != "shooting":
         n_h = int(sol.harmonics)
-        mags = np.hypot(qh[1::2], qh[2::2])  # (n_h, n)
-        top = float(np.max(mags, initial=0.0))
-        eq = float(np.max(mags[-1])) / top if top > 0 and mags.shape[0] else 0.0
+        top = float(mags.max(initial=0.0))
+        eq = float(mags[-1].max()) / top if top > 0 and mags.shape[0] else 0.0
         cert.checks.append(Check("truncation_solution", eq, TRUNCATION_BOUND, bool(eq <= TRUNCATION_BOUND), False,
                                  f"|q_hat| at harmonic {n_h} / largest harmonic"))
         if els:
             # displacement that the element-force harmonics above n_h would cause at the element DOF,
             # through the diagonal dynamic stiffness |K_dd - (k omega)^2 M_dd + i k omega C_dd|
             Z = np.fft.rfft(lam[:-1], axis=0) * (2.0 / N)  # (N/2+1, m): complex amplitudes
-            kk = np.arange(Z.shape[0])
-            Kd, Md, Cd = _diag(system.K), _diag(system.M), _diag(system.C)
+            Kd, Md, Cd = diagonals(system)
+            tail = np.empty(len(els))
+            _force_tail(Z, Kd, Md, Cd, np.array([e.dof for e in els], dtype=np.int64), omega, n_h, tail)
             ef = 0.0
-            for j, e in enumerate(els):
-                d = e.dof
-                Hd = np.abs(Kd[d] - (kk * omega) ** 2 * Md[d] + 1j * kk * omega * Cd[d])
-                tail = np.abs(Z[n_h + 1:, j]) / np.maximum(Hd[n_h + 1:], 1e-300)
-                ef = max(ef, float(np.sqrt(np.sum(tail ** 2))) / D)
+            for v in tail.tolist():
+                ef = max(ef, v / D)
             cert.checks.append(Check("truncation_force", ef, TRUNCATION_BOUND, bool(ef <= TRUNCATION_BOUND), False,
                                      f"displacement of the element-force harmonics above {n_h} "
                                      "(diagonal dynamic stiffness) / D"))
@@ -423,7 +627,7 @@ def _time_discretisation(problem, sol, system, omega, stepper, D, cert):
                                                         "than 10 times the solution (the elements dominate)")))
 
 
-def _energy(problem, sol, system, omega, h, N, is_hbm, stepper, els, col, qe, ue, lam, cert):
+def _energy(problem, sol, system, omega, h, N, is_hbm, stepper, els, col, ue_max, lam, cert, terms):
     n = system.n
     T = 2.0 * np.pi / omega
     C = system.C
@@ -432,19 +636,25 @@ def _energy(problem, sol, system, omega, h, N, is_hbm, stepper, els, col, qe, ue
         qh = np.asarray(sol.q_hat)
         n_h = (qh.shape[0] - 1) // 2
         fh = system.forcing_hat(n_h)
-        k = np.arange(1, n_h + 1)[:, None]
-        a, b = qh[1::2], qh[2::2]
-        W_in = float(0.5 * T * np.sum(k * omega * (fh[1::2] * b - fh[2::2] * a)))
-        E_in = float(0.5 * T * np.sum(np.abs(k * omega * (fh[1::2] * b - fh[2::2] * a))))
-        ka, kb = k * omega * a, k * omega * b  # (n_h, n): velocity coefficients (sin, cos parts)
-        Cd = C if sp.issparse(C) else np.asarray(C)
-        D_C = float(0.5 * T * (np.sum(ka * (Cd @ ka.T).T) + np.sum(kb * (Cd @ kb.T).T)))
-        uj = [ue[:-1, col[e.dof]] if e.relative_to is None else sign[j] * e.local(ue[:-1], col)
-              for j, e in enumerate(els)]  # sign * w^T u: the element's velocity along +-e_dof
-        Wj = np.array([h * float(np.sum(sign[j] * lam[:-1, j] * uj[j])) for j, e in enumerate(els)])
-        Ej = np.array([h * float(np.sum(np.abs(lam[:-1, j] * uj[j]))) for j, e in enumerate(els)])
+        if sp.issparse(C):
+            kw = np.arange(1, n_h + 1)[:, None] * omega
+            a, b = qh[1::2], qh[2::2]
+            pw = kw * (fh[1::2] * b - fh[2::2] * a)  # (n_h, n): power of the forcing per harmonic and DOF
+            W_in = float(0.5 * T * pw.sum())
+            E_in = float(0.5 * T * np.abs(pw).sum())
+            kab = np.concatenate([kw * a, kw * b])  # (2 n_h, n): velocity coefficients (sin, cos parts)
+            D_C = float(0.5 * T * (kab * (C @ kab.T).T).sum())
+        else:  # the same sums in one compiled pass
+            pwr = np.empty(3)
+            _harmonic_power(np.ascontiguousarray(qh, dtype=float), fh, np.ascontiguousarray(C, dtype=float), omega,
+                            pwr)
+            W_in, E_in, D_C = (float(0.5 * T * v) for v in pwr)
+        # AFT quadrature of the element work: h sum_k sign lambda u_j, u_j = sign w^T u the element's
+        # velocity along +-e_dof (_element_terms)
+        Wj = h * terms[:, _WORK]
+        Ej = h * terms[:, _WORK_ABS]
         bound_rel, gate, note = ENERGY_TOL, True, "HBM: Parseval and AFT quadrature"
-        step_work = h * float(np.max(np.abs(lam), initial=0.0)) * float(np.max(np.abs(ue), initial=0.0))
+        step_work = h * float(terms[:, _LAM_ABS].max(initial=0.0)) * ue_max
     else:
         # integrated DOFs (and the Fourier DOFs coupled to them by C or K) by the scheme's discrete work on
         # the grid; the block of the other Fourier DOFs by Parseval (exact, and cheap for large L)
@@ -529,7 +739,7 @@ def _energy(problem, sol, system, omega, h, N, is_hbm, stepper, els, col, qe, ue
         gate = abs(theta - 0.5) < 1e-12 and not event
         if not gate and not event:
             note += f"; theta = {theta:g} dissipates numerically: not gating"
-        umax = float(np.max(np.abs(ue), initial=0.0))
+        umax = ue_max
         step_work = float(np.max(np.abs(P), initial=0.0)) * umax if P.size else 0.0
     # energy scale: the magnitudes of the terms, at least F D (the work of the force scale along the
     # displacement scale; without it a balance of terms that all vanish would compare rounding to rounding)
@@ -565,14 +775,9 @@ def _energy(problem, sol, system, omega, h, N, is_hbm, stepper, els, col, qe, ue
                                  note="work of the contact forces (0 for elastic impacts, <= 0 otherwise)"))
 
 
-def _resonance(problem, sol, system, omega, h, is_hbm, els, lam, cert):
-    acting = []
-    for j, e in enumerate(els):  # a bounded (friction) law acts whenever its bound is positive
-        if e.bounded:
-            acting.append(e.acts)
-        else:
-            acting.append(bool(np.any(np.abs(lam[:, j]) > 0)))
-    if any(acting):
+def _resonance(problem, sol, system, omega, h, is_hbm, els, lam, cert, terms):
+    # a bounded (friction) law acts whenever its bound is positive, another one where lambda != 0
+    if any(e.acts if e.bounded else bool(terms[j, _ACTS]) for j, e in enumerate(els)):
         return
     n = system.n
     if n > MAX_EIG_DOFS:

@@ -12,9 +12,10 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from ._lapack import lu_solve_batch
 from .fourier import real_block, to_complex
 
-__all__ = ["dynamic_stiffness", "dynamic_stiffness_stack", "Condensation", "SingularHarmonicError", "Banded",
+__all__ = ["dynamic_stiffness", "dynamic_stiffness_stack", "permuted_blocks", "Condensation", "SingularHarmonicError", "Banded",
            "solve_dynamic"]
 
 #: banded LAPACK (``gbtrf``) instead of SuperLU for sparse ``H`` whose bandwidth ``kl + ku`` is at most this
@@ -38,9 +39,29 @@ def dynamic_stiffness(M, C, K, k_omega):
 
 def dynamic_stiffness_stack(M, C, K, omegas):
     """``H(w) = K - w^2 M + i w C`` for every ``w`` in ``omegas`` at once (dense ``M, C, K``), shape
-    ``(len(omegas), n, m)``."""
+    ``(len(omegas), n, m)``: real part ``K - w^2 M``, imaginary part ``w C``."""
     w = np.asarray(omegas, dtype=float)[:, None, None]
-    return np.asarray(K)[None] - w ** 2 * np.asarray(M)[None] + 1j * w * np.asarray(C)[None]
+    K, M, C = np.asarray(K), np.asarray(M), np.asarray(C)
+    H = np.empty((w.shape[0],) + K.shape, dtype=complex)  # M, C, K of one shape
+    np.subtract(K, w * w * M, out=H.real)  # w ** 2 is w * w
+    np.multiply(w, C, out=H.imag)
+    return H
+
+
+def permuted_blocks(system, idx):
+    """Dense ``M, C, K`` of ``system`` restricted to the rows and columns ``idx`` (in that order), each
+    ``(len(idx), len(idx))``, read-only; cached on the system (:meth:`mshbm.System.derived`)."""
+    idx = np.asarray(idx, dtype=np.int64)
+
+    def compute():
+        out = []
+        for A in (system.M, system.C, system.K):
+            B = A.tocsr()[idx][:, idx].toarray() if sp.issparse(A) else np.asarray(A, dtype=float)[np.ix_(idx, idx)]
+            B.flags.writeable = False
+            out.append(B)
+        return tuple(out)
+
+    return system.derived(("permuted_blocks", idx.tobytes()), ("M", "C", "K"), compute)
 
 
 class Banded:
@@ -153,6 +174,10 @@ class Condensation:
         ``H_RE H_EE^-1 H_ER``.
     g : complex ndarray, shape (n_h+1, n_R)
         ``H_RE H_EE^-1 F_E``.
+    F : complex ndarray, shape (n_h+1, n)
+        Complex forcing harmonics of all DOFs.
+    H_RR : complex ndarray, shape (n_h+1, n_R, n_R), or None
+        The kept block of the dynamic stiffness (dense path only; ``None`` otherwise).
     rcond : ndarray, shape (n_h+1,)
         Reciprocal condition estimate of each ``H_EE,k`` (1 for an empty E).
     name : str
@@ -163,7 +188,8 @@ class Condensation:
         self.keep = np.asarray(keep, dtype=np.int64)
         self.elim = np.asarray(eliminate, dtype=np.int64)
         nR, nE = self.keep.size, self.elim.size
-        F = to_complex(system.forcing_hat(n_h))
+        F = self.F = to_complex(system.forcing_hat(n_h))
+        self.H_RR = None
         self.z = np.zeros((n_h + 1, nE), dtype=complex)
         self.Z = np.zeros((n_h + 1, nE, nR), dtype=complex)
         self.T = np.zeros((n_h + 1, nR, nR), dtype=complex)
@@ -173,7 +199,7 @@ class Condensation:
             return
         M, C, K = system.M, system.C, system.K
         if not (sp.issparse(M) and nE > 400):
-            self._dense(M, C, K, F, omega, n_h, rcond_min, name)
+            self._dense(system, F, omega, n_h, rcond_min, name)
             return
         blocks = {}
         for mat, A in (("M", M), ("C", C), ("K", K)):
@@ -217,41 +243,33 @@ class Condensation:
             self.T[k] = H_RE @ self.Z[k]
             self.g[k] = H_RE @ self.z[k]
 
-    def _dense(self, M, C, K, F, omega, n_h, rcond_min, name):
+    def _dense(self, system, F, omega, n_h, rcond_min, name):
         """The dense path (``n_E <= 400`` or dense matrices): the blocks of all harmonics at once,
-        one LAPACK LU per harmonic."""
+        one LAPACK LU per harmonic.
+
+        Sets ``H_RR`` (complex, ``(n_h + 1, n_R, n_R)``) too: the kept block of the same dynamic
+        stiffness, which the harmonic-balance methods need next to ``T``."""
         e, r = self.elim, self.keep
-        dense = lambda A: A.toarray() if sp.issparse(A) else np.asarray(A, dtype=float)
-        if sp.issparse(M):  # small sparse model: only the rows needed
-            M, C, K = (A.tocsr() for A in (M, C, K))
-            idx = np.concatenate([e, r])
-            M, C, K = (dense(A[idx][:, idx]) for A in (M, C, K))
-            e, r = np.arange(e.size), np.arange(e.size, idx.size)
-        else:
-            M, C, K = dense(M), dense(C), dense(K)
-        w = omega * np.arange(n_h + 1)
-
-        def H(a, b):  # H_ab,k for all k, shape (n_h + 1, |a|, |b|)
-            ab = np.ix_(a, b)
-            return dynamic_stiffness_stack(M[ab], C[ab], K[ab], w)
-
-        H_EE, H_ER, H_RE = H(e, e), H(e, r), H(r, e)
         nE, nR = e.size, r.size
+        idx = np.concatenate([e, r])  # [E, R]: every block below is a slice of one (n_h + 1, n', n') stack
+        M, C, K = permuted_blocks(system, idx)
+        w = omega * np.arange(n_h + 1)
+        H = dynamic_stiffness_stack(M, C, K, w)
+        H_EE, H_RE = H[:, :nE, :nE], H[:, nE:, :nE]
+        self.H_RR = H[:, nE:, nE:]
         rhs = np.empty((n_h + 1, nE, nR + 1), dtype=complex)
-        rhs[:, :, 0] = F[:, self.elim]
-        rhs[:, :, 1:] = H_ER
-        getrf, getrs = sla.get_lapack_funcs(("getrf", "getrs"), (H_EE[0],))
+        rhs[:, :, 0] = F[:, e]
+        rhs[:, :, 1:] = H[:, :nE, nE:]
+        # LAPACK's zgetrf/zgetrs for all harmonics in one compiled call (mshbm._lapack: the same routines
+        # as scipy.linalg.lapack, without the wrappers' per-call cost), with the pivot ratios
         sol = np.empty_like(rhs)
-        for k in range(n_h + 1):
-            # LAPACK directly: the scipy wrappers' checks cost more than the LU of a small H_EE
-            lu, piv, info = getrf(H_EE[k])
-            d = np.abs(np.diag(lu))
-            self.rcond[k] = d.min() / d.max() if info == 0 and d.max() > 0 else 0.0
-            if self.rcond[k] < rcond_min:
-                raise SingularHarmonicError(
-                    f"{name} is singular at harmonic k={k} (k*omega={w[k]:.6g}, rcond~{self.rcond[k]:.1e})")
-            sol[k], info = getrs(lu, piv, rhs[k])
-        if not np.all(np.isfinite(sol)):
+        lu_solve_batch(np.ascontiguousarray(H_EE), rhs, sol, self.rcond)  # an exactly zero pivot: rcond 0
+        bad = np.flatnonzero(self.rcond < rcond_min)
+        if bad.size:
+            k = int(bad[0])
+            raise SingularHarmonicError(
+                f"{name} is singular at harmonic k={k} (k*omega={w[k]:.6g}, rcond~{self.rcond[k]:.1e})")
+        if not np.isfinite(sol).all():
             k = int(np.argmax(~np.isfinite(sol).all(axis=(1, 2))))
             raise SingularHarmonicError(
                 f"{name} is singular at harmonic k={k} (k*omega={w[k]:.6g}, rcond~{self.rcond[k]:.1e})")
@@ -300,7 +318,11 @@ class Condensation:
         a, b = Zs.shape[1], Zs.shape[2]
         out = np.zeros(((2 * n_h + 1) * a, (2 * n_h + 1) * b))
         out[:a, :b] = Zs[0].real
-        for k in range(1, n_h + 1):
-            r, c = (2 * k - 1) * a, (2 * k - 1) * b
-            out[r:r + 2 * a, c:c + 2 * b] = real_block(Zs[k], k)
+        if n_h:
+            # harmonic k >= 1: [[A, B], [-B, A]] with Zs[k] = A + iB (fourier.real_block), all k at once
+            A, B = Zs[1:].real, Zs[1:].imag
+            blk = np.empty((n_h, 2, a, 2, b))
+            blk[:, 0, :, 0], blk[:, 0, :, 1], blk[:, 1, :, 0], blk[:, 1, :, 1] = A, B, -B, A
+            kk = np.arange(n_h)
+            out[a:, b:].reshape(n_h, 2 * a, n_h, 2 * b)[kk, :, kk, :] = blk.reshape(n_h, 2 * a, 2 * b)
         return out

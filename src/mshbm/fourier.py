@@ -24,7 +24,7 @@ import numpy as np
 
 __all__ = [
     "n_coeffs", "basis", "fft", "ifft", "derivative", "to_complex", "from_complex",
-    "dft_matrix", "idft_matrix", "real_block",
+    "dft_matrix", "idft_matrix", "idft_derivative_matrix", "real_block",
 ]
 
 
@@ -130,6 +130,38 @@ def idft_matrix(N, n_h):
     return _idft(N, n_h)
 
 
+def idft_derivative_matrix(N, n_h, omega):
+    """``Vs Om``: samples of the time derivative, ``ifft(derivative(x_hat, omega), N) = (Vs Om) @ x_hat``,
+    shape ``(N, 2 n_h + 1)``.  Each column of ``Om`` has one entry ``+-k omega``, so the product is the
+    column-swapped ``Vs`` (cached like :func:`idft_matrix`) times those entries: the same numbers."""
+    return _swapped(N, n_h) * (_signed_k(int(n_h)) * float(omega))  # the entries +-(k omega) of Om
+
+
+@functools.lru_cache(maxsize=32)
+def _signed_k(n_h):
+    """``[0, -1, 1, -2, 2, ..., -n_h, n_h]`` (read-only): the entries of ``Om`` per column, per unit omega."""
+    s = np.zeros(2 * n_h + 1)
+    s[2::2] = np.arange(1, n_h + 1)
+    s[1::2] = -s[2::2]
+    s.flags.writeable = False
+    return s
+
+
+def _swapped_columns(N, n_h):
+    V = idft_matrix(N, n_h)
+    P = np.zeros(V.shape)
+    P[:, 2::2] = V[:, 1::2]
+    P[:, 1::2] = V[:, 2::2]
+    P.flags.writeable = False
+    return P
+
+
+def _swapped(N, n_h):
+    if N * (2 * n_h + 1) <= _CACHE_MAX:
+        return _swapped_cached(int(N), int(n_h))
+    return _swapped_columns(N, n_h)
+
+
 _CACHE_MAX = 1 << 20  # entries (8 MiB) per cached matrix
 
 
@@ -149,6 +181,7 @@ def _idft(N, n_h):
 
 _dft_cached = functools.lru_cache(maxsize=32)(_dft)
 _idft_cached = functools.lru_cache(maxsize=32)(_idft)
+_swapped_cached = functools.lru_cache(maxsize=32)(_swapped_columns)
 
 
 def real_block(Zk, k):

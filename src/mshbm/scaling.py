@@ -35,14 +35,32 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["force_scale", "stiffness_scale", "displacement_floor", "velocity_scale", "residual_norm"]
+__all__ = ["diagonals", "force_scale", "stiffness_scale", "displacement_floor", "velocity_scale", "residual_norm"]
 
 
 def _diag(A):
     return np.asarray(A.diagonal() if sp.issparse(A) else np.diag(np.asarray(A)), dtype=float)
 
 
+def diagonals(system):
+    """Diagonals ``(K_ii, M_ii, C_ii)`` of the system's matrices, each shape (n,), read-only (cached on
+    the system)."""
+    def compute():
+        out = tuple(_diag(getattr(system, a)).copy() for a in "KMC")
+        for d in out:
+            d.flags.writeable = False
+        return out
+
+    return system.derived("diagonals", ("K", "M", "C"), compute)
+
+
 def force_scale(system, penalty=False):
+    """Force scale ``F`` (N) of ``system`` (see :func:`_force_scale`; cached on the system)."""
+    return system.derived(f"force_scale_{bool(penalty)}", ("f_hat", "K", "elements"),
+                          lambda: _force_scale(system, penalty))
+
+
+def _force_scale(system, penalty=False):
     """Force scale ``F`` (N) of ``system``.
 
     ``F`` is the largest peak forcing of a DOF, ``max_i (|f0_i| + sum_k |f_k,i|)``.  Only
@@ -64,7 +82,7 @@ def force_scale(system, penalty=False):
     F = float(np.max(peak, initial=0.0))
     if F > 0.0:
         return F
-    Kd = np.abs(_diag(system.K))
+    Kd = np.abs(diagonals(system)[0])
     for el in system.elements:
         F = max(F, el.force_scale(Kd, penalty))
     return F if F > 0.0 else 1e-300
@@ -72,7 +90,8 @@ def force_scale(system, penalty=False):
 
 def stiffness_scale(system, omega):
     """``k_0 = max_i (|K_ii| + omega^2 M_ii + omega |C_ii|)`` (N/m), > 0 since ``M`` is definite."""
-    return float(np.max(np.abs(_diag(system.K)) + omega ** 2 * _diag(system.M) + omega * np.abs(_diag(system.C))))
+    Kd, Md, Cd = diagonals(system)
+    return float((np.abs(Kd) + omega ** 2 * Md + omega * np.abs(Cd)).max())
 
 
 def displacement_floor(system, omega, F=None, penalty=False):

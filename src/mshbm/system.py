@@ -113,6 +113,13 @@ class System:
         Local nonlinear elements (Friction, Contact).
     name : str
         Label used in outputs.
+
+    Notes
+    -----
+    The system keeps its own copies of dense ``M, C, K`` and of ``f_hat``, read-only: quantities
+    derived from them (diagonals, scales, validation verdicts, dense blocks) are cached per system
+    (:meth:`derived`) and stay valid.  To change a matrix, build a new System (or assign a new array
+    to the attribute: the cache checks the objects' identity).
     """
 
     def __init__(self, M, C, K, f_hat, elements=(), name="system"):
@@ -133,6 +140,9 @@ class System:
         if not np.all(np.isfinite(f_hat)):
             raise InputError("forcing", "contains NaN or inf")
         self.f_hat = f_hat
+        for A in (self.M, self.C, self.K, self.f_hat):  # own copies: read-only, so derived values stay valid
+            if isinstance(A, np.ndarray):
+                A.flags.writeable = False
         self.elements = tuple(elements)
         seen = set()
         for i, el in enumerate(self.elements):
@@ -180,6 +190,30 @@ class System:
         """Sorted DOFs carrying nonlinear elements (the default subsystem N)."""
         return np.array(sorted({d for el in self.elements for d in el.dofs}), dtype=np.int64)
 
+    def derived(self, name, deps, compute):
+        """``compute()``, cached on this system while the attributes ``deps`` (names, e.g. ``("K",)``)
+        are the same objects and immutable: read-only arrays (``M, C, K, f_hat`` of a System are made
+        read-only at construction) and the element tuple.  A dependency that is sparse or writeable
+        (e.g. ``f_hat`` replaced by a writeable array on a copy) is not cached: ``compute()`` runs every
+        time.  The value is shared between calls: callers must not modify it."""
+        cache = self.__dict__.get("_derived")
+        if cache is None or cache[None] != id(self):  # none yet, or the dict of the system copied from
+            cache = self.__dict__["_derived"] = {None: id(self)}  # (entries are checked by their deps anyway)
+        hit = cache.get(name)
+        if hit is not None:
+            for d, o in zip(deps, hit[0]):
+                if getattr(self, d) is not o or not _immutable(o):
+                    break
+            else:
+                return hit[1]
+        objs = tuple(getattr(self, d) for d in deps)
+        for o in objs:
+            if not _immutable(o):
+                return compute()
+        value = compute()
+        cache[name] = (objs, value)
+        return value
+
     def dense(self, name):
         A = getattr(self, name)
         return A.toarray() if sp.issparse(A) else np.asarray(A)
@@ -216,6 +250,12 @@ class System:
         els = ", ".join(f"{e.kind}@{e.dof}" + ("" if e.relative_to is None else f"-{e.relative_to}")
                         for e in self.elements) or "linear"
         return f"System({self.name!r}, n={self.n}, {els}, sparse={self.is_sparse})"
+
+
+def _immutable(obj):
+    if isinstance(obj, np.ndarray):
+        return not obj.flags.writeable
+    return isinstance(obj, tuple)
 
 
 def _per_spring(key, value, n, *, positive):

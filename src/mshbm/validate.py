@@ -61,6 +61,16 @@ def forcing_harmonics(f_hat):
     return top
 
 
+def _forcing_top(system):
+    """:func:`forcing_harmonics` of ``system.f_hat`` (cached on the system, read-only)."""
+    def compute():
+        top = forcing_harmonics(system.f_hat)
+        top.flags.writeable = False
+        return top
+
+    return system.derived("forcing_harmonics", ("f_hat",), compute)
+
+
 def check_forcing(system, method, n_h, steps, time_dofs):
     """Raise when a forcing harmonic cannot be represented (see the module docstring).
 
@@ -69,7 +79,7 @@ def check_forcing(system, method, n_h, steps, time_dofs):
     time_dofs : array of int
         DOFs integrated in time (all DOFs for shooting, none for HBM).
     """
-    top = forcing_harmonics(system.f_hat)
+    top = _forcing_top(system)
     if not top.any():
         return
     timed = np.zeros(system.n, dtype=bool)
@@ -183,9 +193,9 @@ def _guess_array(key, value, shape_text, ok):
 def check_guess_values(key, arr):
     """NaN/inf and absurd sizes (``> GUESS_LIMIT``) are input errors."""
     arr = np.asarray(arr, dtype=float)
-    if not np.all(np.isfinite(arr)):
+    if not np.isfinite(arr).all():
         raise InputError(key, "contains NaN or inf")
-    big = float(np.max(np.abs(arr), initial=0.0))
+    big = float(np.abs(arr).max(initial=0.0))
     if big > GUESS_LIMIT:
         raise InputError(key, f"has entries of size {big:.3g}, beyond {GUESS_LIMIT:.0e} (their squares "
                               "overflow): give a guess of the size of the expected response")
@@ -259,7 +269,7 @@ def check_free_free(system):
     """Raise ``InputError("K")`` for a free-free structure not held by a contact element."""
     if any(e.unilateral for e in system.elements):
         return
-    if not k_is_singular(system.K):
+    if not system.derived("k_is_singular", ("K",), lambda: k_is_singular(system.K)):
         return
     held = "friction does not hold a position" if system.elements else "no element holds it"
     raise InputError("K", f"is singular: the structure is free-free (a rigid-body mode without a spring to "
@@ -269,16 +279,18 @@ def check_free_free(system):
 
 def check_float_range(system, omega, n_h, steps, method):
     """Raise when a term of the problem leaves the float range (see the module docstring)."""
-    mM, mC, mK = (_max_abs(getattr(system, a)) for a in "MCK")
+    mM, mC, mK, mf, el_terms = system.derived(
+        "magnitudes", ("M", "C", "K", "f_hat", "elements"),
+        lambda: tuple(_max_abs(getattr(system, a)) for a in ("M", "C", "K", "f_hat"))
+        + (tuple(t for e in system.elements for t in e.magnitude_terms()),))
     w = n_h * omega
     terms = [("K", "max |K|", mK), ("omega", f"({n_h} omega)^2 max |M|", w * w * mM),
              ("omega", f"{n_h} omega max |C|", w * mC)]
     if method not in ("hbm", "dlft"):
         h = 2 * math.pi / omega / steps
         terms += [("steps", "max |M| / h^2 (h = T/steps)", mM / (h * h)), ("steps", "max |C| / h", mC / h)]
-    terms += [("forcing", "max |f|", float(np.max(np.abs(system.f_hat), initial=0.0)))]
-    for e in system.elements:
-        terms += e.magnitude_terms()
+    terms += [("forcing", "max |f|", mf)]
+    terms += el_terms
     for key, what, val in terms:
         if not math.isfinite(val) or val > FLOAT_LIMIT:
             raise InputError(key, f"{what} = {val:.3g} leaves the float range (limit {FLOAT_LIMIT:.0e}): the "

@@ -54,3 +54,24 @@ def test_kernel_path_equals_generic_path():
     prob._fast = fast
     np.testing.assert_allclose(R1, R2, rtol=0, atol=1e-11 * np.abs(R2).max())
     np.testing.assert_allclose(J1, J2, rtol=0, atol=1e-11 * np.abs(J2).max())
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_element_forces_match_the_element_laws(seed):
+    """hbm_kernels.element_forces (HBMProblem.solution_parts) equals regularised_forces' lambda."""
+    from mshbm.api import build_problem
+    from mshbm.elements import regularised_forces
+
+    rng = np.random.default_rng(seed)
+    els = [Friction(dof=0, mu=0.4, normal_force=2.0, smoothing=30.0), Contact(dof=2, gap=0.05, penalty_stiffness=500.0,
+                                                                           penalty_damping=0.7)]
+    s = chain([1.0, 2.0, 1.0], [1.0, 1.0, 1.0], 0.05, forcing=[{"dof": 2, "amplitude": 1.0}], elements=els)
+    prob, _ = build_problem(s, 0.9, "hbm", harmonics=4, steps=128)
+    assert prob._fast is not None
+    x = rng.normal(scale=0.2, size=prob.n_unknowns)
+    q, u = prob._time(x)
+    lam_ref = regularised_forces(s.elements, prob._ldof, q, u, coupling=True)[0]
+    assert np.any(lam_ref[:, 1] > 0) and np.any(lam_ref[:, 1] == 0)  # the contact opens and closes
+    lam = prob._element_forces(q, u)
+    np.testing.assert_allclose(lam, lam_ref, rtol=1e-14, atol=1e-300)
+    np.testing.assert_array_equal(lam[:, 1], lam_ref[:, 1])  # contact: the same arithmetic

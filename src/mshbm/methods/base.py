@@ -65,6 +65,7 @@ has them)
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -217,7 +218,7 @@ class HarmonicProblem(PeriodicProblem):
         """The linear part both methods share: kept DOFs ``keep`` (the element DOFs or ``partition``; all
         DOFs without ``condense``), the exact condensation ``cond`` of the others (``elim``), the
         block-diagonal ``A = H_RR - T`` per harmonic (dense when condensed, else sparse), the right-hand
-        side ``r``, the AFT matrices ``E``, ``Vs`` and the derivative ``Om``.  Returns the complex
+        side ``r``, the AFT matrices ``E``, ``Vs`` and ``VsOm = Vs Om`` (velocity samples).  Returns the complex
         condensed blocks ``H_RR,k - T_k``, shape ``(n_h + 1, n_R, n_R)`` (``None`` without ``condense``)."""
         self.system, self.omega = system, float(omega)
         self.n_h, self.Ns = int(harmonics), int(steps)
@@ -225,35 +226,45 @@ class HarmonicProblem(PeriodicProblem):
         N_dofs = system.nonlinear_dofs if partition is None else np.asarray(partition, dtype=np.int64)
         self.condense = bool(condense)
         self.keep = np.asarray(N_dofs, dtype=np.int64) if self.condense else np.arange(n)
-        self.elim = np.setdiff1d(np.arange(n), self.keep)
+        mask = np.ones(n, dtype=bool)
+        mask[self.keep] = False
+        self.elim = np.flatnonzero(mask)
         self.cond = Condensation(system, omega, self.n_h, self.keep, self.elim)
         nR = self.nR = self.keep.size
         keep = self.keep
-        sub = lambda A: A.tocsr()[keep][:, keep] if sp.issparse(A) else np.asarray(A)[np.ix_(keep, keep)]
-        MRR, CRR, KRR = sub(system.M), sub(system.C), sub(system.K)
         Hs = None
-        if self.condense:  # dense: n_R is the (small) nonlinear subsystem
-            dense = lambda A: A.toarray() if sp.issparse(A) else A
-            Hs = condensation.dynamic_stiffness_stack(dense(MRR), dense(CRR), dense(KRR),
-                                                      omega * np.arange(self.n_h + 1)) - self.cond.T
+        if self.condense and self.cond.H_RR is not None:  # the kept block of the condensation's stack
+            Hs = self.cond.H_RR - self.cond.T
             self.A = self.cond.real_matrix(Hs)
         else:
-            blocks = []
-            for k in range(self.n_h + 1):
-                Hk = sp.csr_matrix(condensation.dynamic_stiffness(MRR, CRR, KRR, k * omega))
-                A, Bm = Hk.real, Hk.imag
-                blocks.append(A if k == 0 else sp.bmat([[A, Bm], [-Bm, A]]))
-            self.A = sp.block_diag(blocks, format="csr")
-        F = fourier.to_complex(system.forcing_hat(self.n_h))
-        self.r = fourier.from_complex(F[:, keep] - self.cond.g).reshape(-1)
+            sub = lambda A: A.tocsr()[keep][:, keep] if sp.issparse(A) else np.asarray(A)[np.ix_(keep, keep)]
+            MRR, CRR, KRR = sub(system.M), sub(system.C), sub(system.K)
+            if self.condense:  # dense: n_R is the (small) nonlinear subsystem
+                dense = lambda A: A.toarray() if sp.issparse(A) else A
+                Hs = condensation.dynamic_stiffness_stack(dense(MRR), dense(CRR), dense(KRR),
+                                                          omega * np.arange(self.n_h + 1)) - self.cond.T
+                self.A = self.cond.real_matrix(Hs)
+            else:
+                blocks = []
+                for k in range(self.n_h + 1):
+                    Hk = sp.csr_matrix(condensation.dynamic_stiffness(MRR, CRR, KRR, k * omega))
+                    A, Bm = Hk.real, Hk.imag
+                    blocks.append(A if k == 0 else sp.bmat([[A, Bm], [-Bm, A]]))
+                self.A = sp.block_diag(blocks, format="csr")
+        self.r = fourier.from_complex(self.cond.F[:, keep] - self.cond.g).reshape(-1)
         self.E = fourier.dft_matrix(self.Ns, self.n_h)
         self.Vs = fourier.idft_matrix(self.Ns, self.n_h)
-        self.Om = fourier.derivative(np.eye(2 * self.n_h + 1), self.omega)
+        self.VsOm = fourier.idft_derivative_matrix(self.Ns, self.n_h, self.omega)
         return Hs
 
     @property
     def n_unknowns(self):
         return (2 * self.n_h + 1) * self.nR
+
+    @functools.cached_property
+    def Om(self):
+        """Derivative matrix ``Omega`` (``nc x nc``) of :func:`mshbm.fourier.derivative` at ``omega``."""
+        return fourier.derivative(np.eye(2 * self.n_h + 1), self.omega)
 
     @property
     def steps(self):

@@ -55,6 +55,7 @@ def guess_parts(guess, system, omega, n_h):
     from ..result import PeriodicSolution
 
     n = system.n
+    checked = False  # q_hat already validated (the loop below then checks only q0, u0)
     if guess is None or (isinstance(guess, str) and guess == "linear"):
         q_hat = linear_response(system, omega, n_h)
         q0, u0 = None, None
@@ -64,19 +65,22 @@ def guess_parts(guess, system, omega, n_h):
         if guess.n != n:
             raise InputError("guess", f"solution has {guess.n} DOFs, system has {n}")
         check_guess_values("guess", guess.q_hat)
-        q_hat = pad_hat(guess.q_hat, n_h)
+        q_hat = pad_hat(guess.q_hat, n_h)  # truncated or zero-padded: the check above covers it
+        checked = True
         q0, u0 = guess.q[0].copy(), guess.u[0].copy()
     elif isinstance(guess, dict):
         guess = check_guess(guess, n)
         q_hat, q0, u0 = pad_hat(guess["q_hat"], n_h), guess["q0"], guess["u0"]
+        checked = True
     else:
         raise InputError("guess", "must be None, 'linear', 'zero', a PeriodicSolution or a dict, got "
                                   f"{guess!r:.40}")
     if q0 is None:
         q0 = q_hat[0] + q_hat[1::2].sum(axis=0)  # V(0)^T q_hat
-    if u0 is None:
-        u0 = fourier.derivative(q_hat, omega)[1::2].sum(axis=0)
+    if u0 is None:  # fourier.derivative(q_hat, omega)[1::2].sum(axis=0): the cosine rows k omega xs_k
+        k = (np.arange(1, (q_hat.shape[0] - 1) // 2 + 1) * omega)[:, None]
+        u0 = (k * q_hat[2::2]).sum(axis=0)
     if guess is not None and not isinstance(guess, str):
-        for key, a in (("guess.q_hat", q_hat), ("guess.q0", q0), ("guess.u0", u0)):
+        for key, a in (("guess.q_hat", q_hat), ("guess.q0", q0), ("guess.u0", u0))[int(checked):]:
             check_guess_values(key, a)
     return q_hat, q0, u0

@@ -118,16 +118,18 @@ class HBMProblem(HarmonicProblem):
         self.local_dof = [pos[el.dof] if el.relative_to is None else tuple(pos[d] for d in el.dofs)
                           for el in system.elements]
         self.nl_cols = np.array(sorted({pos[d] for el in system.elements for d in el.dofs}), dtype=np.int64)
-        self.VsOm = np.ascontiguousarray(self.Vs @ self.Om)
         self._fast = _fast_laws(system.elements, self.nl_cols, pos)
 
     def residual_scale(self, x=None):
         """Per-row scale of the residual, shape ``(n_x,)``: the force scale ``F`` (N) on every row."""
         from ..scaling import force_scale
 
-        if "_F" not in self.__dict__:
+        s = self.__dict__.get("_scale")
+        if s is None:  # independent of x: one read-only array for all iterates
             self._F = force_scale(self.system, penalty=True)
-        return np.full(self.n_unknowns, self._F)
+            s = self._scale = np.full(self.n_unknowns, self._F)
+            s.flags.writeable = False
+        return s
 
     def homotopy(self, factors=(1e-3, 1e-2, 3e-2, 0.1, 0.3)):
         """Problems with softened laws (``kappa`` and ``k_c, d_c`` times each factor), ending with ``self``.
@@ -153,13 +155,22 @@ class HBMProblem(HarmonicProblem):
         nc, nR = 2 * self.n_h + 1, self.nR
         if self._fast is not None:  # one compiled pass (mshbm.methods.hbm_kernels)
             nN = self.nl_cols.size
-            Xn = np.ascontiguousarray(x.reshape(nc, nR)[:, self.nl_cols])
+            every = nN == nR  # every kept DOF carries an element (the default condensation): no gather
+            X = x.reshape(nc, nR)
+            Xn = np.ascontiguousarray(X if every else X[:, self.nl_cols])
             Fn = np.empty((nc, nN))
             Jn = np.empty((nc, nN, nc, nN)) if jac else _NO_JAC
             hbm_kernels.aft_forces(Xn, self.Vs, self.VsOm, self.E, *self._fast, jac, Fn, Jn)
             R = self.A @ x - self.r
-            R.reshape(nc, nR)[:, self.nl_cols] -= Fn
-            return (R, self._jacobian(Jn)) if jac else (R, None)
+            if every:
+                R -= Fn.reshape(-1)
+            else:
+                R.reshape(nc, nR)[:, self.nl_cols] -= Fn
+            if not jac:
+                return R, None
+            if every and self.condense:  # A - Jn
+                return R, self.A - Jn.reshape(nc * nN, nc * nN)
+            return R, self._jacobian(Jn)
         q, u = self._time(x)
         _, f, dfdq, dfdu, offdiag = regularised_forces(self.system.elements, self._ldof, q, u, coupling=True,
                                                        basis=self.Vs)
@@ -418,6 +429,16 @@ class HBMProblem(HarmonicProblem):
         cache[key] = replace(out, history=list(out.history), info=dict(out.info))
         return out
 
+    def _element_forces(self, q, u):
+        """Element forces ``lambda_j`` (N_s, m) at the samples ``q, u`` (N_s, n_N) of the nonlinear DOFs:
+        the regularised laws (:func:`mshbm.elements.regularised_forces`; for the laws of the compiled
+        kernel, :func:`_fast_laws`, the same formulas compiled: :func:`hbm_kernels.element_forces`)."""
+        if self._fast is None:
+            return regularised_forces(self.system.elements, self._ldof, q, u, coupling=True)[0]
+        lam = np.empty((q.shape[0], self._fast[0].size))
+        hbm_kernels.element_forces(q, u, *self._fast, lam)
+        return lam
+
     def full_coefficients(self, x):
         """``q_hat`` of all DOFs, shape (2 n_h + 1, n)."""
         X = x.reshape(2 * self.n_h + 1, self.nR)
@@ -430,15 +451,19 @@ class HBMProblem(HarmonicProblem):
     def solution_parts(self, x):
         q_hat = self.full_coefficients(x)
         T = 2 * np.pi / self.omega
-        t = np.linspace(0.0, T, self.Ns + 1)
+        t = np.arange(self.Ns + 1) * (T / self.Ns)  # np.linspace(0, T, Ns + 1), the same numbers
+        t[-1] = T
         q, u = self._time(x)
-        lam = regularised_forces(self.system.elements, self._ldof, q, u, coupling=True)[0]
-        lam = np.vstack([lam, lam[:1]])
+        lam = np.empty((self.Ns + 1, len(self.system.elements)))
+        lam[:-1] = self._element_forces(q, u)
+        lam[-1] = lam[0]
         info = {"condensed": self.condense}  # partition, conditioning: typed fields of the solution
         contacts = self._contacts()
         if contacts:
-            # AFT resolution of each contact: samples with g_N <= 0 (a few only: increase ``steps``)
-            info["closed_samples"] = [int(n) for n in (self._gaps(x) <= 0.0).sum(axis=0)]
+            # AFT resolution of each contact: samples with g_N <= 0 (a few only: increase ``steps``);
+            # g_N = gap + w^T q on the samples q above (as :meth:`_gaps`)
+            col = {int(self.keep[c]): i for i, c in enumerate(self.nl_cols)}
+            info["closed_samples"] = [int(np.count_nonzero(el.gap + el.local(q, col) <= 0.0)) for _, el in contacts]
         return dict(t=t, q_hat=q_hat, time_dofs=np.zeros(0, dtype=np.int64),
                     q_time=np.zeros((self.Ns + 1, 0)), u_time=np.zeros((self.Ns + 1, 0)),
                     lam=lam, impulses=None, harmonics=self.n_h, info=info)

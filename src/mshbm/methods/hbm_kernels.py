@@ -43,32 +43,46 @@ def aft_forces(Xn, Vs, VsOm, E, kind, col, sign, p1, p2, p3, jac, Fn, Jn):  # pr
     f = np.zeros((Ns, nN))
     dq = np.zeros((Ns, nN))
     du = np.zeros((Ns, nN))
+    ub = np.empty(Ns)
+    qb = np.empty(Ns)
     for j in range(m):
         c = col[j]
         w = sign[j]
-        for s in range(Ns):
-            us = 0.0
+        # samples u(t_s) (and q(t_s) for contacts), summed over k in order for each s; the loop over s
+        # inside keeps the samples' sums independent (no chain of dependent additions)
+        ub[:] = 0.0
+        for k in range(nc):
+            xk = Xn[k, c]
+            for s in range(Ns):
+                ub[s] += VsOm[s, k] * xk
+        if kind[j] != 0:
+            qb[:] = 0.0
             for k in range(nc):
-                us += VsOm[s, k] * Xn[k, c]
+                xk = Xn[k, c]
+                for s in range(Ns):
+                    qb[s] += Vs[s, k] * xk
+        for s in range(Ns):
+            us = ub[s]
             if kind[j] == 0:
                 ku = p2[j] * w * us
                 f[s, c] += w * (-p1[j] * math.atan(ku))
                 du[s, c] += -p1[j] * p2[j] / (1.0 + ku * ku)
             else:
-                qs = 0.0
-                for k in range(nc):
-                    qs += Vs[s, k] * Xn[k, c]
-                g = p1[j] + w * qs
+                g = p1[j] + w * qb[s]
                 if g <= 0.0:
                     f[s, c] += w * (-(p2[j] * g + p3[j] * w * us))
                     dq[s, c] += -p2[j]
                     du[s, c] += -p3[j]
+    # Fn = E f, summed over the samples in order; samples without force (an open contact) add nothing
     for i in range(nN):
         for a in range(nc):
-            acc = 0.0
-            for s in range(Ns):
-                acc += E[a, s] * f[s, i]
-            Fn[a, i] = acc
+            Fn[a, i] = 0.0
+        for s in range(Ns):
+            fs = f[s, i]
+            if fs == 0.0:
+                continue
+            for a in range(nc):
+                Fn[a, i] += E[a, s] * fs
     if not jac:
         return
     Jn[:] = 0.0
@@ -103,6 +117,23 @@ def aft_forces(Xn, Vs, VsOm, E, kind, col, sign, p1, p2, p3, jac, Fn, Jn):  # pr
                         continue
                     for b in range(nc):
                         Jn[a, i, b, i] += ea * (cq * Vs[s, b] + cu * VsOm[s, b])
+
+
+@njit(cache=True)
+def element_forces(q, u, kind, col, sign, p1, p2, p3, lam):  # pragma: no cover - compiled
+    """Element forces ``lam[s, j] = lambda_j(t_s)`` of the laws of :func:`aft_forces` at samples ``q, u``
+    (``N_s x n_N``) of the nonlinear DOFs (the formulas of :meth:`mshbm.elements.Element.regularised_law`:
+    friction ``-p1 arctan(p2 w u)``, contact ``-(p2 g + p3 w u)`` while ``g = p1 + w q <= 0``)."""
+    for j in range(kind.shape[0]):
+        c = col[j]
+        w = sign[j]
+        for s in range(q.shape[0]):
+            gamma = w * u[s, c]
+            if kind[j] == 0:
+                lam[s, j] = -p1[j] * math.atan(p2[j] * gamma)
+            else:
+                g = p1[j] + w * q[s, c]
+                lam[s, j] = -(p2[j] * g + p3[j] * gamma) if g <= 0.0 else 0.0
 
 
 def aft_forces_numpy(Xn, Vs, VsOm, E, kind, col, sign, p1, p2, p3, jac=True):

@@ -105,6 +105,8 @@ def _blocks(M, C, K, elements):
     n = M.shape[0]
     if n < 2 or any(type(el) not in (Friction, Contact, Jenkins) for el in elements):
         return None
+    if any(getattr(el, "normal_contact", None) is not None for el in elements):
+        return None  # a friction loaded by a contact couples the two elements' DOFs: one block
     A = (np.abs(M) + np.abs(C) + np.abs(K)) > 0
     rows, cols = np.nonzero(A)
     for el in elements:

@@ -137,7 +137,7 @@ def _solve(system, omega, method, options):
     wall = time.perf_counter() - t0
     success, message = res.success, res.message
     for key in ("q_time", "u_time", "q_hat", "lam"):
-        if not np.all(np.isfinite(parts[key])):
+        if not np.isfinite(parts[key]).all():
             success, message = False, f"non-finite {key} in the solution ({message})"
     message = validate.overflow_message(success, message, res.residual_norm)
     rc = problem.conditioning()

@@ -26,12 +26,22 @@ pass such folds, which is why Newton stalls on stiff penalty contact.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
+
+from .._lapack import scaled_lu_solve
+_dgetrf, _dgecon, _dgetrs = sla.lapack.dgetrf, sla.lapack.dgecon, sla.lapack.dgetrs
+
+
+def _norm2(v):
+    """``||v||_2`` of a 1-D float array (the same sum as ``np.linalg.norm``, without its dispatch)."""
+    return math.sqrt(float(v.dot(v)))
+
 
 __all__ = ["solve_problem", "newton", "NewtonResult", "follow_pl_path", "PathResult", "scaled_norm"]
 
@@ -63,19 +73,26 @@ def _solve(J, R, s=None):
     row-scaled matrix (< 1e-15), so the choice does not depend on the units of the rows.
     """
     if s is not None:
-        s = np.broadcast_to(np.asarray(s, dtype=float), np.shape(R))
+        s = np.asarray(s, dtype=float)
+        if s.shape != np.shape(R):
+            s = np.broadcast_to(s, np.shape(R))
+        if type(J) is np.ndarray and J.dtype == np.float64 and J.ndim == 2 and R.dtype == np.float64:
+            # the steps below in one compiled call (the same LAPACK routines and numbers)
+            dx = np.empty(R.shape[0])
+            if scaled_lu_solve(J, R, np.ascontiguousarray(s), 1e-15, dx):
+                return dx
         J = (sp.diags(1.0 / s) @ J) if sp.issparse(J) else J / s[:, None]
         R = R / s
     if sp.issparse(J):
         return spla.spsolve(sp.csc_matrix(J), R)
     J = np.asarray(J, dtype=float)
-    if np.all(np.isfinite(J)):
-        lu, piv, info = sla.lapack.dgetrf(J)
+    if np.isfinite(J).all():
+        lu, piv, info = _dgetrf(J)
         if info == 0:
-            anorm = float(np.max(np.abs(J).sum(axis=0), initial=0.0))
-            rcond, _ = sla.lapack.dgecon(lu, anorm, norm="1")
+            anorm = float(np.abs(J).sum(axis=0).max(initial=0.0))
+            rcond, _ = _dgecon(lu, anorm, norm="1")
             if rcond > 1e-15:
-                dx, _ = sla.lapack.dgetrs(lu, piv, R)
+                dx, _ = _dgetrs(lu, piv, R)
                 return dx
     return np.linalg.lstsq(J, R, rcond=None)[0]
 
@@ -156,22 +173,22 @@ def _scale_function(fun, scale):
 def scaled_norm(R, s):
     """``||R / s||_inf`` (``inf`` if ``R`` is not finite)."""
     R = np.asarray(R, dtype=float)
-    if not np.all(np.isfinite(R)):
+    if not np.isfinite(R).all():
         return np.inf
-    return float(np.max(np.abs(R / s), initial=0.0))
+    return float(np.abs(R / s).max(initial=0.0))
 
 
 def _watchdog_step(fun, xt, r2, s):
     """Newton step from the provisional point ``xt``; ``(x, R, J)`` if it ends below ``r2``."""
     Rt, Jt = fun(xt)
-    if not np.all(np.isfinite(Rt)):
+    if not np.isfinite(Rt).all():
         return None
     dx = -_solve(Jt, Rt, s)
-    if not np.all(np.isfinite(dx)):
+    if not np.isfinite(dx).all():
         return None
     x2 = xt + dx
     R2, J2 = fun(x2)
-    if np.all(np.isfinite(R2)) and float(np.linalg.norm(R2 / s)) <= (1.0 - 1e-4) * r2:
+    if np.isfinite(R2).all() and _norm2(R2 / s) <= (1.0 - 1e-4) * r2:
         return x2, R2, J2
     return None
 
@@ -185,10 +202,11 @@ def _newton(fun, x, tol, max_iter, line_search, callback, scale, watchdog=None, 
     nfev += 1
     hist = []
     for it in range(max_iter + 1):
-        if not np.all(np.isfinite(R)):
+        if not np.isfinite(R).all():
             return NewtonResult(x, False, f"residual is not finite at iteration {it}", it, nfev, np.inf, hist)
         s = scale(x)
-        r = scaled_norm(R, s)
+        Rs = R / s
+        r = float(np.abs(Rs).max(initial=0.0))  # scaled_norm(R, s): R is finite here
         hist.append(r)
         if callback is not None:
             callback(it, x, r)
@@ -198,14 +216,14 @@ def _newton(fun, x, tol, max_iter, line_search, callback, scale, watchdog=None, 
         if it == max_iter:
             break
         Jd = J.data if sp.issparse(J) else J
-        if not np.all(np.isfinite(Jd)):
+        if not np.isfinite(Jd).all():
             return NewtonResult(x, False, f"Jacobian is not finite at iteration {it}", it, nfev, r, hist)
         dx = -_solve(J, R, s)
-        if not np.all(np.isfinite(dx)):
+        if not np.isfinite(dx).all():
             return NewtonResult(x, False, f"Jacobian is singular at iteration {it} (||R||_inf = {r:.2e})",
                                 it, nfev, r, hist)
         lam = 1.0
-        r2 = float(np.linalg.norm(R / s))
+        r2 = _norm2(Rs)
         best = None
         watched = None
         full = None
@@ -217,7 +235,7 @@ def _newton(fun, x, tol, max_iter, line_search, callback, scale, watchdog=None, 
             else:
                 Rt, _ = fun(xt, jac=False)
             nfev += 1
-            rt2 = float(np.linalg.norm(Rt / s)) if np.all(np.isfinite(Rt)) else np.inf
+            rt2 = _norm2(Rt / s) if np.isfinite(Rt).all() else np.inf
             if best is None or rt2 < best[0]:
                 best = (rt2, lam, xt)
             if not line_search or rt2 <= (1.0 - 1e-4 * lam) * r2 or lam < 1.0 / 1024:
