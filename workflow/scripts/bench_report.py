@@ -63,7 +63,7 @@ def plot_workprecision(wp, path):
             rows = [r for r in d["rows"] if r["method"] == method]
             ok = [r for r in rows if r["success"]]
             bad = [r for r in rows if not r["success"]]
-            ax.loglog([r["time_s"] for r in ok], [max(r["error"], 1e-12) for r in ok], mk, color=c, ms=4,
+            ax.loglog([r["time_s"] for r in ok], [max(r["error"], 1e-12) for r in ok], mk, color=c, ms=7 if mk == "*" else 4,
                       alpha=0.8, label=label)
             if bad:
                 ax.loglog([r["time_s"] for r in bad], [max(r["error"], 1e-12) for r in bad], mk, color=c,
