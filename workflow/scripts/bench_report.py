@@ -305,6 +305,7 @@ def numbers(wp, other, digest):
             num[f"mshbm_time_at_dlft_best_{name}"] = None
         conv = (d["reference"].get("convergence") or {}) if d else {}
         num[f"reference_variants_{name}"] = conv.get("max_relative_difference")
+        num[f"reference_events_{name}"] = d["reference"].get("n_events") if d else None
         # issue 14: the event-driven variants and the goal (MS-HBM (event) at 1e-6 vs shooting at 1e-3)
         g = (d["targets"].get("event_goal") or {}) if d else {}
         num[f"event_goal_ratio_{name}"] = g.get("ratio")
