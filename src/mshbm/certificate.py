@@ -373,6 +373,7 @@ def _time_discretisation(problem, sol, system, omega, stepper, D, cert):
     qh = np.asarray(sol.q_hat, dtype=float)
     if T.size == 0 or qh.shape[0] < 3:
         return
+    from .condensation import solve_dynamic
     from .fourier import to_complex
 
     X = to_complex(qh)  # (n_h + 1, n): X_k = xc_k - i xs_k
@@ -395,13 +396,12 @@ def _time_discretisation(problem, sol, system, omega, stepper, D, cert):
             continue
         rhs = np.stack([r, Fk[k]], axis=1)  # the warping error and the linear structure's own response
         try:
-            if sp.issparse(system.K):
-                H = (system.K - w ** 2 * system.M + 1j * w * system.C).tocsc()
-                from scipy.sparse.linalg import splu
-                sol_k = splu(H).solve(rhs)
-            else:
-                H = np.asarray(system.K) - w ** 2 * np.asarray(system.M) + 1j * w * np.asarray(system.C)
-                sol_k = np.linalg.solve(H, rhs)
+            # the method's own factorisations (MS-HBM: its condensation; r vanishes off T), else a solve of H_k
+            cols = [problem.linear_solve(k, rhs[T, 0], False), problem.linear_solve(k, rhs[T, 1], True)]
+            if cols[0] is not None and cols[1] is not None:
+                sol_k = np.stack(cols, axis=1)
+            else:  # dense, banded LAPACK or sparse LU
+                sol_k = solve_dynamic(system.M, system.C, system.K, w, rhs)
         except (RuntimeError, np.linalg.LinAlgError):  # an undamped resonance: undamped_resonance decides
             linear_max = np.inf
             continue
@@ -450,7 +450,9 @@ def _energy(problem, sol, system, omega, h, N, is_hbm, stepper, els, col, qe, ue
         # the grid; the block of the other Fourier DOFs by Parseval (exact, and cheap for large L)
         Cr, Kr = sp.csr_matrix(C), sp.csr_matrix(system.K)
         td = np.asarray(sol.time_dofs, dtype=np.int64)
-        Ld = np.setdiff1d(np.arange(n), td)
+        from .methods.common import complement
+
+        Ld = complement(n, td)
         cl = np.setdiff1d(Cr[td].nonzero()[1], td) if td.size else np.zeros(0, dtype=np.int64)
         kl = np.setdiff1d(Kr[td].nonzero()[1], td) if td.size else np.zeros(0, dtype=np.int64)
         dofs = np.union1d(np.union1d(td, cl), kl).astype(np.int64)
@@ -477,18 +479,19 @@ def _energy(problem, sol, system, omega, h, N, is_hbm, stepper, els, col, qe, ue
         if cl.size:
             D_C += 2.0 * h * float(np.sum(vt * (Cr[td][:, cl] @ vc.T).T))
         if Ld.size:
+            # the coefficients of the L DOFs as full-length rows, zero on td: no submatrix of size n_L
             qh = np.asarray(sol.q_hat)
             n_h = (qh.shape[0] - 1) // 2
-            fh = system.forcing_hat(n_h)[:, Ld]
+            fh = system.forcing_hat(n_h)
             k = np.arange(1, n_h + 1)[:, None]
-            a, b = qh[1::2][:, Ld], qh[2::2][:, Ld]
+            onL = np.zeros(n)
+            onL[Ld] = 1.0
+            a, b = qh[1::2] * onL, qh[2::2] * onL
             pw = 0.5 * T * k * omega * (fh[1::2] * b - fh[2::2] * a)
             W_in += float(np.sum(pw))
             E_in += float(np.sum(np.abs(pw)))
-            CLL = Cr[Ld][:, Ld]
-            if CLL.nnz:
-                ka, kb = k * omega * a, k * omega * b
-                D_C += float(0.5 * T * (np.sum(ka * (CLL @ ka.T).T) + np.sum(kb * (CLL @ kb.T).T)))
+            ka, kb = k * omega * a, k * omega * b  # C_LL's quadratic form = C's on rows zero off L
+            D_C += float(0.5 * T * (np.sum(ka * (Cr @ ka.T).T) + np.sum(kb * (Cr @ kb.T).T)))
         P = np.asarray(sol.impulses)
         vj = [v[:, pos[int(e.dof)]] if e.relative_to is None else e.sign * e.local(v, pos) for e in els]
         Wj = np.array([float(np.sum(sign[j] * P[:, j] * vj[j])) for j in range(len(els))])
@@ -606,14 +609,17 @@ def _resonance(problem, sol, system, omega, h, is_hbm, els, lam, cert):
     cert.checks.append(Check("undamped_resonance", worst, worst_bound, bool(ok), True, note))
 
 
-def apply_certificate(problem, sol, tol, step_accuracy=None):
+def apply_certificate(problem, sol, tol, step_accuracy=None, cert=None):
     """Attach ``certify(problem, sol, tol)`` to ``sol.certificate`` and gate ``sol.success`` on it.
 
     ``success`` stays True only if it was True (Newton converged) and every gating check
     passed; otherwise the message names the failed checks.  Non-gating checks (the truncation
-    estimates) stay in the certificate and are not named in the message.
+    estimates) stay in the certificate and are not named in the message.  ``cert``: the certificate
+    already computed for the same problem, unknowns and ``step_accuracy`` (the start ladder's
+    acceptance test), attached instead of computing it again.
     """
-    cert = certify(problem, sol, tol, step_accuracy)
+    if cert is None:
+        cert = certify(problem, sol, tol, step_accuracy)
     sol.certificate = cert
     if sol.success and not cert.passed:
         sol.success = False

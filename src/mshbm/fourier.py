@@ -98,7 +98,8 @@ def to_complex(x_hat):
     x_hat = np.asarray(x_hat, dtype=float)
     Z = np.empty(((x_hat.shape[0] + 1) // 2,) + x_hat.shape[1:], dtype=complex)
     Z[0] = x_hat[0]
-    Z[1:] = x_hat[1::2] - 1j * x_hat[2::2]
+    Z[1:].real = x_hat[1::2]  # = x_hat[1::2] - 1j x_hat[2::2] for finite values, without temporaries
+    Z[1:].imag = -x_hat[2::2]
     return Z
 
 

@@ -140,6 +140,22 @@ def test_bench_scaling_quick(tmp_path):
     assert "target" in data and "exponent_le_1" in data["target"]
 
 
+def test_bench_nlscaling_quick(tmp_path):
+    data = _run("bench_nlscaling.py", tmp_path / "nlscaling.json")
+    _check_machine(data)
+    pts = data["sweep"]
+    assert [p["m"] for p in pts] == [1, 2, 5, 10] and [p["n_N"] for p in pts] == [1, 2, 5, 10]
+    for p in pts:
+        _check_stats(p["solve"])
+        assert p["success"], (p["m"], p["message"])
+        assert 0.0 < p["stick_fraction_min"] <= p["stick_fraction_max"] < 1.0  # stick-slip at every element
+        assert _finite_positive(p["breakdown"]["residual_and_jacobian_s"])
+        assert p["breakdown"]["n_unknowns"] == 13 * p["m"]  # (2 n_h + 1 + 2) n_N with n_h = 5
+    assert math.isfinite(data["exponent_m_ge_5"])
+    big = data["large"]["10000x50"]
+    assert big["success"] and _finite_positive(big["solve_s"]) and big["target_s"] == 30.0
+
+
 @pytest.mark.parametrize("bench", ["pyharm", "pyharm_sweep"])
 def test_bench_pyharm_reports_unavailable_with_both_outputs(tmp_path, bench):
     """Without a pyHarm environment the benchmarks against pyHarm still write their JSON (status and

@@ -47,6 +47,9 @@ class Trajectory:
         ``d(q_N, u_N)/d(q0, u0, p)`` at the end, if sensitivities were asked for.
     Sq_traj : ndarray, shape (N+1, n, n_s)
         ``dq_k/d(q0, u0, p)`` at every step, if asked for.
+    q_hat_sensitivity : ndarray or None
+        Set by callers that project ``Sq_traj`` onto Fourier coefficients (MS-HBM,
+        :mod:`mshbm.methods.mixed`); ``None`` from :meth:`MoreauJean.run`.
     """
 
     q: np.ndarray
@@ -57,6 +60,7 @@ class Trajectory:
     Su: np.ndarray
     Sq_traj: np.ndarray
     pgs_iterations: int
+    q_hat_sensitivity: np.ndarray = None
 
 
 def _with_sliders(M, C, K, elements):

@@ -54,6 +54,11 @@ has them)
     ``f(x0, failed, tol=, scale=, max_iter=, callback=) -> NewtonResult or None``; ``None``: none.
 ``conditioning() -> ndarray or None``
     Reciprocal condition numbers of the condensed per-harmonic blocks, shape ``(n_h + 1,)``.
+``linear_solve(k, b_T, forcing) -> ndarray or None``
+    The linear structure's harmonic-``k`` response ``x`` (complex, shape ``(n,)``) to ``H_k x = b``, with
+    ``b = b_T`` on the time-stepped DOFs (``partition().time``) and the forcing harmonic ``F_k``
+    (``forcing=True``) or zero elsewhere, from the method's own factorisations (MS-HBM: its condensation
+    of ``L``); ``None``: not available (the caller solves ``H_k`` itself).
 ``cheap_jacobian`` : bool (default False)
     The Jacobian costs little more than ``R`` (HBM, DLFT): Newton evaluates the full step with it and
     keeps it when the step is taken; the iterates do not change.
@@ -192,6 +197,11 @@ class PeriodicProblem:
 
     def conditioning(self):
         """Reciprocal condition numbers of the condensed blocks per harmonic, or ``None``."""
+        return None
+
+    def linear_solve(self, k, b_T, forcing=True):
+        """Harmonic-``k`` response of the linear structure from the method's factorisations, or ``None``
+        (see the contract)."""
         return None
 
 

@@ -2,14 +2,19 @@
 from __future__ import annotations
 
 import numpy as np
-import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 from .. import condensation, fourier
 from ..errors import InputError
 from ..validate import check_guess, check_guess_values
 
-__all__ = ["linear_response", "pad_hat", "guess_parts"]
+__all__ = ["linear_response", "pad_hat", "guess_parts", "complement"]
+
+
+def complement(n, idx):
+    """Sorted indices of ``range(n)`` not in ``idx`` (as ``np.setdiff1d(np.arange(n), idx)``, in O(n))."""
+    keep = np.ones(n, dtype=bool)
+    keep[np.asarray(idx, dtype=np.int64)] = False
+    return np.flatnonzero(keep)
 
 
 def pad_hat(x_hat, n_h):
@@ -31,12 +36,8 @@ def linear_response(system, omega, n_h):
     for k in range(n_h + 1):
         if not np.any(F[k]):
             continue
-        H = condensation.dynamic_stiffness(system.M, system.C, system.K, k * omega)
-        try:
-            if sp.issparse(H):
-                x = spla.spsolve(sp.csc_matrix(H), F[k])
-            else:
-                x = np.linalg.solve(H, F[k])
+        try:  # dense, banded LAPACK or sparse LU (mshbm.condensation.solve_dynamic)
+            x = condensation.solve_dynamic(system.M, system.C, system.K, k * omega, F[k])
         except (np.linalg.LinAlgError, RuntimeError):
             continue
         if np.all(np.isfinite(x)):

@@ -38,6 +38,13 @@ coefficients ``FFT(q_1)`` of the residual are the exact ones of the flow (Gauss-
 on every smooth piece, exact to rounding, with their exact sensitivities), so the only error left is
 the harmonic truncation of the coupling.  ``steps`` is then the output grid (and the Moreau-Jean
 steps per period of the fallback at accumulations, reported in ``info["event_integrator"]``).
+
+Many nonlinear DOFs: the integrated subsystem couples to the rest only through the harmonic force
+coefficients ``c`` (the condensed compliance).  Where its own ``M, C, K`` and elements split it into
+independent blocks (elements spread along a structure), each block is integrated alone with
+sensitivities only with respect to its states and its own ``(2 n_h + 1) n_b`` coefficients of ``c``;
+``d/dp`` follows by the chain rule through ``dc/dp`` (:class:`_TimeDomainPart`).  The cost of a
+Jacobian is then linear in the number of blocks instead of cubic in ``n_N``.
 """
 from __future__ import annotations
 
@@ -46,10 +53,10 @@ import scipy.sparse as sp
 
 from .. import fourier
 from .base import Partition, PeriodicProblem, forward_difference_jacobian
-from .common import guess_parts
+from .common import complement, guess_parts
 from ..errors import InputError
 from ..condensation import Condensation
-from ..integrators.moreau_jean import MoreauJean
+from ..integrators.moreau_jean import MoreauJean, Trajectory
 from ..system import System
 
 __all__ = ["MixedProblem", "IntermediateProblem", "auto_intermediate_partition"]
@@ -83,11 +90,79 @@ def _local_elements(system, dofs):
     return out
 
 
+def _blocks(M, C, K, elements):
+    """Independent blocks of an integrated subsystem: connected components of the graph of the nonzeros
+    of ``M, C, K`` (dense, subsystem numbering) joined by the DOFs of each element.
+
+    Returns a list of ``(dofs, element indices)`` (both sorted int arrays), or ``None`` when the subsystem
+    is one block or carries an element whose coupling this function does not know (then it is integrated
+    as one block).
+    """
+    from scipy.sparse.csgraph import connected_components
+
+    from ..elements import Contact, Friction, Jenkins
+
+    n = M.shape[0]
+    if n < 2 or any(type(el) not in (Friction, Contact, Jenkins) for el in elements):
+        return None
+    A = (np.abs(M) + np.abs(C) + np.abs(K)) > 0
+    rows, cols = np.nonzero(A)
+    for el in elements:
+        d = [int(x) for x in el.dofs]
+        rows = np.concatenate([rows, d[:-1]])
+        cols = np.concatenate([cols, d[1:]])
+    graph = sp.coo_matrix((np.ones(rows.size), (rows, cols)), shape=(n, n))
+    n_comp, label = connected_components(graph, directed=False)
+    if n_comp < 2:
+        return None
+    el_label = np.array([label[int(el.dofs[0])] for el in elements], dtype=np.int64)
+    return [(np.flatnonzero(label == b), np.flatnonzero(el_label == b)) for b in range(n_comp)]
+
+
+class _Block:
+    """One independent block of the integrated subsystem (see :class:`_TimeDomainPart`): its own
+    Moreau-Jean stepper and the increments of the unit harmonic forces on its DOFs."""
+
+    def __init__(self, dofs, el_idx, M, C, K, elements, h, theta, project, V, n1, slider_row):
+        self.dofs = dofs  # structure DOFs, subsystem numbering
+        pos = {int(d): i for i, d in enumerate(dofs)}
+        els = [elements[j].renumbered(pos) for j in el_idx]
+        ix = np.ix_(dofs, dofs)
+        self.stepper = MoreauJean(M[ix], C[ix], K[ix], els, h, theta, project)
+        # integrated states of the block in the subsystem's integrated numbering: its structure DOFs, then
+        # the sliders of its Jenkins elements (in element order, as MoreauJean appends them)
+        sliders = [slider_row[int(el_idx[j])] for j, _ in self.stepper.sliders]
+        self.rows = np.concatenate([dofs, np.asarray(sliders, dtype=np.int64)]).astype(np.int64)
+        self.el_idx = el_idx
+        nc, nb = V.shape[1], dofs.size
+        # coefficient c_(k, i) of the force on subsystem DOF i (harmonic-major): the block's columns
+        self.cidx = (np.arange(nc)[:, None] * n1 + dofs[None, :]).reshape(-1)
+        # where the block's sensitivities go in the subsystem's (rows; columns [q0 (n_A), u0 (n_A), p])
+        nA = n1 + len(slider_row)
+        r = self.rows
+        self.at_q0, self.at_u0 = np.ix_(r, r), np.ix_(r, nA + r)
+        self.at_hat_q0, self.at_hat_u0 = np.ix_(self.cidx, r), np.ix_(self.cidx, nA + r)
+        # d f / d c_(k, a) = V_k(t) e_a  ->  increments, shape (N, n_block, nc * nb)
+        dF = np.zeros((V.shape[0], nb, nc, nb))
+        for a in range(nb):
+            dF[:, a, :, a] = V
+        self.dB = self.stepper.increments(dF.reshape(V.shape[0], nb, nc * nb))
+
+
 class _TimeDomainPart:
     """Moreau-Jean integration of a subsystem driven by a harmonic forcing affine in parameters.
 
     The force on the subsystem is ``f(t) = f0(t) + V(t)^T c`` with the real coefficient
     vector ``c = c0 + Tr p`` (``c`` flattened harmonic-major, shape ``((2n_h+1) n_1,)``).
+
+    When the subsystem falls apart into independent blocks (:func:`_blocks`: no mass, damping or
+    stiffness entry and no element joins them, e.g. friction elements spread along a chain, coupled only
+    through the condensed linear part, i.e. through ``c``), each block is integrated on its own, with
+    sensitivities with respect to its own states and its own ``(2 n_h + 1) n_b`` coefficients of ``c``
+    only; ``d/dp`` follows by the chain rule through ``Tr``.  The cost of the sensitivities is then
+    ``sum_b N n_b^2 (2 + 2 n_h + 1) n_b`` instead of ``N n_1^2 (2 n_1 + n_p)``, and nothing of size
+    ``N n_1 n_p`` is stored.  Otherwise (one block) the whole subsystem is integrated with sensitivities
+    with respect to ``(q0, u0, p)`` directly.
     """
 
     def __init__(self, system, dofs, omega, n_h, steps, theta, project, c0, Tr):
@@ -99,14 +174,27 @@ class _TimeDomainPart:
         self.t = np.linspace(0.0, self.T, self.N + 1)
         self.n_h = n_h
         M, C, K = (_sub(getattr(system, a), self.dofs, self.dofs) for a in "MCK")
-        self.stepper = MoreauJean(M, C, K, _local_elements(system, self.dofs), self.h, theta, project)
+        els = _local_elements(system, self.dofs)
+        self.stepper = MoreauJean(M, C, K, els, self.h, theta, project)
         V = fourier.basis(self.t, omega, n_h)
         nc = 2 * n_h + 1
+        self.nc = nc
+        self.Tr = np.asarray(Tr, dtype=float)
+        n_p = self.Tr.shape[1]
+        self.n_p = n_p
         f0 = system.forcing(self.t, omega, self.dofs) + V @ c0.reshape(nc, self.n1)
-        self.B0 = self.stepper.increments(f0)
-        n_p = Tr.shape[1]
-        dF = np.einsum("kj,jlp->klp", V, Tr.reshape(nc, self.n1, n_p))
-        self.dB = self.stepper.increments(dF)
+        dense = lambda A: A.toarray() if sp.issparse(A) else np.asarray(A, dtype=float)
+        parts = _blocks(dense(M), dense(C), dense(K), els)
+        if parts is None:
+            self.blocks = None
+            self.B0 = self.stepper.increments(f0)
+            dF = np.einsum("kj,jlp->klp", V, self.Tr.reshape(nc, self.n1, n_p))
+            self.dB = self.stepper.increments(dF)
+        else:
+            self.f0, self.V = f0, V
+            slider_row = {j: z for j, z in self.stepper.sliders}
+            self.blocks = [_Block(d, e, dense(M), dense(C), dense(K), els, self.h, theta, project, V, self.n1,
+                                  slider_row) for d, e in parts]
 
         # Fourier projection of sampled signals: a DFT matrix is cheaper than an FFT of all N
         # frequencies when only 2 n_h + 1 coefficients are needed (kept below ~100 MB)
@@ -119,8 +207,59 @@ class _TimeDomainPart:
         return (self.E @ x.reshape(self.N, -1)).reshape((self.E.shape[0],) + x.shape[1:])
 
     def run(self, q0, u0, p, sens=True):
-        B = self.B0 + np.einsum("kip,p->ki", self.dB, p)
-        return self.stepper.run(q0, u0, B, self.dB, sensitivities=sens, store_q_sensitivities=sens)
+        """Trajectory from ``(q0, u0)`` (integrated states, shape ``(n_A,)``) under parameters ``p``.
+
+        With ``sens``: ``Sq, Su`` (shape ``(n_A, 2 n_A + n_p)``, columns ``[q0, u0, p]``) and
+        ``q_hat_sensitivity`` (shape ``((2 n_h + 1) n_1, 2 n_A + n_p)``: the Fourier coefficients (eq. 28) of
+        ``dq_k/d(q0, u0, p)`` over ``k = 0 .. N-1``, harmonic-major); ``Sq_traj`` is not kept.
+        """
+        if self.blocks is None:
+            B = self.B0 + np.einsum("kip,p->ki", self.dB, p)
+            tr = self.stepper.run(q0, u0, B, self.dB, sensitivities=sens, store_q_sensitivities=sens)
+            if sens:
+                n1 = self.n1
+                tr.q_hat_sensitivity = self.project(tr.Sq_traj[:-1, :n1]).reshape(self.nc * n1, -1)
+                tr.Sq_traj = None
+            return tr
+        return self._run_blocks(q0, u0, p, sens)
+
+    def _run_blocks(self, q0, u0, p, sens):
+        q0, u0 = self.stepper.with_slider_state(q0, u0)
+        nA, n1, nc, N = self.stepper.n, self.n1, self.nc, self.N
+        c = (self.Tr @ p).reshape(nc, n1)
+        F = self.f0 + self.V @ c
+        q = np.empty((N + 1, nA))
+        u = np.empty((N + 1, nA))
+        m = self.stepper.m
+        P = np.zeros((N, m))
+        status = np.zeros((N, m), dtype=np.int8)
+        n_s = 2 * nA + self.n_p
+        Sq = np.zeros((nA, n_s)) if sens else np.zeros((nA, 0))
+        Su = np.zeros((nA, n_s)) if sens else np.zeros((nA, 0))
+        dqh = np.zeros((nc * n1, n_s)) if sens else None
+        pgs = 0
+        for b in self.blocks:
+            r, nb, nsb = b.rows, b.rows.size, b.dofs.size
+            B = b.stepper.increments(F[:, b.dofs])
+            tr = b.stepper.run(q0[r], u0[r], B, b.dB, sensitivities=sens, store_q_sensitivities=sens)
+            q[:, r], u[:, r] = tr.q, tr.u
+            P[:, b.el_idx], status[:, b.el_idx] = tr.P, tr.status
+            pgs = max(pgs, int(tr.pgs_iterations))
+            if not sens:
+                continue
+            # kernel columns of the block: [q0_b (nb), u0_b (nb), c_b (nc nsb)]; d/dp = d/dc_b Tr[c_b]
+            Trb = self.Tr[b.cidx]
+            for S_out, S_b in ((Sq, tr.Sq), (Su, tr.Su)):
+                S_out[b.at_q0] = S_b[:, :nb]
+                S_out[b.at_u0] = S_b[:, nb:2 * nb]
+                S_out[r, 2 * nA:] = S_b[:, 2 * nb:] @ Trb
+            D = self.project(tr.Sq_traj[:-1, :nsb]).reshape(nc * nsb, -1)  # rows (k, a) -> row k n1 + dofs[a]
+            dqh[b.at_hat_q0] = D[:, :nb]
+            dqh[b.at_hat_u0] = D[:, nb:2 * nb]
+            dqh[b.cidx, 2 * nA:] = D[:, 2 * nb:] @ Trb
+        out = Trajectory(q, u, P, status, Sq, Su, None, pgs)
+        out.q_hat_sensitivity = dqh
+        return out
 
 
 class _MixedBase(PeriodicProblem):
@@ -263,9 +402,25 @@ class _MixedBase(PeriodicProblem):
         return units
 
     def initial_guess(self, guess=None):
-        q_hat, q0, u0 = guess_parts(guess, self.system, self.omega, self.n_h)
-        q0, u0 = self.td.stepper.with_slider_state(q0[self._time], u0[self._time])
-        return np.concatenate([q_hat[:, self._harm].reshape(-1), q0, u0])
+        linear = guess is None or (isinstance(guess, str) and guess == "linear")
+        if linear and self.__dict__.get("_linear_guess") is not None:
+            # the linear response of the whole structure (a sparse solve per harmonic): once per problem,
+            # however many starts of the ladder begin from it
+            return self._linear_guess.copy()
+        parts = self._linear_parts() if linear else None
+        if parts is None:
+            q_hat, q0, u0 = guess_parts(guess, self.system, self.omega, self.n_h)
+            parts = q_hat[:, self._harm], q0[self._time], u0[self._time]
+        q0, u0 = self.td.stepper.with_slider_state(parts[1], parts[2])
+        x = np.concatenate([parts[0].reshape(-1), q0, u0])
+        if linear:
+            self._linear_guess = x.copy()
+        return x
+
+    def _linear_parts(self):
+        """``(q_hat[:, harm], q0[time], u0[time])`` of the linear response, or ``None``: the guess module's
+        :func:`mshbm.methods.common.linear_response` of the whole structure then."""
+        return None
 
     def residual_scale(self, x):
         """Per-row scale of the residual at unknowns ``x``, shape ``(n_x,)``: m (3.2) or N (3.3) for
@@ -298,7 +453,7 @@ class _MixedBase(PeriodicProblem):
         # DOFs, then one slider per Jenkins element (mshbm.integrators.moreau_jean)
         perm = np.concatenate([np.arange(2 * nt, 2 * nt + a), np.arange(2 * nt)])
         n1 = self._time.size
-        dqh = self.td.project(tr.Sq_traj[:-1, :n1]).reshape(self.nc * n1, -1)[:, perm]
+        dqh = tr.q_hat_sensitivity[:, perm]
         J = np.zeros((x.size, x.size))
         J[:a] = self._balance_dq(dqh)
         J[:a, :a] += self._balance_dp()
@@ -370,7 +525,7 @@ class MixedProblem(_MixedBase):
             key = "partition" if partition is not None else "method"
             raise InputError(key, "the nonlinear subsystem is empty: the system has no friction or contact "
                              "element (use 'hbm', or give partition=[dofs] to integrate some DOFs in time)")
-        self.Ld = np.setdiff1d(np.arange(n), self.Nd)
+        self.Ld = complement(n, self.Nd)
         self.cond = Condensation(system, omega, self.n_h, self.Nd, self.Ld)
         # coupling force coefficients on N:  c = -H_NL q_hat_L = -g + T q_hat_N
         c0 = fourier.from_complex(-self.cond.g).reshape(-1)
@@ -394,6 +549,41 @@ class MixedProblem(_MixedBase):
 
     def _balance_dp(self):
         return np.eye(self.nc * self.nN)
+
+    def _linear_parts(self):
+        """The linear response (no elements) on ``N`` from the condensation: per harmonic
+        ``X_N = (H_NN - T_k)^-1 (F_N - g_k)`` (:meth:`mshbm.condensation.Condensation.solve_full`), equal to
+        the ``N`` rows of the whole structure's steady state without a solve of size ``n``; a singular
+        harmonic is set to zero as in :func:`mshbm.methods.common.linear_response`."""
+        H_NN = _coupling(self.system, self.Nd, self.Nd, self.n_h, self.omega)
+        F = fourier.to_complex(self.system.forcing_hat(self.n_h))[:, self.Nd]
+        X = np.zeros((self.n_h + 1, self.nN), dtype=complex)
+        for k in range(self.n_h + 1):
+            if not (np.any(F[k]) or np.any(self.cond.g[k])):
+                continue
+            try:
+                x, _ = self.cond.solve_full(k, H_NN[k], F[k]) if self.cond.elim.size else \
+                    (np.linalg.solve(H_NN[k], F[k]), None)
+            except np.linalg.LinAlgError:
+                continue
+            if np.all(np.isfinite(x)):
+                X[k] = x
+        q_hat = fourier.from_complex(X)
+        q0 = q_hat[0] + q_hat[1::2].sum(axis=0)  # V(0)^T q_hat, as mshbm.methods.common.guess_parts
+        u0 = fourier.derivative(q_hat, self.omega)[1::2].sum(axis=0)
+        return q_hat, q0, u0
+
+    def linear_solve(self, k, b_T, forcing=True):
+        """``H_k x = b`` (``b = b_T`` on ``N``, ``F_k`` or zero on ``L``) from the condensation of ``L``:
+        ``x_N = (H_NN - T_k)^-1 (b_N - g_k)``, ``x_L = z_k - Z_k x_N`` (no solve of size ``n``); complex,
+        shape ``(n,)``.  Raises ``numpy.linalg.LinAlgError`` where ``H_NN - T_k`` is singular."""
+        if not 0 <= int(k) <= self.n_h:
+            return None
+        if "_H_NN" not in self.__dict__:
+            self._H_NN = _coupling(self.system, self.Nd, self.Nd, self.n_h, self.omega)
+        x = np.empty(self.system.n, dtype=complex)
+        x[self.Nd], x[self.Ld] = self.cond.solve_full(int(k), self._H_NN[int(k)], b_T, forcing)
+        return x
 
     def _info(self, p, q_hat):
         return {"connectivity_defect": float(np.max(np.abs(p - q_hat[:, self.Nd].reshape(-1)), initial=0.0))}

@@ -88,15 +88,16 @@ def _solve(system, omega, method, options):
     except SingularHarmonicError as exc:
         raise validate.singular_harmonic_error(exc) from None
     progress = _Progress(method, sopts.get("progress", False))
+    accept = None
     try:
-        x0 = problem.initial_guess(sopts.get("guess"))
+        x0 = problem.initial_guess(sopts.get("guess"))  # validates a caller's guess (MS-HBM: cached linear start)
         nkw = dict(tol=float(sopts.get("tol", 1e-10)), max_iter=int(sopts.get("max_iter", 50)),
                    line_search=bool(sopts.get("line_search", True)), callback=progress)
         if sopts.get("continuation", True) and not starts.active():
             # a ladder of starts, the first accepted one wins (mshbm.solvers.starts); a caller's guess is its
             # first rung, so a poor guess falls back to the default starts instead of failing
-            res = starts.solve_from_starts(problem, method, system, omega, nkw,
-                                           _certified_accept(problem, method, omega, sopts, nkw, system),
+            accept = _certified_accept(problem, method, omega, sopts, nkw, system)
+            res = starts.solve_from_starts(problem, method, system, omega, nkw, accept,
                                            guess=sopts.get("guess"), solve_options=options, solve=solve)
         else:
             res = solve_problem(problem, x0, fallback=bool(sopts.get("continuation", True)), **nkw)
@@ -124,7 +125,11 @@ def _solve(system, omega, method, options):
             else:
                 res.message = f"{res.message}; {fallback} failed too: {r.message}"
             res.nit, res.nfev = total_it, total_fev
-        parts = problem.solution_parts(res.x)
+        # the accepted start's solution parts and certificate, when they are of this problem and x
+        cached = getattr(accept, "accepted", None)
+        if cached is not None and not (cached["problem"] is problem and np.array_equal(cached["x"], res.x)):
+            cached = None
+        parts = cached["parts"] if cached is not None else problem.solution_parts(res.x)
     except SingularHarmonicError as exc:
         raise validate.singular_harmonic_error(exc) from None
     finally:
@@ -152,7 +157,7 @@ def _solve(system, omega, method, options):
         sol.info["step_accuracy"] = {"ratio": step_accuracy["ratio"], "verdict": step_accuracy["verdict"],
                                      "bound": np.asarray(step_accuracy["bound"], dtype=float)}
     # success only if certified (mshbm.certificate)
-    apply_certificate(problem, sol, nkw["tol"], step_accuracy)
+    apply_certificate(problem, sol, nkw["tol"], step_accuracy, cert=None if cached is None else cached["cert"])
     if section is not None:
         _unshift(sol, section)
     if not sol.success and sopts.get("raise_on_failure", False):
@@ -218,6 +223,9 @@ def _certified_accept(problem, method, omega, sopts, nkw, system):
         cert = certify(prob, sol, nkw["tol"], attempt.step_accuracy)
         if not cert.passed:
             attempt.verdict = f"rejected by the certificate: {cert.describe_failures()}"
+        else:  # the driver reuses parts and certificate of the accepted x (same problem, same x)
+            accept.accepted = dict(problem=prob, x=np.array(attempt.x, copy=True), parts=attempt.parts(), cert=cert)
         return cert.passed
 
+    accept.accepted = None
     return accept

@@ -766,8 +766,8 @@ class _Runner:
         :data:`FREQUENCY_RATIOS`) where the whole ladder (without this start) gives a certified solution: the
         exact event-driven orbit continued to ``omega`` (one element; then as the ``"exact"`` start), else the
         method's own branch (:func:`mshbm.sweep`) from the anchor to ``omega``."""
-        if self.solve is None or _FREQUENCY.get():
-            return None
+        if self.solve is None or _FREQUENCY.get() or int(self.nkw.get("max_iter", 50)) < 1:
+            return None  # (max_iter = 0: no Newton iterations asked for, and a branch needs corrector iterations)
         sweep = SWEEP[0]
 
         t0 = time.perf_counter()
