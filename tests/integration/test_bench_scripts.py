@@ -60,6 +60,60 @@ def test_bench_kernel_quick(tmp_path):
     assert _finite_positive(data["numpy_twin_over_compiled_ratio"])
     assert data["numpy_twin_max_abs_difference_q"] < 1e-9
     assert set(data["target"]) >= {"met_plain", "met_with_sensitivities", "ns_per_step_1dof"}
+    # issue 14: the event-driven flow, one period on the converged orbits
+    ev = data["event_measurements"]
+    assert set(ev) == {f"event_{case}_{kind}" for case, kinds in (("1dof_friction", ("plain", "jac_fourier")),
+                                                                   ("1dof_contact", ("plain", "jac_fourier")),
+                                                                   ("full3_friction", ("plain", "jac")),
+                                                                   ("full5_contact", ("plain", "jac"))) for kind in kinds}
+    for key, m in ev.items():
+        _check_stats(m)
+        assert m["events_per_period"] >= 1, key
+        assert m["events_per_second_median"] == pytest.approx(m["events_per_period"] / m["median_s"], rel=1e-12)
+    # MS-HBM's subsystem (n_H = 5) and full shooting follow the same orbit: the same events per period
+    for label, full in (("friction", "full3_friction"), ("contact", "full5_contact")):
+        assert ev[f"event_1dof_{label}_plain"]["events_per_period"] == ev[f"event_{full}_plain"]["events_per_period"]
+    assert all(s["success"] for name, s in data["states"].items() if name.endswith("_event"))
+    assert set(data["summary"]["events_per_second"]) == set(ev)
+
+
+def _wp_row(method, error, time_s, harmonics=None, steps=256, success=True):
+    return {"method": method, "error": error, "time_s": time_s, "harmonics": harmonics, "steps": steps,
+            "success": success, "regularisation_factor": None}
+
+
+def test_workprecision_event_goal_and_grid():
+    """The event-driven points of the work-precision grid, and issue 14's goal check: the cheapest
+    MS-HBM (event) point at 1e-6 against the cheapest Moreau-Jean shooting point at 1e-3."""
+    sys.path.insert(0, str(SCRIPTS))
+    import bench_workprecision as bw
+
+    grid = {"shooting_steps": [128], "mixed_harmonics": [3], "mixed_steps": [512], "hbm_harmonics": [3],
+            "hbm_regularisation_factors": [1.0], "event_shooting": True, "event_mixed_harmonics": [9, 27],
+            "event_steps": 128}
+    pts = [(m, o) for m, o in bw.points(grid) if o.get("integrator") == "event"]
+    assert pts == [("shooting-event", {"steps": 128, "integrator": "event"}),
+                   ("mshbm-event", {"harmonics": 9, "steps": 128, "integrator": "event"}),
+                   ("mshbm-event", {"harmonics": 27, "steps": 128, "integrator": "event"})]
+    assert all(bw.SOLVE_METHOD[m] in ("shooting", "mshbm") for m, _ in pts)
+    assert not [1 for _, o in bw.points(dict(grid, event_shooting=False, event_mixed_harmonics=[]))
+                if o.get("integrator") == "event"]
+
+    rows = [_wp_row("shooting", 3e-3, 0.05, steps=512), _wp_row("shooting", 8e-4, 0.25, steps=2048),
+            _wp_row("shooting", 6e-4, 0.54, steps=4096), _wp_row("shooting", 1e-4, 0.01, steps=64, success=False),
+            _wp_row("mshbm-event", 6e-6, 0.17, 27), _wp_row("mshbm-event", 9e-7, 0.43, 61),
+            _wp_row("mshbm-event", 2e-7, 0.65, 81), _wp_row("mshbm-event", 1e-9, 0.02, 99, success=False)]
+    g = bw.event_goal(rows, {"mshbm_event_error": 1e-6, "shooting_error": 1e-3})
+    assert g["mshbm_event"]["harmonics"] == 61 and g["shooting"]["steps"] == 2048  # not converged: ignored
+    assert g["ratio"] == pytest.approx(0.25 / 0.43, rel=1e-14) and g["met"] is False and "why" not in g
+    g = bw.event_goal(rows, {"mshbm_event_error": 1e-5, "shooting_error": 1e-3})
+    assert g["mshbm_event"]["harmonics"] == 27 and g["met"] is True
+    g = bw.event_goal(rows, {"mshbm_event_error": 1e-8, "shooting_error": 1e-3})
+    assert g["ratio"] is None and g["met"] is False and "1e-08" in g["why"]
+    g = bw.event_goal([r for r in rows if r["method"] == "shooting"], {})
+    assert g["ratio"] is None and g["why"] == "MS-HBM (event) not in this sweep"
+    eq = bw.equal_error_ratios(rows, [1e-3])[0]
+    assert eq["mshbm-event"]["speedup_over_shooting"] == pytest.approx(0.25 / 0.17, rel=1e-14)
 
 
 def test_bench_scaling_quick(tmp_path):

@@ -19,6 +19,20 @@ Cases (all on converged periodic states of the paper's systems, omega = pi/5):
 * ``numpy_twin_1dof_friction`` vs ``compiled_1dof_friction_small`` on 2^12 steps: the plain
   NumPy twin ``kernels.moreau_jean_numpy`` against the compiled kernel.
 
+Event-driven flow (issue 14; ``event_measurements``, next to the steps per second above): one period
+of :class:`mshbm.integrators.event.EventFlow` on the same converged orbits (MS-HBM with
+``integrator="event"``, n_H = 5, and shooting with it), timed as the solvers call it:
+
+* ``event_1dof_{friction,contact}_*`` -- the 1-DOF subsystem of MS-HBM with the coupling forces as
+  forcing states; ``plain`` (flow only) and ``jac_fourier`` (monodromy columns for (q0, u0, coupling
+  coefficients) and the exact Fourier coefficients with their sensitivities: one MS-HBM residual with
+  its Jacobian);
+* ``event_full{3,5}_*`` -- the whole 3-mass friction / 5-mass impact chain (shooting's flow), ``plain``
+  and ``jac`` (with the saltation-corrected monodromy).
+
+Events per second = events per period / median wall time of one period (events: impacts, stick-slip
+transitions, slip reversals, contact openings); also microseconds per period.
+
 Timing: one warm-up call per case (numba compilation excluded), then the cases interleaved
 round-robin; ns/step = median wall time / N.
 
@@ -133,6 +147,49 @@ def _cases(quick):
     return cases, meta, states, twin_diff
 
 
+def _event_cases():
+    """One period of the event-driven flow on converged orbits (module docstring): callables, metadata
+    (events per period) and the converged states."""
+    import mshbm
+    from mshbm.methods.mixed import MixedProblem
+    from mshbm.methods.shooting import ShootingProblem
+
+    cases, meta, states = {}, {}, {}
+    n_h = 5
+    for label, name in (("friction", "friction3"), ("contact", "impact5")):
+        system = bl.paper_system(name)
+        sol = mshbm.solve(system, bl.OMEGA, "mshbm", harmonics=n_h, steps=256, integrator="event")
+        states[f"{name}_mshbm_event"] = {"success": bool(sol.success)}
+        prob = MixedProblem(system, bl.OMEGA, n_h, 256, integrator="event")
+        x = prob.initial_guess(sol)
+        p, q0, u0 = prob._split(x)
+        fl = prob.flow
+        fl.set_forcing((prob._c0 + prob._Tr @ p).reshape(prob.nc, prob._time.size))
+        z0 = fl.state(0.0, q0, u0)
+        n_ev = len(fl.simulate(0.0, z0)["events"])
+        for kind, kw, what in (("plain", {}, "one period, flow only"),
+                               ("jac_fourier", dict(jac=True, jac_cols="all", fourier=n_h),
+                                "one period with monodromy (q0, u0, coupling) and exact Fourier coefficients "
+                                "(one MS-HBM residual + Jacobian)")):
+            key = f"event_1dof_{label}_{kind}"
+            cases[key] = lambda fl=fl, z0=z0, kw=kw: fl.simulate(0.0, z0, **kw)
+            meta[key] = {"events_per_period": n_ev, "n_dof": 1, "system": name, "what": what}
+        sol = mshbm.solve(system, bl.OMEGA, "shooting", steps=256, integrator="event")
+        states[f"{name}_shooting_event"] = {"success": bool(sol.success)}
+        sp_ = ShootingProblem(system, bl.OMEGA, 256, integrator="event")
+        x = sp_.initial_guess(sol)
+        fl = sp_.flow
+        z0 = fl.state(0.0, x[:system.n], x[system.n:])
+        n_ev = len(fl.simulate(0.0, z0)["events"])
+        for kind, kw, what in (("plain", {}, "one period, flow only"),
+                               ("jac", dict(jac=True), "one period with the saltation-corrected monodromy "
+                                                      "(one shooting residual + Jacobian)")):
+            key = f"event_full{system.n}_{label}_{kind}"
+            cases[key] = lambda fl=fl, z0=z0, kw=kw: fl.simulate(0.0, z0, **kw)
+            meta[key] = {"events_per_period": n_ev, "n_dof": int(system.n), "system": name, "what": what}
+    return cases, meta, states
+
+
 def plot(data, png):
     plt = bl.pyplot()
     names = list(data["measurements"])
@@ -171,6 +228,16 @@ def main(argv=None):
         N = meta[k]["steps"]
         meas[k] = dict(meta[k], **s, ns_per_step_median=1e9 * s["median_s"] / N, ns_per_step_min=1e9 * s["min_s"] / N,
                        ns_per_step_all=[1e9 * t / N for t in ts], steps_per_second_median=N / s["median_s"])
+    ev_cases, ev_meta, ev_states = _event_cases()
+    states.update(ev_states)
+    ev_times = bl.interleaved(ev_cases, repeats, warmup=1, budget_s=10 if args.quick else 60)
+    ev_meas = {}
+    for k, ts in ev_times.items():
+        s = bl.stats(ts)
+        n_ev = ev_meta[k]["events_per_period"]
+        ev_meas[k] = dict(ev_meta[k], **s, us_per_period_median=1e6 * s["median_s"],
+                          events_per_second_median=n_ev / s["median_s"] if n_ev else None,
+                          us_per_event_median=1e6 * s["median_s"] / n_ev if n_ev else None)
     ratio = meas["numpy_twin_1dof_friction"]["ns_per_step_median"] / meas["compiled_1dof_friction_small"]["ns_per_step_median"]
     one_dof = {k: v["ns_per_step_median"] for k, v in meas.items() if k.startswith("1dof") and "_N" not in k}
     target = {
@@ -184,6 +251,7 @@ def main(argv=None):
     data = {"benchmark": "kernel", "quick": bool(args.quick), "machine": bl.machine_info(),
             "method": "median of interleaved repeats after one warm-up call per case; ns/step = time / steps",
             "omega": bl.OMEGA, "harmonics": 5, "states": states, "measurements": meas,
+            "event_measurements": ev_meas,
             "numpy_twin_over_compiled_ratio": ratio, "numpy_twin_max_abs_difference_q": twin_diff,
             "target": target, "total_wall_s": time.perf_counter() - t_begin}
     data["summary"] = {"ns_per_step_1dof": one_dof, "target_met_plain": target["met_plain"],
@@ -191,11 +259,18 @@ def main(argv=None):
                        "ns_per_step_general": {k: meas[k]["ns_per_step_median"] for k in
                                                ("3dof_friction_plain", "3dof_friction_sens_store", "full30_plain",
                                                 "full50_plain")},
-                       "numpy_twin_over_compiled": ratio}
+                       "numpy_twin_over_compiled": ratio,
+                       "events_per_second": {k: v["events_per_second_median"] for k, v in ev_meas.items()},
+                       "events_per_period": {k: v["events_per_period"] for k, v in ev_meas.items()},
+                       "us_per_event_period": {k: v["us_per_period_median"] for k, v in ev_meas.items()},
+                       "steps_per_second_1dof": {k: 1e9 / v for k, v in one_dof.items()}}
     out = bl.write_json(args.out, data)
     plot(data, bl.plot_path(out))
     for k, v in meas.items():
         print(f"{k:32s} N={v['steps']:8d}  {v['ns_per_step_median']:10.1f} ns/step (min {v['ns_per_step_min']:.1f})")
+    for k, v in ev_meas.items():
+        print(f"{k:32s} {v['events_per_period']:4d} events/period  {v['us_per_period_median']:10.1f} us/period  "
+              f"{v['events_per_second_median'] or 0:10.3g} events/s")
     print(f"NumPy twin / compiled: {ratio:.0f}x;  target met (plain): {target['met_plain']}, "
           f"(with sensitivities): {target['met_with_sensitivities']}")
     print(f"wrote {out} and {bl.plot_path(out)} in {time.perf_counter() - t_begin:.1f} s")

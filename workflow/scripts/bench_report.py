@@ -28,7 +28,11 @@ from wfcore import md_table  # noqa: E402  (the script's directory is on sys.pat
 
 STYLE = {"shooting": ("k", "o", "full shooting"), "mshbm": ("tab:red", "s", "MS-HBM"),
          "mshbm-intermediate": ("tab:orange", "D", "MS-HBM (intermediate)"), "hbm": ("tab:blue", "^", "HBM"),
-         "dlft": ("tab:green", "v", "DLFT")}
+         "dlft": ("tab:green", "v", "DLFT"),
+         # issue 14: the exact event-driven flow as the integrator (integrator="event")
+         "shooting-event": ("k", "*", "full shooting (event)"), "mshbm-event": ("tab:purple", "P", "MS-HBM (event)")}
+#: the methods compared with full shooting (Moreau-Jean) at equal error
+COMPARED = ("mshbm", "mshbm-intermediate", "hbm", "dlft", "shooting-event", "mshbm-event")
 TARGET_SPEEDUP = 20.0
 
 
@@ -59,13 +63,13 @@ def plot_workprecision(wp, path):
             rows = [r for r in d["rows"] if r["method"] == method]
             ok = [r for r in rows if r["success"]]
             bad = [r for r in rows if not r["success"]]
-            ax.loglog([r["time_s"] for r in ok], [max(r["error"], 1e-12) for r in ok], mk, color=c, ms=4,
+            ax.loglog([r["time_s"] for r in ok], [max(r["error"], 1e-12) for r in ok], mk, color=c, ms=7 if mk == "*" else 4,
                       alpha=0.8, label=label)
             if bad:
                 ax.loglog([r["time_s"] for r in bad], [max(r["error"], 1e-12) for r in bad], mk, color=c,
                           mfc="none", ms=5, alpha=0.6)
-            if method == "shooting" and ok:
-                ok = sorted(ok, key=lambda r: r["steps"])
+            if method in ("shooting", "mshbm-event") and ok:  # the convergence lines (steps; n_H)
+                ok = sorted(ok, key=lambda r: r["steps"] if method == "shooting" else r["harmonics"])
                 ax.loglog([r["time_s"] for r in ok], [max(r["error"], 1e-12) for r in ok], "-", color=c, lw=0.7)
         ax.axhline(d["targets"]["target_error"], color="0.5", ls=":", lw=1)
         ax.set_title(f"{d['system']} (n = {d['n']})", fontsize=10)
@@ -74,7 +78,7 @@ def plot_workprecision(wp, path):
         ax.grid(True, which="both", alpha=0.3)
         ax = axes[1][j]
         levels = [e["error_level"] for e in d["targets"]["equal_error"]]
-        for method in ("mshbm", "mshbm-intermediate", "hbm", "dlft"):
+        for method in COMPARED:
             c, mk, label = STYLE[method]
             sp = [(lv, (e.get(method) or {}).get("speedup_over_shooting"))
                   for lv, e in zip(levels, d["targets"]["equal_error"])]
@@ -127,7 +131,7 @@ def section_workprecision(wp, sub):
             sh = e.get("shooting")
             cells = [d["system"], f"{e['error_level']:g}",
                      "–" if sh is None else f"{sh['time_s'] * 1e3:.3g} ms ({point_label(sh)})"]
-            for m in ("mshbm", "mshbm-intermediate", "hbm", "dlft"):
+            for m in COMPARED:
                 p = e.get(m)
                 cells.append("–" if p is None else
                              f"{p['time_s'] * 1e3:.3g} ms ({point_label(p)}): **{fmt(p['speedup_over_shooting'], '.3g')}×**"
@@ -136,10 +140,32 @@ def section_workprecision(wp, sub):
     lines += ["**Equal-error comparison.** For each error level, the cheapest converged point of each method "
               "that reaches it, and its speed-up over the cheapest full-shooting point that reaches it "
               "(median wall time of repeated solves, one process, numba compilation excluded).", "",
-              md_table(["system", "error level", "full shooting", "MS-HBM", "MS-HBM (intermediate)", "HBM", "DLFT"],
-                       rows),
+              md_table(["system", "error level", "full shooting", "MS-HBM", "MS-HBM (intermediate)", "HBM", "DLFT",
+                        "full shooting (event)", "MS-HBM (event)"], rows),
               ""]
+    lines += section_event_goal(wp)
     return lines
+
+
+def section_event_goal(wp):
+    """Issue 14's goal per system: MS-HBM (event) at 1e-6 against Moreau-Jean full shooting at 1e-3."""
+    goals = [(d["system"], d["targets"].get("event_goal")) for d in wp]
+    goals = [(name, g) for name, g in goals if g and g.get("why") != "MS-HBM (event) not in this sweep"]
+    if not goals:
+        return []
+    rows = []
+    for name, g in goals:
+        ev, sh = g.get("mshbm_event"), g.get("shooting")
+        rows.append((name,
+                     "–" if ev is None else f"{ev['time_s'] * 1e3:.3g} ms (n_H={ev['harmonics']}, error {ev['error']:.1e})",
+                     "–" if sh is None else f"{sh['time_s'] * 1e3:.3g} ms (N={sh['steps']}, error {sh['error']:.1e})",
+                     fmt(g.get("ratio"), ".3g"), "yes" if g.get("met") else f"no{'' if 'why' not in g else ': ' + g['why']}"))
+    g0 = goals[0][1]
+    return [f"**Event-driven integrator (issue 14).** Time of MS-HBM with the exact event-driven flow to reach "
+            f"{g0['mshbm_event_error']:g} relative error against the time of Moreau–Jean full shooting to reach "
+            f"{g0['shooting_error']:g}, cheapest converged point of each, same run; ratio = shooting / MS-HBM (event).",
+            "", md_table(["system", f"MS-HBM (event) at {g0['mshbm_event_error']:g}",
+                          f"full shooting (Moreau–Jean) at {g0['shooting_error']:g}", "ratio", "goal met"], rows), ""]
 
 
 def section_kernel(k):
@@ -158,7 +184,21 @@ def section_kernel(k):
             "through memory; MS-HBM uses at most 2<sup>16</sup> steps per period. "
             f"Compiled over its plain NumPy twin: {fmt(s.get('numpy_twin_over_compiled'), '.0f')}×.", "",
             md_table(["case", "steps", "DOFs", "sensitivity columns", "ns / step", "10⁶ steps / s", "what"], rows),
-            ""]
+            ""] + section_event_kernel(k)
+
+
+def section_event_kernel(k):
+    """Events per second of the event-driven flow (issue 14), next to the steps per second above."""
+    ev = k.get("event_measurements")
+    if not ev:
+        return []
+    rows = [(name, m["system"], m["n_dof"], m["events_per_period"], f"{m['us_per_period_median'] / 1e3:.3g}",
+             fmt(m.get("events_per_second_median"), ".3g"), m["what"]) for name, m in ev.items()]
+    return ["Event-driven flow (`mshbm.integrators.event`, issue 14): one period on the converged orbit "
+            "(n_H = 5 for the MS-HBM subsystems), median wall time; its cost is per period (the event search "
+            "on the sub-step grid) more than per event, so events per second is the period's events over its "
+            "time.", "",
+            md_table(["case", "system", "DOFs", "events / period", "ms / period", "events / s", "what"], rows), ""]
 
 
 def section_scaling(sc, sub):
@@ -265,6 +305,30 @@ def numbers(wp, other, digest):
             num[f"mshbm_time_at_dlft_best_{name}"] = None
         conv = (d["reference"].get("convergence") or {}) if d else {}
         num[f"reference_variants_{name}"] = conv.get("max_relative_difference")
+        num[f"reference_events_{name}"] = d["reference"].get("n_events") if d else None
+        # issue 14: the event-driven variants and the goal (MS-HBM (event) at 1e-6 vs shooting at 1e-3)
+        g = (d["targets"].get("event_goal") or {}) if d else {}
+        num[f"event_goal_ratio_{name}"] = g.get("ratio")
+        num[f"event_goal_met_{name}"] = g.get("met")
+        num[f"event_goal_mshbm_time_{name}"] = (g.get("mshbm_event") or {}).get("time_s")
+        num[f"event_goal_mshbm_nh_{name}"] = (g.get("mshbm_event") or {}).get("harmonics")
+        num[f"event_goal_mshbm_error_{name}"] = (g.get("mshbm_event") or {}).get("error")
+        num[f"event_goal_shooting_time_{name}"] = (g.get("shooting") or {}).get("time_s")
+        num[f"event_goal_shooting_steps_{name}"] = (g.get("shooting") or {}).get("steps")
+        num[f"event_goal_shooting_error_{name}"] = (g.get("shooting") or {}).get("error")
+        se = [r for r in d["rows"] if r["method"] == "shooting-event" and r["success"]] if d else []
+        num[f"shooting_event_error_{name}"] = min(r["error"] for r in se) if se else None
+        num[f"shooting_event_time_{name}"] = min(r["time_s"] for r in se) if se else None
+        me = [r for r in d["rows"] if r["method"] == "mshbm-event" and r["success"]] if d else []
+        best_me = min(me, key=lambda r: r["error"]) if me else None
+        num[f"mshbm_event_best_error_{name}"] = best_me["error"] if best_me else None
+        num[f"mshbm_event_best_nh_{name}"] = best_me["harmonics"] if best_me else None
+        num[f"mshbm_event_best_time_{name}"] = best_me["time_s"] if best_me else None
+        sh = [r for r in d["rows"] if r["method"] == "shooting" and r["success"]] if d else []
+        best_sh = min(sh, key=lambda r: r["error"]) if sh else None
+        num[f"shooting_best_error_{name}"] = best_sh["error"] if best_sh else None
+        num[f"shooting_best_time_{name}"] = best_sh["time_s"] if best_sh else None
+        num[f"shooting_best_steps_{name}"] = best_sh["steps"] if best_sh else None
     diffs = [v for k, v in num.items() if k.startswith("reference_variants_") and v is not None]
     num["reference_variants_max"] = max(diffs) if diffs else None
     k = (other.get("kernel") or {}).get("summary", {})
@@ -279,6 +343,18 @@ def numbers(wp, other, digest):
     num["kernel_friction_sens_store_2p16_ns"] = at16[0] if at16 else None
     big = [m["steps"] for name, m in meas.items() if name == "1dof_friction_sens_store"]
     num["kernel_long_run_steps"] = big[0] if big else None
+    ev = (other.get("kernel") or {}).get("event_measurements", {})  # issue 14: events per second
+    for key in ("event_1dof_friction_plain", "event_1dof_contact_plain", "event_1dof_friction_jac_fourier",
+                "event_1dof_contact_jac_fourier", "event_full3_friction_jac", "event_full5_contact_jac"):
+        m = ev.get(key) or {}
+        num[f"kernel_{key}_events_per_s"] = m.get("events_per_second_median")
+        num[f"kernel_{key}_ms_per_period"] = (m["us_per_period_median"] / 1e3) if m else None
+        num[f"kernel_{key}_events_per_period"] = m.get("events_per_period")
+        # the same time in compiled Moreau-Jean steps of the 1-DOF subsystem (the plain kernel for the plain
+        # flow, the kernel storing its sensitivities for the flow with Jacobian)
+        kind = "sens_store" if "jac" in key else "plain"
+        mj = num[f"kernel_{'contact' if 'contact' in key else 'friction'}_{kind}_ns"]
+        num[f"kernel_{key}_mj_steps"] = (int(round(m["us_per_period_median"] * 1e3 / mj)) if m and mj else None)
     sc = (other.get("scaling") or {}).get("summary", {})
     num.update(scaling_time_1e5_s=sc.get("time_at_1e5_s"), scaling_exponent=sc.get("mshbm_exponent_n_ge_1000"),
                scaling_amplitude_1e5_s=sc.get("amplitude_eval_at_1e5_s"))

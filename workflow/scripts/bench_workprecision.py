@@ -8,6 +8,14 @@ relative amplitude error of masses 1 and n against ``mshbm.methods.exact.exact_p
 own convergence is checked by independent re-solves (``reference_convergence``).  The grids
 are ``benchmarks`` of the config (``--profile full``: with the overrides of ``benchmarks.full``).
 
+Event-driven variants (issue 14): ``shooting-event`` (full shooting with ``integrator="event"``: one
+point, exact up to Newton's tolerance; ``event_shooting``) and ``mshbm-event`` (MS-HBM with
+``integrator="event"`` over ``event_mixed_harmonics``: its only error is the harmonic truncation);
+``event_steps`` is only their output grid.  The goal of issue 14 is recorded in ``targets.event_goal``:
+the time of the cheapest MS-HBM (event) point with error <= ``event_goal.mshbm_event_error`` (1e-6)
+against the time of the cheapest Moreau-Jean full-shooting point with error <= ``event_goal.
+shooting_error`` (1e-3), both from this run; ``ratio`` = shooting time / MS-HBM (event) time.
+
 Usage::
 
     python workflow/scripts/bench_workprecision.py --config workflow/config.yaml \
@@ -70,6 +78,17 @@ def points(bcfg):
             yield "hbm", {"harmonics": n_h, "regularisation_factor": factor}
     for n_h in bcfg.get("dlft_harmonics", []):  # set-valued laws, AFT samples as HBM
         yield "dlft", {"harmonics": n_h}
+    ev_steps = int(bcfg.get("event_steps", 256))  # the output grid of the event-driven flow
+    if bcfg.get("event_shooting", False):
+        yield "shooting-event", {"steps": ev_steps, "integrator": "event"}
+    for n_h in bcfg.get("event_mixed_harmonics", []):
+        yield "mshbm-event", {"harmonics": n_h, "steps": ev_steps, "integrator": "event"}
+
+
+#: the benchmark's method labels -> the method of ``mshbm.solve`` (the integrator is in the options)
+SOLVE_METHOD = {"shooting-event": "shooting", "mshbm-event": "mshbm"}
+#: every label, in report order
+METHODS = ("shooting", "mshbm", "mshbm-intermediate", "hbm", "dlft", "shooting-event", "mshbm-event")
 
 
 def hbm_samples(bcfg, config, n_h):
@@ -117,14 +136,15 @@ def main(argv=None):
         if method in ("hbm", "dlft"):
             opts["steps"] = hbm_samples(bcfg, config, opts["harmonics"])
         sys_m = scaled_regularisation(system, factor) if method == "hbm" else system
-        sol, times, nearby_ok = timed_solve(sys_m, omega, factor_nearby, method, int(bcfg["repeats"]),
-                                            warmup=method not in warmed, **opts)
+        sol, times, nearby_ok = timed_solve(sys_m, omega, factor_nearby, SOLVE_METHOD.get(method, method),
+                                            int(bcfg["repeats"]), warmup=method not in warmed, **opts)
         warmed.add(method)
         amp = sol.amplitude
         err = [abs(amp[i] / amp_ref[i] - 1.0) if amp_ref[i] > 1e-9 * amp_ref.max() else abs(amp[i])
                for i in idx]
         rows.append({
-            "method": method, "harmonics": opts.get("harmonics"), "steps": sol.steps,
+            "method": method, "integrator": opts.get("integrator", "moreau"),
+            "harmonics": opts.get("harmonics"), "steps": sol.steps,
             "regularisation_factor": factor if method == "hbm" else None,
             "success": bool(sol.success), "message": sol.message, "iterations": sol.iterations,
             "nfev": int(sol.nfev), "loadavg_1min": os.getloadavg()[0],
@@ -138,6 +158,7 @@ def main(argv=None):
     summary = targets(rows, float(bcfg["target_error"]))
     summary["equal_error"] = equal_error_ratios(rows, [float(e) for e in bcfg.get("error_levels", [0.02, 1e-2, 1e-3])])
     summary["shooting_order"] = observed_order(rows)
+    summary["event_goal"] = event_goal(rows, bcfg.get("event_goal") or {})
     out = {
         "system": args.system, "profile": args.profile, "n": n, "omega": omega, "nearby_omega": nearby,
         "reference": {"method": "exact", "amplitude": [float(a) for a in amp_ref[idx]],
@@ -212,13 +233,36 @@ def equal_error_ratios(rows, levels):
     for level in levels:
         entry = {"error_level": float(level)}
         shoot = cheapest(rows, "shooting", level)
-        for method in ("shooting", "mshbm", "mshbm-intermediate", "hbm", "dlft"):
+        for method in METHODS:
             best = cheapest(rows, method, level)
             entry[method] = None if best is None else {
                 "time_s": best["time_s"], "error": best["error"], "harmonics": best["harmonics"],
                 "steps": best["steps"], "regularisation_factor": best["regularisation_factor"],
                 "speedup_over_shooting": (shoot["time_s"] / best["time_s"]) if shoot else None}
         out.append(entry)
+    return out
+
+
+def event_goal(rows, gcfg):
+    """Issue 14's goal: MS-HBM (event) at ``mshbm_event_error`` faster than Moreau-Jean full shooting at
+    ``shooting_error`` (cheapest converged point of each reaching its level, same run).
+
+    ``ratio`` = time(shooting) / time(MS-HBM event); ``met`` = ratio > 1; None where a method does not
+    reach its level in the sweep (then ``met`` is False and ``why`` says which).
+    """
+    lv_ev = float(gcfg.get("mshbm_event_error", 1e-6))
+    lv_sh = float(gcfg.get("shooting_error", 1e-3))
+    ev, sh = cheapest(rows, "mshbm-event", lv_ev), cheapest(rows, "shooting", lv_sh)
+    pick = lambda r: None if r is None else {k: r[k] for k in ("time_s", "error", "harmonics", "steps")}
+    out = {"mshbm_event_error": lv_ev, "shooting_error": lv_sh, "mshbm_event": pick(ev), "shooting": pick(sh),
+           "ratio": (sh["time_s"] / ev["time_s"]) if ev and sh else None}
+    out["met"] = bool(out["ratio"] is not None and out["ratio"] > 1.0)
+    if not any(r["method"] == "mshbm-event" for r in rows):
+        out["why"] = "MS-HBM (event) not in this sweep"
+    elif ev is None:
+        out["why"] = f"no MS-HBM (event) point reached {lv_ev:g}"
+    elif sh is None:
+        out["why"] = f"no full-shooting point reached {lv_sh:g}"
     return out
 
 
@@ -231,7 +275,7 @@ def targets(rows, target_error):
     """
     shoot = [r for r in rows if r["method"] == "shooting" and r["success"]]
     res = {"target_error": target_error}
-    for method in ("mshbm", "mshbm-intermediate", "hbm", "dlft"):
+    for method in METHODS[1:]:
         best = None
         for r in rows:
             if r["method"] != method or not r["success"] or r["error"] > target_error:
