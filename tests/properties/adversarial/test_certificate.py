@@ -103,9 +103,18 @@ def test_resonant_linear_response_as_guess_is_not_accepted(method):
     system = stick_system()
     q_hat = linear_response(system, W1, 3)
     assert np.abs(q_hat).max() > 1e10
-    sol = mshbm.solve(system, W1, method, harmonics=3, steps=1024, guess={"q_hat": q_hat}, max_iter=0)
+    sol = mshbm.solve(system, W1, method, harmonics=3, steps=1024, guess={"q_hat": q_hat}, max_iter=0,
+                      continuation=False)
     assert not sol.success
     assert "residual" in sol.message or "convergence" in sol.message
+    # with the start ladder (default) the guess is its first rung and is rejected; a later start may succeed,
+    # and then with the exact stick solution (the clamped chain), not the resonant one
+    sol = mshbm.solve(system, W1, method, harmonics=3, steps=1024, guess={"q_hat": q_hat}, max_iter=0)
+    first = sol.info["starts"][0]
+    assert first["start"] == "guess" and not first["accepted"]
+    if sol.success:
+        assert sol.info["start_used"] != "guess"
+        assert np.allclose(sol.amplitude[1:], clamped_amplitudes(W1), rtol=_stick_tolerance(method))
 
 
 @pytest.mark.parametrize("factor", [1e3, 1e8])
