@@ -9,18 +9,23 @@
 
 
 rule fe_model:
+    input:
+        script="workflow/scripts/build_fe_model.py",
     output:
         case=f"{R}/fe_beam/beam.yaml",
         M=f"{R}/fe_beam/M.mtx",
         K=f"{R}/fe_beam/K.mtx",
         modes=f"{R}/fe_beam/modes.json",
     params:
-        n_el=5000,
+        argv=lambda w, output: [os.path.dirname(output.case), "--n-el", "5000", "--case",
+                                os.path.basename(output.case)],
     log:
         f"{R}/logs/fe_beam/fe_model.log",
     threads: 1
+    message:
+        "python {input.script} {params.argv}"
     script:
-        "../scripts/build_fe_model.py"
+        "../scripts/cli_job.py"
 
 
 rule fe_example:
@@ -28,13 +33,16 @@ rule fe_example:
         case=rules.fe_model.output.case,
         M=rules.fe_model.output.M,
         K=rules.fe_model.output.K,
+        script="workflow/scripts/fe_example.py",
     output:
         json=f"{R}/fe_beam/solves.json",
     params:
-        methods=["mshbm", "hbm", "shooting"],
-        harmonics=5,
+        argv=lambda w, input, output: [input.case, output.json, "--methods", "mshbm,hbm,shooting",
+                                       "--harmonics", "5"],
     log:
         f"{R}/logs/fe_beam/fe_example.log",
     threads: 1
+    message:
+        "python {input.script} {params.argv}"
     script:
-        "../scripts/fe_example.py"
+        "../scripts/cli_job.py"
