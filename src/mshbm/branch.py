@@ -440,6 +440,7 @@ def _run(system, lam_start, lam_end, method, period, parameter, omega_fixed, opt
             tracer.residual, tracer.d_lam, np.asarray(sol0.x, dtype=float), float(lam_start), float(lam_end),
             residual_scale=tracer.residual_scale, unknown_scale=tracer.unknown_scale, lam_scale=lam_scale,
             ds0=ds, ds_min=ds_min, ds_max=ds_max, max_points=int(max_points), tol=tol,
+            max_corrector_iter=min(12, int(rest.get("max_iter", 12))),
             predictor=predictor, accept=accept, callback=progress, max_time=max_time,
             stall_accept=tracer.stall_accept)
     finally:
@@ -485,7 +486,8 @@ def sweep(system, omega_start, omega_end, method="mshbm", period=1, **options):
         forcing period ``T``.
     **options
         The method's options as for :func:`mshbm.solve` (``harmonics``, ``steps``, ``theta``,
-        ``partition``...; ``guess`` for the start point; ``tol`` also for the corrector), and the
+        ``partition``...; ``guess`` for the start point; ``tol`` also for the corrector; ``max_iter`` also bounds the corrector's
+        iterations, at most 12), and the
         continuation's: ``ds`` (first arclength step, scaled, default 0.02), ``ds_min`` (1e-5),
         ``ds_max`` (0.1), ``max_points`` (400), ``predictor`` (``"tangent"`` or ``"secant"``),
         ``max_time`` (s), ``progress`` (show progress on a terminal; ``"always"``: also elsewhere),

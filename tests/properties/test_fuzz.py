@@ -307,10 +307,12 @@ def test_cli_random_arguments(argv):
 
 
 def test_failed_solve_writes_no_success(tmp_path):
-    """A case that cannot converge in 1 iteration: exit 1, and the result file says success false."""
+    """A case that cannot converge in 1 iteration from its one start (no start ladder): exit 1, and the result
+    file says success false."""
     data = json.loads(json.dumps(BASE))
     data["solver"]["max_iter"] = 1
     data["solver"]["tol"] = 1e-15
+    data["solver"]["continuation"] = False
     path = tmp_path / "case.yaml"
     path.write_text(yaml.safe_dump(data))
     out_file = tmp_path / "r.json"

@@ -101,6 +101,11 @@ DEFAULT_STARTS = ("guess", "linear", "regularisation", "shifted", "clamped", "ze
 #: anchor frequencies ``omega * r`` of the ``"frequency"`` start, in the order tried
 FREQUENCY_RATIOS = (0.85, 1.18, 0.7, 1.4)
 
+#: time box of the ``"frequency"`` start (within the ladder's budget): ``max(FREQUENCY_SECONDS,
+#: FREQUENCY_FACTOR x the first attempt's wall time)``
+FREQUENCY_SECONDS = 5.0
+FREQUENCY_FACTOR = 10.0
+
 #: largest system for which the ``"exact"`` start runs the event-driven solver
 EXACT_MAX_DOFS = 100
 
@@ -776,6 +781,15 @@ class _Runner:
             if key in self.nkw:
                 opts[key] = self.nkw[key]
         why = []
+        box = t0 + max(FREQUENCY_SECONDS, FREQUENCY_FACTOR * (self.attempts[0].wall_time if self.attempts else 0.0))
+        outer = self.deadline
+        self.deadline = box if outer is None else min(box, outer)
+        try:
+            return self._frequency(opts, why, t0, sweep)
+        finally:
+            self.deadline = outer
+
+    def _frequency(self, opts, why, t0, sweep):
         for r in FREQUENCY_RATIOS:
             if self.deadline is not None and time.perf_counter() > self.deadline:
                 why.append("time budget spent")
