@@ -129,6 +129,20 @@ def active():
 
 
 @contextlib.contextmanager
+def _nested(deadline=None):
+    """Nested solves of the ``"frequency"`` start: full ladders (not :func:`active`) without their own
+    ``"frequency"`` start, bounded by ``deadline`` when one is given (:data:`_DEADLINE`)."""
+    tokens = [(_ACTIVE, _ACTIVE.set(False)), (_FREQUENCY, _FREQUENCY.set(True))]
+    if deadline is not None:
+        tokens.append((_DEADLINE, _DEADLINE.set(deadline)))
+    try:
+        yield
+    finally:
+        for var, tok in reversed(tokens):
+            var.reset(tok)
+
+
+@contextlib.contextmanager
 def _activated():
     token = _ACTIVE.set(True)
     try:
@@ -795,16 +809,12 @@ class _Runner:
                 why.append("time budget spent")
                 break
             wa = self.omega * r
-            tok_a, tok_f, tok_d = _ACTIVE.set(False), _FREQUENCY.set(True), _DEADLINE.set(self.deadline)
             try:
-                sol_a = self.solve(self.system, wa, self.method, stability=False, **opts)
+                with _nested(self.deadline):
+                    sol_a = self.solve(self.system, wa, self.method, stability=False, **opts)
             except (InputError, FloatingPointError, np.linalg.LinAlgError, ValueError) as exc:
                 why.append(f"omega_a = {wa:.4g}: {type(exc).__name__}: {exc}"[:160])
                 continue
-            finally:
-                _DEADLINE.reset(tok_d)
-                _FREQUENCY.reset(tok_f)
-                _ACTIVE.reset(tok_a)
             if not sol_a.success:
                 why.append(f"no certified solution at omega_a = {wa:.4g}")
                 continue
@@ -815,16 +825,13 @@ class _Runner:
                 why.append("no continuation driver registered (mshbm.branch not imported)")
                 continue
             left = None if self.deadline is None else max(1.0, self.deadline - time.perf_counter())
-            tok_a, tok_f = _ACTIVE.set(False), _FREQUENCY.set(True)
             try:
-                br = sweep(self.system, wa, self.omega, self.method, guess=sol_a, stability=False, max_time=left,
-                           **{k: v for k, v in opts.items() if k not in ("guess", "stability")})
+                with _nested():
+                    br = sweep(self.system, wa, self.omega, self.method, guess=sol_a, stability=False,
+                               max_time=left, **{k: v for k, v in opts.items() if k not in ("guess", "stability")})
             except (InputError, FloatingPointError, np.linalg.LinAlgError, ValueError) as exc:
                 why.append(f"branch from {wa:.4g}: {type(exc).__name__}: {exc}"[:160])
                 continue
-            finally:
-                _FREQUENCY.reset(tok_f)
-                _ACTIVE.reset(tok_a)
             end = br.points[-1] if br.points else None
             if end is None or not math.isclose(end.omega, self.omega, rel_tol=1e-9):
                 why.append(f"branch from {wa:.4g} stopped at omega = {end.omega if end else wa:.4g}: "
