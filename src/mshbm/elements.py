@@ -658,15 +658,7 @@ def regularised_forces(elements, local_dof, q, u, coupling=False, basis=None):
         f[:, b] -= w * lam[:, j]
         for i, wi in ((a, w), (b, -w)):
             for k, wk in ((a, w), (b, -w)):
-                cq = None if dl_ds is None else (wi * wk) * dl_ds
-                cu = None if dl_dg is None else (wi * wk) * dl_dg
-                if i == k:
-                    if cq is not None:
-                        dfdq[:, i] += cq
-                    if cu is not None:
-                        dfdu[:, i] += cu
-                else:
-                    offdiag.append((i, k, cq, cu))
+                add(i, k, None if dl_ds is None else (wi * wk) * dl_ds, None if dl_dg is None else (wi * wk) * dl_dg)
     # friction loaded by a contact: lambda_T = mu (N_0 + lambda_N) phi(gamma_T); d f / d (q, u) of the
     # tangential DOFs (through gamma_T) and of the contact's DOFs (through lambda_N)
     for j, (el, d) in enumerate(zip(elements, local_dof)):
