@@ -1218,6 +1218,18 @@ class EventTrajectory:
         return Z[:, :n], Z[:, n:2 * n], lam
 
 
+def run_summary(out):
+    """The ``info["event_integrator"]`` record of a solution from one :meth:`EventFlow.simulate` output ``out``
+    (events, impacts, Moreau-Jean fallback segments, message, whether the monodromy is exact)."""
+    return {"events": len(out["events"]),
+            "impacts": sum(1 for e in out["events"] if e.impulse != 0.0),
+            "switched_to_moreau": out["switched"],
+            "moreau_segments": [{k: v for k, v in seg.items() if k not in ("force_times", "forces")}
+                                for seg in out["moreau"]],
+            "message": out["message"] or "exact event-driven flow over the whole period",
+            "monodromy_exact": out["jacobian_exact"]}
+
+
 def extrema(flow, nodes):
     """True max and min of every ``q_j`` over the nodes' period (zeros of ``u_j`` between nodes).
 

@@ -347,7 +347,7 @@ class _MixedBase(PeriodicProblem):
 
     def _event_solution_parts(self, x):
         from ..extrema import fourier_extrema
-        from ..integrators.event import MOREAU, extrema
+        from ..integrators.event import MOREAU, extrema, run_summary
 
         p, q0, u0 = self._split(x)
         out = self._event_run(x, False, record=True)
@@ -378,14 +378,7 @@ class _MixedBase(PeriodicProblem):
         hi[self._time], lo[self._time] = qmax, qmin
         info = {**self._info(p, q_hat),
                 "amplitude_exact": 0.5 * (hi - lo),
-                "event_integrator": {
-                    "events": len(out["events"]),
-                    "impacts": sum(1 for e in out["events"] if e.impulse != 0.0),
-                    "switched_to_moreau": out["switched"],
-                    "moreau_segments": [{k: v for k, v in seg.items() if k not in ("force_times", "forces")}
-                                        for seg in out["moreau"]],
-                    "message": out["message"] or "exact event-driven flow over the whole period",
-                    "monodromy_exact": out["jacobian_exact"]},
+                "event_integrator": run_summary(out),
                 "event_list": out["events"]}
         return dict(t=self.td.t, q_hat=q_hat, time_dofs=self._time, q_time=q_t, u_time=u_t,
                     lam=lam, impulses=P, harmonics=self.n_h, info=info)

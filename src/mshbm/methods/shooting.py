@@ -193,7 +193,7 @@ class ShootingProblem(PeriodicProblem):
         return self.stepper.monodromy(tr.status, tr.P)
 
     def _event_solution_parts(self, x):
-        from ..integrators.event import MOREAU, extrema
+        from ..integrators.event import MOREAU, extrema, run_summary
 
         fl, n, N = self.flow, self.n, self.N
         out = fl.simulate(0.0, fl.state(0.0, x[:n], x[n:]), jac=True, sample_times=self.t, record=True)
@@ -218,14 +218,7 @@ class ShootingProblem(PeriodicProblem):
         n_h = min(self.n_h, (N - 1) // 2)
         Phi = out["Phi"][:2 * n]
         mult = np.linalg.eigvals(Phi)
-        info = {"event_integrator": {
-                    "events": len(out["events"]),
-                    "impacts": sum(1 for e in out["events"] if e.impulse != 0.0),
-                    "switched_to_moreau": out["switched"],
-                    "moreau_segments": [{k: v for k, v in seg.items() if k not in ("force_times", "forces")}
-                                        for seg in out["moreau"]],
-                    "message": out["message"] or "exact event-driven flow over the whole period",
-                    "monodromy_exact": out["jacobian_exact"]},
+        info = {"event_integrator": run_summary(out),
                 "event_multipliers": mult, "event_list": out["events"],
                 "amplitude_exact": 0.5 * (qmax - qmin), "q_max": qmax, "q_min": qmin}
         return dict(t=self.t, q_hat=fourier.fft(q[:-1], n_h), time_dofs=np.arange(n), q_time=q, u_time=u,
