@@ -4,10 +4,12 @@ the paper (``{{branches.<key>}}``).
 
     python workflow/scripts/branch_summary.py --out results/summary/branches.json BRANCH.json ...
 
-Numbers per branch ``<name>_<method>`` (period-k branches are their own names): ``ok`` (reached the end
+Numbers per branch ``<name>_<label>`` (the label of the curve in the config, ``-`` as ``_``) (period-k branches are their own names): ``ok`` (reached the end
 of the range), ``points``, ``time`` (s), ``omega_reached`` (the last frequency of the branch), ``stable``,
 ``unstable`` and ``undecided`` point counts, and per bifurcation type the first frequency found
-(``pd``, ``ns``, ``fold``, ``grazing``; null if none).
+(``pd``, ``ns``, ``fold``, ``grazing``; null if none).  Where a method is traced both with Moreau–Jean
+steps (label ``<method>``) and with the event-driven flow (label ``<method>-event``): ``<name>_<method>_pd_shift``,
+the relative shift of the first period doubling, pd(Moreau–Jean) / pd(event-driven) − 1.
 """
 from __future__ import annotations
 
@@ -21,12 +23,14 @@ KEYS = {"period-doubling": "pd", "neimark-sacker": "ns", "fold": "fold", "grazin
 def summarize(branches):
     num, rows = {}, []
     for b in branches:
-        p = f"{b['name']}_{b['method'].replace('-', '_')}"
+        label = b.get("label", b["method"])
+        p = f"{b['name']}_{label.replace('-', '_')}"
         st = b["stable"]
         omega = b["omega"]
         num[f"{p}_ok"] = bool(b["success"])
         num[f"{p}_points"] = len(omega)
         num[f"{p}_time"] = float(b["wall_time_s"])
+        num[f"{p}_steps"] = b["options"].get("steps")  # time steps (or event-search sub-steps) per period
         num[f"{p}_omega_reached"] = omega[-1] if omega else None
         num[f"{p}_omega_min"] = min(omega) if omega else None
         num[f"{p}_omega_max"] = max(omega) if omega else None
@@ -40,10 +44,17 @@ def summarize(branches):
             ws = [f["omega"] for f in b["bifurcations"] if f["type"] == t]
             num[f"{p}_{k}"] = min(ws) if ws else None
             num[f"{p}_{k}_count"] = len(ws)
-        rows.append({"name": b["name"], "method": b["method"], "period": b["period"], "system": b["system"],
+        rows.append({"name": b["name"], "label": label, "method": b["method"], "period": b["period"], "system": b["system"],
                      "success": b["success"], "message": b["message"], "points": len(omega),
                      "wall_time_s": b["wall_time_s"], "omega": omega, "amplitude": b["amplitude"], "stable": st,
                      "bifurcations": b["bifurcations"], "options": b["options"], "n_dofs": b.get("n_dofs")})
+    # a method traced twice, with Moreau-Jean steps and with the exact event-driven flow: the relative shift of
+    # its first period doubling, <name>_<method>_pd_shift = pd(Moreau-Jean) / pd(event-driven) - 1
+    for r in rows:
+        p = f"{r['name']}_{r['label'].replace('-', '_')}"
+        ev = f"{p}_event_pd"
+        if num.get(ev) and num.get(f"{p}_pd"):
+            num[f"{p}_pd_shift"] = num[f"{p}_pd"] / num[ev] - 1.0
     return {"rows": rows, "numbers": num}
 
 
