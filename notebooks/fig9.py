@@ -12,7 +12,8 @@
 # (a) The 3-DOF friction chain (Table 1) over its resonances; (b) the 5-DOF impact chain (Table 2)
 # around π/5, its T-periodic branch, the 2T-periodic branch on which the chain settles from rest
 # at π/5, and the 2T-periodic branch born at the period doubling of the T-periodic one, found by branch
-# switching (`mshbm.switch_period_doubling`: the eigenvector of the multiplier −1 of the exact monodromy).  Solid: stable; dashed: unstable; dotted: no valid stability estimate.
+# switching (`mshbm.switch_period_doubling`: the eigenvector of the multiplier −1 of the exact monodromy),
+# traced with the exact event-driven flow; it passes π/5 through the response from rest (paper Section 5.7).  Solid: stable; dashed: unstable; dotted: no valid stability estimate.
 
 # %% tags=["parameters"]
 config = "results/config.json"

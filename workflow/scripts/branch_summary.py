@@ -6,7 +6,7 @@ the paper (``{{branches.<key>}}``).
 
 Numbers per branch ``<name>_<label>`` (the label of the curve in the config, ``-`` as ``_``) (period-k branches are their own names): ``ok`` (reached the end
 of the range), ``points``, ``time`` (s), ``omega_reached`` (the last frequency of the branch), ``stable``,
-``unstable`` and ``undecided`` point counts, and per bifurcation type the first frequency found
+``unstable`` and ``undecided`` point counts, ``amp_at_pi5`` (mass 1 at the paper's ω = π/5, interpolated), and per bifurcation type the first frequency found
 (``pd``, ``ns``, ``fold``, ``grazing``; null if none).  Where a method is traced both with Moreau–Jean
 steps (label ``<method>``) and with the event-driven flow (label ``<method>-event``): ``<name>_<method>_pd_shift``,
 the relative shift of the first period doubling, pd(Moreau–Jean) / pd(event-driven) − 1.
@@ -15,9 +15,21 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 
 KEYS = {"period-doubling": "pd", "neimark-sacker": "ns", "fold": "fold", "grazing": "grazing"}
+
+
+def amplitude_at(omega, amplitude, w, dof=0):
+    """The amplitude of ``dof`` at frequency ``w``, interpolated linearly between the first two consecutive
+    points of the branch that bracket ``w``; None if no segment does."""
+    for i in range(len(omega) - 1):
+        a, b = omega[i], omega[i + 1]
+        if min(a, b) <= w <= max(a, b) and a != b:
+            s = (w - a) / (b - a)
+            return (1 - s) * amplitude[i][dof] + s * amplitude[i + 1][dof]
+    return None
 
 
 def summarize(branches):
@@ -28,6 +40,7 @@ def summarize(branches):
         st = b["stable"]
         omega = b["omega"]
         num[f"{p}_ok"] = bool(b["success"])
+        num[f"{p}_message"] = b["message"]  # where and why a sweep stopped
         num[f"{p}_points"] = len(omega)
         num[f"{p}_time"] = float(b["wall_time_s"])
         num[f"{p}_steps"] = b["options"].get("steps")  # time steps (or event-search sub-steps) per period
@@ -40,6 +53,7 @@ def summarize(branches):
         num[f"{p}_stable_first"] = st[0] if st else None  # the verdict at the start frequency
         num[f"{p}_amp_first"] = b["amplitude"][0][0] if b["amplitude"] else None  # DOF 0 at the start
         num[f"{p}_amp_last"] = b["amplitude"][-1][0] if b["amplitude"] else None  # DOF 0 at the end
+        num[f"{p}_amp_at_pi5"] = amplitude_at(omega, b["amplitude"], math.pi / 5)  # DOF 0 at the paper's omega
         for t, k in KEYS.items():
             ws = [f["omega"] for f in b["bifurcations"] if f["type"] == t]
             num[f"{p}_{k}"] = min(ws) if ws else None
