@@ -124,6 +124,12 @@ RELEASE_STEPS = 8
 MAX_COMBINATIONS = 6561
 #: largest (sub)system the dense event-driven flow accepts (matrix exponentials of size ~2n)
 MAX_DOFS = 1000
+#: the exponentials of a mode over its sub-step (and its Fourier weights) depend only on its matrix ``A``,
+#: ``omega`` and the sub-step count: kept for that many modes (of at most ``SHARED_MAX_D`` states) across
+#: flows, so that repeated solves of one problem (Newton restarts, benchmarks, continuation at one
+#: frequency) compute them once; keyed by the exact bytes of ``A``
+SHARED_MAX, SHARED_MAX_D = 32, 400
+_SHARED = {}
 
 
 class EventError(RuntimeError):
@@ -183,7 +189,7 @@ class Event:
 
 
 class _Mode:
-    __slots__ = ("st", "A", "Lam", "C", "CA", "ev", "h", "E", "n_taylor", "code", "Eg", "G0", "Ey")
+    __slots__ = ("st", "A", "Lam", "C", "CA", "ev", "h", "E", "n_taylor", "code", "shared", "Ey")
 
 
 class EventFlow:
@@ -378,15 +384,21 @@ class EventFlow:
                 ev.append((j, "lift", 0))
         md = _Mode()
         md.st, md.A, md.Lam, md.code = st, A, Lam, mode_code(st)
-        md.Eg = None
-        md.G0 = {}
         md.C = np.array(rows) if rows else np.zeros((0, D))
         md.CA = md.C @ A
         md.ev = ev
         norm_xx = np.abs(A[:2 * n, :2 * n]).sum(axis=0).max()
         ns = max(self.min_substeps, int(math.ceil(2.0 * self.T * norm_xx)))
         md.h = self.T / ns
-        md.E = sla.expm(A * md.h)
+        key = (self.omega, ns, A.shape[0], A.tobytes())
+        shared = _SHARED.get(key)
+        if shared is None:
+            shared = {"E": sla.expm(A * md.h), "Eg": None, "G0": {}}
+            if A.shape[0] <= SHARED_MAX_D:
+                if len(_SHARED) >= SHARED_MAX:
+                    _SHARED.pop(next(iter(_SHARED)))
+                _SHARED[key] = shared
+        md.E, md.shared = shared["E"], shared
         md.Ey = (np.cos(self._yw * md.h), np.sin(self._yw * md.h))  # rotation of the forcing states over h_s
         rho = np.abs(A).sum(axis=0).max() * md.h
         k, term = 1, rho
@@ -462,8 +474,12 @@ class EventFlow:
         return cols
 
     def powers(self, mode, z):
-        """``W`` with ``W[:, j] = A^j z / j!`` so that ``z(s) = W @ s^j``."""
+        """``W`` with ``W[:, j] = A^j z / j!`` so that ``z(s) = W @ s^j``.  For a state ``z`` (shape (D,)) with
+        forcing states, their rows of ``A`` (rotations) are applied from their structure."""
         md = self.mode(mode) if not isinstance(mode, _Mode) else mode
+        if self.ncx and z.ndim == 1:
+            return _powers_state(md.A, np.ascontiguousarray(z, dtype=float), md.n_taylor, self.iy, self.n,
+                                 self._yc, self._ys, self._yw)
         W = np.empty((z.shape[0], md.n_taylor) + z.shape[1:])
         W[:, 0] = z
         for j in range(1, md.n_taylor):
@@ -508,7 +524,7 @@ class EventFlow:
         ``sens``: ``P`` is the sensitivity matrix ``Phi`` of :meth:`simulate` (columns :meth:`jac_columns`),
         updated in place: its oscillator rows are zero and its forcing-state rows are zero but in the 2 x 2
         rotation blocks of the pairs (and the diagonal of the constants) when it has the forcing-state
-        columns (:meth:`_phi_product`), so only those entries enter and are rotated: the cost is linear, not
+        columns (:meth:`_phi_rotation_entries`), so only those entries enter and are rotated: the cost is linear, not
         quadratic, in the number of forcing states."""
         if not self.ncx:
             return md.E @ P
@@ -1072,60 +1088,30 @@ class EventFlow:
         """Fourier weights of a full sub-step of mode ``md`` starting at ``t = 0``:
         ``G0[k] = sum_g w_g b_k(s_g) exp(A s_g)[:n]`` (Gauss-Legendre nodes ``s_g`` and weights ``w_g`` on
         ``[0, h_s]``), shape (2 n_f + 1, n, D), once per mode and ``n_f``.  From a start ``a`` the weights
-        are the rows of ``G0`` rotated by ``k omega a`` (:meth:`_rotate`)."""
-        G0 = md.G0.get(nfr)
+        are the rows of ``G0`` rotated by ``k omega a`` (:meth:`_fourier_flush`)."""
+        sh = md.shared
+        G0 = sh["G0"].get(nfr)
         if G0 is None:
             h, n = md.h, self.n
             ss = 0.5 * h * (_GL_X + 1.0)
-            if md.Eg is None:  # the q rows of exp(A s_g) at the nodes of a full sub-step
-                md.Eg = np.array([sla.expm(md.A * x)[:n] for x in ss])  # (g, n, D)
+            if sh["Eg"] is None:  # the q rows of exp(A s_g) at the nodes of a full sub-step
+                sh["Eg"] = np.array([sla.expm(md.A * x)[:n] for x in ss])  # (g, n, D)
             B0 = self._fourier_basis(ss, nfr) * (0.5 * h * _GL_W)[:, None]  # (g, nc)
-            G0 = md.G0[nfr] = np.einsum("gk,gnd->knd", B0, md.Eg)
+            G0 = sh["G0"][nfr] = np.einsum("gk,gnd->knd", B0, sh["Eg"])
         return G0
 
-    def _rotate(self, H, a, nfr):
-        """Rows ``k`` of ``H`` (shape (2 n_f + 1, ...), weights of a piece starting at 0) for a piece
-        starting at ``a``: ``b_k(a + s)`` from ``b_k(s)`` by the rotation through ``k omega a``."""
-        if not nfr:
-            return H
-        wa = self.omega * a * np.arange(1, nfr + 1)
-        c = np.cos(wa).reshape((nfr,) + (1,) * (H.ndim - 1))
-        s_ = np.sin(wa).reshape(c.shape)
-        out = np.empty_like(H)
-        out[0] = H[0]
-        Hc, Hs = H[1::2], H[2::2]
-        out[1::2] = c * Hc - s_ * Hs
-        out[2::2] = s_ * Hc + c * Hs
-        return out
-
-    def _phi_product(self, G, Phi):
-        """``G @ Phi`` for ``G`` of shape (r, D) and the sensitivities ``Phi`` (D, cols) of :meth:`simulate`.
-
-        The rows of ``Phi`` for the oscillator are zero, and with the forcing-state columns
-        (``jac_cols="all"``) its forcing-state block is the rotation of those states: zero in the
-        ``(q0, u0)`` columns, per DOF ``i`` and harmonic ``k`` nonzero only in the 2 x 2 block of the pair
-        ``(Y1, Y2)`` (and 1 x 1 for the constant), whatever the events (the saltation and the impact law
-        change the ``(q, u)`` rows only; Moreau-Jean segments leave the block unchanged).  So the product is
-        ``G_x Phi_x`` plus a structured term, linear instead of quadratic in the number of forcing states.
-        """
-        iy, n2 = self.iy, 2 * self.n
-        out = G[:, :iy] @ Phi[:iy]
-        if Phi.shape[1] == n2 or not self.ncx:
-            return out
-        n = self.n
-        Gy, Py = G[:, iy:], Phi[iy:, n2:]
-        yc, ys, i0 = self._yc, self._ys, np.arange(n)
-        Gc, Gs = Gy[:, yc], Gy[:, ys]
-        oy = out[:, n2:]
-        oy[:, i0] += Gy[:, i0] * Py[i0, i0]
-        oy[:, yc] += Gc * Py[yc, yc] + Gs * Py[ys, yc]
-        oy[:, ys] += Gc * Py[yc, ys] + Gs * Py[ys, ys]
-        return out
-
     def _phi_rotation_entries(self, Phi):
-        """The nonzero entries of the forcing-state block of ``Phi`` (:meth:`_phi_product`): the diagonal of the
-        constants ``d`` (n,) and per pair ``(Y1, Y2)`` the block ``[[c1, s1], [m1, c2]]`` (rows Y1, Y2;
-        columns d/dY1_0, d/dY2_0), concatenated ``[d, c1, m1, s1, c2]``, shape (n + 4 n_c n,)."""
+        """The nonzero entries of the forcing-state block of ``Phi``: the diagonal of the constants ``d`` (n,)
+        and per pair ``(Y1, Y2)`` the block ``[[c1, s1], [m1, c2]]`` (rows Y1, Y2; columns d/dY1_0, d/dY2_0),
+        concatenated ``[d, c1, m1, s1, c2]``, shape (n + 4 n_c n,).
+
+        Structure of the sensitivities ``Phi`` of :meth:`simulate`: the rows of the oscillator are zero, and
+        with the forcing-state columns (``jac_cols="all"``) the forcing-state block is the rotation of those
+        states: zero in the ``(q0, u0)`` columns, per DOF ``i`` and harmonic ``k`` nonzero only in the 2 x 2
+        block of the pair ``(Y1, Y2)`` (and 1 x 1 for the constant), whatever the events (the saltation and
+        the impact law change the ``(q, u)`` rows only, the vector fields of all modes agree in the
+        forcing-state rows; Moreau-Jean segments leave the block unchanged).  Products with ``Phi`` then
+        cost linear, not quadratic, in the number of forcing states."""
         return _rotation_entries(Phi, self.iy, self.n, self._yc, self._ys)
 
     def _fourier_flush(self, four):
@@ -1133,7 +1119,7 @@ class EventFlow:
         ``a_j``, states ``z_j``, the rows ``Phi_j[:iy]`` and :meth:`_phi_rotation_entries`), all at once:
 
         ``sum_j Rot(a_j) G0 z_j`` and ``sum_j Rot(a_j) G0 Phi_j`` with ``Rot(a)`` the rotation of the
-        harmonic rows through ``k omega a`` (:meth:`_rotate`).  The ``(q, u)`` rows of ``Phi_j`` enter by one
+        harmonic rows through ``k omega a`` (``b_k(a + s)`` from ``b_k(s)``).  The ``(q, u)`` rows of ``Phi_j`` enter by one
         matrix product over all ``j``; the forcing-state rows (rotation blocks) by the sums
         ``sum_j [1, cos, sin](k omega a_j) [d, c1, m1, s1, c2]_j`` (one product of a (1 + 2 n_f, J) by a
         (J, n + 4 n_c n) matrix), so the cost is linear, not cubic, in the harmonics per sub-step."""
@@ -1219,21 +1205,14 @@ class EventFlow:
         :meth:`_fourier_full` of its mode, rotated to ``a``."""
         n, nfr = self.n, four[0]
         if s == md.h:
-            if len(four) > 3:  # summed at the end (_fourier_flush): keep what the piece needs
-                rec = four[3].setdefault(md.code, ([], [], [], []))
-                rec[0].append(a)
-                rec[1].append(z.copy())
-                if four[2] is not None and Phi is not None:
-                    rec[2].append(Phi[:self.iy].copy())
-                    if Phi.shape[1] > 2 * n and self.ncx:
-                        rec[3].append(self._phi_rotation_entries(Phi))
-                return
-            G0 = self._fourier_full(md, nfr)
-            four[1] += self._rotate(G0 @ z, a, nfr)
+            # summed at the end (_fourier_flush): keep what the piece needs
+            rec = four[3].setdefault(md.code, ([], [], [], []))
+            rec[0].append(a)
+            rec[1].append(z.copy())
             if four[2] is not None and Phi is not None:
-                nc = 2 * nfr + 1
-                X = self._phi_product(G0.reshape(nc * n, self.D), Phi).reshape(nc, n, -1)
-                four[2] += self._rotate(X, a, nfr)
+                rec[2].append(Phi[:self.iy].copy())
+                if Phi.shape[1] > 2 * n and self.ncx:
+                    rec[3].append(self._phi_rotation_entries(Phi))
             return
         ss = 0.5 * s * (_GL_X + 1.0)
         wts = 0.5 * s * _GL_W
@@ -1384,6 +1363,26 @@ def _amul_sens(A, P, iy, n, yc, ys, yw):
             out[iy + b, n2 + a] = -w * c1
             out[iy + b, n2 + b] = -w * s1
     return out
+
+
+@njit(cache=True)
+def _powers_state(A, z, nt, iy, n, yc, ys, yw):
+    """``W[:, j] = A^j z / j!`` (:meth:`EventFlow.powers`) for a state ``z`` (D,): rows ``:iy`` from the full
+    rows of ``A``, the forcing states from their rotation ``(Y1, Y2)' = yw[p] (Y2, -Y1)`` (constants: 0)."""
+    D = z.size
+    W = np.zeros((D, nt))
+    W[:, 0] = z
+    for j in range(1, nt):
+        for r in range(iy):
+            acc = 0.0
+            for k in range(D):
+                acc += A[r, k] * W[k, j - 1]
+            W[r, j] = acc / j
+        for p in range(yc.size):
+            a, b = iy + yc[p], iy + ys[p]
+            W[a, j] = yw[p] * W[b, j - 1] / j
+            W[b, j] = -yw[p] * W[a, j - 1] / j
+    return W
 
 
 @njit(cache=True)
