@@ -390,7 +390,7 @@ class EventFlow:
         norm_xx = np.abs(A[:2 * n, :2 * n]).sum(axis=0).max()
         ns = max(self.min_substeps, int(math.ceil(2.0 * self.T * norm_xx)))
         md.h = self.T / ns
-        key = (self.omega, ns, A.shape[0], A.tobytes())
+        key = (self.omega, ns, n, A.shape[0], A.tobytes())
         shared = _SHARED.get(key)
         if shared is None:
             shared = {"E": sla.expm(A * md.h), "Eg": None, "G0": {}}
