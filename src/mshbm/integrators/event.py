@@ -64,7 +64,14 @@ on ``F_c`` and ``d z / d F_c`` are columns of the same monodromy (``jac_cols="al
 integrated by Gauss-Legendre quadrature on every smooth piece of the flow (exact to rounding) together
 with their sensitivities (``q`` is continuous at events, so the event-time variations add nothing).
 The rows of the forcing states are applied from their rotation structure, so their cost is linear in
-their number.
+their number; so are their sensitivities: the forcing-state block of ``Phi`` stays a set of 2 x 2
+rotation blocks through every event (:meth:`EventFlow._phi_rotation_entries`), and only those entries are
+propagated (compiled, :func:`_emul_sens`).  The quadrature of a full sub-step is a fixed weight matrix of
+its mode (``G0``, the nodes' ``exp(A s_g)`` against the basis at ``s_g``) rotated to the sub-step's start
+time; the sub-steps of a run are summed once at its end (:meth:`EventFlow._fourier_flush`: one matrix
+product for the ``(q, u)`` rows, one for the rotation blocks).  The exponentials of a mode and its
+weights depend only on its matrix, ``omega`` and the sub-step: they are shared by the flows of repeated
+solves of one problem (``SHARED_MAX`` modes).
 
 Accumulations and chattering
 ----------------------------
