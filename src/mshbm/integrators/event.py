@@ -1123,7 +1123,7 @@ class EventFlow:
 
     def _fourier_flush(self, four):
         """Add the full sub-steps recorded by :meth:`_fourier_piece` (``four[3]``: per mode the start times
-        ``a_j``, states ``z_j``, the rows ``Phi_j[:iy]`` and :meth:`_phi_rotation_entries`), all at once:
+        ``a_j``, states ``z_j``, the rows ``Phi_j[:2n]`` and :meth:`_phi_rotation_entries`), all at once:
 
         ``sum_j Rot(a_j) G0 z_j`` and ``sum_j Rot(a_j) G0 Phi_j`` with ``Rot(a)`` the rotation of the
         harmonic rows through ``k omega a`` (``b_k(a + s)`` from ``b_k(s)``).  The ``(q, u)`` rows of ``Phi_j`` enter by one
@@ -1146,16 +1146,18 @@ class EventFlow:
             four[1] += self._rot_sum(Y, Cj, Sj)
             if four[2] is None or not pl:
                 continue
-            # (q, u, oscillator) rows of Phi: L_j = Rot(a_j) G0[..., :iy], one product over (j, rows)
-            Gx = G0[:, :, :iy]
-            L = np.empty((J, nc, n, iy))
+            # (q, u) rows of Phi (its oscillator rows are zero): L_j = Rot(a_j) G0[..., :2n], one product
+            # over (j, rows)
+            n2 = 2 * n
+            Gx = G0[:, :, :n2]
+            L = np.empty((J, nc, n, n2))
             L[:, 0] = Gx[0]
             if K:
                 cc, ss_ = Cj[:, :, None, None], Sj[:, :, None, None]
                 L[:, 1::2] = cc * Gx[1::2] - ss_ * Gx[2::2]
                 L[:, 2::2] = ss_ * Gx[1::2] + cc * Gx[2::2]
-            P = np.array(pl)  # (J, iy, cols)
-            four[2] += (L.transpose(1, 2, 0, 3).reshape(nc * n, J * iy) @ P.reshape(J * iy, -1)).reshape(
+            P = np.array(pl)  # (J, 2n, cols)
+            four[2] += (L.transpose(1, 2, 0, 3).reshape(nc * n, J * n2) @ P.reshape(J * n2, -1)).reshape(
                 nc, n, -1)
             if not yl:
                 continue
@@ -1217,7 +1219,7 @@ class EventFlow:
             rec[0].append(a)
             rec[1].append(z.copy())
             if four[2] is not None and Phi is not None:
-                rec[2].append(Phi[:self.iy].copy())
+                rec[2].append(Phi[:2 * n].copy())  # the oscillator rows are zero (_phi_rotation_entries)
                 if Phi.shape[1] > 2 * n and self.ncx:
                     rec[3].append(self._phi_rotation_entries(Phi))
             return
