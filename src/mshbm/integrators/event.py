@@ -1210,8 +1210,9 @@ class EventFlow:
 
     def _fourier_piece(self, md, z, W, Phi, a, s, four):
         """Add ``int_a^{a+s} q(t) b(t) dt`` (and of ``Phi_q``) by Gauss-Legendre quadrature on the flow from
-        the state ``z`` at ``a`` (``W``: its Taylor powers, or None).  A full sub-step uses the weights
-        :meth:`_fourier_full` of its mode, rotated to ``a``."""
+        the state ``z`` at ``a`` (``W``: its Taylor powers, or None).  A full sub-step is recorded in
+        ``four[3]`` and summed by :meth:`_fourier_flush` (the weights :meth:`_fourier_full` of its mode,
+        rotated to ``a``)."""
         n, nfr = self.n, four[0]
         if s == md.h:
             # summed at the end (_fourier_flush): keep what the piece needs
