@@ -43,7 +43,7 @@ ratio of the medians over all calls (minima reported too).  Both codes get the s
 call of either runs after calls of its own, as in a user's loop of solves, and a load change hits all
 contenders alike since the rounds alternate.  The earlier method, one call of each contender in turn,
 measured our 0.35 ms solve at 0.7-0.8 ms: pyHarm's and jax's calls in between evict our code and data
-from the caches.  ``interleaving_check`` records the evidence in every run: our solve alone in a loop,
+from the caches.  ``interleaving_check`` records the evidence in every run: each contender alone in a loop,
 interleaved call by call (the old method), and the first and the other calls of each block.
 
 Usage::
@@ -221,13 +221,13 @@ def run_case(n, quick, log):
         f"pyHarm {st['pyharm_newton']['median_s'] * 1e3:.2f} ms (min {st['pyharm_newton']['min_s'] * 1e3:.2f}) "
         f"-> {fps['speedup_newton_only']:.1f}x")
 
-    # --- the timing method's control: our calls alone in a loop, and one call of each contender in turn
+    # --- the timing method's control: each contender alone in a loop, and one call of each in turn
     # (the earlier method), against the blocks above
     alone = {}
-    for k in ("ours", "ours_newton"):
+    for k in ("ours", "ours_newton", "pyharm", "pyharm_newton"):  # pyHarm: fewer calls (its are long)
         fn = contenders[k]
         ts = []
-        for _ in range(rounds * block):
+        for _ in range(rounds * block if k.startswith("ours") else rounds):
             t0 = time.perf_counter()
             fn()
             ts.append(time.perf_counter() - t0)
@@ -235,8 +235,9 @@ def run_case(n, quick, log):
     per_call = bl.interleaved(contenders, rounds, warmup=0)
     pc = {k: bl.stats(v) for k, v in per_call.items()}
     res["interleaving_check"] = {
-        "what": "the same four contenders timed three ways in this run: our calls alone in a loop "
-                f"({rounds * block} consecutive calls), one call of each contender in turn ({rounds} rounds: the "
+        "what": "the same four contenders timed three ways in this run: each alone in a loop "
+                f"({rounds * block} consecutive calls of ours, {rounds} of pyHarm), one call of each contender in "
+                f"turn ({rounds} rounds: the "
                 "method before issue 16), and the blocks of from_perturbed_start (first call of a block: after "
                 "another contender's block)",
         "alone": {k: {"median_s": v["median_s"], "min_s": v["min_s"], "repeats": v["repeats"]}
@@ -248,6 +249,8 @@ def run_case(n, quick, log):
         "speedup_per_call": pc["pyharm"]["median_s"] / pc["ours"]["median_s"],
         "speedup_newton_only_per_call": pc["pyharm_newton"]["median_s"] / pc["ours_newton"]["median_s"],
     }
+    log(f"  n={n}: control: pyHarm alone {alone['pyharm']['median_s'] * 1e3:.2f} ms, Newton only "
+        f"{alone['pyharm_newton']['median_s'] * 1e3:.2f} ms")
     log(f"  n={n}: control: ours alone {alone['ours']['median_s'] * 1e3:.3f} ms, one call each in turn "
         f"{pc['ours']['median_s'] * 1e3:.3f} ms (pyHarm {pc['pyharm']['median_s'] * 1e3:.2f} ms -> "
         f"{res['interleaving_check']['speedup_per_call']:.1f}x), blocks {st['ours']['median_s'] * 1e3:.3f} ms "
