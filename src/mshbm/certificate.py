@@ -410,6 +410,38 @@ def certify(problem, sol, tol, step_accuracy=None):
     return cert
 
 
+def _element_tables(system):
+    """The element bookkeeping of :func:`_certify` (cached on the system while its element tuple is the same;
+    shared: not to be modified): ``el_dofs`` (sorted DOFs carrying elements), ``col`` (DOF -> index in
+    ``el_dofs``), ``I``, ``J`` (per element: index of its DOF and of its second DOF, -1 for the ground),
+    ``sign`` (per element), ``fr`` and ``ct`` (``[(j, element)]`` of the bounded and the unilateral
+    elements)."""
+    def compute():
+        els = tuple(system.elements)
+        el_dofs = np.array(sorted({int(d) for e in els for d in e.dofs}), dtype=np.int64)
+        col = {int(d): i for i, d in enumerate(el_dofs)}
+        I = np.array([col[int(e.dof)] for e in els], dtype=np.int64)
+        J = np.array([-1 if e.relative_to is None else col[int(e.relative_to)] for e in els], dtype=np.int64)
+        sign = np.array([float(e.sign) for e in els])
+        for a in (el_dofs, I, J, sign):
+            a.flags.writeable = False
+        fr = tuple((j, e) for j, e in enumerate(els) if e.bounded)
+        ct = tuple((j, e) for j, e in enumerate(els) if e.unilateral)
+        return el_dofs, col, I, J, sign, fr, ct
+
+    return system.derived("certificate_elements", ("elements",), compute)
+
+
+def el_dofs_each(system):
+    """The DOF of each element, shape ``(m,)``, int64, read-only (cached on the system)."""
+    def compute():
+        a = np.array([e.dof for e in system.elements], dtype=np.int64)
+        a.flags.writeable = False
+        return a
+
+    return system.derived("element_dof_each", ("elements",), compute)
+
+
 def _certify(problem, sol, tol, cert, step_accuracy=None):
     system, omega = problem.system, float(sol.omega)
     is_hbm = problem.method in ("hbm", "dlft")  # Fourier series of all DOFs, AFT samples
@@ -422,7 +454,7 @@ def _certify(problem, sol, tol, cert, step_accuracy=None):
     F = force_scale(system, penalty=is_hbm and not is_dlft)
     D0 = displacement_floor(system, omega)
     els = list(system.elements)
-    el_dofs = np.array(sorted({int(d) for e in els for d in e.dofs}), dtype=np.int64)
+    el_dofs, col, I, J, sign, fr, ct = _element_tables(system)
 
     # 1. residual, re-evaluated
     x = np.asarray(sol.x, dtype=float)
@@ -471,13 +503,9 @@ def _certify(problem, sol, tol, cert, step_accuracy=None):
         _time_discretisation(problem, sol, system, omega, stepper, D, cert)
 
     # element time series: displacement and velocity of the element DOFs on the grid
-    col = {int(d): i for i, d in enumerate(el_dofs)}
     lam = np.asarray(sol.lam)
     # per element: extremes of w^T q, w^T u, lambda on the grid and the element's work (one compiled pass)
     terms = np.zeros((len(els), 8))
-    I = np.array([col[int(e.dof)] for e in els], dtype=np.int64)
-    J = np.array([-1 if e.relative_to is None else col[int(e.relative_to)] for e in els], dtype=np.int64)
-    sign = np.array([float(e.sign) for e in els])
     nc = qh.shape[0]
     if els and not np.size(sol.time_dofs) and nc <= 64 and N > 2 * (nc // 2) and lam.shape[0] == N + 1:
         # Fourier series alone (HBM, DLFT): the grid values of the element DOFs are summed in the pass
@@ -493,7 +521,6 @@ def _certify(problem, sol, tol, cert, step_accuracy=None):
                            I, J, sign, N, terms)
 
     # 3. element laws
-    fr = [(j, e) for j, e in enumerate(els) if e.bounded]
     if fr:
         ratios = []
         for j, e in fr:
@@ -509,7 +536,6 @@ def _certify(problem, sol, tol, cert, step_accuracy=None):
         val = max(ratios)
         cert.checks.append(Check("friction_cone", val, 1.0 + 1e-9, bool(val <= 1.0 + 1e-9),
                                  note="max |lambda_T| / (mu F_N) (per sample where F_N follows a contact)"))
-    ct = [(j, e) for j, e in enumerate(els) if e.unilateral]
     if ct:
         pen, bnd, comp = 0.0, np.inf, 0.0
         for j, e in ct:
@@ -559,7 +585,7 @@ def _certify(problem, sol, tol, cert, step_accuracy=None):
             Z = np.fft.rfft(lam[:-1], axis=0) * (2.0 / N)  # (N/2+1, m): complex amplitudes
             Kd, Md, Cd = diagonals(system)
             tail = np.empty(len(els))
-            _force_tail(Z, Kd, Md, Cd, np.array([e.dof for e in els], dtype=np.int64), omega, n_h, tail)
+            _force_tail(Z, Kd, Md, Cd, el_dofs_each(system), omega, n_h, tail)
             ef = 0.0
             for v in tail.tolist():
                 ef = max(ef, v / D)
@@ -631,7 +657,6 @@ def _energy(problem, sol, system, omega, h, N, is_hbm, stepper, els, col, ue_max
     n = system.n
     T = 2.0 * np.pi / omega
     C = system.C
-    sign = np.array([e.sign for e in els])
     if is_hbm:
         qh = np.asarray(sol.q_hat)
         n_h = (qh.shape[0] - 1) // 2
@@ -703,6 +728,7 @@ def _energy(problem, sol, system, omega, h, N, is_hbm, stepper, els, col, ue_max
             ka, kb = k * omega * a, k * omega * b  # C_LL's quadratic form = C's on rows zero off L
             D_C += float(0.5 * T * (np.sum(ka * (Cr @ ka.T).T) + np.sum(kb * (Cr @ kb.T).T)))
         P = np.asarray(sol.impulses)
+        sign = np.array([e.sign for e in els])
         vj = [v[:, pos[int(e.dof)]] if e.relative_to is None else e.sign * e.local(v, pos) for e in els]
         Wj = np.array([float(np.sum(sign[j] * P[:, j] * vj[j])) for j in range(len(els))])
         Ej = np.array([float(np.sum(np.abs(P[:, j] * vj[j]))) for j in range(len(els))])

@@ -190,16 +190,16 @@ class Condensation:
         nR, nE = self.keep.size, self.elim.size
         F = self.F = to_complex(system.forcing_hat(n_h))
         self.H_RR = None
+        self.rcond = np.ones(n_h + 1)
+        M, C, K = system.M, system.C, system.K
+        if nE > 0 and not (sp.issparse(M) and nE > 400):
+            self._dense(system, F, omega, n_h, rcond_min, name)  # sets z, Z, T, g
+            return
         self.z = np.zeros((n_h + 1, nE), dtype=complex)
         self.Z = np.zeros((n_h + 1, nE, nR), dtype=complex)
         self.T = np.zeros((n_h + 1, nR, nR), dtype=complex)
         self.g = np.zeros((n_h + 1, nR), dtype=complex)
-        self.rcond = np.ones(n_h + 1)
         if nE == 0:
-            return
-        M, C, K = system.M, system.C, system.K
-        if not (sp.issparse(M) and nE > 400):
-            self._dense(system, F, omega, n_h, rcond_min, name)
             return
         blocks = {}
         for mat, A in (("M", M), ("C", C), ("K", K)):

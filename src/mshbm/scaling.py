@@ -89,9 +89,23 @@ def _force_scale(system, penalty=False):
 
 
 def stiffness_scale(system, omega):
-    """``k_0 = max_i (|K_ii| + omega^2 M_ii + omega |C_ii|)`` (N/m), > 0 since ``M`` is definite."""
-    Kd, Md, Cd = diagonals(system)
-    return float((np.abs(Kd) + omega ** 2 * Md + omega * np.abs(Cd)).max())
+    """``k_0 = max_i (|K_ii| + omega^2 M_ii + omega |C_ii|)`` (N/m), > 0 since ``M`` is definite.
+
+    Remembered per system and ``omega`` (up to :data:`_STIFFNESS_MEMO` frequencies; the same number)."""
+    memo = system.derived("stiffness_scale", ("K", "M", "C"), dict)
+    w = float(omega)
+    k0 = memo.get(w)
+    if k0 is None:
+        Kd, Md, Cd = diagonals(system)
+        k0 = float((np.abs(Kd) + w ** 2 * Md + w * np.abs(Cd)).max())
+        if len(memo) >= _STIFFNESS_MEMO:
+            memo.clear()
+        memo[w] = k0
+    return k0
+
+
+#: frequencies per system whose :func:`stiffness_scale` is remembered (a continuation visits many)
+_STIFFNESS_MEMO = 256
 
 
 def displacement_floor(system, omega, F=None, penalty=False):

@@ -71,6 +71,11 @@ def _forcing_top(system):
     return system.derived("forcing_harmonics", ("f_hat",), compute)
 
 
+def _forcing_top_max(system):
+    """Highest forcing harmonic of any DOF, ``int(max(_forcing_top(system)))`` (0 for no forcing; cached)."""
+    return system.derived("forcing_harmonics_max", ("f_hat",), lambda: int(_forcing_top(system).max(initial=0)))
+
+
 def check_forcing(system, method, n_h, steps, time_dofs):
     """Raise when a forcing harmonic cannot be represented (see the module docstring).
 
@@ -79,9 +84,12 @@ def check_forcing(system, method, n_h, steps, time_dofs):
     time_dofs : array of int
         DOFs integrated in time (all DOFs for shooting, none for HBM).
     """
-    top = _forcing_top(system)
-    if not top.any():
+    top_max = _forcing_top_max(system)
+    if top_max == 0:
         return
+    if len(time_dofs) == 0 and top_max <= n_h:  # HBM, DLFT: every harmonic representable (no array pass)
+        return
+    top = _forcing_top(system)
     timed = np.zeros(system.n, dtype=bool)
     timed[np.asarray(time_dofs, dtype=np.int64)] = True
     bad = np.flatnonzero(~timed & (top > n_h))
@@ -324,7 +332,8 @@ class quiet_floats:
     def __enter__(self):
         import warnings
 
-        self._err = np.seterr(all="ignore")
+        self._err = np.errstate(all="ignore")  # a context variable in numpy 2: cheaper than seterr twice
+        self._err.__enter__()
         self._cw = warnings.catch_warnings()
         self._cw.__enter__()
         warnings.simplefilter("ignore", RuntimeWarning)
@@ -332,7 +341,7 @@ class quiet_floats:
 
     def __exit__(self, *exc):
         self._cw.__exit__(*exc)
-        np.seterr(**self._err)
+        self._err.__exit__(*exc)
         return False
 
 

@@ -180,8 +180,11 @@ PYHARM_BENCHES = ("pyharm", "pyharm_sweep")
 
 
 def bench_inputs(w):
-    """Extra inputs of a stand-alone benchmark: pyHarm's environment for `pyharm` and `pyharm_sweep`."""
+    """Extra inputs of a stand-alone benchmark: pyHarm's environment and scripts/pyharmlib.py for `pyharm` and
+    `pyharm_sweep`."""
     inputs = {}
+    if w.bench in PYHARM_BENCHES:
+        inputs["pyharmlib"] = "workflow/scripts/pyharmlib.py"  # their shared pyHarm plumbing
     if w.bench in PYHARM_BENCHES and not PYHARM_PYTHON:
         inputs["pyharm_env"] = f"{PYHARM_ENV}/installed.txt"
     if w.bench == "pyharm_sweep":  # its branches are the config's (`branches` friction3, impact5)

@@ -8,8 +8,9 @@ process, and how far pyHarm's continuation gets.
 
 pyHarm lives in its own virtual environment (rule ``pyharm_env``); as ``bench_pyharm.py`` does, this
 script re-runs itself with that interpreter (``--pyharm-python``, ``$PYHARM_PYTHON``; default
-``envs/pyharm/bin/python``) with this repository's ``src`` on ``sys.path``.  Without pyHarm the JSON
-gets ``"status": "unavailable"`` with the reason.
+``envs/pyharm/bin/python``) with this repository's ``src`` on ``sys.path`` (``pyharmlib.py``: the
+environment handling and the pyHarm models of both scripts).  Without pyHarm the JSON gets
+``"status": "unavailable"`` with the reason.
 
 Systems and discretisations (the workflow's Fig. 9 branches, config ``branches``, read from
 ``--config``: the workflow passes its ``results/config.json``; default ``workflow/config.yaml``):
@@ -62,23 +63,19 @@ Usage::
 """
 from __future__ import annotations
 
-import logging
 import os
-import subprocess
 import sys
 import time
 import traceback
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-REPO_SRC = os.path.normpath(os.path.join(HERE, "..", "..", "src"))
 CONFIG = os.path.normpath(os.path.join(HERE, "..", "config.yaml"))
 sys.path.insert(0, HERE)
 
 import numpy as np  # noqa: E402
 
 import benchlib as bl  # noqa: E402
-
-DEFAULT_PYHARM_PYTHON = os.path.join("envs", "pyharm", "bin", "python")
+import pyharmlib as phl  # noqa: E402
 #: friction laws shared with pyHarm: n_H, AFT samples (our default for n_H = 9, as in the workflow's HBM and
 #: DLFT branches), Jenkins tangential stiffness (N/m), DLFT parameter (N/m); and the coarser sampling of a
 #: second Jenkins pair (where pyHarm's continuation passes)
@@ -183,18 +180,8 @@ def compare(entry_a, entry_b):
 
 
 def unavailable(out, what, error):
-    data = {"benchmark": "pyharm_sweep", "status": "unavailable", "what_failed": what, "error": error,
-            "machine": bl.machine_info(), "summary": {"status": "unavailable", "what_failed": what, "error": error}}
-    out = bl.write_json(out, data)
-    plt = bl.pyplot()
-    fig, ax = plt.subplots(figsize=(6, 1.6))
-    ax.axis("off")
-    ax.text(0.5, 0.5, f"pyHarm branch comparison unavailable: {what}", ha="center", va="center", fontsize=9,
-            wrap=True)
-    fig.savefig(bl.plot_path(out), dpi=100)
-    plt.close(fig)
-    print(f"pyHarm unavailable: {what}\n{error}")
-    return data
+    """The JSON and PNG without a pyHarm comparison (:func:`pyharmlib.unavailable`)."""
+    return phl.unavailable(out, "pyharm_sweep", what, error, "pyHarm branch comparison unavailable")
 
 
 # ----------------------------------------------------------------------------- the systems
@@ -308,30 +295,13 @@ def _timeout_str(seconds):
 def pyharm_input(system, law, w0, w1, n_h, nti, analysis, timeout_s):
     """pyHarm input dict: one ``substructure`` (our M, C, K, one DOF per node), a ``CosinusForcing``,
     the element as connector to the ground, system ``Base`` without adimensionalisation, one FRF
-    analysis over ``[w0, w1]`` with pyHarm's defaults updated by ``analysis``."""
-    M, C, K = (system.dense(a) for a in "MCK")
-    el = system.elements[0]
-    f_dof = int(np.flatnonzero(system.f_hat[1])[0])
-    if law == "jenkins":
-        conn = {"type": "Jenkins", "mu": float(el.mu), "N0": float(el.normal_force),
-                "k": float(el.tangential_stiffness)}
-    elif law == "dlft":
-        conn = {"type": "DLFTFriction", "mu": float(el.mu), "N0": float(el.normal_force), "eps": EPS_DLFT}
-    elif law == "penalty":
-        conn = {"type": "PenaltyUnilateralGap", "k": float(el.penalty_stiffness), "g": float(el.gap)}
-    else:
-        raise ValueError(f"unknown law {law!r}")
-    conn.update({"connect": {"chain": [int(el.dof)]}, "dirs": [0]})
+    analysis over ``[w0, w1]`` with pyHarm's defaults updated by ``analysis`` (:func:`pyharmlib.model_input`,
+    :func:`pyharmlib.connector`)."""
+    conn = phl.connector(system, law, eps_dlft=EPS_DLFT)
     ana = dict(PYHARM_DEFAULTS, study="frf", puls_inf=float(w0), puls_sup=float(w1), verbose=False,
                stopper_options={"timeout": {"status": True, "timeout": _timeout_str(timeout_s)}})
     ana.update(analysis)
-    return {"system": {"type": "Base", "nh": int(n_h), "nti": int(nti), "adim": {"status": False, "lc": 1.0, "wc": 1.0}},
-            "substructures": {"chain": {"type": "substructure", "ndofs": 1,
-                                        "matrix": {"M": M, "C": C, "K": K, "G": 0.0 * M}}},
-            "connectors": {"force": {"type": "CosinusForcing", "amp": float(system.f_hat[1, f_dof]),
-                                     "connect": {"chain": [f_dof]}, "dirs": [0]},
-                           "element": conn},
-            "analysis": {"frf": ana}}
+    return phl.model_input(system, n_h, nti, conn, {"frf": ana}, element_name="element")
 
 
 def pyharm_branch(system, run, w0, w1, n_h, nti, x0, budget_s):
@@ -574,18 +544,9 @@ def summarise(systems):
 
 def run_here(args):
     t_begin = time.perf_counter()
-    try:
-        import pyHarm
-    except Exception as exc:  # pragma: no cover - depends on the environment
-        return unavailable(args.out, "import pyHarm", f"{type(exc).__name__}: {exc}")
-    try:
-        import mshbm  # noqa: F401
-    except Exception as exc:
-        return unavailable(args.out, "import mshbm in the pyHarm environment (needs numpy, scipy, numba, pyyaml, "
-                                     "threadpoolctl)", f"{type(exc).__name__}: {exc}")
-    logging.disable(logging.CRITICAL)  # pyHarm logs every step
-    import warnings
-    warnings.filterwarnings("ignore")
+    pyHarm, failed = phl.prepare(lambda what, error: unavailable(args.out, what, error))
+    if pyHarm is None:
+        return failed
     profile = "quick" if args.quick else args.profile
     systems = {}
     from threadpoolctl import threadpool_limits
@@ -663,8 +624,7 @@ def plot(data, png):
 
 def main(argv=None):
     ap = bl.parser(__doc__.splitlines()[0], "results/benchmarks/pyharm_sweep.json")
-    ap.add_argument("--pyharm-python", default=None,
-                    help=f"interpreter with pyHarm ($PYHARM_PYTHON overrides; default {DEFAULT_PYHARM_PYTHON})")
+    phl.add_argument(ap)
     ap.add_argument("--config", default=None,
                     help="workflow configuration with the branches friction3 and impact5 (the workflow's "
                          "results/config.json, or a YAML file; default workflow/config.yaml)")
@@ -673,37 +633,8 @@ def main(argv=None):
     args.out = os.path.abspath(args.out)
     if args.config:
         args.config = os.path.abspath(args.config)
-    try:
-        import pyHarm  # noqa: F401
-        return run_here(args)
-    except ImportError as exc:
-        first_error = f"{type(exc).__name__}: {exc}"
-    py = os.environ.get("PYHARM_PYTHON") or args.pyharm_python or DEFAULT_PYHARM_PYTHON
-    if os.environ.get("_BENCH_PYHARM_CHILD"):
-        return unavailable(args.out, f"import pyHarm with {sys.executable}", first_error)
-    if not os.path.exists(py):
-        return unavailable(args.out, "find a Python with pyHarm", f"{first_error} (in {sys.executable}); "
-                           f"{py} does not exist (create it: snakemake --cores 1 "
-                           f"{os.path.join('envs', 'pyharm', 'installed.txt')}, or set $PYHARM_PYTHON)")
-    env = dict(os.environ, _BENCH_PYHARM_CHILD="1",
-               PYTHONPATH=os.pathsep.join([REPO_SRC, _mshbm_parent(), HERE]
-                                          + [p for p in [os.environ.get("PYTHONPATH")] if p]))
-    cmd = [py, os.path.abspath(__file__), "--out", args.out, "--profile", prof] + \
-        (["--config", args.config] if args.config else [])
-    print(f"re-running with the pyHarm environment: {' '.join(cmd)}", flush=True)
-    proc = subprocess.run(cmd, env=env)
-    if proc.returncode != 0 and not os.path.exists(args.out):
-        return unavailable(args.out, f"run with {py}", f"exit code {proc.returncode}")
-    return None
-
-
-def _mshbm_parent():
-    """Directory holding the ``mshbm`` package this interpreter imports (for the pyHarm child process)."""
-    try:
-        import mshbm
-    except ImportError:
-        return REPO_SRC
-    return os.path.dirname(os.path.dirname(os.path.abspath(mshbm.__file__)))
+    return phl.dispatch(args, __file__, ["--profile", prof] + (["--config", args.config] if args.config else []),
+                        run_here, lambda what, error: unavailable(args.out, what, error))
 
 
 if __name__ == "__main__":

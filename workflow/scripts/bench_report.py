@@ -245,7 +245,9 @@ def section_peers(py, sp):
                   f"penalty-contact chains (n_H = {st['harmonics']}, {st['aft_samples']} AFT samples, "
                   f"k_c = {st['penalty_stiffness']:g}), both from the same start near the solution; end to end "
                   "= from the system matrices to the solution (our `solve` with its condensation, pyHarm's model "
-                  "construction and first FRF point); Newton only = both problems built beforehand.", "",
+                  "construction and first FRF point); Newton only = both problems built beforehand; medians over "
+                  "alternating blocks of consecutive calls of each code, one BLAS thread (`timing` in pyharm.json).",
+                  "",
                   md_table(["masses", "coefficients differ by (rel.)", "end to end, ours / pyHarm",
                             "Newton only, ours / pyHarm", "one residual + Jacobian", "pyHarm's Newton from the linear start"],
                            rows), ""]

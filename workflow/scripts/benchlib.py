@@ -5,7 +5,9 @@ are noisy.  Every benchmark therefore
 
 * warms up each case first (numba compilation and caches excluded),
 * runs the cases it compares *interleaved* in one process (round-robin over the
-  repeats, so that a load change hits all cases alike),
+  repeats, so that a load change hits all cases alike; or in alternating blocks of
+  consecutive calls, :func:`interleaved_blocks`, where one call is so short that the
+  other cases' calls in between would evict its code and data from the caches),
 * keeps every repeat time and reports the median (and min).
 
 Ratios of medians measured this way are what the benchmarks' conclusions rest on.
@@ -23,8 +25,8 @@ import numpy as np
 
 from mshbm.outfile import jsonable  # noqa: F401 (the one JSON conversion; re-exported)
 
-__all__ = ["machine_info", "interleaved", "timed", "stats", "write_json", "plot_path", "parser", "profile",
-           "jsonable", "fit_exponent"]
+__all__ = ["machine_info", "interleaved", "interleaved_blocks", "block_stats", "timed", "stats", "write_json",
+           "plot_path", "parser", "profile", "jsonable", "fit_exponent"]
 
 
 def machine_info():
@@ -105,6 +107,58 @@ def interleaved(cases, repeats, warmup=1, budget_s=None):
         if budget_s is not None and r >= 0 and time.perf_counter() - t_start > budget_s:
             break
     return times
+
+
+def interleaved_blocks(cases, rounds, block, warmup=1):
+    """Time several callables in alternating blocks: each round runs ``block`` consecutive calls of the
+    first case, then ``block`` of the next, and so on; ``rounds`` such rounds.
+
+    Every call is timed.  Against :func:`interleaved` (one call of each in turn), a case's calls run
+    after calls of its own, with its code and data in the caches and branch predictors, as in a loop of
+    solves, while a load change still hits all cases alike (the rounds alternate).  The first call of a
+    block comes after another case's block; its time is the cost of a cold start.
+
+    Parameters
+    ----------
+    cases : dict name -> callable (no arguments)
+    rounds, block : int
+        Rounds, and consecutive timed calls of each case per round.
+    warmup : int
+        Untimed rounds of one call of each case first (compilation, caches).
+
+    Returns
+    -------
+    dict name -> list of ``rounds`` lists of ``block`` seconds
+    """
+    for _ in range(warmup):
+        for fn in cases.values():
+            fn()
+    times = {k: [] for k in cases}
+    for _ in range(rounds):
+        for k, fn in cases.items():
+            row = []
+            for _ in range(block):
+                t0 = time.perf_counter()
+                fn()
+                row.append(time.perf_counter() - t0)
+            times[k].append(row)
+    return times
+
+
+def block_stats(rows):
+    """:func:`stats` of all calls of :func:`interleaved_blocks` (``rows``: its list of rounds), with
+    ``first_of_block`` (the calls after another case's block) and ``rest_of_block`` (medians and minima)
+    and the ``rounds`` and ``block`` sizes."""
+    allt = [t for row in rows for t in row]
+    out = stats(allt)
+    first = [row[0] for row in rows]
+    rest = [t for row in rows for t in row[1:]]
+    out.update(rounds=len(rows), block=len(rows[0]) if rows else 0,
+               first_of_block={"median_s": float(np.median(first)) if first else float("nan"),
+                               "min_s": float(np.min(first)) if first else float("nan")},
+               rest_of_block={"median_s": float(np.median(rest)) if rest else float("nan"),
+                              "min_s": float(np.min(rest)) if rest else float("nan")})
+    return out
 
 
 def fit_exponent(n, t):

@@ -45,12 +45,14 @@ def linear_response(system, omega, n_h):
     return fourier.from_complex(Z)
 
 
-def guess_parts(guess, system, omega, n_h):
+def guess_parts(guess, system, omega, n_h, states=True):
     """Normalise a user guess to ``(q_hat (2n_h+1, n), q0 (n,), u0 (n,))``.
 
     ``guess`` may be ``None``/``"linear"`` (linear response), ``"zero"``, a
     :class:`PeriodicSolution` (e.g. at a nearby frequency) or a dict with keys
-    ``q_hat`` and optionally ``q0``, ``u0``.
+    ``q_hat`` and optionally ``q0``, ``u0``.  ``states=False`` (the harmonic-balance methods, which
+    use ``q_hat`` only): ``q0`` and ``u0`` are not derived from ``q_hat`` where the guess does not
+    give them (``None`` then); given ones are validated as always.
     """
     from ..result import PeriodicSolution
 
@@ -75,6 +77,11 @@ def guess_parts(guess, system, omega, n_h):
     else:
         raise InputError("guess", "must be None, 'linear', 'zero', a PeriodicSolution or a dict, got "
                                   f"{guess!r:.40}")
+    if not states:  # q_hat validated above (dict, PeriodicSolution) or computed here; a dict's q0, u0 too
+        if isinstance(guess, PeriodicSolution):
+            check_guess_values("guess.q0", q0)
+            check_guess_values("guess.u0", u0)
+        return q_hat, q0, u0
     if q0 is None:
         q0 = q_hat[0] + q_hat[1::2].sum(axis=0)  # V(0)^T q_hat
     if u0 is None:  # fourier.derivative(q_hat, omega)[1::2].sum(axis=0): the cosine rows k omega xs_k

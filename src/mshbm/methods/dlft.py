@@ -277,7 +277,7 @@ class DLFTProblem(HarmonicProblem):
         return np.full(self.n_unknowns, self._F)
 
     def initial_guess(self, guess=None):
-        q_hat, _, _ = guess_parts(guess, self.system, self.omega, self.n_h)
+        q_hat, _, _ = guess_parts(guess, self.system, self.omega, self.n_h, states=False)
         return q_hat[:, self.keep].reshape(-1)
 
     def _march(self, x, linear=None):

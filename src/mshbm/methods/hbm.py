@@ -46,6 +46,7 @@ from . import hbm_kernels
 from .base import HarmonicProblem
 from .common import guess_parts
 from ..elements import Contact, Friction, regularised_forces
+from ..scaling import force_scale
 from ..solvers.newton import NewtonResult, follow_pl_path, newton
 
 __all__ = ["HBMProblem", "scaled_regularisation"]
@@ -122,8 +123,6 @@ class HBMProblem(HarmonicProblem):
 
     def residual_scale(self, x=None):
         """Per-row scale of the residual, shape ``(n_x,)``: the force scale ``F`` (N) on every row."""
-        from ..scaling import force_scale
-
         s = self.__dict__.get("_scale")
         if s is None:  # independent of x: one read-only array for all iterates
             self._F = force_scale(self.system, penalty=True)
@@ -142,7 +141,7 @@ class HBMProblem(HarmonicProblem):
                 for f in factors] + [self]
 
     def initial_guess(self, guess=None):
-        q_hat, _, _ = guess_parts(guess, self.system, self.omega, self.n_h)
+        q_hat, _, _ = guess_parts(guess, self.system, self.omega, self.n_h, states=False)
         return q_hat[:, self.keep].reshape(-1)
 
     def _time(self, x):

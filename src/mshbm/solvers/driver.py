@@ -153,7 +153,7 @@ def _solve(system, omega, method, options, ladder=True):
     wall = time.perf_counter() - t0
     success, message = res.success, res.message
     for key in ("q_time", "u_time", "q_hat", "lam"):
-        if not np.isfinite(parts[key]).all():
+        if parts[key].size and not np.isfinite(parts[key]).all():  # (HBM: empty q_time, u_time)
             success, message = False, f"non-finite {key} in the solution ({message})"
     message = validate.overflow_message(success, message, res.residual_norm)
     rc = problem.conditioning()
