@@ -278,4 +278,6 @@ def notebook_inputs(name):
         out["npz_longrun"] = longrun_file(config["figures"][name]["system"], "npz")
     if "branches" in data:
         out["summary"] = f"{R}/summary/branches.json"
+    if "fe" in data:
+        out["summary"] = f"{R}/summary/fe.json"
     return out

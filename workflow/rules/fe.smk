@@ -5,10 +5,13 @@
 # time stepper allows it, else its refusal) and one summary for the notebook and the paper
 # ({{fe.<key>}}, scripts/fe_summary.py).  Parameters: config `fe_example`.
 #
-#   <results>/fe/{M,K}.mtx, fe.yaml, modes.json   the model (rule fe_model)
-#   <results>/fe/sweep_<method>.json              the frequency-response curve (rule fe_sweep)
-#   <results>/fe/solves.json                      single solves, timed (rule fe_example)
-#   <results>/summary/fe.json                     numbers of Fig. 10 and the paper (rule fe_summary)
+#   <results>/fe/<mesh>/{M,K}.mtx, fe.yaml, modes.json   the model on mesh `sweep` or `solve` (rule fe_model)
+#   <results>/fe/sweep/sweep_<method>.json              the frequency-response curve (rule fe_sweep)
+#   <results>/fe/solve/solves.json                      single solves, timed (rule fe_example)
+#   <results>/summary/fe.json                           numbers of Fig. 10 and the paper (rule fe_summary)
+#
+# Two meshes of the same structure (config `fe_example.meshes`): the curves on `sweep` (coarser: a sweep
+# is ~100 solves), the single solves on `solve` (10^4 DOFs, the size issue 15 asks for).
 #
 # The elements act on two lumped bodies tied to the structure by springs (`bodies: true`; the shoe of the
 # friction joint and the pad of the stop): MS-HBM integrates the element DOFs in time with their own
@@ -19,9 +22,10 @@ if config.get("fe_example"):
     FE = config["fe_example"]
     FE_DIR = f"{R}/fe"
 
-    def fe_model_argv(output):
-        argv = [os.path.dirname(output.case), "--model", FE["model"], "--n-el", str(FE["n_el"]),
-                "--ny", str(FE.get("ny", 1)), "--case", os.path.basename(output.case)]
+    def fe_model_argv(w, output):
+        mesh = FE["meshes"][w.mesh]
+        argv = [os.path.dirname(output.case), "--model", FE["model"], "--n-el", str(mesh["n_el"]),
+                "--ny", str(mesh.get("ny", 1)), "--case", os.path.basename(output.case)]
         if FE["bodies"]:
             argv.append("--bodies")
         for key in ("body_freq_ratio", "body_mass_ratio", "width", "gap_ratio", "friction_ratio", "zeta"):
@@ -34,14 +38,16 @@ if config.get("fe_example"):
         input:
             script="workflow/scripts/build_fe_model.py",
         output:
-            case=f"{FE_DIR}/fe.yaml",
-            M=f"{FE_DIR}/M.mtx",
-            K=f"{FE_DIR}/K.mtx",
-            modes=f"{FE_DIR}/modes.json",
+            case=f"{FE_DIR}/{{mesh}}/fe.yaml",
+            M=f"{FE_DIR}/{{mesh}}/M.mtx",
+            K=f"{FE_DIR}/{{mesh}}/K.mtx",
+            modes=f"{FE_DIR}/{{mesh}}/modes.json",
+        wildcard_constraints:
+            mesh="sweep|solve",
         params:
-            argv=lambda w, output: fe_model_argv(output),
+            argv=lambda w, output: fe_model_argv(w, output),
         log:
-            f"{R}/logs/fe/fe_model.log",
+            f"{R}/logs/fe/fe_model_{{mesh}}.log",
         threads: 1
         resources:
             mem_mb=1000,
@@ -53,20 +59,20 @@ if config.get("fe_example"):
 
     rule fe_sweep:
         input:
-            case=rules.fe_model.output.case,
-            M=rules.fe_model.output.M,
-            K=rules.fe_model.output.K,
-            modes=rules.fe_model.output.modes,
+            case=f"{FE_DIR}/sweep/fe.yaml",
+            M=f"{FE_DIR}/sweep/M.mtx",
+            K=f"{FE_DIR}/sweep/K.mtx",
+            modes=f"{FE_DIR}/sweep/modes.json",
             script="workflow/scripts/fe_sweep.py",
         output:
-            f"{FE_DIR}/sweep_{{fmethod}}.json",
+            f"{FE_DIR}/sweep/sweep_{{fmethod}}.json",
         wildcard_constraints:
             fmethod=r"mshbm|hbm|dlft|shooting",
         params:
             argv=lambda w, input, output: [input.case, output[0], "--method", w.fmethod,
                                            "--omega-ratio", *[str(r) for r in FE["omega_ratio"]],
                                            "--harmonics", str(FE["harmonics"]), "--steps", str(FE["steps"]),
-                                           "--max-points", str(FE["max_points"])],
+                                           "--max-points", str(FE["max_points"]), "--ds-max", str(FE["ds_max"])],
             solver=SOLVER_DIGEST,
         log:
             f"{R}/logs/fe/fe_sweep_{{fmethod}}.log",
@@ -81,15 +87,15 @@ if config.get("fe_example"):
 
     rule fe_example:
         input:
-            case=rules.fe_model.output.case,
-            M=rules.fe_model.output.M,
-            K=rules.fe_model.output.K,
+            case=f"{FE_DIR}/solve/fe.yaml",
+            M=f"{FE_DIR}/solve/M.mtx",
+            K=f"{FE_DIR}/solve/K.mtx",
             script="workflow/scripts/fe_example.py",
         output:
-            json=f"{FE_DIR}/solves.json",
+            json=f"{FE_DIR}/solve/solves.json",
         params:
             argv=lambda w, input, output: [input.case, output.json, "--methods", ",".join(FE["solve_methods"]),
-                                           "--harmonics", str(FE["harmonics"])],
+                                           "--harmonics", str(FE["harmonics"]), "--guess", "mshbm=hbm"],
             solver=SOLVER_DIGEST,
         log:
             f"{R}/logs/fe/fe_example.log",
@@ -104,15 +110,16 @@ if config.get("fe_example"):
 
     rule fe_summary:
         input:
-            modes=rules.fe_model.output.modes,
+            modes=f"{FE_DIR}/sweep/modes.json",
+            solve_modes=f"{FE_DIR}/solve/modes.json",
             solves=rules.fe_example.output.json,
-            sweeps=expand(f"{FE_DIR}/sweep_{{fmethod}}.json", fmethod=FE["methods"]),
+            sweeps=expand(f"{FE_DIR}/sweep/sweep_{{fmethod}}.json", fmethod=FE["methods"]),
             script="workflow/scripts/fe_summary.py",
         output:
             f"{R}/summary/fe.json",
         params:
-            argv=lambda w, input, output: ["--modes", input.modes, "--solves", input.solves, "--out", output[0],
-                                           *input.sweeps],
+            argv=lambda w, input, output: ["--modes", input.modes, "--solve-modes", input.solve_modes,
+                                           "--solves", input.solves, "--out", output[0], *input.sweeps],
         log:
             f"{R}/logs/fe/fe_summary.log",
         threads: 1

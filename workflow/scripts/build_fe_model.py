@@ -260,6 +260,20 @@ def attach_bodies(M, K, node_dofs, m_b, k_b):
     return M2, K2
 
 
+def event_substeps(M, C, K, dofs, omega):
+    """Sub-steps per period of the exact event-driven flow (:mod:`mshbm.integrators.event`) for the
+    subsystem of ``dofs`` that MS-HBM integrates in time: ``ceil(2 T ||A_xx||_1)`` with
+    ``A_xx = [[0, I], [-M_NN^-1 K_NN, -M_NN^-1 C_NN]]`` (the rule of ``EventFlow``; its 1-norm mixes
+    displacement and velocity units, so it grows like ``K_NN / M_NN``)."""
+    ix = np.ix_(dofs, dofs)
+    Mn, Cn, Kn = (np.asarray(A.tocsr()[ix].toarray()) for A in (M, C, K))
+    Mi = np.linalg.inv(Mn)
+    m = len(dofs)
+    A = np.block([[np.zeros((m, m)), np.eye(m)], [-Mi @ Kn, -Mi @ Cn]])
+    T = 2.0 * math.pi / omega
+    return float(math.ceil(2.0 * T * np.abs(A).sum(axis=0).max()))
+
+
 def _g(x):
     """Number as a YAML scalar that reads back to the same float."""
     return repr(float(x))
@@ -327,7 +341,18 @@ def build_fe_model(out_dir, n_el=None, case_name="beam.yaml", **params):
     smoothing = p["smoothing"] if p["smoothing"] is not None else 100.0 / fr_vel
     gap = p["gap_ratio"] * c_amp
     k_pen = p["penalty_ratio"] * (body["stiffness"] if body else k_tip)
+    # what MS-HBM integrates in time: the element DOFs with their own M_NN, C_NN, K_NN
+    ix = lambda A, d: A.tocsr()[d][:, d].diagonal()
+    node_dofs = [r_node_dof, tip]
+    Ms_, Ks_ = M[:n_s, :n_s], K[:n_s, :n_s]
+    stiff = {"node_dofs": {"omega_local_over_omega": (np.sqrt(ix(Ks_, node_dofs) / ix(Ms_, node_dofs)) / omega).tolist(),
+                           "event_substeps_per_period": event_substeps(Ms_, alpha * Ms_ + beta * Ks_, Ks_, node_dofs, omega)}}
+    if body is not None:
+        bd = body["dofs"]
+        stiff["bodies"] = {"omega_local_over_omega": (np.sqrt(ix(K, bd) / ix(M, bd)) / omega).tolist(),
+                           "event_substeps_per_period": event_substeps(M, C, K, bd, omega)}
     info = {
+        "time_domain_subsystem": stiff,
         "n_el": n_el, "n_dofs": n, "nnz_M": int(M.nnz), "nnz_K": int(K.nnz),
         "n_structure_dofs": n_s, "bodies": body,
         "omega_fe": w_s.tolist(), "omega_exact": w_exact.tolist(),
