@@ -90,12 +90,15 @@ if config.get("fe_example"):
             case=f"{FE_DIR}/solve/fe.yaml",
             M=f"{FE_DIR}/solve/M.mtx",
             K=f"{FE_DIR}/solve/K.mtx",
+            shooting_case=f"{FE_DIR}/sweep/fe.yaml",
             script="workflow/scripts/fe_example.py",
         output:
             json=f"{FE_DIR}/solve/solves.json",
         params:
             argv=lambda w, input, output: [input.case, output.json, "--methods", ",".join(FE["solve_methods"]),
-                                           "--harmonics", str(FE["harmonics"]), "--guess", "mshbm=hbm"],
+                                           "--harmonics", str(FE["harmonics"]), "--guess", "mshbm=hbm",
+                                           "--shooting-case", input.shooting_case,
+                                           "--shooting-max-dofs", str(FE["shooting_max_dofs"])],
             solver=SOLVER_DIGEST,
         log:
             f"{R}/logs/fe/fe_example.log",

@@ -20,7 +20,7 @@ more steps before trusting it.
 Usage::
 
     python workflow/scripts/fe_example.py CASE.yaml OUT.json [--methods hbm,mshbm,shooting] [--harmonics 5] \
-        [--guess mshbm=hbm] [--shooting-max-dofs 1000] [--trace-memory]
+        [--guess mshbm=hbm] [--shooting-max-dofs 1000] [--shooting-case SMALL.yaml] [--trace-memory]
 """
 from __future__ import annotations
 
@@ -107,17 +107,26 @@ def solve_one(case, method, harmonics=5, shooting_max_dofs=1000, guess=None, tra
 
 
 def run(case_path, methods=METHODS, harmonics=5, out=None, log=print, guess_from=None, trace_memory=False,
-        shooting_max_dofs=1000, **options):
+        shooting_max_dofs=1000, shooting_case=None, **options):
     """Solve with each method in turn; ``guess_from={"mshbm": "hbm"}`` starts MS-HBM from the HBM solution
-    (a method listed earlier)."""
+    (a method listed earlier).  ``shooting_case``: full shooting on this (smaller) case instead, when the
+    main one is too large for its dense step matrices (its row then names the case and its DOFs)."""
     case = mshbm.load_case(case_path)
     s = case.system
     log(f"{case_path}: {s}, omega = {case.omega:.6g} rad/s")
     rows, sols = [], {}
     for m in methods:
         g = sols.get((guess_from or {}).get(m))
-        row = solve_one(case, m, harmonics, shooting_max_dofs=shooting_max_dofs, guess=g, trace_memory=trace_memory,
+        c = case
+        if m == "shooting" and shooting_case is not None and s.n > MAX_DENSE_DOFS:
+            c = mshbm.load_case(shooting_case)
+        row = solve_one(c, m, harmonics, shooting_max_dofs=shooting_max_dofs, guess=g, trace_memory=trace_memory,
                         solutions=sols, **options)
+        row["n_dofs"] = c.system.n
+        if c is not case:
+            row["case"] = str(shooting_case)
+            row["refused_on_main"] = (f"full shooting steps all {s.n} DOFs with dense {s.n}x{s.n} step matrices; "
+                                      f"refused above {MAX_DENSE_DOFS} DOFs")
         rows.append(row)
         if "skipped" in row:
             log(f"  {m}: skipped ({row['skipped']}) {row.get('cost', '')}")
@@ -144,11 +153,13 @@ def main(argv=None):
                     help="start METHOD from the solution of FROM (listed earlier), e.g. mshbm=hbm")
     ap.add_argument("--shooting-max-dofs", type=int, default=1000,
                     help="above this, full shooting's cost per period is measured instead of a solve")
+    ap.add_argument("--shooting-case", default=None,
+                    help="a smaller case for full shooting when CASE exceeds the dense time stepper's limit")
     ap.add_argument("--trace-memory", action="store_true", help="peak traced memory (tracemalloc; slows Python code)")
     args = ap.parse_args(argv)
     guess_from = dict(kv.split("=", 1) for kv in args.guess)
     run(args.case, args.methods.split(","), args.harmonics, args.out, guess_from=guess_from,
-        trace_memory=args.trace_memory, shooting_max_dofs=args.shooting_max_dofs)
+        trace_memory=args.trace_memory, shooting_max_dofs=args.shooting_max_dofs, shooting_case=args.shooting_case)
     return 0
 
 

@@ -71,6 +71,7 @@ def summarize(modes, solves, sweeps, solve_modes=None):
             nums["solve_node_event_substeps"] = tds2["node_dofs"]["event_substeps_per_period"]
     for row in solves["solves"]:
         k = row["method"]
+        nums[f"solve_{k}_n_dofs"] = row.get("n_dofs")
         if "skipped" in row:
             nums[f"solve_{k}_skipped"] = True
             cost = row.get("cost")
