@@ -5,8 +5,11 @@ frequency-response curves (``sweep_<method>.json`` of fe_sweep.py).
 Output ``results/summary/fe.json``: ``numbers`` (flat, for the paper's placeholders), ``model``,
 ``solves`` and ``branches`` (per method: omega, amplitudes of the named DOFs, stability).
 
-Agreement of two branches (``<a>_<b>_peak_rel_diff``): the relative difference of their largest tip
-amplitudes, and of the frequencies where they occur (``..._peak_omega_rel_diff``).
+Agreement of two branches: ``<a>_<b>_peak_rel_diff``, the relative difference of their largest tip
+amplitudes, and of the frequencies where they occur (``..._peak_omega_rel_diff``); and
+``<a>_<b>_max_rel_diff_<dof>``, the largest relative difference of ``b``'s amplitude from ``a``'s
+(interpolated linearly at ``b``'s frequencies) over the frequencies both branches cover, where ``a``'s
+frequencies increase along the branch (no folds; else ``None``).
 
 Usage::
 
@@ -32,6 +35,23 @@ def peak(branch, dof="tip"):
         return None, None
     i = max(range(len(a)), key=a.__getitem__)
     return branch["omega"][i], a[i]
+
+
+def max_rel_diff(a, b, dof):
+    """Largest ``|A_b / A_a - 1|`` over ``b``'s points inside ``a``'s frequency range, ``A_a``
+    interpolated linearly; ``None`` when ``a``'s frequencies do not increase along the branch or no
+    point of ``b`` lies in its range."""
+    wa, wb = a["omega"], b["omega"]
+    if len(wa) < 2 or any(w2 <= w1 for w1, w2 in zip(wa, wa[1:])):
+        return None
+    import numpy as np
+
+    wb_arr = np.asarray(wb, dtype=float)
+    inside = (wb_arr >= wa[0]) & (wb_arr <= wa[-1])
+    if not inside.any():
+        return None
+    Aa = np.interp(wb_arr[inside], wa, a["amplitude"][dof])
+    return float(np.max(np.abs(np.asarray(b["amplitude"][dof], dtype=float)[inside] / Aa - 1.0)))
 
 
 def summarize(modes, solves, sweeps, solve_modes=None):
@@ -118,6 +138,9 @@ def summarize(modes, solves, sweeps, solve_modes=None):
             if ax and ay:
                 nums[f"{x}_{y}_peak_rel_diff"] = abs(ax / ay - 1.0)
                 nums[f"{x}_{y}_peak_omega_rel_diff"] = abs(wx / wy - 1.0)
+            for dof in branches[x]["amplitude"]:
+                nums[f"{x}_{y}_max_rel_diff_{dof}"] = max_rel_diff(branches[x], branches[y], dof)
+            nums[f"{x}_{y}_common_omega_max"] = min(max(branches[x]["omega"] or [0]), max(branches[y]["omega"] or [0]))
     return {"numbers": nums, "model": {k: m[k] for k in m if k != "params"}, "params": p,
             "solves": solves["solves"], "branches": branches}
 
