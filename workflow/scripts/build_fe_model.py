@@ -216,6 +216,37 @@ def natural_frequencies(M, K, n_modes=3):
     return np.sqrt(np.sort(w2))
 
 
+def beam_frequencies_factored(n_el, n_modes=3, length=1.0, young=210e9, density=7850.0, width=0.04, height=0.01):
+    """Lowest ``n_modes`` angular frequencies (rad/s) of the clamped beam of :func:`beam_matrices`, with
+    ``K`` applied in factored form.
+
+    The Hermite element's curvature is linear, so 2-point Gauss quadrature of ``EI int w''^2`` is exact:
+    ``K = R^T W R`` with ``R`` (``2 n_el x 2 n_el``, square for the clamped beam) the curvatures at the
+    Gauss points and ``W = EI l / 2``.  Shift-invert with ``K^-1 = R^-1 W^-1 R^-T`` (two sparse triangular-
+    like solves with ``R``, whose condition number is the square root of ``K``'s) avoids the rounding of a
+    factorisation of ``K`` itself, whose condition number grows like ``n_el^4`` (at 5000 elements
+    :func:`natural_frequencies` is off by ~1e-3 in ``w_1``; this function by ~1e-13)."""
+    n_el = int(n_el)
+    A, I = section(width, height)
+    l = length / n_el
+    xi = 0.5 * (np.array([-1.0, 1.0]) / math.sqrt(3.0) + 1.0)
+    d2 = np.array([-6 + 12 * xi, l * (-4 + 6 * xi), 6 - 12 * xi, l * (-2 + 6 * xi)]).T / l ** 2  # (2 Gauss, 4)
+    dofs = 2 * np.arange(n_el)[:, None] + np.arange(4)[None, :] - 2      # clamped node removed
+    rows = np.repeat(2 * np.arange(n_el)[:, None] + np.arange(2)[None, :], 4, axis=1).ravel()
+    cols = np.tile(dofs, (1, 2)).ravel()
+    vals = np.tile(d2.ravel(), n_el)
+    keep = cols >= 0
+    n = 2 * n_el
+    R = sp.csc_matrix((vals[keep], (rows[keep], cols[keep])), shape=(n, n))
+    Wq = young * I * l / 2.0
+    lu = spla.splu(R)
+    op = spla.LinearOperator((n, n), matvec=lambda x: lu.solve(lu.solve(np.ravel(x), trans="T")) / Wq, dtype=float)
+    M, K = beam_matrices(n_el, length, young, density, width, height)
+    w2 = spla.eigsh(K, k=n_modes, M=M.tocsc(), sigma=0.0, OPinv=op, which="LM", return_eigenvectors=False,
+                    v0=np.ones(n))
+    return np.sqrt(np.sort(w2))
+
+
 def rayleigh_coefficients(w1, w2, zeta):
     """``(alpha, beta)`` with damping ratio ``zeta`` at ``w1`` and ``w2``."""
     alpha = 2.0 * zeta * w1 * w2 / (w1 + w2)
