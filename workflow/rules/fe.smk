@@ -22,18 +22,6 @@ if config.get("fe_example"):
     FE = config["fe_example"]
     FE_DIR = f"{R}/fe"
 
-    def fe_model_argv(w, output):
-        mesh = FE["meshes"][w.mesh]
-        argv = [os.path.dirname(output.case), "--model", FE["model"], "--n-el", str(mesh["n_el"]),
-                "--ny", str(mesh.get("ny", 1)), "--case", os.path.basename(output.case)]
-        if FE["bodies"]:
-            argv.append("--bodies")
-        for key in ("body_freq_ratio", "body_mass_ratio", "width", "gap_ratio", "friction_ratio", "zeta"):
-            if key in FE:
-                argv += ["--set", f"{key}={FE[key]}"]
-        argv += ["--set", f"steps={FE['steps']}", "--set", f"harmonics={FE['harmonics']}"]
-        return argv
-
     rule fe_model:
         input:
             script="workflow/scripts/build_fe_model.py",

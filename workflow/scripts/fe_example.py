@@ -1,4 +1,4 @@
-"""Solve the finite-element beam case (build_fe_model.py) at its forcing frequency with MS-HBM, HBM and
+"""Solve the finite-element case (build_fe_model.py) at its forcing frequency with HBM, DLFT, MS-HBM and
 (where the dense time stepper allows it) full shooting; time each, record the certificate and the
 peak memory, and write a JSON.
 
@@ -36,7 +36,7 @@ import numpy as np
 import mshbm
 from mshbm.integrators.moreau_jean import MAX_DENSE_DOFS
 
-METHODS = ("hbm", "mshbm", "shooting")
+METHODS = ("hbm", "dlft", "mshbm", "shooting")
 
 
 def _amplitudes(result, dofs):

@@ -107,11 +107,12 @@ def summarize(modes, solves, sweeps, solve_modes=None):
         nums[f"solve_{k}_start"] = row.get("start", "default")
         for name, a in row["amplitudes"].items():
             nums[f"solve_{k}_amp_{name}"] = a
-    if "hbm" in {r["method"] for r in solves["solves"]} and "mshbm" in {r["method"] for r in solves["solves"]}:
-        a = {r["method"]: r["amplitudes"] for r in solves["solves"] if "skipped" not in r}
-        if "hbm" in a and "mshbm" in a:
+    a = {r["method"]: r["amplitudes"] for r in solves["solves"] if "skipped" not in r and r.get("n_dofs") in
+         (None, nums.get("solve_n_dofs"))}
+    for k in a:
+        if k != "hbm" and "hbm" in a:
             for name in a["hbm"]:
-                nums[f"solve_mshbm_hbm_rel_diff_{name}"] = abs(a["mshbm"][name] / a["hbm"][name] - 1.0)
+                nums[f"solve_{k}_hbm_rel_diff_{name}"] = abs(a[k][name] / a["hbm"][name] - 1.0)
     branches = {}
     for b in sweeps:
         k = b["method"]
