@@ -105,6 +105,7 @@ def summarize(modes, solves, sweeps, solve_modes=None):
         nums[f"solve_{k}_success"] = row["success"]
         nums[f"solve_{k}_iterations"] = row["iterations"]
         nums[f"solve_{k}_start"] = row.get("start", "default")
+        nums[f"solve_{k}_failed_checks"] = ", ".join(row.get("failed_checks") or [])
         for name, a in row["amplitudes"].items():
             nums[f"solve_{k}_amp_{name}"] = a
     a = {r["method"]: r["amplitudes"] for r in solves["solves"] if "skipped" not in r and r.get("n_dofs") in
