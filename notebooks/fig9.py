@@ -12,7 +12,8 @@
 # (a) The 3-DOF friction chain (Table 1) over its resonances; (b) the 5-DOF impact chain (Table 2)
 # around π/5, its T-periodic branch, the 2T-periodic branch on which the chain settles from rest
 # at π/5, and the 2T-periodic branch born at the period doubling of the T-periodic one, found by branch
-# switching (`mshbm.switch_period_doubling`: the eigenvector of the multiplier −1 of the exact monodromy).  Solid: stable; dashed: unstable; dotted: no valid stability estimate.
+# switching (`mshbm.switch_period_doubling`: the eigenvector of the multiplier −1 of the exact monodromy),
+# traced with the exact event-driven flow; it passes π/5 through the response from rest (paper Section 5.7).  Solid: stable; dashed: unstable; dotted: no valid stability estimate.
 
 # %% tags=["parameters"]
 config = "results/config.json"
@@ -35,9 +36,15 @@ S = nc.load_json(summary)
 rows = S["rows"]
 
 COL = {"shooting": "k", "mshbm": nc.COLORS["mshbm"], "hbm": nc.COLORS["hbm"], "dlft": "#2ca02c",
-       "mshbm-intermediate": "#ff7f0e"}
+       "mshbm-intermediate": "#ff7f0e", "shooting-event": "#17becf", "mshbm-event": "#e377c2"}
 LAB = {"shooting": "full shooting", "mshbm": "MS-HBM", "hbm": "HBM", "dlft": "DLFT",
-       "mshbm-intermediate": "MS-HBM (Sec. 3.3)"}
+       "mshbm-intermediate": "MS-HBM (Sec. 3.3)", "shooting-event": "full shooting, event-driven",
+       "mshbm-event": "MS-HBM, event-driven"}
+
+
+def key(r):
+    """The curve's label (config branches.<name>.methods): the method, or a variant of it."""
+    return r.get("label", r["method"])
 BIF = {"period-doubling": ("s", "period doubling"), "neimark-sacker": ("D", "Neimark–Sacker"),
        "fold": ("^", "fold"), "grazing": ("x", "grazing")}
 P2_COL = "#9467bd"
@@ -57,7 +64,7 @@ def draw(ax, r, dof, color, label):
             j += 1
         ls = "-" if st[i] is True else ("--" if st[i] is False else ":")
         seg = slice(i, min(j + 2, len(w)))  # overlap one point: no gaps between runs
-        ax.plot(w[seg], a[seg], ls=ls, color=color, lw=1.3 if r["method"] == "shooting" else 1.1,
+        ax.plot(w[seg], a[seg], ls=ls, color=color, lw=1.3 if key(r) == "shooting" else 1.1,
                 label=label if first else None, alpha=0.9)
         first = False
         i = j + 1
@@ -75,11 +82,11 @@ fig, axes = plt.subplots(1, len(present), figsize=(7.6 if len(present) > 1 else 
 for ax, (name, dof, title) in zip(axes[0], present):
     for r in rows:
         if r["name"] == name:
-            draw(ax, r, dof, COL[r["method"]], LAB[r["method"]])
+            draw(ax, r, dof, COL.get(key(r), "0.3"), LAB.get(key(r), key(r)))
         elif r["name"].startswith(name) and r["period"] > 1 and r["options"].get("parent"):
-            draw(ax, r, dof, PD_COL, f"period {r['period']}, switched at the PD ({LAB[r['method']]})")
+            draw(ax, r, dof, PD_COL, f"period {r['period']}, from the PD")
         elif r["name"].startswith(name) and r["period"] > 1:
-            draw(ax, r, dof, P2_COL, f"period {r['period']} from π/5 ({LAB[r['method']]})")
+            draw(ax, r, dof, P2_COL, f"period {r['period']}, from π/5")
     if name == "impact5":
         ax.axvline(np.pi / 5, color="0.6", lw=0.7, ls=":")
         ax.annotate("π/5", (np.pi / 5, 0.02), xycoords=("data", "axes fraction"), fontsize=7, color="0.4")
@@ -87,7 +94,12 @@ for ax, (name, dof, title) in zip(axes[0], present):
     ax.set_xlabel("ω (rad/s)")
     ax.set_ylabel("amplitude (m)")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=6.5, loc="upper right")
+    if name == "friction3":
+        ax.legend(fontsize=6.5, loc="upper right")
+    else:  # room above the resonance peak for the legend, clear of the curves
+        lo, hi = ax.get_ylim()
+        ax.set_ylim(lo, hi + 0.45 * (hi - lo))
+        ax.legend(fontsize=6, loc="upper left", ncol=2)
 handles = [Line2D([], [], color="0.3", ls="-", label="stable"), Line2D([], [], color="0.3", ls="--", label="unstable"),
            Line2D([], [], color="0.3", ls=":", label="no valid estimate")]
 handles += [Line2D([], [], marker=m, color="0.3", mfc="white", ls="none", label=l) for m, l in BIF.values()]
@@ -107,7 +119,7 @@ table = []
 for r in rows:
     bifs = ", ".join(f"{b['type']} {b['omega']:.4f}" for b in r["bifurcations"][:6]) + \
         (" …" if len(r["bifurcations"]) > 6 else "")
-    table.append((r["name"], LAB[r["method"]], r["period"], "yes" if r["success"] else "NO", r["points"],
+    table.append((r["name"], LAB.get(key(r), key(r)), r["period"], "yes" if r["success"] else "NO", r["points"],
                   f"{min(r['omega']):.4f}–{max(r['omega']):.4f}" if r["omega"] else "–",
                   f"{r['wall_time_s']:.2f}", sum(v is False for v in r["stable"]), bifs or "–",
                   "" if r["success"] else r["message"][:160]))

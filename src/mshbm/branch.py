@@ -576,7 +576,9 @@ def switch_period_doubling(system, branch, omega_end, bifurcation=None, offset=5
     qh2[3::4], qh2[4::4] = qh1[1::2], qh1[2::2]
     w_pd = float(bif["omega"])
     toward = 1.0 if omega_end > w_pd else -1.0
-    sh_opts = {key: options[key] for key in ("theta", "tol", "max_iter") if key in options}
+    # the start is solved with the branch's own time integration: a 2T orbit of Moreau-Jean steps near the
+    # bifurcation need not be one of the event-driven flow (their period doublings differ by the step error)
+    sh_opts = {key: options[key] for key in ("theta", "tol", "max_iter", "integrator") if key in options}
     tried, start = [], None
     for side in (toward, -toward):
         w0 = w_pd * (1.0 + side * offset)

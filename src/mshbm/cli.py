@@ -40,8 +40,8 @@ def _parser():
     s.add_argument("--harmonics", type=int, default=None, metavar="N", help="number of harmonics n_h")
     s.add_argument("--steps", type=int, default=None, metavar="N", help="time steps (samples) per period")
     s.add_argument("--integrator", choices=("moreau", "event"), default=None,
-                   help="time integration of shooting: Moreau-Jean time stepping (default) or the exact "
-                   "event-driven flow (mshbm.integrators.event: friction and contact on single DOFs)")
+                   help="time integration of shooting and MS-HBM: Moreau-Jean time stepping (default) or the "
+                   "exact event-driven flow (mshbm.integrators.event: friction and contact on single DOFs)")
     s.add_argument("--period", type=int, default=None, metavar="K",
                    help="look for a K T-periodic solution (default 1; see mshbm.period)")
     s.add_argument("--out", default=None, metavar="FILE.json",

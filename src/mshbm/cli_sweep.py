@@ -1,7 +1,7 @@
 """Command line ``mshbm sweep``: a frequency-response curve of a case file (:func:`mshbm.sweep`).
 
 ``mshbm sweep CASE.yaml --method M --omega-start A --omega-end B [--harmonics N] [--steps N] [--period K]
-[--out branch.json] [--plot branch.png] [--dofs D [D ...]] [--max-points N] [--quiet]``
+[--integrator moreau|event] [--out branch.json] [--plot branch.png] [--dofs D [D ...]] [--max-points N] [--quiet]``
 
 Exit codes as for ``mshbm solve`` (:mod:`mshbm.cli`): 0 the branch reached ``--omega-end`` with every
 point certified, 1 it stopped before (the points so far are still written), 2 invalid input (one line
@@ -31,6 +31,9 @@ def add_parser(sub, method_choices):
     s.add_argument("--harmonics", type=int, default=None, metavar="N", help="number of harmonics n_h (per period T)")
     s.add_argument("--steps", type=int, default=None, metavar="N", help="time steps (samples) per period T")
     s.add_argument("--period", type=int, default=1, metavar="K", help="trace K T-periodic solutions (default 1)")
+    s.add_argument("--integrator", choices=("moreau", "event"), default=None,
+                   help="time integration of shooting and MS-HBM: Moreau-Jean time stepping (default) or the "
+                   "exact event-driven flow, whose residual is smooth in omega at impacts")
     s.add_argument("--max-points", type=int, default=None, metavar="N", help="most points on the branch (400)")
     s.add_argument("--out", default=None, metavar="FILE.json", help="write the branch as JSON")
     s.add_argument("--plot", default=None, metavar="FILE.png", help="plot amplitude against omega")
@@ -117,7 +120,7 @@ def run(args, exit_codes, write_json, error):
     method = args.method or case.method
     dofs = _check_dofs(args.dofs, case.system.n)
     defaults = {k: v for k, v in case.solver.items() if k != "method" and k in (METHODS.get(method, set()) | _COMMON)}
-    cli = {k: getattr(args, k) for k in ("harmonics", "steps") if getattr(args, k) is not None}
+    cli = {k: getattr(args, k) for k in ("harmonics", "steps", "integrator") if getattr(args, k) is not None}
     if args.max_points is not None:
         cli["max_points"] = args.max_points
     progress = False if args.quiet else "always"
@@ -126,7 +129,8 @@ def run(args, exit_codes, write_json, error):
                    progress=progress, **{**defaults, **cli})
     except InputError as exc:
         names = {"omega_start": "--omega-start", "omega_end": "--omega-end", "period": "--period",
-                 "max_points": "--max-points", "harmonics": "--harmonics", "steps": "--steps"}
+                 "max_points": "--max-points", "harmonics": "--harmonics", "steps": "--steps",
+                 "integrator": "--integrator"}
         if exc.key in names and (exc.key in cli or exc.key in ("omega_start", "omega_end", "period")):
             raise InputError(names[exc.key], exc.problem) from None
         raise

@@ -209,6 +209,28 @@ def test_switch_at_the_period_doubling_of_the_impact_oscillator():
         mshbm.switch_period_doubling(s, mshbm.sweep(s, 2.0, 2.1, "shooting", steps=512, max_points=3), 2.5)
 
 
+def test_switch_with_the_event_integrator_reaches_the_period_2_response_at_pi_over_5(impact5):
+    """With ``integrator="event"`` the switch solves its start with the event-driven flow too (a 2T orbit of
+    Moreau-Jean steps is T-periodic for the exact flow that close to the bifurcation).  The switched branch of
+    the impact chain passes omega = pi/5 at the 2T response computed there from the default start: one branch
+    (mass-1 amplitudes within 0.5 %; measured 4.145 interpolated against 4.144)."""
+    opts = dict(steps=1024, integrator="event")
+    b = mshbm.sweep(impact5, 0.60, 0.625, "shooting", **opts)
+    pds = [f["omega"] for f in b.bifurcations if f["type"] == "period-doubling"]
+    assert len(pds) == 1 and 0.612 < pds[0] < 0.616
+    b2 = mshbm.switch_period_doubling(impact5, b, 0.632, **opts)
+    assert b2.success, b2.message
+    assert b2.period == 2 and pds[0] < b2.omega[0] < 1.01 * pds[0] and b2.omega[-1] == pytest.approx(0.632)
+    w = np.pi / 5
+    i = int(np.searchsorted(b2.omega, w))
+    assert 0 < i < len(b2)
+    s = (w - b2.omega[i - 1]) / (b2.omega[i] - b2.omega[i - 1])
+    a_interp = (1 - s) * b2.amplitude[i - 1, 0] + s * b2.amplitude[i, 0]
+    ref = solve_period(impact5, w, "shooting", period=2, **opts)
+    assert ref.success, ref.message
+    assert a_interp == pytest.approx(ref.amplitude[0], rel=5e-3)
+
+
 def test_period_option_of_sweep_reports_forcing_frequency(impact5):
     b = mshbm.sweep(impact5, np.pi / 5, 0.64, "mshbm", period=2, harmonics=5, max_points=6)
     assert b.period == 2 and len(b) >= 2
@@ -272,3 +294,25 @@ def test_cli_sweep_early_stop_exit_1(tmp_path, capsys):
     assert code == 1 and err.startswith("error: sweep stopped early")
     data = json.loads(out.read_text())
     assert data["success"] is False and len(data["omega"]) == 3
+
+
+def test_cli_sweep_event_integrator_locates_the_period_doubling(tmp_path, capsys):
+    """``--integrator event`` reaches the sweep: with the exact event-driven flow shooting and MS-HBM trace the
+    impact chain's T-periodic branch through its period doubling and locate it at the same frequency (0.1 %;
+    with Moreau-Jean steps the impacts move by whole steps and the located point shifts by about 0.2 %)."""
+    pd = {}
+    for method, extra in (("shooting", []), ("mshbm", ["--harmonics", 5])):
+        out = tmp_path / f"{method}.json"
+        code, _, err = _run(["sweep", ROOT / "examples" / "impact5.yaml", "--method", method, "--integrator",
+                             "event", "--steps", 512, *extra, "--omega-start", 0.6, "--omega-end", 0.63,
+                             "--out", out, "--quiet"], capsys)
+        assert code == 0, err
+        data = json.loads(out.read_text())
+        assert data["success"] is True and data["omega"][-1] == pytest.approx(0.63)
+        pds = [b["omega"] for b in data["bifurcations"] if b["type"] == "period-doubling"]
+        assert len(pds) == 1, data["bifurcations"]
+        pd[method] = pds[0]
+        st = data["stable"]  # stable below the period doubling, unstable above it
+        assert st[0] is True and st[-1] is False
+    assert 0.6 < pd["shooting"] < 0.63
+    assert pd["mshbm"] == pytest.approx(pd["shooting"], rel=1e-3)

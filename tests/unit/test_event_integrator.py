@@ -355,6 +355,66 @@ def test_forcing_states_and_exact_fourier_coefficients():
     assert err_q <= 1e-6 and err_z <= 1e-6
 
 
+def test_structure_of_the_forcing_state_sensitivities_and_the_structured_products():
+    """The fast paths of MS-HBM's flow rely on the structure of ``Phi`` with forcing-state columns: zero rows
+    for the oscillator, and in the forcing-state rows only the 2 x 2 rotation block of each pair (the
+    constants' diagonal), through events (impacts, stick, slip).  Given it, the structured products
+    (``emul``, ``amul`` with ``sens``) and the structured Taylor powers of a state equal the dense ones."""
+    omega = 0.8
+    s = chain([1.0, 1.0], 1.0, 0.05, forcing=[{"dof": 1, "amplitude": 1.5}],
+              elements=[Friction(0, 1.0, 0.3), Contact(1, 0.8, 0.7)])
+    Fc = np.zeros((7, 2))
+    Fc[0, 0], Fc[1, 0], Fc[2, 1], Fc[5, 1] = 0.05, 0.3, -0.2, 0.1
+    fl = EventFlow(s, omega, coupling_harmonics=3)
+    fl.set_forcing(Fc)
+    z0 = fl.state(0.0, np.array([0.5, -1.0]), np.array([0.2, 0.1]))
+    out = fl.simulate(0.0, z0, jac=True, jac_cols="all", fourier=5)
+    kinds = {e.kind for e in out["events"]}
+    assert any(e.impulse > 0 for e in out["events"]) and any("stick" in k for k in kinds)
+    Phi, n, iy = out["Phi"], fl.n, fl.iy
+    assert np.all(Phi[2 * n:iy] == 0.0)
+    Py = Phi[iy:]
+    mask = np.zeros(Py.shape, dtype=bool)
+    i0 = np.arange(n)
+    mask[i0, 2 * n + i0] = True
+    for a_, b_ in ((fl._yc, fl._yc), (fl._yc, fl._ys), (fl._ys, fl._yc), (fl._ys, fl._ys)):
+        mask[a_, 2 * n + b_] = True
+    assert np.all(Py[~mask] == 0.0)
+    # the rotation blocks: cos / sin of k omega T (one period), to rounding
+    k = np.repeat(np.arange(1, 4), n)
+    assert np.allclose(Py[fl._yc, 2 * n + fl._yc], np.cos(k * omega * fl.T), atol=1e-12)
+    assert np.allclose(Py[fl._yc, 2 * n + fl._ys], np.sin(k * omega * fl.T), atol=1e-12)
+    # structured products against the dense ones, for every mode met
+    rng = np.random.default_rng(3)
+    P = Phi.copy()
+    P[:2 * n] += rng.standard_normal((2 * n, P.shape[1]))
+    for md in (fl.mode(st) for st in list(fl._modes)):
+        if md is None:
+            continue
+        dense_E, dense_A = md.E @ P, md.A @ P
+        assert np.abs(fl.emul(md, P.copy(), sens=True) - dense_E).max() <= 1e-13 * np.abs(dense_E).max()
+        assert np.abs(fl.amul(md, P, sens=True) - dense_A).max() <= 1e-13 * np.abs(dense_A).max()
+        z = rng.standard_normal(fl.D)
+        W = fl.powers(md, z)
+        Wd = np.empty_like(W)
+        Wd[:, 0] = z
+        for j in range(1, md.n_taylor):
+            Wd[:, j] = md.A @ Wd[:, j - 1] / j
+        assert np.abs(W - Wd).max() <= 1e-13 * np.abs(Wd).max()
+
+
+def test_mode_exponentials_are_shared_between_flows_of_the_same_problem_only():
+    """A second flow of the same system and frequency reuses the exponentials of its modes (and gives the
+    same numbers); another frequency does not."""
+    s = chain([1.0, 1.0], 1.0, 0.05, forcing=[{"dof": 1, "amplitude": 1.5}], elements=[Contact(1, 0.8, 0.7)])
+    a, b, c = (EventFlow(s, w, coupling_harmonics=2) for w in (0.8, 0.8, 0.81))
+    st = next(iter(a._modes))
+    assert a.mode(st).E is b.mode(st).E and a.mode(st).E is not c.mode(st).E
+    z0 = a.state(0.0, np.array([0.1, 0.2]), np.zeros(2))
+    ra, rb = (f.simulate(0.0, z0, jac=True, jac_cols="all", fourier=2) for f in (a, b))
+    assert np.array_equal(ra["q_hat"], rb["q_hat"]) and np.array_equal(ra["dq_hat"], rb["dq_hat"])
+
+
 def test_mshbm_event_converges_to_the_exact_orbit_with_the_harmonics():
     """The paper's 5-DOF impact chain: with the event integrator MS-HBM's only error is the harmonic
     truncation of the coupling; with Moreau-Jean it plateaus at the time-discretisation error."""

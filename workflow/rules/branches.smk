@@ -17,7 +17,7 @@ if BRANCHES:
             f"{R}/logs/branches/{{name}}/{{bmethod}}.log",
         wildcard_constraints:
             name="|".join(BRANCHES),
-            bmethod=r"shooting|hbm|dlft|mshbm|mshbm-intermediate",
+            bmethod=r"[a-z][a-z0-9-]*",  # the curve's label (config branches.<name>.methods)
         params:
             argv=lambda w, input, output: ["--config", input.config, "--branch", w.name, "--method", w.bmethod,
                                            "--out", output[0]],

@@ -2,10 +2,14 @@
 """One frequency-response curve of the workflow (Fig. 9, issue 13): ``mshbm.sweep`` of one system with one
 method over the config's frequency range (config ``branches.<name>``), timed, written as JSON.
 
+``--method`` is the curve's label in ``branches.<name>.methods``: the method itself, or a label whose options
+name the method (``mshbm-event: {method: mshbm, integrator: event}``), so that one method can be traced
+twice with different options.
+
     python workflow/scripts/branch.py --config results/config.json --branch friction3 --method mshbm \
         --out results/branches/friction3/mshbm.json
 
-The JSON is :meth:`mshbm.branch.Branch.to_dict` without the per-point details, plus ``name``,
+The JSON is :meth:`mshbm.branch.Branch.to_dict` without the per-point details, plus ``name``, ``label``,
 ``system``, ``options`` (what the sweep was given) and ``wall_time_s`` (the whole sweep: start solve,
 continuation, certificates and stability analyses).  A sweep that stops early is a result, not an
 error: ``success`` is false and ``message`` says where and why.
@@ -29,9 +33,10 @@ import mshbm  # noqa: E402
 from wfcore import load_case  # noqa: E402
 
 
-def run(config, name, method, out):
+def run(config, name, label, out):
     bcfg = next(b for b in config["branches"] if b["name"] == name)
-    opts = dict(bcfg["methods"][method])
+    opts = dict(bcfg["methods"][label])
+    method = opts.pop("method", label)
     period = int(bcfg.get("period", 1))
     w0, w1 = (float(w) for w in bcfg["omega"])
     system = load_case(config["systems"][bcfg["system"]]["case"]).system
@@ -52,21 +57,21 @@ def run(config, name, method, out):
     wall = time.perf_counter() - t0
     d = b.to_dict()
     d.pop("points", None)
-    d.update(name=name, system=bcfg["system"], options=dict(opts, period=period, omega=[w0, w1], **extra),
+    d.update(name=name, label=label, system=bcfg["system"], options=dict(opts, period=period, omega=[w0, w1], **extra),
              wall_time_s=wall, n_dofs=system.n)
     from mshbm.outfile import jsonable
 
     os.makedirs(os.path.dirname(os.path.abspath(out)), exist_ok=True)
     with open(out, "w") as fh:
         json.dump(jsonable(d), fh, indent=1, allow_nan=False)
-    print(f"{name} {method} period {period}: {b.message} ({len(b)} points, {wall:.2f} s)")
+    print(f"{name} {label} ({method}) period {period}: {b.message} ({len(b)} points, {wall:.2f} s)")
 
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--config", required=True)
     ap.add_argument("--branch", required=True)
-    ap.add_argument("--method", required=True)
+    ap.add_argument("--method", required=True, help="the curve's label in config branches.<name>.methods")
     ap.add_argument("--out", required=True)
     a = ap.parse_args(argv)
     with open(a.config) as fh:

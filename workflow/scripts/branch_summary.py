@@ -4,29 +4,46 @@ the paper (``{{branches.<key>}}``).
 
     python workflow/scripts/branch_summary.py --out results/summary/branches.json BRANCH.json ...
 
-Numbers per branch ``<name>_<method>`` (period-k branches are their own names): ``ok`` (reached the end
+Numbers per branch ``<name>_<label>`` (the label of the curve in the config, ``-`` as ``_``) (period-k branches are their own names): ``ok`` (reached the end
 of the range), ``points``, ``time`` (s), ``omega_reached`` (the last frequency of the branch), ``stable``,
-``unstable`` and ``undecided`` point counts, and per bifurcation type the first frequency found
-(``pd``, ``ns``, ``fold``, ``grazing``; null if none).
+``unstable`` and ``undecided`` point counts, ``amp_at_pi5`` (mass 1 at the paper's ω = π/5, interpolated), and per bifurcation type the first frequency found
+(``pd``, ``ns``, ``fold``, ``grazing``; null if none).  Where a method is traced both with Moreau–Jean
+steps (label ``<method>``) and with the event-driven flow (label ``<method>-event``): ``<name>_<method>_pd_shift``,
+the relative shift of the first period doubling, pd(Moreau–Jean) / pd(event-driven) − 1.
 """
 from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 
 KEYS = {"period-doubling": "pd", "neimark-sacker": "ns", "fold": "fold", "grazing": "grazing"}
 
 
+def amplitude_at(omega, amplitude, w, dof=0):
+    """The amplitude of ``dof`` at frequency ``w``, interpolated linearly between the first two consecutive
+    points of the branch that bracket ``w``; None if no segment does."""
+    for i in range(len(omega) - 1):
+        a, b = omega[i], omega[i + 1]
+        if min(a, b) <= w <= max(a, b) and a != b:
+            s = (w - a) / (b - a)
+            return (1 - s) * amplitude[i][dof] + s * amplitude[i + 1][dof]
+    return None
+
+
 def summarize(branches):
     num, rows = {}, []
     for b in branches:
-        p = f"{b['name']}_{b['method'].replace('-', '_')}"
+        label = b.get("label", b["method"])
+        p = f"{b['name']}_{label.replace('-', '_')}"
         st = b["stable"]
         omega = b["omega"]
         num[f"{p}_ok"] = bool(b["success"])
+        num[f"{p}_message"] = b["message"]  # where and why a sweep stopped
         num[f"{p}_points"] = len(omega)
         num[f"{p}_time"] = float(b["wall_time_s"])
+        num[f"{p}_steps"] = b["options"].get("steps")  # time steps (or event-search sub-steps) per period
         num[f"{p}_omega_reached"] = omega[-1] if omega else None
         num[f"{p}_omega_min"] = min(omega) if omega else None
         num[f"{p}_omega_max"] = max(omega) if omega else None
@@ -36,14 +53,22 @@ def summarize(branches):
         num[f"{p}_stable_first"] = st[0] if st else None  # the verdict at the start frequency
         num[f"{p}_amp_first"] = b["amplitude"][0][0] if b["amplitude"] else None  # DOF 0 at the start
         num[f"{p}_amp_last"] = b["amplitude"][-1][0] if b["amplitude"] else None  # DOF 0 at the end
+        num[f"{p}_amp_at_pi5"] = amplitude_at(omega, b["amplitude"], math.pi / 5)  # DOF 0 at the paper's omega
         for t, k in KEYS.items():
             ws = [f["omega"] for f in b["bifurcations"] if f["type"] == t]
             num[f"{p}_{k}"] = min(ws) if ws else None
             num[f"{p}_{k}_count"] = len(ws)
-        rows.append({"name": b["name"], "method": b["method"], "period": b["period"], "system": b["system"],
+        rows.append({"name": b["name"], "label": label, "method": b["method"], "period": b["period"], "system": b["system"],
                      "success": b["success"], "message": b["message"], "points": len(omega),
                      "wall_time_s": b["wall_time_s"], "omega": omega, "amplitude": b["amplitude"], "stable": st,
                      "bifurcations": b["bifurcations"], "options": b["options"], "n_dofs": b.get("n_dofs")})
+    # a method traced twice, with Moreau-Jean steps and with the exact event-driven flow: the relative shift of
+    # its first period doubling, <name>_<method>_pd_shift = pd(Moreau-Jean) / pd(event-driven) - 1
+    for r in rows:
+        p = f"{r['name']}_{r['label'].replace('-', '_')}"
+        ev = f"{p}_event_pd"
+        if num.get(ev) and num.get(f"{p}_pd"):
+            num[f"{p}_pd_shift"] = num[f"{p}_pd"] / num[ev] - 1.0
     return {"rows": rows, "numbers": num}
 
 

@@ -64,7 +64,14 @@ on ``F_c`` and ``d z / d F_c`` are columns of the same monodromy (``jac_cols="al
 integrated by Gauss-Legendre quadrature on every smooth piece of the flow (exact to rounding) together
 with their sensitivities (``q`` is continuous at events, so the event-time variations add nothing).
 The rows of the forcing states are applied from their rotation structure, so their cost is linear in
-their number.
+their number; so are their sensitivities: the forcing-state block of ``Phi`` stays a set of 2 x 2
+rotation blocks through every event (:meth:`EventFlow._phi_rotation_entries`), and only those entries are
+propagated (compiled, :func:`_emul_sens`).  The quadrature of a full sub-step is a fixed weight matrix of
+its mode (``G0``, the nodes' ``exp(A s_g)`` against the basis at ``s_g``) rotated to the sub-step's start
+time; the sub-steps of a run are summed once at its end (:meth:`EventFlow._fourier_flush`: one matrix
+product for the ``(q, u)`` rows, one for the rotation blocks).  The exponentials of a mode and its
+weights depend only on its matrix, ``omega`` and the sub-step: they are shared by the flows of repeated
+solves of one problem (``SHARED_MAX`` modes).
 
 Accumulations and chattering
 ----------------------------
@@ -95,6 +102,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
+from numba import njit
 from scipy.optimize import brentq
 
 from ..errors import InputError
@@ -123,6 +131,12 @@ RELEASE_STEPS = 8
 MAX_COMBINATIONS = 6561
 #: largest (sub)system the dense event-driven flow accepts (matrix exponentials of size ~2n)
 MAX_DOFS = 1000
+#: the exponentials of a mode over its sub-step (and its Fourier weights) depend only on its matrix ``A``,
+#: ``omega`` and the sub-step count: kept for that many modes (of at most ``SHARED_MAX_D`` states) across
+#: flows, so that repeated solves of one problem (Newton restarts, benchmarks, continuation at one
+#: frequency) compute them once; keyed by the exact bytes of ``A``
+SHARED_MAX, SHARED_MAX_D = 32, 400
+_SHARED = {}
 
 
 class EventError(RuntimeError):
@@ -182,7 +196,7 @@ class Event:
 
 
 class _Mode:
-    __slots__ = ("st", "A", "Lam", "C", "CA", "ev", "h", "E", "n_taylor", "code", "Eg")
+    __slots__ = ("st", "A", "Lam", "C", "CA", "ev", "h", "E", "n_taylor", "code", "shared", "Ey")
 
 
 class EventFlow:
@@ -377,14 +391,22 @@ class EventFlow:
                 ev.append((j, "lift", 0))
         md = _Mode()
         md.st, md.A, md.Lam, md.code = st, A, Lam, mode_code(st)
-        md.Eg = None
         md.C = np.array(rows) if rows else np.zeros((0, D))
         md.CA = md.C @ A
         md.ev = ev
         norm_xx = np.abs(A[:2 * n, :2 * n]).sum(axis=0).max()
         ns = max(self.min_substeps, int(math.ceil(2.0 * self.T * norm_xx)))
         md.h = self.T / ns
-        md.E = sla.expm(A * md.h)
+        key = (self.omega, ns, n, A.shape[0], A.tobytes())
+        shared = _SHARED.get(key)
+        if shared is None:
+            shared = {"E": sla.expm(A * md.h), "Eg": None, "G0": {}}
+            if A.shape[0] <= SHARED_MAX_D:
+                if len(_SHARED) >= SHARED_MAX:
+                    _SHARED.pop(next(iter(_SHARED)))
+                _SHARED[key] = shared
+        md.E, md.shared = shared["E"], shared
+        md.Ey = (np.cos(self._yw * md.h), np.sin(self._yw * md.h))  # rotation of the forcing states over h_s
         rho = np.abs(A).sum(axis=0).max() * md.h
         k, term = 1, rho
         while (term > 1e-18 or k < 8) and k < 400:
@@ -459,8 +481,12 @@ class EventFlow:
         return cols
 
     def powers(self, mode, z):
-        """``W`` with ``W[:, j] = A^j z / j!`` so that ``z(s) = W @ s^j``."""
+        """``W`` with ``W[:, j] = A^j z / j!`` so that ``z(s) = W @ s^j``.  For a state ``z`` (shape (D,)) with
+        forcing states, their rows of ``A`` (rotations) are applied from their structure."""
         md = self.mode(mode) if not isinstance(mode, _Mode) else mode
+        if self.ncx and z.ndim == 1:
+            return _powers_state(md.A, np.ascontiguousarray(z, dtype=float), md.n_taylor, self.iy, self.n,
+                                 self._yc, self._ys, self._yw)
         W = np.empty((z.shape[0], md.n_taylor) + z.shape[1:])
         W[:, 0] = z
         for j in range(1, md.n_taylor):
@@ -473,18 +499,22 @@ class EventFlow:
         return s[..., None] ** np.arange(n_taylor) if s.ndim else s ** np.arange(n_taylor)
 
     def propagate_matrix(self, md, P, s):
-        """``exp(A s) P`` for ``0 <= s <= h_s`` (Taylor)."""
+        """``exp(A s) P`` for ``0 <= s <= h_s`` (Taylor), ``P`` the sensitivities of :meth:`simulate`."""
         acc, term = P.copy(), P
         for j in range(1, md.n_taylor):
-            term = self.amul(md, term) * (s / j)
+            term = self.amul(md, term, sens=True) * (s / j)
             acc += term
         return acc
 
-    def amul(self, md, P):
+    def amul(self, md, P, sens=False):
         """``A P`` for a matrix ``P`` of ``D`` rows; the rows of the forcing states (block rotations) are
-        formed from their structure (with ``coupling_harmonics`` they are most of ``A``)."""
+        formed from their structure (with ``coupling_harmonics`` they are most of ``A``).  ``sens``: ``P`` has
+        the structure of the sensitivities of :meth:`simulate` (:meth:`emul`), which ``A P`` keeps; only its
+        nonzero entries are formed."""
         if not self.ncx:
             return md.A @ P
+        if sens:
+            return _amul_sens(md.A, P, self.iy, self.n, self._yc, self._ys, self._yw)
         dx = self.iy
         out = np.empty_like(P)
         out[:dx] = md.A[:dx] @ P
@@ -495,11 +525,21 @@ class EventFlow:
         oy[self._ys] = -self._yw[:, None] * Py[self._yc]
         return out
 
-    def emul(self, md, P):
-        """``exp(A h_s) P`` over a full sub-step of mode ``md`` (structured in the forcing states)."""
+    def emul(self, md, P, sens=False):
+        """``exp(A h_s) P`` over a full sub-step of mode ``md`` (structured in the forcing states).
+
+        ``sens``: ``P`` is the sensitivity matrix ``Phi`` of :meth:`simulate` (columns :meth:`jac_columns`),
+        updated in place: its oscillator rows are zero and its forcing-state rows are zero but in the 2 x 2
+        rotation blocks of the pairs (and the diagonal of the constants) when it has the forcing-state
+        columns (:meth:`_phi_rotation_entries`), so only those entries enter and are rotated: the cost is linear, not
+        quadratic, in the number of forcing states."""
         if not self.ncx:
             return md.E @ P
         dx = self.iy
+        if sens:  # in place: simulate's Phi is private to the run
+            c, s_ = md.Ey
+            _emul_sens(md.E, P, self.iy, self.n, self._yc, self._ys, c, s_)
+            return P
         out = np.empty_like(P)
         out[:dx] = md.E[:dx] @ P
         Py = P[dx:]
@@ -843,7 +883,8 @@ class EventFlow:
         four = None
         if fourier is not None:
             nfr = int(fourier)
-            four = [nfr, np.zeros((2 * nfr + 1, n)), np.zeros((2 * nfr + 1, n, cols.size)) if jac else None]
+            # [n_f, q_hat sums, dq_hat sums, full sub-steps whose pieces are summed at the end per mode]
+            four = [nfr, np.zeros((2 * nfr + 1, n)), np.zeros((2 * nfr + 1, n, cols.size)) if jac else None, {}]
         sts = np.asarray(sample_times if sample_times is not None else [], dtype=float)
         samples = np.empty((D, sts.size))
         smodes = np.empty(sts.size, dtype=np.int64)
@@ -982,7 +1023,7 @@ class EventFlow:
                 self._fourier_piece(md, z, W, Phi, a, s_end, four)
             if s_ev is None:
                 if jac:
-                    Phi = self.emul(md, Phi) if h == md.h else self.propagate_matrix(md, Phi, h)
+                    Phi = self.emul(md, Phi, sens=True) if h == md.h else self.propagate_matrix(md, Phi, h)
                 a += h
                 z = zb
                 continue
@@ -1033,6 +1074,7 @@ class EventFlow:
                    mode_time=mode_time, end_mode=md.code, moreau=moreau, switched=bool(moreau),
                    jacobian_exact=not moreau, message=msg)
         if four is not None:
+            self._fourier_flush(four)
             scale = np.full(2 * four[0] + 1, 2.0 / duration)
             scale[0] = 1.0 / duration
             res["q_hat"] = four[1] * scale[:, None]
@@ -1049,32 +1091,152 @@ class EventFlow:
             out[..., 1::2], out[..., 2::2] = np.cos(wt), np.sin(wt)
         return out
 
+    def _fourier_full(self, md, nfr):
+        """Fourier weights of a full sub-step of mode ``md`` starting at ``t = 0``:
+        ``G0[k] = sum_g w_g b_k(s_g) exp(A s_g)[:n]`` (Gauss-Legendre nodes ``s_g`` and weights ``w_g`` on
+        ``[0, h_s]``), shape (2 n_f + 1, n, D), once per mode and ``n_f``.  From a start ``a`` the weights
+        are the rows of ``G0`` rotated by ``k omega a`` (:meth:`_fourier_flush`)."""
+        sh = md.shared
+        G0 = sh["G0"].get(nfr)
+        if G0 is None:
+            h, n = md.h, self.n
+            ss = 0.5 * h * (_GL_X + 1.0)
+            if sh["Eg"] is None:  # the q rows of exp(A s_g) at the nodes of a full sub-step
+                sh["Eg"] = np.array([sla.expm(md.A * x)[:n] for x in ss])  # (g, n, D)
+            B0 = self._fourier_basis(ss, nfr) * (0.5 * h * _GL_W)[:, None]  # (g, nc)
+            G0 = sh["G0"][nfr] = np.einsum("gk,gnd->knd", B0, sh["Eg"])
+        return G0
+
+    def _phi_rotation_entries(self, Phi):
+        """The nonzero entries of the forcing-state block of ``Phi``: the diagonal of the constants ``d`` (n,)
+        and per pair ``(Y1, Y2)`` the block ``[[c1, s1], [m1, c2]]`` (rows Y1, Y2; columns d/dY1_0, d/dY2_0),
+        concatenated ``[d, c1, m1, s1, c2]``, shape (n + 4 n_c n,).
+
+        Structure of the sensitivities ``Phi`` of :meth:`simulate`: the rows of the oscillator are zero, and
+        with the forcing-state columns (``jac_cols="all"``) the forcing-state block is the rotation of those
+        states: zero in the ``(q0, u0)`` columns, per DOF ``i`` and harmonic ``k`` nonzero only in the 2 x 2
+        block of the pair ``(Y1, Y2)`` (and 1 x 1 for the constant), whatever the events (the saltation and
+        the impact law change the ``(q, u)`` rows only, the vector fields of all modes agree in the
+        forcing-state rows; Moreau-Jean segments leave the block unchanged).  Products with ``Phi`` then
+        cost linear, not quadratic, in the number of forcing states."""
+        return _rotation_entries(Phi, self.iy, self.n, self._yc, self._ys)
+
+    def _fourier_flush(self, four):
+        """Add the full sub-steps recorded by :meth:`_fourier_piece` (``four[3]``: per mode the start times
+        ``a_j``, states ``z_j``, the rows ``Phi_j[:2n]`` and :meth:`_phi_rotation_entries`), all at once:
+
+        ``sum_j Rot(a_j) G0 z_j`` and ``sum_j Rot(a_j) G0 Phi_j`` with ``Rot(a)`` the rotation of the
+        harmonic rows through ``k omega a`` (``b_k(a + s)`` from ``b_k(s)``).  The ``(q, u)`` rows of ``Phi_j`` enter by one
+        matrix product over all ``j``; the forcing-state rows (rotation blocks) by the sums
+        ``sum_j [1, cos, sin](k omega a_j) [d, c1, m1, s1, c2]_j`` (one product of a (1 + 2 n_f, J) by a
+        (J, n + 4 n_c n) matrix), so the cost is linear, not cubic, in the harmonics per sub-step."""
+        nfr, n, iy, D = four[0], self.n, self.iy, self.D
+        nc, K = 2 * nfr + 1, nfr
+        recs, four[3] = four[3], {}
+        for code, (al, zl, pl, yl) in recs.items():
+            if not al:
+                continue
+            G0 = self._fourier_full(self.mode(code), nfr)  # (nc, n, D)
+            A = np.asarray(al)
+            J = A.size
+            wa = self.omega * A[:, None] * np.arange(1, K + 1)  # (J, K)
+            Cj, Sj = np.cos(wa), np.sin(wa)
+            # states: Y[h, i, j] = (G0 z_j)[h, i], then the rotated sum over j
+            Y = (G0.reshape(nc * n, D) @ np.array(zl).T).reshape(nc, n, J)
+            four[1] += self._rot_sum(Y, Cj, Sj)
+            if four[2] is None or not pl:
+                continue
+            # (q, u) rows of Phi (its oscillator rows are zero): L_j = Rot(a_j) G0[..., :2n], one product
+            # over (j, rows)
+            n2 = 2 * n
+            Gx = G0[:, :, :n2]
+            L = np.empty((J, nc, n, n2))
+            L[:, 0] = Gx[0]
+            if K:
+                cc, ss_ = Cj[:, :, None, None], Sj[:, :, None, None]
+                L[:, 1::2] = cc * Gx[1::2] - ss_ * Gx[2::2]
+                L[:, 2::2] = ss_ * Gx[1::2] + cc * Gx[2::2]
+            P = np.array(pl)  # (J, 2n, cols)
+            four[2] += (L.transpose(1, 2, 0, 3).reshape(nc * n, J * n2) @ P.reshape(J * n2, -1)).reshape(
+                nc, n, -1)
+            if not yl:
+                continue
+            # forcing-state rows: X_j = G0_y Py_j has in column (const i') g0 d_j, in (Y1 of pair p)
+            # gc c1_j + gs m1_j and in (Y2 of p) gc s1_j + gs c2_j
+            V = np.array(yl)  # (J, n + 4 Pn)
+            U = np.hstack([np.ones((J, 1)), Cj, Sj])  # (J, 1 + 2K)
+            SU = U.T @ V  # (1 + 2K, n + 4 Pn)
+            Pn = self._yc.size
+            sl = lambda q: SU[:, n + q * Pn:n + (q + 1) * Pn]
+            d_, c1, m1, s1, c2 = SU[:, :n], sl(0), sl(1), sl(2), sl(3)
+            Gy = G0[:, :, iy:]
+            g0, gc, gs = Gy[:, :, :n], Gy[:, :, self._yc], Gy[:, :, self._ys]
+            out = four[2][:, :, 2 * n:]
+            out[:, :, :n] += self._rot_comb(g0, d_, None, None, K)
+            out[:, :, self._yc] += self._rot_comb(gc, c1, gs, m1, K)
+            out[:, :, self._ys] += self._rot_comb(gc, s1, gs, c2, K)
+
+    @staticmethod
+    def _rot_sum(Y, Cj, Sj):
+        """``sum_j Rot(a_j) Y[..., j]`` for ``Y`` of shape (2 K + 1, r, J) and ``cos, sin(k omega a_j)`` of
+        shape (J, K); shape (2 K + 1, r)."""
+        out = np.empty(Y.shape[:2])
+        out[0] = Y[0].sum(axis=-1)
+        if Cj.shape[1]:
+            Yc, Ys = Y[1::2], Y[2::2]
+            ein = lambda X, W: np.einsum("krj,jk->kr", X, W)
+            out[1::2] = ein(Yc, Cj) - ein(Ys, Sj)
+            out[2::2] = ein(Yc, Sj) + ein(Ys, Cj)
+        return out
+
+    @staticmethod
+    def _rot_comb(ga, sa, gb, sb, K):
+        """``sum_j Rot(a_j) (ga alpha_j + gb beta_j)`` (column-wise products) from the sums
+        ``sa = sum_j [1, cos, sin](k omega a_j) alpha_j`` (shape (1 + 2K, q)), likewise ``sb``; ``ga, gb`` of
+        shape (2 K + 1, n, q); ``gb`` may be None."""
+        def part(g, S):
+            o = np.empty_like(g)
+            S1, SC, SS = S[0], S[1:K + 1, None, :], S[K + 1:, None, :]
+            o[0] = g[0] * S1
+            if K:
+                gcr, gsr = g[1::2], g[2::2]
+                o[1::2] = gcr * SC - gsr * SS
+                o[2::2] = gcr * SS + gsr * SC
+            return o
+        out = part(ga, sa)
+        if gb is not None:
+            out += part(gb, sb)
+        return out
+
     def _fourier_piece(self, md, z, W, Phi, a, s, four):
         """Add ``int_a^{a+s} q(t) b(t) dt`` (and of ``Phi_q``) by Gauss-Legendre quadrature on the flow from
-        the state ``z`` at ``a`` (``W``: its Taylor powers, or None)."""
-        n = self.n
+        the state ``z`` at ``a`` (``W``: its Taylor powers, or None).  A full sub-step is recorded in
+        ``four[3]`` and summed by :meth:`_fourier_flush` (the weights :meth:`_fourier_full` of its mode,
+        rotated to ``a``)."""
+        n, nfr = self.n, four[0]
+        if s == md.h:
+            # summed at the end (_fourier_flush): keep what the piece needs
+            rec = four[3].setdefault(md.code, ([], [], [], []))
+            rec[0].append(a)
+            rec[1].append(z.copy())
+            if four[2] is not None and Phi is not None:
+                rec[2].append(Phi[:2 * n].copy())  # the oscillator rows are zero (_phi_rotation_entries)
+                if Phi.shape[1] > 2 * n and self.ncx:
+                    rec[3].append(self._phi_rotation_entries(Phi))
+            return
         ss = 0.5 * s * (_GL_X + 1.0)
         wts = 0.5 * s * _GL_W
-        B = self._fourier_basis(a + ss, four[0]) * wts[:, None]  # (g, nc)
-        full = s == md.h
-        if full and md.Eg is None:  # the q rows of exp(A s_g) at the nodes of a full sub-step, once per mode
-            md.Eg = np.array([sla.expm(md.A * x)[:n] for x in ss])  # (g, n, D)
-        if full:
-            Q = md.Eg @ z  # (g, n): q at the nodes
-        else:
-            if W is None:
-                W = self.powers(md, z)
-            P = self.spow(ss, md.n_taylor)  # (g, n_taylor)
-            Q = P @ W[:n].T
+        B = self._fourier_basis(a + ss, nfr) * wts[:, None]  # (g, nc)
+        if W is None:
+            W = self.powers(md, z)
+        P = self.spow(ss, md.n_taylor)  # (g, n_taylor)
+        Q = P @ W[:n].T
         four[1] += B.T @ Q
-        if four[2] is not None and Phi is not None and full:
-            G = np.einsum("gk,gnd->knd", B, md.Eg)
-            four[2] += (G.reshape(-1, self.D) @ Phi).reshape(B.shape[1], n, -1)
-        elif four[2] is not None and Phi is not None:
+        if four[2] is not None and Phi is not None:
             acc = [Phi[:n]]
             term = Phi
             for j in range(1, md.n_taylor):
-                term = self.amul(md, term) / j
+                term = self.amul(md, term, sens=True) / j
                 acc.append(term[:n])
             WP = np.array(acc)  # (n_taylor, n, cols)
             PhiQ = np.tensordot(P, WP, axes=(1, 0))  # (g, n, cols)
@@ -1140,6 +1302,113 @@ class EventFlow:
                 if s == CLOSED:
                     Phi[self.dof[j]] = 0.0
         return Phi
+
+
+@njit(cache=True)
+def _emul_sens(E, P, iy, n, yc, ys, c, s):
+    """In place ``P <- exp(A h_s) P`` for the sensitivities ``P`` of :meth:`EventFlow.simulate` (shape (D, cols)):
+    rows ``:iy`` from the rows ``:iy`` of ``P`` and the nonzero entries of its forcing-state block (the
+    constants' diagonal, the 2 x 2 block of each pair ``(Y1, Y2) = (yc[p], ys[p])``, relative to ``iy``),
+    which rotate through ``(c[p], s[p])`` (:meth:`EventFlow.emul`)."""
+    cols = P.shape[1]
+    n2 = 2 * n
+    X = np.zeros((iy, cols))
+    for r in range(iy):
+        for k in range(iy):
+            e = E[r, k]
+            if e != 0.0:
+                for j in range(cols):
+                    X[r, j] += e * P[k, j]
+    if cols > n2:
+        for i in range(n):
+            d = P[iy + i, n2 + i]
+            for r in range(iy):
+                X[r, n2 + i] += E[r, iy + i] * d
+        for p in range(yc.size):
+            a, b = yc[p], ys[p]
+            c1, s1 = P[iy + a, n2 + a], P[iy + a, n2 + b]
+            m1, c2 = P[iy + b, n2 + a], P[iy + b, n2 + b]
+            for r in range(iy):
+                ec, es = E[r, iy + a], E[r, iy + b]
+                X[r, n2 + a] += ec * c1 + es * m1
+                X[r, n2 + b] += ec * s1 + es * c2
+            P[iy + a, n2 + a] = c[p] * c1 + s[p] * m1
+            P[iy + a, n2 + b] = c[p] * s1 + s[p] * c2
+            P[iy + b, n2 + a] = -s[p] * c1 + c[p] * m1
+            P[iy + b, n2 + b] = -s[p] * s1 + c[p] * c2
+    for r in range(iy):
+        for j in range(cols):
+            P[r, j] = X[r, j]
+
+
+@njit(cache=True)
+def _amul_sens(A, P, iy, n, yc, ys, yw):
+    """``A P`` for the sensitivities ``P`` of :meth:`EventFlow.simulate` (structure of :func:`_emul_sens`);
+    the forcing-state rows of ``A`` are the rotations ``(Y1, Y2)' = yw[p] (Y2, -Y1)`` (constants: 0)."""
+    cols = P.shape[1]
+    n2 = 2 * n
+    out = np.zeros_like(P)
+    for r in range(iy):
+        for k in range(iy):
+            e = A[r, k]
+            if e != 0.0:
+                for j in range(cols):
+                    out[r, j] += e * P[k, j]
+    if cols > n2:
+        for i in range(n):
+            d = P[iy + i, n2 + i]
+            for r in range(iy):
+                out[r, n2 + i] += A[r, iy + i] * d
+        for p in range(yc.size):
+            a, b = yc[p], ys[p]
+            c1, s1 = P[iy + a, n2 + a], P[iy + a, n2 + b]
+            m1, c2 = P[iy + b, n2 + a], P[iy + b, n2 + b]
+            for r in range(iy):
+                ec, es = A[r, iy + a], A[r, iy + b]
+                out[r, n2 + a] += ec * c1 + es * m1
+                out[r, n2 + b] += ec * s1 + es * c2
+            w = yw[p]
+            out[iy + a, n2 + a] = w * m1
+            out[iy + a, n2 + b] = w * c2
+            out[iy + b, n2 + a] = -w * c1
+            out[iy + b, n2 + b] = -w * s1
+    return out
+
+
+@njit(cache=True)
+def _powers_state(A, z, nt, iy, n, yc, ys, yw):
+    """``W[:, j] = A^j z / j!`` (:meth:`EventFlow.powers`) for a state ``z`` (D,): rows ``:iy`` from the full
+    rows of ``A``, the forcing states from their rotation ``(Y1, Y2)' = yw[p] (Y2, -Y1)`` (constants: 0)."""
+    D = z.size
+    W = np.zeros((D, nt))
+    W[:, 0] = z
+    for j in range(1, nt):
+        for r in range(iy):
+            acc = 0.0
+            for k in range(D):
+                acc += A[r, k] * W[k, j - 1]
+            W[r, j] = acc / j
+        for p in range(yc.size):
+            a, b = iy + yc[p], iy + ys[p]
+            W[a, j] = yw[p] * W[b, j - 1] / j
+            W[b, j] = -yw[p] * W[a, j - 1] / j
+    return W
+
+
+@njit(cache=True)
+def _rotation_entries(P, iy, n, yc, ys):
+    """``[d, c1, m1, s1, c2]`` of the forcing-state block of ``P`` (:meth:`EventFlow._phi_rotation_entries`)."""
+    n2, q = 2 * n, yc.size
+    out = np.empty(n + 4 * q)
+    for i in range(n):
+        out[i] = P[iy + i, n2 + i]
+    for p in range(q):
+        a, b = yc[p], ys[p]
+        out[n + p] = P[iy + a, n2 + a]
+        out[n + q + p] = P[iy + b, n2 + a]
+        out[n + 2 * q + p] = P[iy + a, n2 + b]
+        out[n + 3 * q + p] = P[iy + b, n2 + b]
+    return out
 
 
 def _lcp(A, b):

@@ -60,8 +60,9 @@ has them)
     (``forcing=True``) or zero elsewhere, from the method's own factorisations (MS-HBM: its condensation
     of ``L``); ``None``: not available (the caller solves ``H_k`` itself).
 ``cheap_jacobian`` : bool (default False)
-    The Jacobian costs little more than ``R`` (HBM, DLFT): Newton evaluates the full step with it and
-    keeps it when the step is taken; the iterates do not change.
+    The Jacobian costs little more than ``R`` (HBM, DLFT), or the full step is nearly always taken (MS-HBM
+    with the event-driven flow): Newton evaluates the full step with it and keeps it when the step is
+    taken; the iterates do not change.
 """
 from __future__ import annotations
 

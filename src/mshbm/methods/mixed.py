@@ -282,6 +282,14 @@ class _MixedBase(PeriodicProblem):
     def time_step(self):
         return None if self.integrator == "event" else self.td.h
 
+    @property
+    def cheap_jacobian(self):
+        """Event-driven flow with the exact Jacobian: Newton evaluates the full step with its Jacobian
+        (:func:`mshbm.solvers.newton.newton`; the iterates do not change).  Its full steps are nearly always
+        taken, and when one is not, the watchdog evaluates the same point with its Jacobian anyway (found in
+        the run cache), so this saves the separate residual-only flow of every iteration."""
+        return self.integrator == "event" and self.jacobian == "exact"
+
     def time_stepper(self):
         return None if self.integrator == "event" else self.td.stepper
 
@@ -305,9 +313,13 @@ class _MixedBase(PeriodicProblem):
     def _event_run(self, x, sens, record=False):
         from ..integrators.event import EventError
 
-        key = (np.asarray(x).tobytes(), sens, record)
-        if self._ev_cache is not None and self._ev_cache[0] == key:
-            return self._ev_cache[1]
+        # the last few runs: a run with sensitivities also answers a residual-only request at the same
+        # x (the flow, its events and Fourier coefficients do not depend on them: the same numbers)
+        xb = np.asarray(x).tobytes()
+        cache = self._ev_cache if self._ev_cache is not None else []
+        for kx, ks, kr, kout in cache:
+            if kx == xb and kr == record and (ks == sens or (ks and not sens)):
+                return kout
         p, q0, u0 = self._split(x)
         n1 = self._time.size
         fl = self.flow
@@ -318,7 +330,7 @@ class _MixedBase(PeriodicProblem):
         except (EventError, ValueError) as exc:  # ValueError: event bracketing lost to rounding
             self.last_error = f"{type(exc).__name__}: {exc}"
             out = None
-        self._ev_cache = (key, out)
+        self._ev_cache = ([(xb, sens, record, out)] + cache)[:3]
         return out
 
     def _event_residual(self, x, jac):
