@@ -281,4 +281,22 @@ def notebook_inputs(name):
         out["npz_longrun"] = longrun_file(config["figures"][name]["system"], "npz")
     if "branches" in data:
         out["summary"] = f"{R}/summary/branches.json"
+    if "fe" in data:
+        out["summary"] = f"{R}/summary/fe.json"
     return out
+
+
+# ----------------------------------------------------------------------------- finite-element example
+def fe_model_argv(w, output):
+    """Command line of build_fe_model.py for mesh `w.mesh` of config `fe_example` (rule fe_model)."""
+    FE = config["fe_example"]
+    mesh = FE["meshes"][w.mesh]
+    argv = [os.path.dirname(output.case), "--model", FE["model"], "--n-el", str(mesh["n_el"]),
+            "--ny", str(mesh.get("ny", 1)), "--case", os.path.basename(output.case)]
+    if FE["bodies"]:
+        argv.append("--bodies")
+    for key in ("body_freq_ratio", "body_mass_ratio", "width", "gap_ratio", "friction_ratio", "zeta"):
+        if key in FE:
+            argv += ["--set", f"{key}={FE[key]}"]
+    argv += ["--set", f"steps={FE['steps']}", "--set", f"harmonics={FE['harmonics']}"]
+    return argv

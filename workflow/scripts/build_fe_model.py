@@ -22,6 +22,24 @@ Nonlinear elements (the present element types act between one DOF and the ground
 * harmonic forcing ``F cos(omega t)`` on the transverse DOF of the node nearest ``x_force L``, at
   ``omega = omega_ratio w_1`` (near the first bending resonance).
 
+With ``bodies=True`` the two elements act instead on two lumped bodies appended to the structure as
+DOFs ``n`` (the friction *shoe*, tied to the friction node) and ``n + 1`` (the *pad* of the impact
+stop, tied to the tip), each of mass ``m_b = body_mass_ratio rho A L`` on a spring
+``k_b = m_b (body_freq_ratio w_1)^2`` (``w_1`` the closed-form beam value): an elastic friction
+joint (a Jenkins element with a small slider mass) and a stop hit through a contact pad.  Why: MS-HBM
+integrates the element DOFs in time with their own ``M_NN, C_NN, K_NN``; a node DOF of a fine mesh
+has ``sqrt(K_dd / M_dd)`` ~ 10^7 ``omega`` and, with Rayleigh damping, ``C_dd / M_dd = beta K_dd / M_dd``
+~ 10^12 ``omega`` (10^4-DOF beam), which Moreau-Jean steps resolve badly and the exact event-driven
+flow (sub-steps ``h_s <= 1 / (2 ||A||_1)``, ~10^18 per period there) cannot integrate at all; a body
+on a spring has ``body_freq_ratio`` as its local frequency ratio, independent of the mesh.
+
+Conditioning: ``cond(K)`` of the beam grows like ``n_el^4``.  At 5000 elements (10^4 DOFs) the
+rounding errors of any factorisation of ``K`` shift ``w_1`` by ~1e-3 (eigsh with SuperLU: -1.3e-3,
+banded Cholesky: -0.9e-3, a factorisation ``K = R^T W R`` by curvature at Gauss points: -3e-13) and
+the linear tip response at ``0.98 w_1`` by a factor 2; use ``n_el`` <= 1000 for the beam, or the
+plate for 10^4 DOFs (100 x 24 elements: ``w_1`` converges monotonically, 52.690, 52.660, 52.651
+rad/s at 25 x 6, 50 x 12, 100 x 24).
+
 The first bending frequencies come from ``scipy.sparse.linalg.eigsh`` in shift-invert mode and are
 checked against the closed-form cantilever values ``w_r = (beta_r L)^2 sqrt(E I / (rho A L^4))``
 with ``beta_r L = 1.8751, 4.6941, 7.8548, ...`` (:func:`cantilever_frequencies`).
@@ -74,6 +92,9 @@ DEFAULTS = dict(
     model="beam",         # "beam" or "plate" (Kirchhoff plate width x height, n_el x ny BFS elements)
     ny=49,                # plate: elements across the width
     poisson=0.3,          # plate: Poisson's ratio
+    bodies=False,         # elements on two lumped bodies attached by springs (see module docstring)
+    body_mass_ratio=0.01, # mass of each body / structure mass rho A L
+    body_freq_ratio=20.0, # sqrt(k_b / m_b) / closed-form w_1 of each body on its spring
 )
 
 
@@ -195,6 +216,37 @@ def natural_frequencies(M, K, n_modes=3):
     return np.sqrt(np.sort(w2))
 
 
+def beam_frequencies_factored(n_el, n_modes=3, length=1.0, young=210e9, density=7850.0, width=0.04, height=0.01):
+    """Lowest ``n_modes`` angular frequencies (rad/s) of the clamped beam of :func:`beam_matrices`, with
+    ``K`` applied in factored form.
+
+    The Hermite element's curvature is linear, so 2-point Gauss quadrature of ``EI int w''^2`` is exact:
+    ``K = R^T W R`` with ``R`` (``2 n_el x 2 n_el``, square for the clamped beam) the curvatures at the
+    Gauss points and ``W = EI l / 2``.  Shift-invert with ``K^-1 = R^-1 W^-1 R^-T`` (two sparse triangular-
+    like solves with ``R``, whose condition number is the square root of ``K``'s) avoids the rounding of a
+    factorisation of ``K`` itself, whose condition number grows like ``n_el^4`` (at 5000 elements
+    :func:`natural_frequencies` is off by ~1e-3 in ``w_1``; this function by ~1e-13)."""
+    n_el = int(n_el)
+    A, I = section(width, height)
+    l = length / n_el
+    xi = 0.5 * (np.array([-1.0, 1.0]) / math.sqrt(3.0) + 1.0)
+    d2 = np.array([-6 + 12 * xi, l * (-4 + 6 * xi), 6 - 12 * xi, l * (-2 + 6 * xi)]).T / l ** 2  # (2 Gauss, 4)
+    dofs = 2 * np.arange(n_el)[:, None] + np.arange(4)[None, :] - 2      # clamped node removed
+    rows = np.repeat(2 * np.arange(n_el)[:, None] + np.arange(2)[None, :], 4, axis=1).ravel()
+    cols = np.tile(dofs, (1, 2)).ravel()
+    vals = np.tile(d2.ravel(), n_el)
+    keep = cols >= 0
+    n = 2 * n_el
+    R = sp.csc_matrix((vals[keep], (rows[keep], cols[keep])), shape=(n, n))
+    Wq = young * I * l / 2.0
+    lu = spla.splu(R)
+    op = spla.LinearOperator((n, n), matvec=lambda x: lu.solve(lu.solve(np.ravel(x), trans="T")) / Wq, dtype=float)
+    M, K = beam_matrices(n_el, length, young, density, width, height)
+    w2 = spla.eigsh(K, k=n_modes, M=M.tocsc(), sigma=0.0, OPinv=op, which="LM", return_eigenvectors=False,
+                    v0=np.ones(n))
+    return np.sqrt(np.sort(w2))
+
+
 def rayleigh_coefficients(w1, w2, zeta):
     """``(alpha, beta)`` with damping ratio ``zeta`` at ``w1`` and ``w2``."""
     alpha = 2.0 * zeta * w1 * w2 / (w1 + w2)
@@ -214,6 +266,43 @@ def linear_response(M, C, K, omega, dof, force):
     f = np.zeros(M.shape[0], dtype=complex)
     f[dof] = force
     return spla.spsolve(H, f)
+
+
+def attach_bodies(M, K, node_dofs, m_b, k_b):
+    """Append one body of mass ``m_b`` per entry of ``node_dofs``, tied to that DOF by a spring ``k_b``.
+
+    Returns ``(M, K)`` (CSR) of size ``n + len(node_dofs)``; body ``j`` is DOF ``n + j``.
+    """
+    n, nb = M.shape[0], len(node_dofs)
+    rows, cols, vals = [], [], []
+    for j, d in enumerate(node_dofs):
+        b = n + j
+        rows += [d, d, b, b]
+        cols += [d, b, d, b]
+        vals += [k_b, -k_b, -k_b, k_b]
+    N = n + nb
+    Kb = sp.coo_matrix((vals, (rows, cols)), shape=(N, N))
+    Mb = sp.coo_matrix((np.full(nb, float(m_b)), (np.arange(n, N), np.arange(n, N))), shape=(N, N))
+    K2 = (sp.block_diag([K, sp.csr_matrix((nb, nb))]) + Kb).tocsr()
+    M2 = (sp.block_diag([M, sp.csr_matrix((nb, nb))]) + Mb).tocsr()
+    for A_ in (K2, M2):
+        A_.sum_duplicates()
+        A_.sort_indices()
+    return M2, K2
+
+
+def event_substeps(M, C, K, dofs, omega):
+    """Sub-steps per period of the exact event-driven flow (:mod:`mshbm.integrators.event`) for the
+    subsystem of ``dofs`` that MS-HBM integrates in time: ``ceil(2 T ||A_xx||_1)`` with
+    ``A_xx = [[0, I], [-M_NN^-1 K_NN, -M_NN^-1 C_NN]]`` (the rule of ``EventFlow``; its 1-norm mixes
+    displacement and velocity units, so it grows like ``K_NN / M_NN``)."""
+    ix = np.ix_(dofs, dofs)
+    Mn, Cn, Kn = (np.asarray(A.tocsr()[ix].toarray()) for A in (M, C, K))
+    Mi = np.linalg.inv(Mn)
+    m = len(dofs)
+    A = np.block([[np.zeros((m, m)), np.eye(m)], [-Mi @ Kn, -Mi @ Cn]])
+    T = 2.0 * math.pi / omega
+    return float(math.ceil(2.0 * T * np.abs(A).sum(axis=0).max()))
 
 
 def _g(x):
@@ -251,37 +340,62 @@ def build_fe_model(out_dir, n_el=None, case_name="beam.yaml", **params):
     else:
         M, K = beam_matrices(n_el, **geo)
         dof_at = lambda x: node_dof(x, n_el)
-    n = M.shape[0]
-    w = natural_frequencies(M, K, 3)
+    n_s = M.shape[0]                           # structure DOFs
+    w_s = natural_frequencies(M, K, 3)         # of the structure alone (compared with the closed form)
     w_exact = cantilever_frequencies(3, **geo)
     if plate:  # plate bending modes approach the beam's with E / (1 - nu^2); mode 2 is torsion
         w_exact = w_exact / math.sqrt(1.0 - p["poisson"] ** 2)
+    f_dof, f_node = dof_at(p["x_force"])
+    r_node_dof, r_node = dof_at(p["x_friction"])
+    tip = dof_at(1.0)[0] if plate else n_s - 2
+    A, I = section(p["width"], p["height"])
+    k_tip = 3.0 * p["young"] * I / p["length"] ** 3
+    body = None
+    if p["bodies"]:
+        m_b = p["body_mass_ratio"] * p["density"] * A * p["length"]
+        k_b = m_b * (p["body_freq_ratio"] * cantilever_frequencies(1, **geo)[0]) ** 2
+        M, K = attach_bodies(M, K, [r_node_dof, tip], m_b, k_b)
+        r_dof, c_dof = n_s, n_s + 1
+        body = {"mass": m_b, "stiffness": k_b, "nodes_dofs": [r_node_dof, tip], "dofs": [r_dof, c_dof]}
+        w = natural_frequencies(M, K, 3)
+    else:
+        r_dof, c_dof, w = r_node_dof, tip, w_s
+    n = M.shape[0]
     alpha, beta = rayleigh_coefficients(w[0], w[1], p["zeta"])
     C = alpha * M + beta * K
     omega = p["omega_ratio"] * w[0]
-    f_dof, f_node = dof_at(p["x_force"])
-    r_dof, r_node = dof_at(p["x_friction"])
-    tip = dof_at(1.0)[0] if plate else n - 2
     Q = linear_response(M, C, K, omega, f_dof, p["force"])
     tip_amp = float(abs(Q[tip]))
+    c_amp = float(abs(Q[c_dof]))
     fr_vel = float(omega * abs(Q[r_dof]))
-    A, I = section(p["width"], p["height"])
-    k_tip = 3.0 * p["young"] * I / p["length"] ** 3
     bound = p["friction_ratio"] * p["force"]
     smoothing = p["smoothing"] if p["smoothing"] is not None else 100.0 / fr_vel
-    gap = p["gap_ratio"] * tip_amp
+    gap = p["gap_ratio"] * c_amp
+    k_pen = p["penalty_ratio"] * (body["stiffness"] if body else k_tip)
+    # what MS-HBM integrates in time: the element DOFs with their own M_NN, C_NN, K_NN
+    ix = lambda A, d: A.tocsr()[d][:, d].diagonal()
+    node_dofs = [r_node_dof, tip]
+    Ms_, Ks_ = M[:n_s, :n_s], K[:n_s, :n_s]
+    stiff = {"node_dofs": {"omega_local_over_omega": (np.sqrt(ix(Ks_, node_dofs) / ix(Ms_, node_dofs)) / omega).tolist(),
+                           "event_substeps_per_period": event_substeps(Ms_, alpha * Ms_ + beta * Ks_, Ks_, node_dofs, omega)}}
+    if body is not None:
+        bd = body["dofs"]
+        stiff["bodies"] = {"omega_local_over_omega": (np.sqrt(ix(K, bd) / ix(M, bd)) / omega).tolist(),
+                           "event_substeps_per_period": event_substeps(M, C, K, bd, omega)}
     info = {
+        "time_domain_subsystem": stiff,
         "n_el": n_el, "n_dofs": n, "nnz_M": int(M.nnz), "nnz_K": int(K.nnz),
-        "omega_fe": w.tolist(), "omega_exact": w_exact.tolist(),
-        "rel_error": (w / w_exact - 1.0).tolist(),
-        "f_hz": (w / (2 * math.pi)).tolist(),
+        "n_structure_dofs": n_s, "bodies": body,
+        "omega_fe": w_s.tolist(), "omega_exact": w_exact.tolist(),
+        "rel_error": (w_s / w_exact - 1.0).tolist(),
+        "omega_model": w.tolist(), "f_hz": (w / (2 * math.pi)).tolist(),
         "omega": omega, "rayleigh": {"alpha": alpha, "beta": beta},
         "forcing": {"dof": f_dof, "node": f_node, "amplitude": p["force"]},
         "friction": {"dof": r_dof, "node": r_node, "mu": p["mu"], "normal_force": bound / p["mu"],
                      "smoothing": smoothing},
-        "contact": {"dof": tip, "node": None if plate else n_el, "gap": gap, "restitution": p["restitution"],
-                    "penalty_stiffness": p["penalty_ratio"] * k_tip},
-        "linear": {"tip_amplitude": tip_amp, "friction_dof_amplitude": float(abs(Q[r_dof])),
+        "contact": {"dof": c_dof, "node": None if plate else n_el, "gap": gap, "restitution": p["restitution"],
+                    "penalty_stiffness": k_pen},
+        "linear": {"tip_amplitude": tip_amp, "contact_dof_amplitude": c_amp, "friction_dof_amplitude": float(abs(Q[r_dof])),
                    "friction_dof_velocity": fr_vel},
         "params": p,
     }
@@ -315,12 +429,17 @@ def build_fe_model(out_dir, n_el=None, case_name="beam.yaml", **params):
         "# First bending frequencies (eigsh, shift-invert) against the closed form (beta_r L)^2 sqrt(EI/(rho A L^4)):",
     ]
     for r in range(0 if plate else 3):
-        lines.append(f"#   mode {r + 1}: {w[r]:.6g} rad/s ({w[r] / (2 * math.pi):.6g} Hz), closed form "
-                     f"{w_exact[r]:.6g} rad/s, rel. error {w[r] / w_exact[r] - 1:+.2e}")
+        lines.append(f"#   mode {r + 1}: {w_s[r]:.6g} rad/s ({w_s[r] / (2 * math.pi):.6g} Hz), closed form "
+                     f"{w_exact[r]:.6g} rad/s, rel. error {w_s[r] / w_exact[r] - 1:+.2e}")
+    if body is not None:
+        lines += [f"# Elements on two bodies (DOFs {n_s}: friction shoe at the friction node, {n_s + 1}: pad at the tip), "
+                  f"m_b = {body['mass']:.6g} kg each on springs k_b = {body['stiffness']:.6g} N/m "
+                  f"(sqrt(k_b/m_b) = {p['body_freq_ratio']:g} x closed-form w_1); with them",
+                  f"#   w_1..3 = {', '.join(f'{x:.6g}' for x in w)} rad/s"]
     lines += ([] if plate else [
         f"# Forcing at node {f_node} (x = {f_node / n_el:g} L), omega = {p['omega_ratio']:g} w_1; "
         f"friction joint at node {r_node}; impact stop at the tip,"]) + [
-        f"# gap = {p['gap_ratio']:g} x the linear tip amplitude {tip_amp:.6g} m.  Rayleigh damping: "
+        f"# gap = {p['gap_ratio']:g} x the linear amplitude {c_amp:.6g} m of the contact DOF.  Rayleigh damping: "
         f"zeta = {p['zeta']:g} at w_1 and w_2.",
         f"name: fe_{p['model']}",
         "M: M.mtx",
@@ -340,6 +459,12 @@ def build_fe_model(out_dir, n_el=None, case_name="beam.yaml", **params):
     return info
 
 
+def _numeric(key):
+    """``key`` is a parameter of :data:`DEFAULTS` with a number (not a flag, not ``n_el``/``ny``) as value."""
+    v = DEFAULTS.get(key)
+    return key not in ("n_el", "ny") and isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("out_dir")
@@ -347,8 +472,22 @@ def main(argv=None):
     ap.add_argument("--case", default="beam.yaml", help="case file name (in OUT_DIR)")
     ap.add_argument("--model", choices=("beam", "plate"), default="beam")
     ap.add_argument("--ny", type=int, default=DEFAULTS["ny"], help="plate: elements across the width")
+    ap.add_argument("--bodies", action="store_true", help="elements on lumped bodies tied to the nodes by springs")
+    ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                    help="override a numeric model parameter, e.g. --set body_freq_ratio=10; keys: "
+                         + ", ".join(k for k in DEFAULTS if _numeric(k)))
     args = ap.parse_args(argv)
-    info = build_fe_model(args.out_dir, n_el=args.n_el, case_name=args.case, model=args.model, ny=args.ny)
+    extra = {}
+    for kv in args.set:
+        key, sep, val = kv.partition("=")
+        if not sep or not _numeric(key):
+            ap.error(f"--set {kv}: expected KEY=VALUE with KEY a numeric parameter")
+        try:
+            extra[key] = float(val) if isinstance(DEFAULTS[key], float) else int(val)
+        except ValueError:
+            ap.error(f"--set {kv}: {val!r} is not a number")
+    info = build_fe_model(args.out_dir, n_el=args.n_el, case_name=args.case, model=args.model, ny=args.ny,
+                          bodies=args.bodies, **extra)
     print(f"{info['n_dofs']} DOFs; omega_1..3 = {', '.join(f'{x:.6g}' for x in info['omega_fe'])} rad/s "
           f"(rel. errors {', '.join(f'{x:+.1e}' for x in info['rel_error'])}); wrote {args.out_dir}")
     return 0
