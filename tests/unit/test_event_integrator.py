@@ -471,3 +471,28 @@ def test_sweep_with_the_event_integrator_follows_den_hartog_exactly():
     exact = np.array([closed_form(w) for w in b.omega])
     # measured 4.8e-11 (Moreau-Jean with 4096 steps: 5e-3 is the bound of tests/integration/test_sweep.py)
     np.testing.assert_allclose(b.amplitude[:, 0], exact, rtol=1e-8)
+
+
+def test_a_stiff_subsystem_is_refused_at_once_not_integrated_for_hours():
+    """A stiff, heavily damped DOF (a finite-element node: ||A|| ~ 1e12 1/s) would need ~1e13 sub-steps per
+    period of the event search; the flow says so with the key ``integrator`` at construction (measured: 8 ms),
+    for shooting as for the flow itself, instead of running on (the FE example's MS-HBM(event) never ended)."""
+    import time
+
+    from mshbm.integrators.event import MAX_SUBSTEPS
+
+    M = np.diag([1.0, 1e-6])
+    K = np.array([[1.0 + 1e6, -1e6], [-1e6, 1e6]])
+    f = np.zeros((3, 2))
+    f[1, 0] = 1.0
+    s = mshbm.System(M, 1e-3 * K, K, f, [mshbm.Friction(dof=1, mu=0.5, normal_force=0.1)])
+    t0 = time.perf_counter()
+    with pytest.raises(mshbm.InputError) as exc:
+        mshbm.solve(s, 1.0, "shooting", integrator="event")
+    assert exc.value.key == "integrator" and "sub-steps per period" in exc.value.problem
+    assert time.perf_counter() - t0 < 5.0
+    # the same structure with a unit mass and unit springs on the friction DOF stays within the grid
+    s2 = mshbm.System(np.eye(2), np.zeros((2, 2)), np.array([[2.0, -1.0], [-1.0, 1.0]]), f,
+                      [mshbm.Friction(dof=1, mu=0.5, normal_force=0.1)])
+    flow = EventFlow(s2, 1.0)
+    assert flow.substeps <= MAX_SUBSTEPS

@@ -131,6 +131,9 @@ RELEASE_STEPS = 8
 MAX_COMBINATIONS = 6561
 #: largest (sub)system the dense event-driven flow accepts (matrix exponentials of size ~2n)
 MAX_DOFS = 1000
+#: most sub-steps per period of the event-search grid (``2 T ||A_xx||_1``, per mode): stiffer subsystems
+#: (finite-element node DOFs need 1e14-1e18) are refused with an error instead of running for hours
+MAX_SUBSTEPS = 2 ** 16
 #: the exponentials of a mode over its sub-step (and its Fourier weights) depend only on its matrix ``A``,
 #: ``omega`` and the sub-step count: kept for that many modes (of at most ``SHARED_MAX_D`` states) across
 #: flows, so that repeated solves of one problem (Newton restarts, benchmarks, continuation at one
@@ -326,7 +329,10 @@ class EventFlow:
         self._modes = {}
         self._mj = {}
         self.min_substeps = int(substeps)
-        free = self.mode(tuple(FREE if c else SLIP_P for c in self.is_contact) if m else ())
+        try:
+            free = self.mode(tuple(FREE if c else SLIP_P for c in self.is_contact) if m else ())
+        except EventError as exc:  # the system itself is out of the flow's reach: bad input, said at once
+            raise InputError("integrator", str(exc)) from None
         self.substeps = int(round(self.T / free.h))
         self.h = free.h
         self.n_taylor = free.n_taylor
@@ -395,7 +401,12 @@ class EventFlow:
         md.CA = md.C @ A
         md.ev = ev
         norm_xx = np.abs(A[:2 * n, :2 * n]).sum(axis=0).max()
-        ns = max(self.min_substeps, int(math.ceil(2.0 * self.T * norm_xx)))
+        ns_f = max(float(self.min_substeps), math.ceil(2.0 * self.T * norm_xx))
+        if ns_f > MAX_SUBSTEPS:  # a stiff subsystem: fail at once rather than step for hours
+            raise EventError(f"the event-driven flow would need {ns_f:.3g} sub-steps per period (||A_xx||_1 = "
+                             f"{norm_xx:.3g} 1/s: stiff or heavily damped DOFs) > {MAX_SUBSTEPS}; use "
+                             "integrator='moreau' or keep the stiff DOFs out of the time-integrated subsystem")
+        ns = int(ns_f)
         md.h = self.T / ns
         key = (self.omega, ns, n, A.shape[0], A.tobytes())
         shared = _SHARED.get(key)
