@@ -496,3 +496,36 @@ def test_a_stiff_subsystem_is_refused_at_once_not_integrated_for_hours():
                       [mshbm.Friction(dof=1, mu=0.5, normal_force=0.1)])
     flow = EventFlow(s2, 1.0)
     assert flow.substeps <= MAX_SUBSTEPS
+
+
+def test_stiff_but_lightly_damped_dof_gets_a_balanced_sub_step_and_the_exact_orbit():
+    """The Budd & Dux orbit in a time unit ``w = 2^14`` times shorter: ``x'' + 2 zeta w x' + w^2 x =
+    w^2 cos(Omega t)``, ``Omega = 2.3 w``, the same stop.  In ``tau = w t`` it is the closed-form orbit: impact
+    time ``t0 / w``, approach velocity ``w v``, the same amplitude and multipliers.  The unscaled 1-norm of
+    ``A_xx`` (``w^2``, displacement and velocity units mixed) asked for 2 T w^2 = 9.0e4 sub-steps per period
+    (refused, > 2^16); the balanced norm (``~w``) for ``2 T w ~ 9``, so the minimum 128 applies."""
+    w = 2.0 ** 14
+    t0, v = cf.stable_orbit(OMEGA_BD)
+    mu_cf = cf.multipliers(OMEGA_BD, t0, v)
+    A_cf = cf.amplitude(OMEGA_BD, t0, v)
+    s = mshbm.chain([1.0], w ** 2, 2.0 * cf.ZETA * w, forcing=[{"dof": 0, "amplitude": w ** 2}],
+                    elements=[Contact(0, cf.SIGMA, cf.R)], name="stiff-impact-oscillator")
+    Om = OMEGA_BD * w
+    T = 2 * np.pi / Om
+    flow = EventFlow(s, Om)
+    assert 2 * T * w ** 2 > 2 ** 16  # the former rule's count: refused
+    assert flow.substeps == 128
+    md = flow.mode(flow.select(flow.state(0.0, np.zeros(1), np.zeros(1)))[0])
+    assert w <= md.norm_xx <= 2.0 * w  # balanced norm: within a factor 2 of the fastest eigenvalue ~ w
+    sol = mshbm.solve(s, Om, "shooting", integrator="event", steps=1024)
+    assert sol.success, sol.message
+    imp = [e for e in sol.info["event_list"] if e.impulse > 0]
+    assert len(imp) == 1
+    # measured: 3.9e-14 (time x w), 3.4e-13 (velocity), 1.3e-13 (amplitude), 2.0e-13 (multipliers)
+    assert abs(imp[0].t * w - t0) <= 1e-10
+    assert abs(-imp[0].velocity / w - v) <= 1e-10 * v
+    assert abs(sol.amplitude[0] - A_cf) <= 1e-9 * A_cf
+    np.testing.assert_allclose(np.sort_complex(sol.info["event_multipliers"]), mu_cf, atol=1e-9)
+    x_cf = np.where(sol.t * w < t0, cf.free_flight(sol.t * w, t0 - 2 * np.pi / OMEGA_BD, v, OMEGA_BD)[0],
+                    cf.free_flight(sol.t * w, t0, v, OMEGA_BD)[0])
+    assert np.abs(sol.q[:, 0] - x_cf).max() <= 1e-10
