@@ -25,9 +25,11 @@ elements ``a`` and the slip forces ``f_s`` the reactions solve the small linear 
     (W_a^T M^-1 W_a) lambda_a = -W_a^T M^-1 (f_ex - C u - K q + f_s)
 
 so that every mode is an autonomous linear system ``z' = A_mode z``; its flow ``exp(A_mode s)`` is exact
-also without damping and for singular ``K``.  Over a fixed sub-step ``h_s`` (``||A_xx||_1 h_s <= 1/2``)
-the flow is ``scipy.linalg.expm(A h_s)``; inside a sub-step the state is the Taylor series of the
-exponential (converged to rounding).  Modes are built when first met (at most ``5^m``, usually a handful).
+also without damping and for singular ``K``.  Over a fixed sub-step ``h_s`` (``||A_s,xx||_1 h_s <= 1/2``
+with the balanced ``A_s = D^-1 A D``, ``D`` diagonal: :meth:`EventFlow._scaling`; the unscaled norm mixed
+displacement and velocity units and grew like ``K/M`` instead of ``sqrt(K/M)``) the flow is
+``D expm(A_s h_s) D^-1``; inside a sub-step the state is the Taylor series of the exponential (converged
+to rounding: tail ``(||A_s||_1 h_s)^k / k! <= 1e-18``).  Modes are built when first met (at most ``5^m``, usually a handful).
 
 Events (linear functions ``c^T z`` of the state that must stay ``> 0`` in a mode; located on the
 sub-step grid, between grid points also at extrema, then by Brent's method on the Taylor polynomial to
@@ -131,8 +133,9 @@ RELEASE_STEPS = 8
 MAX_COMBINATIONS = 6561
 #: largest (sub)system the dense event-driven flow accepts (matrix exponentials of size ~2n)
 MAX_DOFS = 1000
-#: most sub-steps per period of the event-search grid (``2 T ||A_xx||_1``, per mode): stiffer subsystems
-#: (finite-element node DOFs need 1e14-1e18) are refused with an error instead of running for hours
+#: most sub-steps per period of the event-search grid (``2 T ||D^-1 A_xx D||_1``, balanced, per mode: ~2 T
+#: omega_max for light damping): stiffer subsystems (finite-element node DOFs, heavily damped by
+#: stiffness-proportional damping) are refused with an error instead of running for hours
 MAX_SUBSTEPS = 2 ** 16
 #: the exponentials of a mode over its sub-step (and its Fourier weights) depend only on its matrix ``A``,
 #: ``omega`` and the sub-step count: kept for that many modes (of at most ``SHARED_MAX_D`` states) across
@@ -215,7 +218,8 @@ class EventFlow:
         Forcing angular frequency (rad/s), period ``T = 2 pi / omega``.
     substeps : int
         Minimal number of sub-steps per period of the event-search grid (raised per mode so that
-        ``||A_xx||_1 h_s <= 1/2``).
+        ``||D^-1 A_xx D||_1 h_s <= 1/2``, ``D`` the balancing scaling of :meth:`_scaling`: about
+        ``2 T omega_max`` for lightly damped DOFs of highest frequency ``omega_max``).
     max_events : int
         Cap on events per simulated period (then an :class:`EventError`).
     accumulation : {"moreau", "close", "error"}
