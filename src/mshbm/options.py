@@ -46,11 +46,12 @@ COMMON = frozenset({"guess", "tol", "max_iter", "line_search", "progress", "rais
                     "stability"})
 #: options accepted by each method besides the common ones (the method registry's option table)
 METHODS = {
-    "shooting": frozenset({"steps", "theta", "jacobian", "harmonics", "project", "integrator"}),
+    "shooting": frozenset({"steps", "theta", "jacobian", "harmonics", "project", "integrator", "accumulation"}),
     "hbm": frozenset({"harmonics", "steps", "condense", "partition"}),
-    "mshbm": frozenset({"harmonics", "steps", "theta", "jacobian", "partition", "project", "integrator"}),
+    "mshbm": frozenset({"harmonics", "steps", "theta", "jacobian", "partition", "project", "integrator",
+                        "accumulation"}),
     "mshbm-intermediate": frozenset({"harmonics", "steps", "theta", "jacobian", "partition", "project",
-                                     "integrator"}),
+                                     "integrator", "accumulation"}),
     "dlft": frozenset({"harmonics", "steps", "condense", "partition", "dlft_penalty", "dlft_predictor"}),
 }
 
@@ -105,6 +106,11 @@ def check_options(method, options):
         raise InputError("jacobian", f"must be 'exact' or 'fd', got {opts['jacobian']!r}")
     if opts.get("integrator", "moreau") not in ("moreau", "event"):
         raise InputError("integrator", f"must be 'moreau' or 'event', got {opts['integrator']!r}")
+    if opts.get("accumulation", "moreau") not in ("moreau", "close"):
+        raise InputError("accumulation", f"must be 'moreau' or 'close', got {opts['accumulation']!r}")
+    if opts.get("accumulation", "moreau") == "close" and opts.get("integrator", "moreau") != "event":
+        raise InputError("accumulation", "'close' (the Zeno closure of accumulating impacts) applies to "
+                                         "integrator='event' only")
     if "tol" in opts:
         tol = opts["tol"]
         if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not (0 < float(tol) < 1):

@@ -25,9 +25,11 @@ elements ``a`` and the slip forces ``f_s`` the reactions solve the small linear 
     (W_a^T M^-1 W_a) lambda_a = -W_a^T M^-1 (f_ex - C u - K q + f_s)
 
 so that every mode is an autonomous linear system ``z' = A_mode z``; its flow ``exp(A_mode s)`` is exact
-also without damping and for singular ``K``.  Over a fixed sub-step ``h_s`` (``||A_xx||_1 h_s <= 1/2``)
-the flow is ``scipy.linalg.expm(A h_s)``; inside a sub-step the state is the Taylor series of the
-exponential (converged to rounding).  Modes are built when first met (at most ``5^m``, usually a handful).
+also without damping and for singular ``K``.  Over a fixed sub-step ``h_s`` (``||A_s,xx||_1 h_s <= 1/2``
+with the balanced ``A_s = D^-1 A D``, ``D`` diagonal: :meth:`EventFlow._scaling`; the unscaled norm mixed
+displacement and velocity units and grew like ``K/M`` instead of ``sqrt(K/M)``) the flow is
+``D expm(A_s h_s) D^-1``; inside a sub-step the state is the Taylor series of the exponential (converged
+to rounding: tail ``(||A_s||_1 h_s)^k / k! <= 1e-18``).  Modes are built when first met (at most ``5^m``, usually a handful).
 
 Events (linear functions ``c^T z`` of the state that must stay ``> 0`` in a mode; located on the
 sub-step grid, between grid points also at extrema, then by Brent's method on the Taylor polynomial to
@@ -131,8 +133,9 @@ RELEASE_STEPS = 8
 MAX_COMBINATIONS = 6561
 #: largest (sub)system the dense event-driven flow accepts (matrix exponentials of size ~2n)
 MAX_DOFS = 1000
-#: most sub-steps per period of the event-search grid (``2 T ||A_xx||_1``, per mode): stiffer subsystems
-#: (finite-element node DOFs need 1e14-1e18) are refused with an error instead of running for hours
+#: most sub-steps per period of the event-search grid (``2 T ||D^-1 A_xx D||_1``, balanced, per mode: ~2 T
+#: omega_max for light damping): stiffer subsystems (finite-element node DOFs, heavily damped by
+#: stiffness-proportional damping) are refused with an error instead of running for hours
 MAX_SUBSTEPS = 2 ** 16
 #: the exponentials of a mode over its sub-step (and its Fourier weights) depend only on its matrix ``A``,
 #: ``omega`` and the sub-step count: kept for that many modes (of at most ``SHARED_MAX_D`` states) across
@@ -199,7 +202,7 @@ class Event:
 
 
 class _Mode:
-    __slots__ = ("st", "A", "Lam", "C", "CA", "ev", "h", "E", "n_taylor", "code", "shared", "Ey")
+    __slots__ = ("st", "A", "Lam", "C", "CA", "ev", "h", "E", "n_taylor", "code", "shared", "Ey", "scale", "norm_xx")
 
 
 class EventFlow:
@@ -215,7 +218,8 @@ class EventFlow:
         Forcing angular frequency (rad/s), period ``T = 2 pi / omega``.
     substeps : int
         Minimal number of sub-steps per period of the event-search grid (raised per mode so that
-        ``||A_xx||_1 h_s <= 1/2``).
+        ``||D^-1 A_xx D||_1 h_s <= 1/2``, ``D`` the balancing scaling of :meth:`_scaling`: about
+        ``2 T omega_max`` for lightly damped DOFs of highest frequency ``omega_max``).
     max_events : int
         Cap on events per simulated period (then an :class:`EventError`).
     accumulation : {"moreau", "close", "error"}
@@ -400,34 +404,90 @@ class EventFlow:
         md.C = np.array(rows) if rows else np.zeros((0, D))
         md.CA = md.C @ A
         md.ev = ev
-        norm_xx = np.abs(A[:2 * n, :2 * n]).sum(axis=0).max()
+        # sub-step and Taylor length from the norms of the diagonally scaled (balanced) matrix
+        # A_s = D^-1 A D, z = D z_s (_scaling; the docstring of _scaling says why the event search and the
+        # series are as rigorous in z_s as the unscaled rule was in z)
+        d = self._scaling(A)
+        As = A * (d[None, :] / d[:, None])
+        norm_xx = np.abs(As[:2 * n, :2 * n]).sum(axis=0).max()
         ns_f = max(float(self.min_substeps), math.ceil(2.0 * self.T * norm_xx))
         if ns_f > MAX_SUBSTEPS:  # a stiff subsystem: fail at once rather than step for hours
-            raise EventError(f"the event-driven flow would need {ns_f:.3g} sub-steps per period (||A_xx||_1 = "
-                             f"{norm_xx:.3g} 1/s: stiff or heavily damped DOFs) > {MAX_SUBSTEPS}; use "
-                             "integrator='moreau' or keep the stiff DOFs out of the time-integrated subsystem")
+            raise EventError(f"the event-driven flow would need {ns_f:.3g} sub-steps per period (balanced "
+                             f"||D^-1 A_xx D||_1 = {norm_xx:.3g} 1/s: stiff or heavily damped DOFs) > {MAX_SUBSTEPS}; "
+                             "use integrator='moreau' or keep the stiff DOFs out of the time-integrated subsystem")
         ns = int(ns_f)
         md.h = self.T / ns
+        md.scale, md.norm_xx = d, norm_xx
         key = (self.omega, ns, n, A.shape[0], A.tobytes())
         shared = _SHARED.get(key)
         if shared is None:
-            shared = {"E": sla.expm(A * md.h), "Eg": None, "G0": {}}
+            shared = {"E": self._expm(md, md.h), "Eg": None, "G0": {}}
             if A.shape[0] <= SHARED_MAX_D:
                 if len(_SHARED) >= SHARED_MAX:
                     _SHARED.pop(next(iter(_SHARED)))
                 _SHARED[key] = shared
         md.E, md.shared = shared["E"], shared
         md.Ey = (np.cos(self._yw * md.h), np.sin(self._yw * md.h))  # rotation of the forcing states over h_s
-        rho = np.abs(A).sum(axis=0).max() * md.h
+        rho = np.abs(As).sum(axis=0).max() * md.h
         k, term = 1, rho
         while (term > 1e-18 or k < 8) and k < 400:
             k += 1
             term *= rho / k
         if not term <= 1e-18:
-            raise EventError(f"the event-driven flow cannot integrate this system: ||A|| h = {rho:.3g} "
+            raise EventError(f"the event-driven flow cannot integrate this system: ||D^-1 A D|| h = {rho:.3g} "
                              "(forcing far larger than M, K times the displacement scale)")
         md.n_taylor = k + 1
         return md
+
+    def _scaling(self, A):
+        """Diagonal scaling ``d`` (shape (D,), powers of 2) of the state, ``z = D z_s`` with ``D = diag(d)``,
+        that makes ``A_s = D^-1 A D`` small in the 1-norm; the sub-step (``||A_s,xx||_1 h_s <= 1/2``) and the
+        Taylor length (``||A_s||_1 h_s``) are taken from ``A_s``.
+
+        Why.  ``||A_xx||_1`` of ``[[0, I], [-M^-1 K, -M^-1 C]]`` adds displacements (m) and velocities (m/s):
+        a DOF with ``K/M = w^2`` contributes ``w^2``, so a body at ``20 omega_1`` asked for ``~(20 omega_1)^2 T``
+        sub-steps per period although it moves through ~20 cycles.  Scaling ``q`` by ``~w`` (velocity units)
+        gives ``||A_s,xx||_1 ~ w + ||M^-1 C||``: the sub-step then resolves the fastest motion (every
+        eigenvalue satisfies ``|lambda| <= ||A_s||``, any induced norm of a similar matrix bounds it),
+        ``~2 omega_max T`` sub-steps per period.  The ``(q, u)`` block is balanced by LAPACK's ``gebal``
+        (``scipy.linalg.matrix_balance``, no permutation; kept only if it lowers the norm); the exosystem
+        states (oscillator, forcing states: their rows are the exact rotations ``k omega``) get one common
+        factor ``2^-j <= 1`` so that their columns in ``A_s`` (``M^-1 f``, accelerations) are not larger
+        than ``||A_s,xx||_1``; the rotation entries are unchanged.
+
+        Rigour.  Nothing the flow computes changes form: an event function is ``c^T z = (D c)^T z_s``, the
+        state and its Taylor powers ``A^j z / j! = D A_s^j z_s / j!`` are the same numbers (formed in ``z``;
+        ``d`` are powers of 2, and the rounding of ``A w`` is bounded row by row by ``|A| |w|``, the same in
+        either coordinates).  The bounds the grid search relies on hold in ``z_s`` with ``||A_s||`` exactly
+        as they held in ``z`` with ``||A||``: ``|d^k/ds^k c^T z(s)| <= ||D c||_inf ||A_s||_1^k ||z_s(s)||_1``
+        and ``||z_s(s)||_1 <= e^{||A_s|| s} ||z_s(0)||_1``, so over a sub-step the event function and its
+        derivative vary with the same Taylor ratios ``(||A_s,xx|| h_s)^k / k! <= 2^-k / k!`` as before (the
+        sign-change test of ``c^T z`` at the grid points, the extremum test of ``c^T A z`` and Brent's
+        method on the Taylor polynomial are unchanged); the series is truncated when its tail
+        ``(||A_s|| h_s)^k / k! <= 1e-18`` relative to ``||z_s||_1``, the same criterion in the scaled norm.
+        The exponentials are formed as ``D expm(A_s s) D^-1`` (:meth:`_expm`), better conditioned than
+        ``expm(A s)`` of the unbalanced matrix."""
+        n, D = self.n, self.D
+        d = np.ones(D)
+        Axx = A[:2 * n, :2 * n]
+        nrm0 = np.abs(Axx).sum(axis=0).max()
+        if nrm0 > 0.0:
+            _, (sc, _) = sla.matrix_balance(Axx, permute=False, separate=True)
+            sc = np.exp2(np.round(np.log2(sc)))  # powers of 2 (gebal's are; made sure)
+            sc = sc / sc[n:].max()  # a common factor changes nothing: the largest velocity factor is 1
+            Bs = Axx * (sc[None, :] / sc[:, None])
+            if np.all(np.isfinite(Bs)) and np.abs(Bs).sum(axis=0).max() < nrm0:
+                d[:2 * n] = sc
+        nrm = np.abs(A[:2 * n, :2 * n] * (d[None, :2 * n] / d[:2 * n, None])).sum(axis=0).max()
+        col = (np.abs(A[:2 * n, 2 * n:]) / d[:2 * n, None]).sum(axis=0).max() if D > 2 * n else 0.0
+        if col > nrm > 0.0:
+            d[2 * n:] = 2.0 ** math.floor(math.log2(nrm / col))
+        return d
+
+    def _expm(self, md, s):
+        """``exp(A s)`` of mode ``md`` as ``D expm(A_s s) D^-1`` (:meth:`_scaling`), shape (D, D)."""
+        d = md.scale
+        return d[:, None] * sla.expm(md.A * (s * d[None, :] / d[:, None])) / d[None, :]
 
     # ------------------------------------------------------------------ pieces
     def osc(self, t):
@@ -1113,7 +1173,7 @@ class EventFlow:
             h, n = md.h, self.n
             ss = 0.5 * h * (_GL_X + 1.0)
             if sh["Eg"] is None:  # the q rows of exp(A s_g) at the nodes of a full sub-step
-                sh["Eg"] = np.array([sla.expm(md.A * x)[:n] for x in ss])  # (g, n, D)
+                sh["Eg"] = np.array([self._expm(md, x)[:n] for x in ss])  # (g, n, D)
             B0 = self._fourier_basis(ss, nfr) * (0.5 * h * _GL_W)[:, None]  # (g, nc)
             G0 = sh["G0"][nfr] = np.einsum("gk,gnd->knd", B0, sh["Eg"])
         return G0

@@ -52,6 +52,9 @@ class ShootingProblem(PeriodicProblem):
         Position projection of penetrating contacts.
     integrator : {"moreau", "event"}
         Moreau-Jean time stepping (default) or the exact event-driven flow (module docstring).
+    accumulation : {"moreau", "close"}
+        With ``integrator="event"``: Moreau-Jean segments at accumulations of impacts (default) or the
+        Zeno closure of the contact (:class:`mshbm.methods.mixed.MixedProblem`).
 
     Residual scale
     --------------
@@ -65,7 +68,7 @@ class ShootingProblem(PeriodicProblem):
     method = "shooting"
 
     def __init__(self, system, omega, steps, theta=0.5, jacobian="exact", harmonics=10, project=True,
-                 integrator="moreau"):
+                 integrator="moreau", accumulation="moreau"):
         self.system, self.omega, self.N = system, float(omega), int(steps)
         self.T = 2 * np.pi / self.omega
         self.h = self.T / self.N
@@ -76,7 +79,7 @@ class ShootingProblem(PeriodicProblem):
         if integrator == "event":
             from ..integrators.event import EventFlow
 
-            self.flow = EventFlow(system, self.omega, accumulation="moreau", moreau_steps=self.N)
+            self.flow = EventFlow(system, self.omega, accumulation=accumulation, moreau_steps=self.N)
             self.stepper = None
             self.n = system.n
             self._cache = None
