@@ -61,6 +61,19 @@ def test_residual_work_is_accounted_to_first_order(solved, eps):
     assert abs(raw - e0["imbalance"]) > 0.5 * abs(e["connectivity_residual_work"])  # unaccounted: its size
     assert abs(e["imbalance"] - e0["imbalance"]) <= 1e-2 * work
     assert cert["energy_balance"].passed
+    assert cert["connectivity_work"].passed  # W_delta / E ~ 6e-4 per 1e-5: below its bound 1e-2
+
+
+def test_large_connectivity_residual_fails(solved):
+    """A connectivity residual whose work on L exceeds 1 % of the energy scale: the linear subsystem's answer
+    belongs to other harmonics q_hat_N than the reported ones, and the certificate says so."""
+    _, problem, x = solved
+    xp = x.copy()
+    a = (2 * N_H + 1) * problem.Nd.size
+    xp[:a] *= 1.05
+    cert = _certify(problem, xp)[1]
+    assert cert["connectivity_work"].value > 1e-2 and not cert["connectivity_work"].passed
+    assert not cert.passed
 
 
 def test_wrong_answer_still_fails(solved):
