@@ -23,3 +23,21 @@ def test_initial_state_is_row_zero_of_the_time_series():
         if method == "mshbm":  # time-stepped DOFs: their own series, exactly
             td = np.asarray(sol.time_dofs)
             assert np.array_equal(q0[td], sol.q_time[0]) and np.array_equal(u0[td], sol.u_time[0])
+
+
+def test_fast_path_builds_the_problem_once(monkeypatch):
+    """A caller's guess that Newton alone does not take to a certified answer: the start ladder that follows
+    reuses the problem of the first attempt (MS-HBM: no second condensation), and its answer is a solution of
+    the problem built afresh."""
+    from mshbm.solvers import driver
+
+    system = impact_chain(5, e=0.8)
+    calls = []
+    real = driver.build_problem
+    monkeypatch.setattr(driver, "build_problem", lambda *a, **k: calls.append(1) or real(*a, **k))
+    opts = dict(harmonics=5, steps=512, max_iter=2)
+    sol = mshbm.solve(system, OMEGA, "mshbm", guess="zero", **opts)
+    assert len(calls) == 1
+    assert sol.info["starts"][0]["start"] == "guess"  # the ladder ran after the fast path
+    assert sol.success, sol.message
+    assert sol.certificate["residual"].passed
