@@ -556,7 +556,8 @@ def switch_period_doubling(system, branch, omega_end, bifurcation=None, offset=5
         how = "exact event-driven monodromy"
     except Exception:  # noqa: BLE001 -- several elements: the Moreau-Jean map (valid without impacts)
         prob, _ = build_problem(sys_k, float(sol1.omega), "shooting", steps=k * N)
-        x1 = prob.initial_guess({"q_hat": sol1.q_hat, "q0": sol1.q[0], "u0": sol1.u[0]})
+        q1, u1 = sol1.initial_state()
+        x1 = prob.initial_guess({"q_hat": sol1.q_hat, "q0": q1, "u0": u1})
         _, J = prob.residual(x1)
         J = J.toarray() if hasattr(J, "toarray") else np.asarray(J)
         half = x1.size // 2

@@ -145,6 +145,22 @@ class PeriodicSolution:
         """``u(t_k)``; time-stepped DOFs show true velocity jumps."""
         return self._assemble("u", dofs)
 
+    def initial_state(self):
+        """``(q(t_0), u(t_0))`` of all DOFs, each shape (n,): row 0 of :attr:`q` and :attr:`u` (equal to
+        round-off) without assembling the time grid of all DOFs (``8 n (N + 1)`` bytes each, 330 MB for
+        ``n = 10^4``, ``N = 4096``).  Fourier DOFs: ``V(0)^T q_hat = q_hat_0 + sum_k q_hat_c,k`` and the same
+        sum of the velocity's coefficients; time-stepped DOFs: their series at ``t_0``."""
+        if "q" in self.__dict__ and "u" in self.__dict__:
+            return self.q[0].copy(), self.u[0].copy()
+        qh = np.asarray(self.q_hat, dtype=float)
+        q0 = qh[0] + qh[1::2].sum(axis=0)
+        u0 = fourier.derivative(qh, self.omega)[1::2].sum(axis=0)
+        td = np.asarray(self.time_dofs, dtype=np.int64)
+        if td.size:
+            q0[td] = self.q_time[0]
+            u0[td] = self.u_time[0]
+        return q0, u0
+
     @cached_property
     def q(self):
         """All displacements, shape (N+1, n)."""

@@ -69,7 +69,7 @@ def guess_parts(guess, system, omega, n_h, states=True):
         check_guess_values("guess", guess.q_hat)
         q_hat = pad_hat(guess.q_hat, n_h)  # truncated or zero-padded: the check above covers it
         checked = True
-        q0, u0 = guess.q[0].copy(), guess.u[0].copy()
+        q0, u0 = guess.initial_state()
     elif isinstance(guess, dict):
         guess = check_guess(guess, n)
         q_hat, q0, u0 = pad_hat(guess["q_hat"], n_h), guess["q0"], guess["u0"]

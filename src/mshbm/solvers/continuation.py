@@ -84,7 +84,7 @@ def _inner(method, options):
 
 def _state(sol):
     """Continuation state of a solution: (q_hat, q0, u0)."""
-    return sol.q_hat.copy(), sol.q[0].copy(), sol.u[0].copy()
+    return (sol.q_hat.copy(),) + sol.initial_state()  # no time grid of all DOFs
 
 
 def _predict(points, lam):
