@@ -108,9 +108,11 @@ def test_specs_follow_the_workflow_branches():
         s, b = specs[name], cfg[name]
         assert s["omega"] == [float(w) for w in b["omega"]]
         ours = {r["name"]: r for r in s["ours"]}
-        for method, opts in b["methods"].items():
-            expect = dict(opts, **({"max_points": b["max_points"]} if "max_points" in b else {}))
-            assert ours[method]["options"] == expect, (name, method)
+        for label, opts in b["methods"].items():
+            expect = dict({k: v for k, v in opts.items() if k != "method"},
+                          **({"max_points": b["max_points"]} if "max_points" in b else {}))
+            assert ours[label]["options"] == expect, (name, label)
+            assert ours[label]["method"] == opts.get("method", label)
         names = set(ours) | {r["name"] for r in s["pyharm"]}
         assert all(a in names and p in names for a, p in s["pairs"])
     quick = {s["name"]: s for s in bps.specs("quick")}

@@ -179,13 +179,23 @@ def test_bodies_are_tied_by_springs_and_carry_the_elements(tmp_path):
     assert r[0] == pytest.approx(fe.DEFAULTS["body_freq_ratio"] * fe.cantilever_frequencies(1)[0] / info["omega"], rel=1e-12)
 
 
-def test_event_substeps_closed_form():
-    """One DOF (m, c, k): A_xx = [[0, 1], [-k/m, -c/m]], ||A_xx||_1 = max(k/m, 1 + c/m), sub-steps
-    ceil(2 T ||A_xx||_1)."""
-    m, c, k, w = 2.0, 3.0, 5000.0, 10.0
+def test_event_substeps_follow_the_fastest_rate_and_the_flow():
+    """One DOF (m, c, k) with k/m = (100 omega)^2: the unbalanced rule ceil(2 T max(k/m, 1 + c/m)) asked for
+    ~1.3e6 sub-steps; the balanced one follows the fastest rate, ~2 T (sqrt(k/m) + c/m) (within a factor 2),
+    and equals the count of the event-driven flow itself (EventFlow.substeps, at least its 128)."""
+    from mshbm import System
+    from mshbm.integrators.event import EventFlow
+
+    w = 10.0
+    m, c, k = 2.0, 3.0, 2.0 * (100 * w) ** 2
     M, C, K = (sp.csr_matrix(np.array([[v]])) for v in (m, c, k))
     T = 2 * math.pi / w
-    assert fe.event_substeps(M, C, K, [0], w) == math.ceil(2 * T * max(k / m, 1 + c / m))
+    n_s = fe.event_substeps(M, C, K, [0], w)
+    rate = math.sqrt(k / m) + c / m
+    assert 2 * T * rate / 2 <= n_s <= 2 * T * rate * 2
+    assert n_s < 1e-2 * math.ceil(2 * T * max(k / m, 1 + c / m))
+    flow = EventFlow(System(np.array([[m]]), np.array([[c]]), np.array([[k]]), np.zeros((3, 1))), w)
+    assert flow.substeps == max(128, int(n_s))
 
 
 def test_set_option_parses_numbers_and_rejects_others(tmp_path, capsys):

@@ -84,7 +84,7 @@ if config.get("fe_example"):
             json=f"{FE_DIR}/solve/solves.json",
         params:
             argv=lambda w, input, output: [input.case, output.json, "--methods", ",".join(FE["solve_methods"]),
-                                           "--harmonics", str(FE["harmonics"]), "--guess", "mshbm=hbm",
+                                           "--harmonics", str(FE["harmonics"]), "--guess", "mshbm=hbm", "--guess", "mshbm-event=hbm",
                                            "--shooting-case", input.shooting_case,
                                            "--shooting-max-dofs", str(FE["shooting_max_dofs"])],
             solver=SOLVER_DIGEST,

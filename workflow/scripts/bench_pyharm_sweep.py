@@ -261,6 +261,14 @@ def specs(profile, config=None):
         {"name": "dlft", "method": "dlft", "law": "set-valued contact (DLFT, default parameter)",
          "options": dict(hb, **mp)},
     ]
+    if not quick:  # the labelled variants of the Fig. 9 branch (e.g. mshbm-event: the exact event-driven flow)
+        for label, opts in im.items():
+            if label not in ("shooting", "mshbm"):
+                o = {k: v for k, v in opts.items() if k != "method"}
+                ours.append({"name": label, "method": opts.get("method", label),
+                             "law": "set-valued impact (Newton, e_N), " + (
+                                 "event-driven flow" if o.get("integrator") == "event" else "Moreau-Jean"),
+                             "options": dict(o, **mp)})
     py = [{"name": "pyharm-penalty-linear", "law": "penalty", "start": "linear", "twin": "hbm", "analysis": {}},
           {"name": "pyharm-penalty-ours", "law": "penalty", "start": "ours", "twin": "hbm", "analysis": {}}]
     if not quick:

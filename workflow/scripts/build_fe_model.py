@@ -293,16 +293,23 @@ def attach_bodies(M, K, node_dofs, m_b, k_b):
 
 def event_substeps(M, C, K, dofs, omega):
     """Sub-steps per period of the exact event-driven flow (:mod:`mshbm.integrators.event`) for the
-    subsystem of ``dofs`` that MS-HBM integrates in time: ``ceil(2 T ||A_xx||_1)`` with
-    ``A_xx = [[0, I], [-M_NN^-1 K_NN, -M_NN^-1 C_NN]]`` (the rule of ``EventFlow``; its 1-norm mixes
-    displacement and velocity units, so it grows like ``K_NN / M_NN``)."""
+    subsystem of ``dofs`` that MS-HBM integrates in time: ``ceil(2 T ||A_s||_1)`` with the balanced
+    ``A_s = D^-1 A_xx D`` of ``A_xx = [[0, I], [-M_NN^-1 K_NN, -M_NN^-1 C_NN]]`` (``D`` from LAPACK's gebal,
+    no permutation, kept only if it lowers the norm: the rule of ``EventFlow._scaling``), which grows like
+    the fastest rate ``max(sqrt(K_NN / M_NN), C_NN / M_NN)``, not like ``K_NN / M_NN``.  The flow refuses a
+    subsystem above ``MAX_SUBSTEPS`` per period; this count is reported either way."""
+    import scipy.linalg as sla
+
     ix = np.ix_(dofs, dofs)
     Mn, Cn, Kn = (np.asarray(A.tocsr()[ix].toarray()) for A in (M, C, K))
     Mi = np.linalg.inv(Mn)
     m = len(dofs)
     A = np.block([[np.zeros((m, m)), np.eye(m)], [-Mi @ Kn, -Mi @ Cn]])
+    norm = np.abs(A).sum(axis=0).max()
+    As, _ = sla.matrix_balance(A, permute=False)
+    norm = min(norm, np.abs(As).sum(axis=0).max())
     T = 2.0 * math.pi / omega
-    return float(math.ceil(2.0 * T * np.abs(A).sum(axis=0).max()))
+    return float(math.ceil(2.0 * T * norm))
 
 
 def _g(x):

@@ -90,7 +90,7 @@ def summarize(modes, solves, sweeps, solve_modes=None):
             nums["solve_node_local_ratio"] = max(tds2["node_dofs"]["omega_local_over_omega"])
             nums["solve_node_event_substeps"] = tds2["node_dofs"]["event_substeps_per_period"]
     for row in solves["solves"]:
-        k = row["method"]
+        k = row["method"].replace("-", "_")  # a labelled variant (mshbm-event) as a placeholder name
         nums[f"solve_{k}_n_dofs"] = row.get("n_dofs")
         if "skipped" in row:
             nums[f"solve_{k}_skipped"] = True
@@ -108,7 +108,7 @@ def summarize(modes, solves, sweeps, solve_modes=None):
         nums[f"solve_{k}_failed_checks"] = ", ".join(row.get("failed_checks") or [])
         for name, a in row["amplitudes"].items():
             nums[f"solve_{k}_amp_{name}"] = a
-    a = {r["method"]: r["amplitudes"] for r in solves["solves"] if "skipped" not in r and r.get("n_dofs") in
+    a = {r["method"].replace("-", "_"): r["amplitudes"] for r in solves["solves"] if "skipped" not in r and r.get("n_dofs") in
          (None, nums.get("solve_n_dofs"))}
     for k in a:
         if k != "hbm" and "hbm" in a:
