@@ -59,6 +59,10 @@ has them)
     ``b = b_T`` on the time-stepped DOFs (``partition().time``) and the forcing harmonic ``F_k``
     (``forcing=True``) or zero elsewhere, from the method's own factorisations (MS-HBM: its condensation
     of ``L``); ``None``: not available (the caller solves ``H_k`` itself).
+``notes`` : tuple or list of str (default ``()``)
+    Sentences on how the problem was set up differently from what was asked (e.g. DOFs at a resonance
+    of the condensed block kept as unknowns, :func:`mshbm.condensation.condense_around_resonances`); the
+    driver appends them to the message and puts them in ``info["notes"]``.
 ``cheap_jacobian`` : bool (default False)
     The Jacobian costs little more than ``R`` (HBM, DLFT): Newton evaluates the full step with it and
     keeps it when the step is taken; the iterates do not change.
@@ -139,6 +143,9 @@ class PeriodicProblem:
     cheap_jacobian = False
     #: keyword options the problem was built with (set by :func:`mshbm.solvers.driver.build_problem`)
     build_options: dict = {}
+    #: sentences on how the problem was set up differently from what was asked (e.g. resonant DOFs kept
+    #: instead of condensed); the driver puts them in ``info["notes"]`` and the message
+    notes: tuple = ()
 
     # ------------------------------------------------------------------ required
     @property
@@ -229,7 +236,16 @@ class HarmonicProblem(PeriodicProblem):
         mask = np.ones(n, dtype=bool)
         mask[self.keep] = False
         self.elim = np.flatnonzero(mask)
-        self.cond = Condensation(system, omega, self.n_h, self.keep, self.elim)
+        self.resonant_moves = []
+        if self.condense and partition is None:
+            # a resonance of the linear subsystem (k omega an eigenfrequency of L with N clamped): its DOFs are
+            # kept as unknowns instead of condensed (mshbm.condensation.condense_around_resonances)
+            self.cond, self.keep, self.elim, self.resonant_moves = condensation.condense_around_resonances(
+                system, omega, self.n_h, self.keep, self.elim)
+        else:
+            self.cond = Condensation(system, omega, self.n_h, self.keep, self.elim)
+        if self.resonant_moves:
+            self.notes = [condensation.resonance_note(self.resonant_moves, "H_LL", "the harmonic unknowns")]
         nR = self.nR = self.keep.size
         keep = self.keep
         Hs = None

@@ -164,7 +164,12 @@ def _solve(system, omega, method, options, ladder=True):
         message += (f"; note: the condensed block is nearly singular at harmonic k={k} (rcond {rc[k]:.1e}): "
                     "k*omega is at a resonance of the linear subsystem, where the periodic solution may be "
                     "non-unique or unbounded (add damping or move omega)")
+    notes = list(problem.notes)
+    if notes:
+        message = f"{message}; note: {'; '.join(notes)}"
     sol = _solution(problem, method, res, parts, success, message, wall)
+    if notes:
+        sol.info["notes"] = notes
     sol.info["residual_history"] = res.history
     if "starts" in res.info:
         sol.info["starts"], sol.info["start_used"] = res.info["starts"], res.info["start_used"]
