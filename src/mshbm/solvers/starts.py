@@ -87,6 +87,7 @@ from .. import condensation, fourier
 from ..methods.common import linear_response
 from ..errors import InputError
 from .continuation import solve_with_continuation
+from . import newton as newton_
 from .newton import NewtonResult, solve_problem
 from ..methods.registry import build_problem
 
@@ -108,6 +109,8 @@ FREQUENCY_FACTOR = 10.0
 
 #: largest system for which the ``"exact"`` start runs the event-driven solver
 EXACT_MAX_DOFS = 100
+#: share of the ladder's remaining time budget one event-driven solve of the ``"exact"`` start may use
+EXACT_SHARE = 0.4
 
 _ACTIVE = contextvars.ContextVar("mshbm_starts_active", default=False)
 
@@ -140,6 +143,19 @@ def _nested(deadline=None):
     finally:
         for var, tok in reversed(tokens):
             var.reset(tok)
+
+
+@contextlib.contextmanager
+def time_limit(deadline):
+    """Within the block, ladders try no further start after ``deadline`` (a ``time.perf_counter()`` value;
+    ``None``: no new limit; an enclosing earlier one stays): :func:`mshbm.solvers.driver.solve`'s ``max_time``."""
+    outer = _DEADLINE.get()
+    new = outer if deadline is None else (float(deadline) if outer is None else min(outer, float(deadline)))
+    token = _DEADLINE.set(new)
+    try:
+        yield
+    finally:
+        _DEADLINE.reset(token)
 
 
 @contextlib.contextmanager
@@ -648,9 +664,18 @@ class _Runner:
                 pass
         why = []
         for g in guesses:
+            # the event-driven simulation stops at the ladder's (or the solve's) deadline: at a low frequency
+            # with stiff modes the flow has many steps a period and a Newton solve of it can take minutes
+            stop = [d for d in (self.deadline, newton_.deadline()) if d is not None]
+            left = None if not stop else min(stop) - time.perf_counter()
+            if left is not None and left <= 0.0:
+                why.append("time budget spent")
+                break
+            if left is not None:
+                left = max(min(left, 1.0), EXACT_SHARE * left)  # the later starts keep a share of the budget
             try:
                 ex = exact_periodic(self.system, self.omega, guess=g, samples=max(N, 64),
-                                    harmonics=max(self.n_h, 1), blas_threads=None)
+                                    harmonics=max(self.n_h, 1), blas_threads=None, time_limit=left)
             except (InputError, FloatingPointError, np.linalg.LinAlgError, ValueError) as exc:
                 why.append(f"{type(exc).__name__}: {exc}")
                 continue
@@ -963,10 +988,13 @@ def solve_from_starts(problem, method, system, omega, newton_options, accept, *,
                 if inherited is not None:
                     run.deadline = min(run.deadline, inherited)
             n0 = len(run.attempts)
-            if name == "guess":
-                att = run.start_guess(guess)
-            else:
-                att = getattr(run, f"start_{name}")()
+            # every Newton solve of this start ends at the ladder's deadline (newton.time_box), so one start cannot
+            # run on far beyond the budget
+            with newton_.time_box(run.deadline):
+                if name == "guess":
+                    att = run.start_guess(guess)
+                else:
+                    att = getattr(run, f"start_{name}")()
             if att is not None:
                 att = run._keep_one(n0)
             if att is not None and att.accepted:
