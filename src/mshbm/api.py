@@ -16,6 +16,7 @@ from .methods.registry import build_problem
 from .options import METHODS, default_steps
 from .solvers import continuation as _continuation
 from .solvers import driver as _driver
+from .solvers import starts as _starts
 
 __all__ = ["solve", "build_problem", "residual_omega_derivative", "solve_with_continuation", "METHODS",
            "default_steps"]
@@ -116,4 +117,6 @@ def residual_omega_derivative(system, omega, method, x, rel_step=1e-6, **options
 def solve_with_continuation(system, omega, method="mshbm", guess=None, **options):
     """:func:`solve` with restarts and parameter continuation when the direct solve fails
     (:func:`mshbm.solvers.continuation.solve_with_continuation` with this package's solver)."""
+    # when the fallbacks fail, the start ladder as in solve() (not inside a ladder: its nested solves are single starts)
+    options.setdefault("ladder", not _starts.active())
     return _continuation.solve_with_continuation(system, omega, method, guess, solve=_driver.solve, **options)

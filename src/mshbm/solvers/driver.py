@@ -79,7 +79,7 @@ def _solve_chain(system, omega, method, options):
     if method in ("mshbm", "mshbm-intermediate") and options.get("continuation") is True \
             and options.get("guess") is not None:  # guess=None: the start ladder (mshbm.solvers.starts) covers it
         with validate.quiet_floats():
-            sol = solve_with_continuation(system, omega, method, solve=solve, stability=False,
+            sol = solve_with_continuation(system, omega, method, solve=solve, stability=False, ladder=False,
                                           **{k: v for k, v in options.items() if k != "continuation"})
         if sol.success or starts.active():
             return _stability.assess(system, sol, stab, theta=options.get("theta", 0.5))

@@ -291,7 +291,8 @@ def residual_accept(problem, system, omega, rtol=1e-8, step_accuracy=True, max_i
     * ``step_accuracy``, the method steps in time (shooting, MS-HBM), the solution has impacts,
       and Newton *stalled* (stopped before ``max_iter``: no descent), with every displacement entry
       ``|R_i| <= g h J`` and every velocity entry ``|R_i| <= g h omega J`` (force entries:
-      ``rtol F``), where ``J`` is the largest velocity jump at an impact (:func:`impact_jump`;
+      ``rtol F``, plus ``2 g h J G_i`` where the force rows are driven by the Fourier coefficients of the
+      time-stepped DOFs with the gain ``G_i`` of :meth:`PeriodicProblem.force_row_gain`, MS-HBM 3.3), where ``J`` is the largest velocity jump at an impact (:func:`impact_jump`;
       more than ``20 V`` is an implausible, run-away orbit and rejected), and ``g = 1 +
       ||dR/dx||_2`` bounds the growth of a perturbation over the period (``||Phi||`` for
       shooting, ``dR/dx = Phi - I``).  That is the change of the periodicity residual when the
@@ -353,6 +354,12 @@ def residual_accept(problem, system, omega, rtol=1e-8, step_accuracy=True, max_i
             return False
         gain = 1.0 + float(np.linalg.norm(Jac, 2))  # bounds ||Phi|| = ||(Phi - I) + I|| (shooting)
         bound = np.where(units == 2, rtol * F, gain * h * J * np.where(units == 0, 1.0, float(omega)))
+        fr = problem.force_row_gain()
+        if fr is not None:
+            # force rows driven by the coefficients of the time-stepped DOFs (MS-HBM 3.3: H_21 FFT(q_1)): the one-step
+            # change of q_1(t) (gain h J) changes each coefficient by at most twice that, the row by fr_i times it
+            rows = np.flatnonzero(units == 2)
+            bound[rows] = rtol * F + 2.0 * gain * h * J * np.asarray(fr, dtype=float)
         if np.all(np.abs(R) <= bound):
             k = int(np.argmax(np.abs(R) / bound))
             attempt.step_accuracy = {"ratio": float(np.max(np.abs(R) / bound)), "bound": bound}
@@ -793,7 +800,7 @@ class _Runner:
             if key in self.nkw:
                 opts[key] = self.nkw[key]
         try:
-            sol = solve_with_continuation(self.system, self.omega, self.method, guess="zero", solve=self.solve,
+            sol = solve_with_continuation(self.system, self.omega, self.method, guess="zero", solve=self.solve, ladder=False,
                                           strategies=(strategy,), **opts)
         except InputError as exc:
             return self._try(strategy, self.problem.initial_guess("linear"), f"skipped: {exc}", 0, t0)
@@ -853,7 +860,7 @@ class _Runner:
             try:
                 with _nested():
                     br = sweep(self.system, wa, self.omega, self.method, guess=sol_a, stability=False,
-                               max_time=left, **{k: v for k, v in opts.items() if k not in ("guess", "stability")})
+                               max_time=left, **{k: v for k, v in opts.items() if k not in ("guess", "stability", "max_time")})
             except (InputError, FloatingPointError, np.linalg.LinAlgError, ValueError) as exc:
                 why.append(f"branch from {wa:.4g}: {type(exc).__name__}: {exc}"[:160])
                 continue
