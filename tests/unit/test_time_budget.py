@@ -71,3 +71,21 @@ def test_max_time_is_checked(bad):
     with pytest.raises(mshbm.InputError) as exc:
         mshbm.solve(s, 1.5, "shooting", steps=256, max_time=bad)
     assert exc.value.key == "max_time"
+
+
+def test_stress_harness_gives_each_solve_a_budget():
+    """workflow/scripts/stress_judge.run_solve passes max_time = min(solve_max_time_s, time left in the group): a
+    solve beyond its budget fails at once with the budget in its message instead of timing out the group."""
+    import paper_systems  # noqa: F401  (puts workflow/scripts on sys.path)
+    import stress_judge
+
+    ctx = stress_judge.Ctx({"tolerance": {}, "reference": {}, "solve_max_time_s": 1e-6})
+    ctx.group_deadline = time.perf_counter() + 1000.0
+    sol, exc, wall = stress_judge.run_solve(ctx, _impact(), 1.5, "shooting", {"steps": 512})
+    assert exc is None and not sol.success
+    assert "max_time = 1e-06 s spent" in sol.message
+    # no per-solve limit: the group's remaining time (here 1000 s) is the budget, and the solve converges
+    ctx = stress_judge.Ctx({"tolerance": {}, "reference": {}})
+    ctx.group_deadline = time.perf_counter() + 1000.0
+    sol, exc, wall = stress_judge.run_solve(ctx, _impact(), 1.5, "shooting", {"steps": 512})
+    assert exc is None and sol.success
