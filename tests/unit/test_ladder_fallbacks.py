@@ -2,7 +2,7 @@
 (an impact moves by whole steps) and Newton stalls at the one-step level from every start.
 
 * MS-HBM Section 3.3: its harmonic-balance rows are forces ``H_21 FFT(q_1) + ...``; the one-step accuracy
-  bound of the start ladder now covers them through ``force_row_gain`` (before: ``1e-8 F`` only, so the
+  bound of the start ladder now covers them through ``force_rows`` (before: ``1e-8 F`` only, so the
   variant failed where Section 3.2 was accepted);
 * ``mshbm.api.solve_with_continuation`` ends with the start ladder when its own fallbacks fail (before: the
   opt-in to continuation failed where the plain solve succeeded).
@@ -35,9 +35,9 @@ def _rel(a, b):
     return float(np.max(np.abs(np.asarray(a) - np.asarray(b))) / np.max(np.abs(b)))
 
 
-def test_force_row_gain_is_the_coupling_row_sum(impact5):
+def test_force_rows_gain_is_the_coupling_row_sum(impact5):
     prob, _ = mshbm.build_problem(impact5, 1.0, "mshbm-intermediate", harmonics=3, steps=256)
-    g = prob.force_row_gain()
+    g, S = prob.force_rows()
     units = prob.residual_units()
     assert g.shape == (np.count_nonzero(units == 2),)
     # subsystem 1 = {0}, 2 = {1}: H_21,k = -k_s - i k omega d = -1 - 0.3 i k (spring 1 N/m, damper 0.3 Ns/m, no mass
@@ -45,7 +45,8 @@ def test_force_row_gain_is_the_coupling_row_sum(impact5):
     k = np.r_[0, np.repeat(np.arange(1, 4), 2)]
     assert np.allclose(g, 1.0 + 0.3 * k, rtol=0, atol=1e-14)
     mixed, _ = mshbm.build_problem(impact5, 1.0, "mshbm", harmonics=3, steps=256)
-    assert mixed.force_row_gain() is None
+    assert mixed.force_rows() is None
+    assert S.shape == (g.size, g.size) and np.array_equal(S, prob.Sr)
 
 
 def test_intermediate_impact_accepted_to_one_step(impact5, reference):

@@ -63,11 +63,12 @@ has them)
     Sentences on how the problem was set up differently from what was asked (e.g. DOFs at a resonance
     of the condensed block kept as unknowns, :func:`mshbm.condensation.condense_around_resonances`); the
     driver appends them to the message and puts them in ``info["notes"]``.
-``force_row_gain() -> ndarray or None``
+``force_rows() -> (G, S) or None``
     For residual rows that are forces driven by the Fourier coefficients ``c`` of the time-stepped DOFs
-    (MS-HBM Section 3.3: ``H_21 FFT(q_1)``), per such row ``sum_j |dR_i / dc_j|`` (N/m), shape
-    ``(n_force_rows,)`` in row order: a change ``delta`` of every coefficient changes row ``i`` by at
-    most ``gain_i delta`` (the start ladder's one-step accuracy bound at impacts); ``None``: none.
+    (MS-HBM Section 3.3: ``H_21 FFT(q_1) + S q_hat_2 - f``): per such row ``G_i = sum_j |dR_i / dc_j|``
+    (N/m), shape ``(n_f,)`` in row order, and the square block ``S = dR_f / dp`` (N/m, ``(n_f, n_f)``) of
+    the harmonic unknowns ``p``, whose inverse turns a force residual into the displacement error it
+    causes (the start ladder's one-step accuracy test at impacts); ``None``: none.
 ``cheap_jacobian`` : bool (default False)
     The Jacobian costs little more than ``R`` (HBM, DLFT): Newton evaluates the full step with it and
     keeps it when the step is taken; the iterates do not change.
@@ -217,9 +218,9 @@ class PeriodicProblem:
         (see the contract)."""
         return None
 
-    def force_row_gain(self):
-        """Per force row of ``R`` (``residual_units() == 2``), the sum of ``|dR_i / dc|`` over the Fourier
-        coefficients ``c`` of the time-stepped DOFs, or ``None`` (see the contract)."""
+    def force_rows(self):
+        """``(G, S)`` of the force rows driven by the time-stepped DOFs' coefficients, or ``None`` (see the
+        contract)."""
         return None
 
 

@@ -708,10 +708,11 @@ class IntermediateProblem(_MixedBase):
     def _balance_dp(self):
         return self.Sr
 
-    def force_row_gain(self):
-        """``sum_j |H_21,ij|`` per harmonic-balance row (eq. 39: the rows depend on ``FFT(q_1)`` through
-        ``H_21``), shape ``((2 n_h + 1) n_2,)``, N/m."""
-        return np.abs(self.H21r).sum(axis=1)
+    def force_rows(self):
+        """``(G, S)``: ``G_i = sum_j |H_21,ij|`` per harmonic-balance row (eq. 39: the rows depend on ``FFT(q_1)``
+        through ``H_21``), shape ``((2 n_h + 1) n_2,)``, and ``S = H_22 - H_23 H_33^-1 H_32`` (real block form),
+        shape ``((2 n_h + 1) n_2, (2 n_h + 1) n_2)``, both N/m."""
+        return np.abs(self.H21r).sum(axis=1), self.Sr
 
     def _info(self, p, q_hat):
         return {}

@@ -292,7 +292,9 @@ def residual_accept(problem, system, omega, rtol=1e-8, step_accuracy=True, max_i
       and Newton *stalled* (stopped before ``max_iter``: no descent), with every displacement entry
       ``|R_i| <= g h J`` and every velocity entry ``|R_i| <= g h omega J`` (force entries:
       ``rtol F``, plus ``2 g h J G_i`` where the force rows are driven by the Fourier coefficients of the
-      time-stepped DOFs with the gain ``G_i`` of :meth:`PeriodicProblem.force_row_gain`, MS-HBM 3.3), where ``J`` is the largest velocity jump at an impact (:func:`impact_jump`;
+      time-stepped DOFs with the gain ``G_i`` of :meth:`PeriodicProblem.force_rows`, MS-HBM 3.3, whose
+      displacement error ``S^-1 R_f`` must not exceed ``2 g h J`` either, and only where the step resolves
+      the structure, ``omega_max h <= 1``), where ``J`` is the largest velocity jump at an impact (:func:`impact_jump`;
       more than ``20 V`` is an implausible, run-away orbit and rejected), and ``g = 1 +
       ||dR/dx||_2`` bounds the growth of a perturbation over the period (``||Phi||`` for
       shooting, ``dR/dx = Phi - I``).  That is the change of the periodicity residual when the
@@ -325,6 +327,20 @@ def residual_accept(problem, system, omega, rtol=1e-8, step_accuracy=True, max_i
             static.append(_static_deflection(system))
         return static[0]
 
+    fastest = []
+
+    def fastest_mode():
+        """Largest eigenfrequency (rad/s) of the structure ``(K, M)`` (``inf`` above 400 DOFs: not computed)."""
+        if not fastest:
+            if system.n > 400:
+                fastest.append(math.inf)
+            else:
+                import scipy.linalg as sla
+
+                lam = sla.eigh(system.dense("K"), system.dense("M"), eigvals_only=True)
+                fastest.append(math.sqrt(max(float(lam.max()), 0.0)))
+        return fastest[0]
+
     def accept(attempt):
         R, _ = problem.residual(attempt.x, jac=False)
         if not np.all(np.isfinite(R)):
@@ -352,14 +368,28 @@ def residual_accept(problem, system, omega, rtol=1e-8, step_accuracy=True, max_i
         Jac = Jac.toarray() if sp.issparse(Jac) else np.asarray(Jac)
         if not np.all(np.isfinite(Jac)):
             return False
-        gain = 1.0 + float(np.linalg.norm(Jac, 2))  # bounds ||Phi|| = ||(Phi - I) + I|| (shooting)
+        # bounds ||Phi|| = ||(Phi - I) + I|| (shooting); over the displacement and velocity rows only (MS-HBM 3.3: its
+        # force rows, in N, would mix a stiffness into this dimensionless gain)
+        gain = 1.0 + float(np.linalg.norm(Jac[units != 2], 2))
         bound = np.where(units == 2, rtol * F, gain * h * J * np.where(units == 0, 1.0, float(omega)))
-        fr = problem.force_row_gain()
+        fr = problem.force_rows()
+        if fr is not None and not fastest_mode() * h <= 1.0:
+            return False  # the step does not resolve the structure: no one-step argument for the force rows
         if fr is not None:
             # force rows driven by the coefficients of the time-stepped DOFs (MS-HBM 3.3: H_21 FFT(q_1)): the one-step
-            # change of q_1(t) (gain h J) changes each coefficient by at most twice that, the row by fr_i times it
+            # change of q_1(t) (gain h J) changes each coefficient by at most twice that, the row by G_i times it.
+            # And the displacement error the force residual causes, S^-1 R_f, must stay within that one-step change
+            # (an undamped or resonant harmonic block turns a small force residual into a large error: rejected)
+            G, S = fr
             rows = np.flatnonzero(units == 2)
-            bound[rows] = rtol * F + 2.0 * gain * h * J * np.asarray(fr, dtype=float)
+            dq = 2.0 * gain * h * J
+            bound[rows] = rtol * F + dq * np.asarray(G, dtype=float)
+            try:
+                err = np.linalg.solve(np.asarray(S, dtype=float), R[rows])
+            except np.linalg.LinAlgError:
+                return False
+            if not np.all(np.isfinite(err)) or float(np.max(np.abs(err), initial=0.0)) > dq:
+                return False
         if np.all(np.abs(R) <= bound):
             k = int(np.argmax(np.abs(R) / bound))
             attempt.step_accuracy = {"ratio": float(np.max(np.abs(R) / bound)), "bound": bound}
