@@ -64,3 +64,24 @@ def test_solve_with_continuation_ends_with_the_ladder(impact5, reference):
     assert sol.info["continuation"]["used"] == "start ladder"
     assert "by the start ladder after the continuation fallbacks failed" in sol.message
     assert _rel(sol.amplitude, reference.amplitude) < 0.03
+
+
+def test_force_rows_not_relaxed_where_the_step_does_not_resolve_the_structure():
+    """The stress suite's start-random5 (23 undamped masses, omega = 0.037 rad/s, fastest mode 36 rad/s,
+    omega_max h = 3): the one-step argument does not hold, and the MS-HBM 3.3 solution from the solution at
+    omega / 2 (33 % off full shooting) is not accepted to one step's accuracy (before the guard it was)."""
+    import scipy.linalg as sla
+    from stress_cases import random_system
+    from mshbm.solvers.starts import residual_accept, Attempt
+    from mshbm.solvers.newton import solve_problem
+
+    system, omega, _ = random_system(np.random.default_rng([7, 1005]), 5, 30)
+    prob, _ = mshbm.build_problem(system, omega, "mshbm-intermediate", harmonics=5, steps=2048)
+    w_max = float(np.sqrt(sla.eigh(system.dense("K"), system.dense("M"), eigvals_only=True).max()))
+    assert w_max * prob.time_step > 1.0
+    half = mshbm.solve(system, omega / 2, "mshbm-intermediate", **OPTS)
+    x0 = prob.initial_guess(half)
+    res = solve_problem(prob, x0, max_iter=50)
+    assert not res.success  # Newton stalls: only the one-step rule could accept it
+    att = Attempt("guess", x0, res, prob, "")
+    assert residual_accept(prob, system, omega, max_iter=50)(att) is False
