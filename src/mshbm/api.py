@@ -16,6 +16,7 @@ from .methods.registry import build_problem
 from .options import METHODS, default_steps
 from .solvers import continuation as _continuation
 from .solvers import driver as _driver
+from .solvers import starts as _starts
 
 __all__ = ["solve", "build_problem", "residual_omega_derivative", "solve_with_continuation", "METHODS",
            "default_steps"]
@@ -48,7 +49,8 @@ def solve(system, omega, method="mshbm", **options):
         contacts, default True), ``dlft_penalty`` (DLFT: the parameter ``eps`` in N/m of every
         element, default from the condensed dynamic stiffness, :mod:`mshbm.methods.dlft`), ``dlft_predictor``
         (DLFT friction: ``"velocity"``, the default, or ``"displacement"``), ``progress`` (print Newton progress to a
-        terminal), ``raise_on_failure`` (raise ConvergenceError instead of
+        terminal), ``max_time`` (s: wall-time budget of the solve; no Newton iteration or start begins after
+        it, the solve then fails with "time budget spent"; default ``None``), ``raise_on_failure`` (raise ConvergenceError instead of
         returning ``success=False``), ``blas_threads`` (BLAS threads during
         the solve, default 1: the dense matrices are small, and one thread keeps
         results bit-identical across machines and parallel jobs from
@@ -115,4 +117,6 @@ def residual_omega_derivative(system, omega, method, x, rel_step=1e-6, **options
 def solve_with_continuation(system, omega, method="mshbm", guess=None, **options):
     """:func:`solve` with restarts and parameter continuation when the direct solve fails
     (:func:`mshbm.solvers.continuation.solve_with_continuation` with this package's solver)."""
+    # when the fallbacks fail, the start ladder as in solve() (not inside a ladder: its nested solves are single starts)
+    options.setdefault("ladder", not _starts.active())
     return _continuation.solve_with_continuation(system, omega, method, guess, solve=_driver.solve, **options)

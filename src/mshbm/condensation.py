@@ -25,7 +25,12 @@ MAX_BAND_BYTES = 400e6
 
 
 class SingularHarmonicError(ArithmeticError):
-    """A dynamic stiffness block ``H_k`` is singular (a harmonic hits a resonance)."""
+    """A dynamic stiffness block ``H_k`` is singular (a harmonic hits a resonance); ``k`` is the harmonic
+    (``None`` where unknown)."""
+
+    def __init__(self, message, k=None):
+        super().__init__(message)
+        self.k = None if k is None else int(k)
 
 
 
@@ -220,7 +225,7 @@ class Condensation:
                 self.rcond[k] = factors[2]
                 if self.rcond[k] < rcond_min:
                     raise SingularHarmonicError(
-                        f"{name} is singular at harmonic k={k} (k*omega={w:.6g}, rcond~{self.rcond[k]:.1e})")
+                        f"{name} is singular at harmonic k={k} (k*omega={w:.6g}, rcond~{self.rcond[k]:.1e})", k=k)
                 sol = band.solve(factors, rhs)
             else:
                 H_EE = dynamic_stiffness(blocks["M"][0], blocks["C"][0], blocks["K"][0], w)
@@ -231,13 +236,13 @@ class Condensation:
                                    options=dict(SymmetricMode=True))
                 except RuntimeError:
                     raise SingularHarmonicError(
-                        f"{name} is singular at harmonic k={k} (k*omega={w:.6g})") from None
+                        f"{name} is singular at harmonic k={k} (k*omega={w:.6g})", k=k) from None
                 d = np.abs(lu.U.diagonal())
                 self.rcond[k] = d.min() / d.max() if d.max() > 0 else 0.0
                 sol = lu.solve(rhs)
             if not np.all(np.isfinite(sol)) or self.rcond[k] < rcond_min:
                 raise SingularHarmonicError(
-                    f"{name} is singular at harmonic k={k} (k*omega={w:.6g}, rcond~{self.rcond[k]:.1e})")
+                    f"{name} is singular at harmonic k={k} (k*omega={w:.6g}, rcond~{self.rcond[k]:.1e})", k=k)
             self.z[k] = sol[:, 0]
             self.Z[k] = sol[:, 1:]
             self.T[k] = H_RE @ self.Z[k]
@@ -268,11 +273,11 @@ class Condensation:
         if bad.size:
             k = int(bad[0])
             raise SingularHarmonicError(
-                f"{name} is singular at harmonic k={k} (k*omega={w[k]:.6g}, rcond~{self.rcond[k]:.1e})")
+                f"{name} is singular at harmonic k={k} (k*omega={w[k]:.6g}, rcond~{self.rcond[k]:.1e})", k=k)
         if not np.isfinite(sol).all():
             k = int(np.argmax(~np.isfinite(sol).all(axis=(1, 2))))
             raise SingularHarmonicError(
-                f"{name} is singular at harmonic k={k} (k*omega={w[k]:.6g}, rcond~{self.rcond[k]:.1e})")
+                f"{name} is singular at harmonic k={k} (k*omega={w[k]:.6g}, rcond~{self.rcond[k]:.1e})", k=k)
         self.z = sol[:, :, 0].copy()
         self.Z = sol[:, :, 1:].copy()
         self.T = H_RE @ self.Z
@@ -326,3 +331,127 @@ class Condensation:
             kk = np.arange(n_h)
             out[a:, b:].reshape(n_h, 2 * a, n_h, 2 * b)[kk, :, kk, :] = blk.reshape(n_h, 2 * a, 2 * b)
         return out
+
+
+#: largest ``n_E`` whose resonant null space :func:`condense_around_resonances` computes (a dense SVD)
+MAX_RESONANT_DENSE = 2000
+
+
+def resonant_modes(system, omega, k, keep, elim, null_tol=1e-8):
+    """The null space of ``H_EE(k omega)`` at a resonance of the eliminated DOFs and what it means for
+    the uncondensed problem.
+
+    Right null vectors ``v`` (``H_EE v = 0``) and left ones ``w`` (``w^H H_EE = 0``) from one dense SVD
+    (singular values ``<= null_tol * sigma_max``, at least the smallest).  A ``v`` with ``H_RE v = 0``
+    is a null vector of the whole ``H_k`` that vanishes on the kept DOFs (which carry every element);
+    a ``w`` with ``w^H H_ER = 0`` likewise.  Then the ``k``-th harmonic of the equations of motion
+    projected on ``w`` reads ``0 = w^H F_k`` for *every* periodic motion (the elements' forces act on
+    kept rows only): with ``w^H F_k != 0`` no periodic solution exists (an undamped mode forced at its
+    eigenfrequency, the response grows without bound), with ``H_RE v = 0`` and ``w^H F_k = 0`` the mode
+    ``v`` can be added with any amplitude (not unique).
+
+    Parameters
+    ----------
+    system : System
+    omega : float
+        Fundamental angular frequency (rad/s).
+    k : int
+        Harmonic at which ``H_EE`` is singular.
+    keep, elim : arrays of int
+        DOFs ``R`` kept and ``E`` eliminated.
+
+    Returns
+    -------
+    dict with ``support`` (sorted int array: the DOFs of ``E`` where a null vector is nonzero),
+    ``no_solution`` and ``not_unique`` (``None`` or a sentence saying why).
+    """
+    keep = np.asarray(keep, dtype=np.int64)
+    elim = np.asarray(elim, dtype=np.int64)
+    dense = lambda A: A.toarray() if sp.issparse(A) else np.asarray(A)
+    w = k * float(omega)
+    blk = lambda r, c: dense(dynamic_stiffness(*(_sub(getattr(system, a), r, c) for a in "MCK"), w))
+    H_EE, H_RE, H_ER = blk(elim, elim), blk(keep, elim), blk(elim, keep)
+    if not (np.isfinite(H_EE).all() and np.isfinite(H_RE).all() and np.isfinite(H_ER).all()):
+        raise FloatingPointError("non-finite dynamic stiffness")
+    U, s, Vh = np.linalg.svd(H_EE)
+    scale = max(float(s[0]), float(np.abs(H_RE).max(initial=0.0)), float(np.abs(H_ER).max(initial=0.0)))
+    null = np.flatnonzero(s <= null_tol * s[0]) if s[0] > 0 else np.arange(s.size)
+    if null.size == 0:
+        null = np.array([s.size - 1])
+    V = Vh[null].conj().T  # (n_E, r), orthonormal columns
+    W = U[:, null]  # left null vectors
+    mag = np.abs(V).max(axis=1)
+    support = np.sort(elim[mag > 1e-6 * mag.max()])
+    coupled_v = np.abs(H_RE @ V).max(axis=0) > null_tol * scale if keep.size else np.zeros(null.size, bool)
+    coupled_w = np.abs(W.conj().T @ H_ER).max(axis=1) > null_tol * scale if keep.size else np.zeros(null.size, bool)
+    F = to_complex(system.forcing_hat(max(k, 0)))[k]
+    F_E = F[elim]
+    F_scale = float(np.abs(F).max(initial=0.0))
+    out = {"support": support, "no_solution": None, "not_unique": None}
+    dofs = lambda x: sorted(int(d) for d in elim[np.abs(x) > 1e-6 * np.abs(x).max()])
+    for j in np.flatnonzero(~coupled_w):
+        drive = abs(complex(W[:, j].conj() @ F_E))
+        if drive > null_tol * max(F_scale, 1e-300) and F_scale > 0:
+            out["no_solution"] = (
+                f"no periodic solution exists: harmonic k={k} of the forcing (k*omega={w:.6g} rad/s) drives an "
+                f"undamped mode of DOFs {dofs(W[:, j])} at its eigenfrequency, and neither an element nor the "
+                f"rest of the structure acts on that mode (the response grows without bound); move omega or "
+                f"add damping")
+            return out
+    for j in np.flatnonzero(~coupled_v):
+        out["not_unique"] = (
+            f"the periodic solution is not unique: an undamped mode of DOFs {dofs(V[:, j])} has the "
+            f"eigenfrequency k*omega={w:.6g} rad/s (k={k}), is not forced there and is touched by no element, "
+            f"so it adds to any periodic solution with any amplitude; move omega or add damping")
+    return out
+
+
+def condense_around_resonances(system, omega, n_h, keep, elim, name="H_LL", max_rounds=8):
+    """:class:`Condensation` of ``elim``, keeping the DOFs of a resonance of ``H_EE`` instead of failing.
+
+    Where ``H_EE(k omega)`` is singular at a harmonic ``k >= 1`` (``k omega`` an eigenfrequency of the
+    undamped eliminated subsystem with the kept DOFs clamped), the DOFs carrying its null space
+    (:func:`resonant_modes`) are moved from ``elim`` to ``keep`` and the condensation is repeated; the full
+    problem is the same, only fewer DOFs are condensed.  Where the resonant mode is not coupled to the kept
+    DOFs, the problem itself has no (unique) periodic solution: ``InputError("omega")`` says so.  A singular
+    ``K_EE`` (``k = 0``, a free-free part) and ``n_E >`` :data:`MAX_RESONANT_DENSE` raise the
+    :class:`SingularHarmonicError` as before.
+
+    Returns
+    -------
+    cond : Condensation
+    keep, elim : sorted int arrays
+        The DOFs kept and eliminated in the end.
+    moved : list of dict
+        One record ``{"k", "k_omega", "dofs"}`` per move (empty when ``H_EE`` was regular).
+    """
+    from .errors import InputError
+
+    keep = np.asarray(keep, dtype=np.int64)
+    elim = np.asarray(elim, dtype=np.int64)
+    moved = []
+    for _ in range(max_rounds):
+        try:
+            return Condensation(system, omega, n_h, keep, elim, name=name), keep, elim, moved
+        except SingularHarmonicError as exc:
+            if not exc.k or elim.size > MAX_RESONANT_DENSE:
+                raise
+            try:
+                modes = resonant_modes(system, omega, exc.k, keep, elim)
+            except (np.linalg.LinAlgError, ValueError, FloatingPointError):  # non-finite blocks (overflow)
+                raise exc from None
+            for why in ("no_solution", "not_unique"):
+                if modes[why]:
+                    raise InputError("omega", f"{exc}: {modes[why]}") from None
+            S = modes["support"]
+            moved.append({"k": exc.k, "k_omega": exc.k * float(omega), "dofs": [int(d) for d in S]})
+            keep = np.union1d(keep, S)
+            elim = np.setdiff1d(elim, S)
+    return Condensation(system, omega, n_h, keep, elim, name=name), keep, elim, moved
+
+
+def resonance_note(moved, name, where):
+    """One sentence for ``info`` and the message on the DOFs :func:`condense_around_resonances` moved."""
+    parts = [f"DOFs {m['dofs']} ({name} singular at harmonic k={m['k']}, k*omega={m['k_omega']:.6g})"
+             for m in moved]
+    return f"{'; '.join(parts)} moved to {where} instead of being condensed (resonance of the condensed part)"

@@ -8,7 +8,11 @@ sets from :data:`METHODS` and :data:`COMMON`.  Registering a method is one entry
 Options and their meaning
 -------------------------
 Common to all methods (:data:`COMMON`): ``guess``, ``tol``, ``max_iter``, ``line_search``,
-``progress``, ``raise_on_failure``, ``continuation``, ``stability`` (see :func:`mshbm.solve`).
+``progress``, ``raise_on_failure``, ``continuation``, ``stability``, ``max_time`` (see :func:`mshbm.solve`).
+
+``max_time`` (s, default ``None``: no limit besides the start ladder's own budget) bounds the wall time of a
+solve: no Newton iteration, start of the ladder or event-driven simulation begins after it, and the solve
+then fails with a message that says so (the set-up and the last iteration under way are not interrupted).
 
 ``continuation`` (default True) switches on the fallbacks of the driver's strategy chain
 (:mod:`mshbm.solvers.driver`) when Newton from the first start fails: with no guess, the start ladder
@@ -43,7 +47,7 @@ __all__ = ["COMMON", "METHODS", "allowed", "check_options", "default_steps"]
 
 #: options of every method (driver and Newton options)
 COMMON = frozenset({"guess", "tol", "max_iter", "line_search", "progress", "raise_on_failure", "continuation",
-                    "stability"})
+                    "stability", "max_time"})
 #: options accepted by each method besides the common ones (the method registry's option table)
 METHODS = {
     "shooting": frozenset({"steps", "theta", "jacobian", "harmonics", "project", "integrator", "accumulation"}),
@@ -122,6 +126,12 @@ def check_options(method, options):
         raise InputError("progress", f"must be true, false or 'always', got {opts['progress']!r}")
     if "max_iter" in opts:
         opts["max_iter"] = _int_option("max_iter", opts["max_iter"], 0)
+    if opts.get("max_time") is not None:
+        mt = opts["max_time"]
+        if isinstance(mt, bool) or not isinstance(mt, (int, float, np.integer, np.floating)) \
+                or not math.isfinite(float(mt)) or float(mt) <= 0.0:
+            raise InputError("max_time", f"must be a finite number of seconds > 0, got {mt!r}")
+        opts["max_time"] = float(mt)
     if opts.get("dlft_penalty") is not None:
         ep = opts["dlft_penalty"]
         if isinstance(ep, bool) or not isinstance(ep, (int, float, np.integer, np.floating)) \

@@ -86,13 +86,14 @@ def test_every_row_is_complete_and_finite(quick):
     assert set(summary["counts"]) == {"converged", "failed-with-diagnosis", "failed-certificate", "WRONG"}
 
 
-def test_singular_harmonic_is_a_clear_failure(quick):
-    """omega exactly on omega_r / k: InputError naming omega, reported as failed-with-diagnosis."""
+def test_singular_harmonic_is_solved_and_said(quick):
+    """omega exactly on omega_r / k (H_LL singular; the full problem is well posed through the friction DOF):
+    the resonant DOFs are kept as unknowns instead of condensed, the row converges and its message says so."""
     rows = [r for r in quick[0]["rows"] if "exactly" in str(r.get("point")) and r["method"] != "shooting"]
     assert rows
     for r in rows:
-        assert r["outcome"] == "failed-with-diagnosis"
-        assert r["message"].startswith("InputError omega: H_LL is singular at harmonic")
+        assert r["outcome"] == "converged", r
+        assert "H_LL singular at harmonic" in r["message"] and "instead of being condensed" in r["message"], r
 
 
 def test_start_rates_reported(quick):
@@ -166,7 +167,8 @@ def test_continuation_input_errors():
     assert info.value.key == "strategies"
     w1 = (3 - 5 ** 0.5) / 2  # first eigenvalue of K_LL (masses 2, 3 of the chain)
     with pytest.raises(mshbm.InputError) as info:
-        solve_with_continuation(system, w1 ** 0.5, "mshbm", **KW)
+        # an explicit partition: its singular H_LL stays an error (the default one keeps the resonant DOFs)
+        solve_with_continuation(system, w1 ** 0.5, "mshbm", partition=[0], **KW)
     assert info.value.key == "omega"
     with pytest.raises(mshbm.InputError) as info:
         solve_with_continuation(system, OMEGA, "mshbm", blas_threads="many")

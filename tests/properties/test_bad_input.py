@@ -231,12 +231,13 @@ def test_forcing_harmonic_is_capped():
 
 
 def test_singular_block_is_named_in_the_message():
-    """Exactly on a resonance of the eliminated subsystem the error names that block."""
+    """Exactly on a resonance of the eliminated subsystem of an explicit partition the error names that block
+    (the default partition keeps the resonant DOFs instead: tests/unit/test_resonant_condensation.py)."""
     import mshbm
     from mshbm import Friction, chain
     s = chain([1.0, 1.0, 1.0], 1.0, 0.0, forcing=[{"dof": 2, "amplitude": 1.0}], elements=[Friction(0, 0.8, 5.0)])
     K_LL = np.array([[2.0, -1.0], [-1.0, 1.0]])  # masses 2-3 with mass 1 held
     w = float(np.sqrt(np.linalg.eigvalsh(K_LL)[0]))
     with pytest.raises(mshbm.InputError) as exc:
-        mshbm.solve(s, w, "mshbm", harmonics=1, steps=256)
+        mshbm.solve(s, w, "mshbm", harmonics=1, steps=256, partition=[0])
     assert exc.value.key == "omega" and "H_LL is singular at harmonic k=1" in exc.value.problem

@@ -150,6 +150,8 @@ def run_group(args):
     ctx, fname, kwargs, label = args
     fn = globals()[fname]
     t0 = time.perf_counter()
+    # the solves of the group get wall-time budgets (run_solve: max_time) that end group_reserve_s before the alarm
+    ctx.group_deadline = t0 + float(ctx.cfg["group_timeout_s"]) - float(ctx.cfg.get("group_reserve_s", 0.0))
     old = signal.signal(signal.SIGALRM, _alarm)
     signal.alarm(int(math.ceil(ctx.cfg["group_timeout_s"])))
     try:

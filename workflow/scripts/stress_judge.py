@@ -89,6 +89,15 @@ def run_solve(ctx, system, omega, method, opts, *, use_continuation=False, cpu_b
     """
     t0 = time.perf_counter()
     old = None
+    # a wall-time budget of the solve (mshbm's max_time): a slow solve ends with a diagnosed failure instead of
+    # the group's timeout; at most solve_max_time_s (a reference solve: its CPU budget, as wall time), and what is
+    # left of the group's time minus a reserve
+    budget = [float(cpu_budget) if cpu_budget else float(ctx.cfg.get("solve_max_time_s", 0.0)) or math.inf]
+    end = getattr(ctx, "group_deadline", None)
+    if end is not None:
+        budget.append(max(1.0, end - t0))
+    if math.isfinite(min(budget)):
+        opts = dict(opts, max_time=min(budget))
     if cpu_budget:
         old = signal.signal(signal.SIGPROF, _prof_alarm)
         signal.setitimer(signal.ITIMER_PROF, float(cpu_budget))
@@ -128,6 +137,8 @@ def reference_shooting(ctx, system, omega, guess=None, nearby=True):
         if sol is not None and sol.success and solution_finite(sol):
             start = "from this solution" if guess is not None else "from the linear start"
             return sol, f"shooting N={steps} {start} at {note}", near
+        if sol is not None and "time budget max_time" in sol.message:  # its wall-time budget (run_solve): no retries
+            return None, f"shooting reference exceeded its time budget ({ctx.ref.get('max_cpu_s')} s)", False
     return None, "shooting reference did not converge", False
 
 

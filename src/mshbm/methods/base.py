@@ -59,6 +59,16 @@ has them)
     ``b = b_T`` on the time-stepped DOFs (``partition().time``) and the forcing harmonic ``F_k``
     (``forcing=True``) or zero elsewhere, from the method's own factorisations (MS-HBM: its condensation
     of ``L``); ``None``: not available (the caller solves ``H_k`` itself).
+``notes`` : tuple or list of str (default ``()``)
+    Sentences on how the problem was set up differently from what was asked (e.g. DOFs at a resonance
+    of the condensed block kept as unknowns, :func:`mshbm.condensation.condense_around_resonances`); the
+    driver appends them to the message and puts them in ``info["notes"]``.
+``force_rows() -> (G, S) or None``
+    For residual rows that are forces driven by the Fourier coefficients ``c`` of the time-stepped DOFs
+    (MS-HBM Section 3.3: ``H_21 FFT(q_1) + S q_hat_2 - f``): per such row ``G_i = sum_j |dR_i / dc_j|``
+    (N/m), shape ``(n_f,)`` in row order, and the square block ``S = dR_f / dp`` (N/m, ``(n_f, n_f)``) of
+    the harmonic unknowns ``p``, whose inverse turns a force residual into the displacement error it
+    causes (the start ladder's one-step accuracy test at impacts); ``None``: none.
 ``cheap_jacobian`` : bool (default False)
     The Jacobian costs little more than ``R`` (HBM, DLFT), or the full step is nearly always taken (MS-HBM
     with the event-driven flow): Newton evaluates the full step with it and keeps it when the step is
@@ -140,6 +150,9 @@ class PeriodicProblem:
     cheap_jacobian = False
     #: keyword options the problem was built with (set by :func:`mshbm.solvers.driver.build_problem`)
     build_options: dict = {}
+    #: sentences on how the problem was set up differently from what was asked (e.g. resonant DOFs kept
+    #: instead of condensed); the driver puts them in ``info["notes"]`` and the message
+    notes: tuple = ()
 
     # ------------------------------------------------------------------ required
     @property
@@ -206,6 +219,11 @@ class PeriodicProblem:
         (see the contract)."""
         return None
 
+    def force_rows(self):
+        """``(G, S)`` of the force rows driven by the time-stepped DOFs' coefficients, or ``None`` (see the
+        contract)."""
+        return None
+
 
 class HarmonicProblem(PeriodicProblem):
     """What the harmonic-balance methods (HBM, DLFT) share: unknowns are the Fourier coefficients of
@@ -230,7 +248,16 @@ class HarmonicProblem(PeriodicProblem):
         mask = np.ones(n, dtype=bool)
         mask[self.keep] = False
         self.elim = np.flatnonzero(mask)
-        self.cond = Condensation(system, omega, self.n_h, self.keep, self.elim)
+        self.resonant_moves = []
+        if self.condense and partition is None:
+            # a resonance of the linear subsystem (k omega an eigenfrequency of L with N clamped): its DOFs are
+            # kept as unknowns instead of condensed (mshbm.condensation.condense_around_resonances)
+            self.cond, self.keep, self.elim, self.resonant_moves = condensation.condense_around_resonances(
+                system, omega, self.n_h, self.keep, self.elim)
+        else:
+            self.cond = Condensation(system, omega, self.n_h, self.keep, self.elim)
+        if self.resonant_moves:
+            self.notes = [condensation.resonance_note(self.resonant_moves, "H_LL", "the harmonic unknowns")]
         nR = self.nR = self.keep.size
         keep = self.keep
         Hs = None

@@ -59,11 +59,12 @@ from .. import fourier
 from .base import Partition, PeriodicProblem, forward_difference_jacobian
 from .common import complement, guess_parts
 from ..errors import InputError
-from ..condensation import Condensation
+from ..condensation import Condensation, condense_around_resonances, resonance_note
 from ..integrators.moreau_jean import MoreauJean, Trajectory
 from ..system import System
 
-__all__ = ["MixedProblem", "IntermediateProblem", "auto_intermediate_partition"]
+__all__ = ["MixedProblem", "IntermediateProblem", "StandardAsIntermediate", "auto_intermediate_partition",
+           "intermediate_problem"]
 
 
 def _sub(A, r, c):
@@ -542,7 +543,14 @@ class MixedProblem(_MixedBase):
             raise InputError(key, "the nonlinear subsystem is empty: the system has no friction or contact "
                              "element (use 'hbm', or give partition=[dofs] to integrate some DOFs in time)")
         self.Ld = complement(n, self.Nd)
-        self.cond = Condensation(system, omega, self.n_h, self.Nd, self.Ld)
+        if partition is None:
+            # a resonance of L (k omega an eigenfrequency of L with N clamped): its DOFs are integrated with N
+            # instead of condensed (mshbm.condensation.condense_around_resonances)
+            self.cond, self.Nd, self.Ld, moved = condense_around_resonances(system, omega, self.n_h, self.Nd, self.Ld)
+            if moved:
+                self.notes = [resonance_note(moved, "H_LL", "the time-integrated subsystem N")]
+        else:
+            self.cond = Condensation(system, omega, self.n_h, self.Nd, self.Ld)
         # coupling force coefficients on N:  c = -H_NL q_hat_L = -g + T q_hat_N
         c0 = fourier.from_complex(-self.cond.g).reshape(-1)
         Tr = self.cond.real_matrix(self.cond.T)
@@ -682,8 +690,16 @@ class IntermediateProblem(_MixedBase):
             nz = blk.nnz if sp.issparse(blk) else np.count_nonzero(blk)
             if I3.size and nz:
                 raise InputError("partition", f"{a}_13 must vanish for Section 3.3 (subsystem 1 couples to 3)")
+        if partition is None:
+            # a resonance of subsystem 3 (k omega an eigenfrequency of H_33): its DOFs become harmonic unknowns of
+            # subsystem 2 instead of being condensed (mshbm.condensation.condense_around_resonances); subsystem 3
+            # only shrinks, so M_13 = C_13 = K_13 = 0 still holds
+            self.cond, I2, I3, moved = condense_around_resonances(system, omega, self.n_h, I2, I3, name="H_33")
+            if moved:
+                self.notes = [resonance_note(moved, "H_33", "subsystem 2 (harmonic unknowns)")]
+        else:
+            self.cond = Condensation(system, omega, self.n_h, I2, I3, name="H_33")
         self.I1, self.I2, self.I3 = I1, I2, I3
-        self.cond = Condensation(system, omega, self.n_h, I2, I3, name="H_33")
         nc = 2 * self.n_h + 1
         H12 = _coupling(system, I1, I2, self.n_h, omega)
         H21 = _coupling(system, I2, I1, self.n_h, omega)
@@ -713,5 +729,45 @@ class IntermediateProblem(_MixedBase):
     def _balance_dp(self):
         return self.Sr
 
+    def force_rows(self):
+        """``(G, S)``: ``G_i = sum_j |H_21,ij|`` per harmonic-balance row (eq. 39: the rows depend on ``FFT(q_1)``
+        through ``H_21``), shape ``((2 n_h + 1) n_2,)``, and ``S = H_22 - H_23 H_33^-1 H_32`` (real block form),
+        shape ``((2 n_h + 1) n_2, (2 n_h + 1) n_2)``, both N/m."""
+        return np.abs(self.H21r).sum(axis=1), self.Sr
+
     def _info(self, p, q_hat):
         return {}
+
+
+class StandardAsIntermediate(MixedProblem):
+    """``method="mshbm-intermediate"`` where the default subsystem 2 is empty: no DOF outside subsystem 1
+    couples to it (``M_1j = C_1j = K_1j = 0`` for every ``j`` not in 1), so eq. (39) has no harmonic unknowns
+    and subsystem 3 is all of the linear DOFs.  Subsystem 1 is then driven by its own forcing alone, and the
+    equations of Section 3.3 are those of Section 3.2 with ``N`` = subsystem 1, ``L`` = subsystem 3: this
+    problem is :class:`MixedProblem` (unknowns ``(q_hat_N, q_N(0), u_N(0))``, residual (27)), reported under
+    the requested method with a note in ``info["notes"]`` and the message."""
+
+    method = "mshbm-intermediate"
+
+    def __init__(self, system, omega, harmonics, steps, theta=0.5, jacobian="exact", project=True,
+                 integrator="moreau"):
+        super().__init__(system, omega, harmonics, steps, theta=theta, jacobian=jacobian, partition=None,
+                         project=project, integrator=integrator)
+        self.n2 = self.nN  # harmonic unknowns (of N here), as IntermediateProblem.n2
+        self.notes = ["subsystem 2 is empty (nothing couples subsystem 1 to the rest): the intermediate variant "
+                      "(Section 3.3) is the standard MS-HBM (Section 3.2) here and was solved as such"] \
+            + list(self.notes)
+
+
+def intermediate_problem(system, omega, harmonics, steps, theta=0.5, jacobian="exact", partition=None,
+                         project=True, integrator="moreau"):
+    """The problem of ``method="mshbm-intermediate"``: :class:`IntermediateProblem`, or
+    :class:`StandardAsIntermediate` when the default partition (:func:`auto_intermediate_partition`) has
+    an empty subsystem 2 (an explicit ``partition`` with an empty subsystem 2 stays an ``InputError``)."""
+    if partition is None:
+        I1, I2 = auto_intermediate_partition(system)
+        if I1.size and I2.size == 0:
+            return StandardAsIntermediate(system, omega, harmonics, steps, theta=theta, jacobian=jacobian,
+                                          project=project, integrator=integrator)
+    return IntermediateProblem(system, omega, harmonics, steps, theta=theta, jacobian=jacobian, partition=partition,
+                               project=project, integrator=integrator)

@@ -16,7 +16,7 @@ from ..errors import InputError
 from ..system import System
 from .dlft import DLFTProblem
 from .hbm import HBMProblem
-from .mixed import IntermediateProblem, MixedProblem
+from .mixed import IntermediateProblem, MixedProblem, intermediate_problem
 from .shooting import ShootingProblem
 
 __all__ = ["PROBLEMS", "build_problem"]
@@ -52,6 +52,8 @@ def build_problem(system, omega, method="mshbm", **options):
     if prob_opts.get("partition") is not None:
         prob_opts["partition"] = validate.check_partition(system, method, prob_opts["partition"])
     validate.check_inputs(system, float(omega), method, opts["harmonics"], opts["steps"], prob_opts.get("partition"))
-    problem = PROBLEMS[method](system, float(omega), **prob_opts)
+    # mshbm-intermediate with an empty default subsystem 2 is the standard MS-HBM (mixed.intermediate_problem)
+    build = intermediate_problem if method == "mshbm-intermediate" else PROBLEMS[method]
+    problem = build(system, float(omega), **prob_opts)
     problem.build_options = dict(prob_opts)
     return problem, {k: v for k, v in opts.items() if k in solver_keys}

@@ -226,7 +226,7 @@ def _transient(solve, system, omega, method, guess, options, periods, budget):
 def solve_with_continuation(system, omega, method="mshbm", guess=None, *, solve, strategies=STRATEGIES,
                             forcing_start=0.05, friction_start=0.02, max_stages=30, min_step=1e-3,
                             stage_max_iter=20, transient_periods=(10, 40, 160), transient_budget=2e9,
-                            **options):
+                            ladder=True, **options):
     """:func:`mshbm.solve` with restarts and parameter continuation when the direct solve fails.
 
     Parameters
@@ -260,6 +260,11 @@ def solve_with_continuation(system, omega, method="mshbm", guess=None, *, solve,
         Checkpoints (periods simulated so far) of the ``"transient"`` strategy.
     transient_budget : float
         Largest ``n^2 x steps x periods`` simulated by the ``"transient"`` strategy.
+    ladder : bool
+        When every strategy fails: a last full solve with the start ladder (:mod:`mshbm.solvers.starts`, the
+        guess its first rung), as :func:`mshbm.solve` does by default, so that opting in to continuation never
+        ends worse than not doing so (callers inside a ladder and the driver, which runs the ladder itself,
+        pass ``False``; :func:`mshbm.api.solve_with_continuation` passes ``True`` outside a ladder).
     **options
         Options of :func:`mshbm.solve` (``harmonics``, ``steps``, ``tol``, ``blas_threads``...);
         ``blas_threads`` (default 1) also applies to the transient simulation.
@@ -291,12 +296,13 @@ def solve_with_continuation(system, omega, method="mshbm", guess=None, *, solve,
     with blas_threads(check_threads(options.get("blas_threads", 1))):
         sol = _solve_with_continuation(solve, system, omega, method, guess, strategies, forcing_start,
                                        friction_start, max_stages, min_step, stage_max_iter, transient_periods,
-                                       transient_budget, options)
+                                       transient_budget, options, ladder)
         return _stability.assess(system, sol, stab, theta=options.get("theta", 0.5))
 
 
 def _solve_with_continuation(solve, system, omega, method, guess, strategies, forcing_start, friction_start,
-                             max_stages, min_step, stage_max_iter, transient_periods, transient_budget, options):
+                             max_stages, min_step, stage_max_iter, transient_periods, transient_budget, options,
+                             ladder=False):
     raise_on_failure = bool(options.pop("raise_on_failure", False))
     t0 = time.perf_counter()
     sol = solve(system, omega, method, guess=guess, **_inner(method, options))  # InputError propagates
@@ -332,6 +338,18 @@ def _solve_with_continuation(solve, system, omega, method, guess, strategies, fo
             tried = ", ".join(f"{a['strategy']} ({a['result']})" for a in info["attempts"]) or "none applicable"
             sol = direct
             sol.message = f"{direct.message}; continuation fallbacks failed: {tried}"
+            if ladder and method != "hbm" and options.get("continuation", True) is not False:
+                # the start ladder (the guess first), as mshbm.solve without the opt-in; options without an explicit
+                # continuation=True, so the driver does not come back here
+                last = solve(system, omega, method, guess=guess,
+                             **{k: v for k, v in options.items() if k != "continuation"})
+                total_it += int(last.iterations)
+                if last.success:
+                    info["used"] = "start ladder"
+                    last.message = f"{last.message} (by the start ladder after the continuation fallbacks failed: {tried})"
+                    sol = last
+                else:
+                    sol.message = f"{sol.message}; start ladder failed too: {last.message}"
         else:
             sol.message = f"{sol.message} (after {info['used']} continuation, {info['stages']} stages)"
     info["total_iterations"] = total_it

@@ -32,6 +32,7 @@ from ..condensation import SingularHarmonicError
 from ..errors import ConvergenceError
 from ..methods.registry import build_problem
 from ..result import PeriodicSolution
+from . import newton as newton_
 from . import starts
 from .continuation import solve_with_continuation
 from .newton import solve_problem
@@ -56,12 +57,29 @@ class _Progress:
 
 def solve(system, omega, method="mshbm", **options):
     """:func:`mshbm.solve` (its docstring lists the options): the strategy chain of this module, then
-    the stability analysis (not part of ``wall_time``)."""
+    the stability analysis (not part of ``wall_time``).
+
+    ``max_time`` (s): from now on, no Newton iteration (:func:`mshbm.solvers.newton.time_box`), start of the
+    ladder or event-driven simulation (:func:`mshbm.solvers.starts.time_limit`) begins after the deadline; a
+    solve stopped by it fails with a message naming the budget."""
+    mt = options.get("max_time")
+    try:
+        deadline = time.perf_counter() + float(mt) if mt is not None and float(mt) > 0 else None
+    except (TypeError, ValueError):
+        deadline = None  # not a number: the option check of build_problem names it
+    with newton_.time_box(deadline), starts.time_limit(deadline):
+        sol = _solve_chain(system, omega, method, options)
+    if deadline is not None and not sol.success and time.perf_counter() > deadline:
+        sol.message = f"{sol.message}; time budget max_time = {float(mt):g} s spent"
+    return sol
+
+
+def _solve_chain(system, omega, method, options):
     stab = _stability.check_option(options.pop("stability", "auto"))
     if method in ("mshbm", "mshbm-intermediate") and options.get("continuation") is True \
             and options.get("guess") is not None:  # guess=None: the start ladder (mshbm.solvers.starts) covers it
         with validate.quiet_floats():
-            sol = solve_with_continuation(system, omega, method, solve=solve, stability=False,
+            sol = solve_with_continuation(system, omega, method, solve=solve, stability=False, ladder=False,
                                           **{k: v for k, v in options.items() if k != "continuation"})
         if sol.success or starts.active():
             return _stability.assess(system, sol, stab, theta=options.get("theta", 0.5))
@@ -176,7 +194,12 @@ def _solve(system, omega, method, options, ladder=True, built=None):
         message += (f"; note: the condensed block is nearly singular at harmonic k={k} (rcond {rc[k]:.1e}): "
                     "k*omega is at a resonance of the linear subsystem, where the periodic solution may be "
                     "non-unique or unbounded (add damping or move omega)")
+    notes = list(problem.notes)
+    if notes:
+        message = f"{message}; note: {'; '.join(notes)}"
     sol = _solution(problem, method, res, parts, success, message, wall)
+    if notes:
+        sol.info["notes"] = notes
     sol.info["residual_history"] = res.history
     if "starts" in res.info:
         sol.info["starts"], sol.info["start_used"] = res.info["starts"], res.info["start_used"]

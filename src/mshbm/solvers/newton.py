@@ -26,7 +26,10 @@ pass such folds, which is why Newton stalls on stiff penalty contact.
 """
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import math
+import time
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -193,6 +196,32 @@ def _watchdog_step(fun, xt, r2, s):
     return None
 
 
+#: wall-clock deadline (``time.perf_counter()`` value) of every Newton solve in the current context: an iteration
+#: that starts after it ends the solve with a failure that says so (:func:`time_box`)
+_DEADLINE = contextvars.ContextVar("mshbm_newton_deadline", default=None)
+
+
+@contextlib.contextmanager
+def time_box(deadline):
+    """Within the block, every Newton solve stops at ``deadline`` (a ``time.perf_counter()`` value; ``None``:
+    no new limit), failing with the message "time budget spent"; an enclosing earlier deadline stays."""
+    outer = _DEADLINE.get()
+    if deadline is None:
+        new = outer
+    else:
+        new = float(deadline) if outer is None else min(outer, float(deadline))
+    token = _DEADLINE.set(new)
+    try:
+        yield
+    finally:
+        _DEADLINE.reset(token)
+
+
+def deadline():
+    """The Newton deadline of the current context (``None``: none)."""
+    return _DEADLINE.get()
+
+
 def _newton(fun, x, tol, max_iter, line_search, callback, scale, watchdog=None, reuse_jacobian=False):
     x = np.array(x, dtype=float)
     if watchdog is None:
@@ -215,6 +244,10 @@ def _newton(fun, x, tol, max_iter, line_search, callback, scale, watchdog=None, 
                                 r, hist)
         if it == max_iter:
             break
+        stop = _DEADLINE.get()
+        if stop is not None and time.perf_counter() > stop:
+            return NewtonResult(x, False, f"time budget spent at iteration {it}: scaled ||R||_inf = {r:.2e}",
+                                it, nfev, r, hist)
         Jd = J.data if sp.issparse(J) else J
         if not np.isfinite(Jd).all():
             return NewtonResult(x, False, f"Jacobian is not finite at iteration {it}", it, nfev, r, hist)

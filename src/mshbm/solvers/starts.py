@@ -87,6 +87,7 @@ from .. import condensation, fourier
 from ..methods.common import linear_response
 from ..errors import InputError
 from .continuation import solve_with_continuation
+from . import newton as newton_
 from .newton import NewtonResult, solve_problem
 from ..methods.registry import build_problem
 
@@ -108,6 +109,8 @@ FREQUENCY_FACTOR = 10.0
 
 #: largest system for which the ``"exact"`` start runs the event-driven solver
 EXACT_MAX_DOFS = 100
+#: share of the ladder's remaining time budget one event-driven solve of the ``"exact"`` start may use
+EXACT_SHARE = 0.4
 
 _ACTIVE = contextvars.ContextVar("mshbm_starts_active", default=False)
 
@@ -140,6 +143,19 @@ def _nested(deadline=None):
     finally:
         for var, tok in reversed(tokens):
             var.reset(tok)
+
+
+@contextlib.contextmanager
+def time_limit(deadline):
+    """Within the block, ladders try no further start after ``deadline`` (a ``time.perf_counter()`` value;
+    ``None``: no new limit; an enclosing earlier one stays): :func:`mshbm.solvers.driver.solve`'s ``max_time``."""
+    outer = _DEADLINE.get()
+    new = outer if deadline is None else (float(deadline) if outer is None else min(outer, float(deadline)))
+    token = _DEADLINE.set(new)
+    try:
+        yield
+    finally:
+        _DEADLINE.reset(token)
 
 
 @contextlib.contextmanager
@@ -275,7 +291,10 @@ def residual_accept(problem, system, omega, rtol=1e-8, step_accuracy=True, max_i
     * ``step_accuracy``, the method steps in time (shooting, MS-HBM), the solution has impacts,
       and Newton *stalled* (stopped before ``max_iter``: no descent), with every displacement entry
       ``|R_i| <= g h J`` and every velocity entry ``|R_i| <= g h omega J`` (force entries:
-      ``rtol F``), where ``J`` is the largest velocity jump at an impact (:func:`impact_jump`;
+      ``rtol F``, plus ``2 g h J G_i`` where the force rows are driven by the Fourier coefficients of the
+      time-stepped DOFs with the gain ``G_i`` of :meth:`PeriodicProblem.force_rows`, MS-HBM 3.3, whose
+      displacement error ``S^-1 R_f`` must not exceed ``2 g h J`` either, and only where the step resolves
+      the structure, ``omega_max h <= 1``), where ``J`` is the largest velocity jump at an impact (:func:`impact_jump`;
       more than ``20 V`` is an implausible, run-away orbit and rejected), and ``g = 1 +
       ||dR/dx||_2`` bounds the growth of a perturbation over the period (``||Phi||`` for
       shooting, ``dR/dx = Phi - I``).  That is the change of the periodicity residual when the
@@ -308,6 +327,20 @@ def residual_accept(problem, system, omega, rtol=1e-8, step_accuracy=True, max_i
             static.append(_static_deflection(system))
         return static[0]
 
+    fastest = []
+
+    def fastest_mode():
+        """Largest eigenfrequency (rad/s) of the structure ``(K, M)`` (``inf`` above 400 DOFs: not computed)."""
+        if not fastest:
+            if system.n > 400:
+                fastest.append(math.inf)
+            else:
+                import scipy.linalg as sla
+
+                lam = sla.eigh(system.dense("K"), system.dense("M"), eigvals_only=True)
+                fastest.append(math.sqrt(max(float(lam.max()), 0.0)))
+        return fastest[0]
+
     def accept(attempt):
         R, _ = problem.residual(attempt.x, jac=False)
         if not np.all(np.isfinite(R)):
@@ -335,8 +368,28 @@ def residual_accept(problem, system, omega, rtol=1e-8, step_accuracy=True, max_i
         Jac = Jac.toarray() if sp.issparse(Jac) else np.asarray(Jac)
         if not np.all(np.isfinite(Jac)):
             return False
-        gain = 1.0 + float(np.linalg.norm(Jac, 2))  # bounds ||Phi|| = ||(Phi - I) + I|| (shooting)
+        # bounds ||Phi|| = ||(Phi - I) + I|| (shooting); over the displacement and velocity rows only (MS-HBM 3.3: its
+        # force rows, in N, would mix a stiffness into this dimensionless gain)
+        gain = 1.0 + float(np.linalg.norm(Jac[units != 2], 2))
         bound = np.where(units == 2, rtol * F, gain * h * J * np.where(units == 0, 1.0, float(omega)))
+        fr = problem.force_rows()
+        if fr is not None and not fastest_mode() * h <= 1.0:
+            return False  # the step does not resolve the structure: no one-step argument for the force rows
+        if fr is not None:
+            # force rows driven by the coefficients of the time-stepped DOFs (MS-HBM 3.3: H_21 FFT(q_1)): the one-step
+            # change of q_1(t) (gain h J) changes each coefficient by at most twice that, the row by G_i times it.
+            # And the displacement error the force residual causes, S^-1 R_f, must stay within that one-step change
+            # (an undamped or resonant harmonic block turns a small force residual into a large error: rejected)
+            G, S = fr
+            rows = np.flatnonzero(units == 2)
+            dq = 2.0 * gain * h * J
+            bound[rows] = rtol * F + dq * np.asarray(G, dtype=float)
+            try:
+                err = np.linalg.solve(np.asarray(S, dtype=float), R[rows])
+            except np.linalg.LinAlgError:
+                return False
+            if not np.all(np.isfinite(err)) or float(np.max(np.abs(err), initial=0.0)) > dq:
+                return False
         if np.all(np.abs(R) <= bound):
             k = int(np.argmax(np.abs(R) / bound))
             attempt.step_accuracy = {"ratio": float(np.max(np.abs(R) / bound)), "bound": bound}
@@ -648,9 +701,18 @@ class _Runner:
                 pass
         why = []
         for g in guesses:
+            # the event-driven simulation stops at the ladder's (or the solve's) deadline: at a low frequency
+            # with stiff modes the flow has many steps a period and a Newton solve of it can take minutes
+            stop = [d for d in (self.deadline, newton_.deadline()) if d is not None]
+            left = None if not stop else min(stop) - time.perf_counter()
+            if left is not None and left <= 0.0:
+                why.append("time budget spent")
+                break
+            if left is not None:
+                left = max(min(left, 1.0), EXACT_SHARE * left)  # the later starts keep a share of the budget
             try:
                 ex = exact_periodic(self.system, self.omega, guess=g, samples=max(N, 64),
-                                    harmonics=max(self.n_h, 1), blas_threads=None)
+                                    harmonics=max(self.n_h, 1), blas_threads=None, time_limit=left)
             except (InputError, FloatingPointError, np.linalg.LinAlgError, ValueError) as exc:
                 why.append(f"{type(exc).__name__}: {exc}")
                 continue
@@ -768,7 +830,7 @@ class _Runner:
             if key in self.nkw:
                 opts[key] = self.nkw[key]
         try:
-            sol = solve_with_continuation(self.system, self.omega, self.method, guess="zero", solve=self.solve,
+            sol = solve_with_continuation(self.system, self.omega, self.method, guess="zero", solve=self.solve, ladder=False,
                                           strategies=(strategy,), **opts)
         except InputError as exc:
             return self._try(strategy, self.problem.initial_guess("linear"), f"skipped: {exc}", 0, t0)
@@ -828,7 +890,7 @@ class _Runner:
             try:
                 with _nested():
                     br = sweep(self.system, wa, self.omega, self.method, guess=sol_a, stability=False,
-                               max_time=left, **{k: v for k, v in opts.items() if k not in ("guess", "stability")})
+                               max_time=left, **{k: v for k, v in opts.items() if k not in ("guess", "stability", "max_time")})
             except (InputError, FloatingPointError, np.linalg.LinAlgError, ValueError) as exc:
                 why.append(f"branch from {wa:.4g}: {type(exc).__name__}: {exc}"[:160])
                 continue
@@ -963,10 +1025,13 @@ def solve_from_starts(problem, method, system, omega, newton_options, accept, *,
                 if inherited is not None:
                     run.deadline = min(run.deadline, inherited)
             n0 = len(run.attempts)
-            if name == "guess":
-                att = run.start_guess(guess)
-            else:
-                att = getattr(run, f"start_{name}")()
+            # every Newton solve of this start ends at the ladder's deadline (newton.time_box), so one start cannot
+            # run on far beyond the budget
+            with newton_.time_box(run.deadline):
+                if name == "guess":
+                    att = run.start_guess(guess)
+                else:
+                    att = getattr(run, f"start_{name}")()
             if att is not None:
                 att = run._keep_one(n0)
             if att is not None and att.accepted:
