@@ -185,6 +185,9 @@ def _solve(system, omega, method, options, ladder=True, built=None):
     for key in ("q_time", "u_time", "q_hat", "lam"):
         if parts[key].size and not np.isfinite(parts[key]).all():  # (HBM: empty q_time, u_time)
             success, message = False, f"non-finite {key} in the solution ({message})"
+    failure = (parts.get("info") or {}).get("failure")
+    if failure:  # the method could not form the solution at its converged unknowns
+        success, message = False, f"{failure} ({message})"
     message = validate.overflow_message(success, message, res.residual_norm)
     rc = problem.conditioning()
     # a block far worse conditioned than the static one (k = 0, no resonance there): finite-element blocks
