@@ -140,6 +140,10 @@ def build(md_path, results_dir, out_html, out_md=None, stress_md=None, bench_md=
         return m.group("yes") if ok else (m.group("no") or "")
 
     text = CONDITION.sub(condition, text)
+    left_over = re.findall(r"<!-- (?:if:[^>]*|else|endif) -->", text)
+    if left_over:  # one pass, no nesting: an <!-- if --> inside another leaves its markers in the text
+        raise ValueError(f"conditional markers left after filling (nested <!-- if --> blocks are not supported; "
+                         f"repeat the outer condition instead): {left_over[:3]}")
     stale = []
     for m in CHECK.finditer(text):
         try:
