@@ -80,7 +80,11 @@ def test_guess_parts_without_states():
     sol = mshbm.solve(s, 1.3, "hbm", harmonics=3, stability=False)
     assert sol.success
     c = guess_parts(sol, s, 1.3, 3, states=False)
-    assert np.array_equal(c[0], sol.q_hat) and np.array_equal(c[1], sol.q[0])  # a solution's own states
+    # a solution's own states: PeriodicSolution.initial_state() (from the Fourier coefficients, without the time
+    # grid of all DOFs), equal to its q(t_0) on the grid to round-off
+    q0, u0 = sol.initial_state()
+    assert np.array_equal(c[0], sol.q_hat) and np.array_equal(c[1], q0) and np.array_equal(c[2], u0)
+    assert np.allclose(c[1], sol.q[0], rtol=0, atol=1e-14 * np.abs(sol.q).max())
     # same iterates from a dict guess with and without the derived states: HBM's solve is unchanged
     g = mshbm.solve(s, 1.3, "hbm", harmonics=3, stability=False, guess={"q_hat": sol.q_hat * 1.001})
     assert g.success and np.allclose(g.q_hat, sol.q_hat, rtol=0, atol=1e-9 * np.abs(sol.q_hat).max())
