@@ -1376,14 +1376,12 @@ class EventFlow:
 
 
 @njit(cache=True)
-def _emul_sens(E, P, iy, n, yc, ys, c, s):
-    """In place ``P <- exp(A h_s) P`` for the sensitivities ``P`` of :meth:`EventFlow.simulate` (shape (D, cols)):
-    rows ``:iy`` from the rows ``:iy`` of ``P`` and the nonzero entries of its forcing-state block (the
-    constants' diagonal, the 2 x 2 block of each pair ``(Y1, Y2) = (yc[p], ys[p])``, relative to ``iy``),
-    which rotate through ``(c[p], s[p])`` (:meth:`EventFlow.emul`)."""
+def _top_rows(E, P, iy, n, yc, ys, X):
+    """``X[:iy] += E[:iy] P`` for the sensitivities ``P`` of :meth:`EventFlow.simulate` (shape (D, cols)): from
+    the rows ``:iy`` of ``P`` and the nonzero entries of its forcing-state block (the constants' diagonal, the
+    2 x 2 block of each pair ``(Y1, Y2) = (yc[p], ys[p])``, relative to ``iy``); the rest of that block is zero."""
     cols = P.shape[1]
     n2 = 2 * n
-    X = np.zeros((iy, cols))
     for r in range(iy):
         for k in range(iy):
             e = E[r, k]
@@ -1403,6 +1401,22 @@ def _emul_sens(E, P, iy, n, yc, ys, c, s):
                 ec, es = E[r, iy + a], E[r, iy + b]
                 X[r, n2 + a] += ec * c1 + es * m1
                 X[r, n2 + b] += ec * s1 + es * c2
+
+
+@njit(cache=True)
+def _emul_sens(E, P, iy, n, yc, ys, c, s):
+    """In place ``P <- exp(A h_s) P`` for the sensitivities ``P`` of :meth:`EventFlow.simulate` (shape (D, cols)):
+    rows ``:iy`` by :func:`_top_rows`; the 2 x 2 block of each forcing-state pair rotates through
+    ``(c[p], s[p])`` (:meth:`EventFlow.emul`)."""
+    cols = P.shape[1]
+    n2 = 2 * n
+    X = np.zeros((iy, cols))
+    _top_rows(E, P, iy, n, yc, ys, X)
+    if cols > n2:
+        for p in range(yc.size):
+            a, b = yc[p], ys[p]
+            c1, s1 = P[iy + a, n2 + a], P[iy + a, n2 + b]
+            m1, c2 = P[iy + b, n2 + a], P[iy + b, n2 + b]
             P[iy + a, n2 + a] = c[p] * c1 + s[p] * m1
             P[iy + a, n2 + b] = c[p] * s1 + s[p] * c2
             P[iy + b, n2 + a] = -s[p] * c1 + c[p] * m1
@@ -1414,30 +1428,17 @@ def _emul_sens(E, P, iy, n, yc, ys, c, s):
 
 @njit(cache=True)
 def _amul_sens(A, P, iy, n, yc, ys, yw):
-    """``A P`` for the sensitivities ``P`` of :meth:`EventFlow.simulate` (structure of :func:`_emul_sens`);
-    the forcing-state rows of ``A`` are the rotations ``(Y1, Y2)' = yw[p] (Y2, -Y1)`` (constants: 0)."""
+    """``A P`` for the sensitivities ``P`` of :meth:`EventFlow.simulate`: rows ``:iy`` by :func:`_top_rows`; the
+    forcing-state rows of ``A`` are the rotations ``(Y1, Y2)' = yw[p] (Y2, -Y1)`` (constants: 0)."""
     cols = P.shape[1]
     n2 = 2 * n
     out = np.zeros_like(P)
-    for r in range(iy):
-        for k in range(iy):
-            e = A[r, k]
-            if e != 0.0:
-                for j in range(cols):
-                    out[r, j] += e * P[k, j]
+    _top_rows(A, P, iy, n, yc, ys, out)
     if cols > n2:
-        for i in range(n):
-            d = P[iy + i, n2 + i]
-            for r in range(iy):
-                out[r, n2 + i] += A[r, iy + i] * d
         for p in range(yc.size):
             a, b = yc[p], ys[p]
             c1, s1 = P[iy + a, n2 + a], P[iy + a, n2 + b]
             m1, c2 = P[iy + b, n2 + a], P[iy + b, n2 + b]
-            for r in range(iy):
-                ec, es = A[r, iy + a], A[r, iy + b]
-                out[r, n2 + a] += ec * c1 + es * m1
-                out[r, n2 + b] += ec * s1 + es * c2
             w = yw[p]
             out[iy + a, n2 + a] = w * m1
             out[iy + a, n2 + b] = w * c2
