@@ -301,9 +301,9 @@ def test_cli_integrator_option(tmp_path):
 
 
 # ----------------------------------------------------------------------------- MS-HBM with the event integrator
-def test_forcing_states_and_exact_fourier_coefficients():
-    """The coupling force as forcing states: the same flow as the force in f_hat, its sensitivities and those
-    of the exact Fourier coefficients against central differences."""
+def _coupled_flow():
+    """A 2-DOF chain with friction and a contact, and its flow with coupling forces ``F_c`` (n_c = 3) as
+    forcing states: ``(system, omega, F_c, flow)``."""
     omega = 0.8
     s = chain([1.0, 1.0], 1.0, 0.05, forcing=[{"dof": 1, "amplitude": 1.5}],
               elements=[Friction(0, 1.0, 0.3), Contact(1, 0.8, 0.7)])
@@ -311,6 +311,13 @@ def test_forcing_states_and_exact_fourier_coefficients():
     Fc[0, 0], Fc[1, 0], Fc[2, 1], Fc[5, 1] = 0.05, 0.3, -0.2, 0.1
     fl = EventFlow(s, omega, coupling_harmonics=3)
     fl.set_forcing(Fc)
+    return s, omega, Fc, fl
+
+
+def test_forcing_states_and_exact_fourier_coefficients():
+    """The coupling force as forcing states: the same flow as the force in f_hat, its sensitivities and those
+    of the exact Fourier coefficients against central differences."""
+    s, omega, Fc, fl = _coupled_flow()
     fh = np.zeros((7, 2))
     fh[:3] = s.f_hat
     ref = EventFlow(System(s.M, s.C, s.K, fh + Fc, s.elements), omega)
@@ -360,13 +367,7 @@ def test_structure_of_the_forcing_state_sensitivities_and_the_structured_product
     for the oscillator, and in the forcing-state rows only the 2 x 2 rotation block of each pair (the
     constants' diagonal), through events (impacts, stick, slip).  Given it, the structured products
     (``emul``, ``amul`` with ``sens``) and the structured Taylor powers of a state equal the dense ones."""
-    omega = 0.8
-    s = chain([1.0, 1.0], 1.0, 0.05, forcing=[{"dof": 1, "amplitude": 1.5}],
-              elements=[Friction(0, 1.0, 0.3), Contact(1, 0.8, 0.7)])
-    Fc = np.zeros((7, 2))
-    Fc[0, 0], Fc[1, 0], Fc[2, 1], Fc[5, 1] = 0.05, 0.3, -0.2, 0.1
-    fl = EventFlow(s, omega, coupling_harmonics=3)
-    fl.set_forcing(Fc)
+    s, omega, Fc, fl = _coupled_flow()
     z0 = fl.state(0.0, np.array([0.5, -1.0]), np.array([0.2, 0.1]))
     out = fl.simulate(0.0, z0, jac=True, jac_cols="all", fourier=5)
     kinds = {e.kind for e in out["events"]}

@@ -30,6 +30,7 @@ import mshbm
 from mshbm import Contact, Friction, InputError, System
 from mshbm.integrators import kernels
 from mshbm.integrators.moreau_jean import MoreauJean
+from mshbm.methods.base import central_difference_jacobian
 from mshbm.methods.shooting import ShootingProblem
 
 from integration.test_io_cli import assert_input_error, run, write_case  # shared CLI helpers
@@ -229,11 +230,7 @@ def test_hbm_jacobian_against_differences():
         x = p.initial_guess({"q_hat": ref.q_hat})
         _, J = p.residual(x)
         J = J.toarray() if hasattr(J, "toarray") else J
-        FD = np.zeros_like(J)
-        for i in range(x.size):
-            d = np.zeros(x.size)
-            d[i] = 1e-7
-            FD[:, i] = (p.residual(x + d, jac=False)[0] - p.residual(x - d, jac=False)[0]) / 2e-7
+        FD = central_difference_jacobian(lambda y: p.residual(y, jac=False)[0], x, rel_step=1e-7)
         assert np.abs(J - FD).max() <= 1e-7 * np.abs(J).max()
 
 
@@ -315,11 +312,7 @@ def test_dlft_jacobian_against_differences():
         p = build_problem(damper(F0=F0), OMEGA, "dlft", harmonics=7, steps=512)[0]
         x = p.initial_guess({"q_hat": ref.q_hat}) + 1e-3
         _, J = p.residual(x)
-        FD = np.zeros_like(J)
-        for i in range(x.size):
-            d = np.zeros(x.size)
-            d[i] = 1e-7
-            FD[:, i] = (p.residual(x + d, jac=False)[0] - p.residual(x - d, jac=False)[0]) / 2e-7
+        FD = central_difference_jacobian(lambda y: p.residual(y, jac=False)[0], x, rel_step=1e-7)
         assert np.abs(J - FD).max() <= 1e-7 * np.abs(J).max()
 
 
