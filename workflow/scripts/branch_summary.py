@@ -32,11 +32,16 @@ def amplitude_at(omega, amplitude, w, dof=0):
     return None
 
 
+def prefix(name, label):
+    """The paper's key prefix of a curve: ``<name>_<label>`` with ``-`` as ``_``."""
+    return f"{name}_{label.replace('-', '_')}"
+
+
 def summarize(branches):
     num, rows = {}, []
     for b in branches:
         label = b.get("label", b["method"])
-        p = f"{b['name']}_{label.replace('-', '_')}"
+        p = prefix(b["name"], label)
         st = b["stable"]
         omega = b["omega"]
         num[f"{p}_ok"] = bool(b["success"])
@@ -65,7 +70,7 @@ def summarize(branches):
     # a method traced twice, with Moreau-Jean steps and with the exact event-driven flow: the relative shift of
     # its first period doubling, <name>_<method>_pd_shift = pd(Moreau-Jean) / pd(event-driven) - 1
     for r in rows:
-        p = f"{r['name']}_{r['label'].replace('-', '_')}"
+        p = prefix(r["name"], r["label"])
         ev = f"{p}_event_pd"
         if num.get(ev) and num.get(f"{p}_pd"):
             num[f"{p}_pd_shift"] = num[f"{p}_pd"] / num[ev] - 1.0
