@@ -10,7 +10,7 @@ point certified, 1 it stopped before (the points so far are still written), 2 in
 Progress (points done, omega, step size) goes to stderr unless ``--quiet``.  The JSON holds
 ``success``, ``message``, arrays ``omega``, ``amplitude`` (per point, per DOF), ``stable`` and
 ``bifurcations`` (``[{type, omega}]``), plus per-point details.  The plot shows the amplitude of the
-chosen DOFs against omega: solid where stable, dashed where unstable, grey where undecided, and
+chosen DOFs against omega: solid where stable, dashed where unstable, dotted where undecided (each DOF in its own colour), and
 markers at bifurcations.
 """
 from __future__ import annotations
@@ -55,7 +55,26 @@ def _check_dofs(dofs, n):
 
 
 def plot(branch, path, dofs, title=""):
-    """Amplitude of ``dofs`` against omega; solid stable, dashed unstable, grey undecided; bifurcation markers."""
+    """Write the figure of :func:`figure` as a PNG to ``path``."""
+    import matplotlib.pyplot as plt
+
+    fig = figure(branch, dofs, title)
+    from io import BytesIO
+
+    buf = BytesIO()
+    fig.savefig(buf, format="png", dpi=120)
+    plt.close(fig)
+    with open(path, "wb") as f:
+        f.write(buf.getvalue())
+
+
+def figure(branch, dofs, title=""):
+    """Amplitude of ``dofs`` against omega (a matplotlib Figure): each DOF in its own colour, solid where
+    stable, dashed where unstable, dotted where undecided (one polyline per run of equal stability; a segment
+    between points of different verdicts counts as undecided); markers at the bifurcations.
+
+    ``branch`` needs ``omega`` (shape (P,), rad/s), ``amplitude`` (shape (P, n)), ``stable`` (P entries,
+    True/False/None) and ``bifurcations`` (dicts with ``type``, ``omega``, optional ``index``)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -63,15 +82,20 @@ def plot(branch, path, dofs, title=""):
     import numpy as np
 
     w, A, st = branch.omega, branch.amplitude, branch.stable
-    fig, ax = plt.subplots(figsize=(7, 4.5))
+    fig, ax = plt.subplots(figsize=(8.5, 4.5))
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    styles = {True: "-", False: "--", None: ":"}
+    seg = [st[i] if st[i] == st[i + 1] else None for i in range(len(w) - 1)]  # state of segment i..i+1
     for c, d in enumerate(dofs):
         col = colors[c % len(colors)]
-        for i in range(len(w) - 1):
-            s = st[i] if st[i] == st[i + 1] else None
-            style = {True: dict(color=col, ls="-"), False: dict(color=col, ls="--"),
-                     None: dict(color="0.6", ls="-")}[s]
-            ax.plot(w[i:i + 2], A[i:i + 2, d], lw=1.6, **style)
+        i = 0
+        while i < len(seg):  # one polyline per run of equal stability (the dashes stay continuous)
+            j = i
+            while j + 1 < len(seg) and seg[j + 1] == seg[i]:
+                j += 1
+            ax.plot(w[i:j + 2], A[i:j + 2, d], color=col, ls=styles[seg[i]],
+                    lw=1.6 if seg[i] is not None else 1.2)
+            i = j + 1
         ax.plot([], [], color=col, ls="-", label=f"dof {d}")
     markers = {"fold": "o", "period-doubling": "s", "neimark-sacker": "D", "grazing": "^"}
     seen = set()
@@ -86,20 +110,14 @@ def plot(branch, path, dofs, title=""):
             ax.plot([wb], [A[i, d]], markers.get(b["type"], "x"), color="k", mfc="none", ms=8, label=lab)
     ax.plot([], [], color="k", ls="-", label="stable")
     ax.plot([], [], color="k", ls="--", label="unstable")
-    ax.plot([], [], color="0.6", ls="-", label="stability unknown")
+    ax.plot([], [], color="k", ls=":", lw=1.2, label="stability unknown")
     ax.set_xlabel(r"$\omega$ (rad/s)")
     ax.set_ylabel("amplitude (max - min)/2")
     ax.set_title(title)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)  # beside the curves
     fig.tight_layout()
-    from io import BytesIO
-
-    buf = BytesIO()
-    fig.savefig(buf, format="png", dpi=120)
-    plt.close(fig)
-    with open(path, "wb") as f:
-        f.write(buf.getvalue())
+    return fig
 
 
 def run(args, exit_codes, write_json, error):

@@ -316,3 +316,26 @@ def test_cli_sweep_event_integrator_locates_the_period_doubling(tmp_path, capsys
         assert st[0] is True and st[-1] is False
     assert 0.6 < pd["shooting"] < 0.63
     assert pd["mshbm"] == pytest.approx(pd["shooting"], rel=1e-3)
+
+
+def test_sweep_figure_styles_per_dof_and_stability():
+    """Each DOF keeps its colour whatever the verdict; solid stable, dashed unstable, dotted undecided (one
+    polyline per run); a segment between different verdicts is undecided."""
+    import matplotlib.pyplot as plt
+    from types import SimpleNamespace
+
+    from mshbm.cli_sweep import figure
+
+    w = np.linspace(1.0, 2.0, 7)
+    A = np.column_stack([w, 2 * w])
+    br = SimpleNamespace(omega=w, amplitude=A, stable=[True, True, True, False, False, None, None],
+                         bifurcations=[{"type": "fold", "omega": 1.5}])
+    fig = figure(br, [0, 1])
+    lines = [ln for ln in fig.axes[0].lines if len(ln.get_xdata()) > 1]
+    assert len(lines) == 2 * 4  # per DOF: stable run, the True->False segment, unstable run, undecided tail
+    for d in (0, 1):
+        mine = [ln for ln in lines if np.allclose(ln.get_ydata(), A[:, d][np.searchsorted(w, ln.get_xdata())])]
+        assert [ln.get_linestyle() for ln in mine] == ["-", ":", "--", ":"]
+        assert len({ln.get_color() for ln in mine}) == 1
+    assert lines[0].get_color() != lines[4].get_color()
+    plt.close(fig)
