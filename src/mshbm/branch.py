@@ -392,6 +392,11 @@ def _run(system, lam_start, lam_end, method, period, parameter, omega_fixed, opt
     if method not in METHODS:
         raise InputError("method", f"unknown method {method!r} (choose from {', '.join(METHODS)})")
     k = check_period(period)
+    if method == "hbm" and "penalty_quadrature" not in options and any(el.unilateral for el in system.elements) \
+            and all(getattr(el, "penalty_damping", 0.0) == 0.0 and el.normal_contact is None for el in system.elements):
+        # the sampled penalty law makes the branch a chain of kinks (mshbm.methods.hbm, "Quadrature of the
+        # penalty law"); integrated on the gap's linear interpolant the residual is C^1 and the branch smooth
+        options = dict(options, penalty_quadrature="linear")
     cont, rest, prob = _split_options(options)
     stab = check_option(cont.get("stability", "auto"))
     max_points = cont.get("max_points", 400)
@@ -492,6 +497,10 @@ def sweep(system, omega_start, omega_end, method="mshbm", period=1, **options):
         ``ds_max`` (0.1), ``max_points`` (400), ``predictor`` (``"tangent"`` or ``"secant"``),
         ``max_time`` (s), ``progress`` (show progress on a terminal; ``"always"``: also elsewhere),
         ``stability`` (as for :func:`mshbm.solve`), ``blas_threads`` (default 1, as for :func:`mshbm.solve`).
+        HBM with penalty contacts (``d_c = 0``, no friction loaded by a contact) defaults to
+        ``penalty_quadrature="linear"`` here (:mod:`mshbm.methods.hbm`): with the sampled law the branch of
+        the 5-mass impact chain folds back at kinks of the sampled equations (0.531 -> 0.39 rad/s at
+        ``n_H = 9``); give ``penalty_quadrature="samples"`` for the branch of :func:`mshbm.solve`'s default.
 
     Returns
     -------

@@ -25,7 +25,10 @@ Per method (:data:`METHODS`): ``harmonics`` (n_h), ``steps`` (time steps or AFT 
 :func:`default_steps`), ``theta`` (Moreau-Jean), ``jacobian`` (``"exact"`` or ``"fd"``), ``project``
 (position projection of contacts), ``condense`` (HBM/DLFT: eliminate linear DOFs), ``partition``
 (DOFs of the nonlinear/time-stepped subsystem), ``dlft_penalty`` (DLFT's ``eps``, N/m), ``dlft_predictor`` (DLFT's friction predictor,
-``"velocity"`` or ``"displacement"``), ``integrator`` (shooting and both MS-HBM variants: ``"moreau"`` or ``"event"``).
+``"velocity"`` or ``"displacement"``), ``integrator`` (shooting and both MS-HBM variants: ``"moreau"`` or ``"event"``),
+``penalty_quadrature`` (HBM: the penalty contact law at the AFT samples, ``"samples"``, or integrated on the
+linear interpolant of the gap, ``"linear"``, C^1 in the unknowns; :mod:`mshbm.methods.hbm`; default
+``"samples"``, and ``"linear"`` in :func:`mshbm.sweep` with contacts).
 
 Default integrator rule: ``"moreau"`` unless the user asks for ``"event"``.  The exact event-driven
 flow (:mod:`mshbm.integrators.event`) removes the time-discretisation error (first order at impacts
@@ -51,7 +54,7 @@ COMMON = frozenset({"guess", "tol", "max_iter", "line_search", "progress", "rais
 #: options accepted by each method besides the common ones (the method registry's option table)
 METHODS = {
     "shooting": frozenset({"steps", "theta", "jacobian", "harmonics", "project", "integrator", "accumulation"}),
-    "hbm": frozenset({"harmonics", "steps", "condense", "partition"}),
+    "hbm": frozenset({"harmonics", "steps", "condense", "partition", "penalty_quadrature"}),
     "mshbm": frozenset({"harmonics", "steps", "theta", "jacobian", "partition", "project", "integrator",
                         "accumulation"}),
     "mshbm-intermediate": frozenset({"harmonics", "steps", "theta", "jacobian", "partition", "project",
@@ -132,6 +135,8 @@ def check_options(method, options):
                 or not math.isfinite(float(mt)) or float(mt) <= 0.0:
             raise InputError("max_time", f"must be a finite number of seconds > 0, got {mt!r}")
         opts["max_time"] = float(mt)
+    if opts.get("penalty_quadrature", "samples") not in ("samples", "linear"):
+        raise InputError("penalty_quadrature", f"must be 'samples' or 'linear', got {opts['penalty_quadrature']!r}")
     if opts.get("dlft_penalty") is not None:
         ep = opts["dlft_penalty"]
         if isinstance(ep, bool) or not isinstance(ep, (int, float, np.integer, np.floating)) \

@@ -856,6 +856,8 @@ class _Runner:
         for key in ("tol", "max_iter", "line_search"):
             if key in self.nkw:
                 opts[key] = self.nkw[key]
+        if self.method == "hbm":  # the branch of this problem's equations (sweep's own default is the linear quadrature)
+            opts.setdefault("penalty_quadrature", "samples")
         why = []
         box = t0 + max(FREQUENCY_SECONDS, FREQUENCY_FACTOR * (self.attempts[0].wall_time if self.attempts else 0.0))
         outer = self.deadline
