@@ -9,7 +9,9 @@ of the range), ``points``, ``time`` (s), ``omega_reached`` (the last frequency o
 ``unstable`` and ``undecided`` point counts, ``amp_at_pi5`` (mass 1 at the paper's ω = π/5, interpolated), and per bifurcation type the first frequency found
 (``pd``, ``ns``, ``fold``, ``grazing``; null if none).  Where a method is traced both with Moreau–Jean
 steps (label ``<method>``) and with the event-driven flow (label ``<method>-event``): ``<name>_<method>_pd_shift``,
-the relative shift of the first period doubling, pd(Moreau–Jean) / pd(event-driven) − 1.
+the relative shift of the first period doubling, pd(Moreau–Jean) / pd(event-driven) − 1.  Where the name has a
+``shooting-event`` curve (the exact reference): ``<p>_dev_event``, the largest relative deviation of every other
+curve's mass-1 amplitude from it, and ``<p>_dev_event_omega``, where.
 """
 from __future__ import annotations
 
@@ -74,6 +76,21 @@ def summarize(branches):
         ev = f"{p}_event_pd"
         if num.get(ev) and num.get(f"{p}_pd"):
             num[f"{p}_pd_shift"] = num[f"{p}_pd"] / num[ev] - 1.0
+    # every curve of a name that also has the exact event-driven shooting curve (label "shooting-event"):
+    # <p>_dev_event = max over the curve's points of |A / A_event - 1| (mass 1, the event curve interpolated
+    # at the point's omega, points outside its range skipped) and <p>_dev_event_omega where it occurs
+    for r in rows:
+        ref = next((q for q in rows if q["name"] == r["name"] and q["label"] == "shooting-event"), None)
+        if ref is None or ref is r:
+            continue
+        devs = []
+        for w, a in zip(r["omega"], r["amplitude"]):
+            a_ref = amplitude_at(ref["omega"], ref["amplitude"], w)
+            if a_ref:
+                devs.append((abs(a[0] / a_ref - 1.0), w))
+        p = prefix(r["name"], r["label"])
+        dev, w_dev = max(devs) if devs else (None, None)
+        num[f"{p}_dev_event"], num[f"{p}_dev_event_omega"] = dev, w_dev
     return {"rows": rows, "numbers": num}
 
 
