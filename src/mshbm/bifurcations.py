@@ -33,7 +33,8 @@ by which multipliers leave (or enter) the unit circle between two points:
     period-doubling or Neimark-Sacker count change across it is attributed to the grazing.  Its test
     function is ``-v_min / (omega D)`` (the smallest impact velocity, as a displacement, ``impact_margin``)
     on the side with more impacts and ``miss / D`` (the smallest gap at a near miss, ``miss_margin``) on
-    the other; both vanish at the grazing and vary linearly in omega near it.  ``tau_G = gap``, when the points give it: a signed number that
+    the other; both vanish at the grazing and vary linearly in omega near it.  For the first or last
+    contact ``tau_G = gap``, when the points give it: a signed number that
     is positive without contact (e.g. the smallest gap over the period), negative with contact
     (e.g. minus the impact velocity or the penetration) and zero at grazing; else the midpoint.
     Where the contact state changes, the multipliers of a nonsmooth flow jump (the saltation

@@ -106,7 +106,8 @@ class ShootingProblem(PeriodicProblem):
     def _event_run(self, x, jac=False, record=False):
         """Event-driven flow over one period from ``x = (q0, u0)`` at ``t = 0`` (samples on ``self.t``)."""
         key = (x.tobytes(), jac, record)
-        if self._cache is not None and (self._cache[0] == key or (not jac and self._cache[0] == (key[0], True, record))):
+        c = self._cache
+        if c is not None and (c[0] == key or (not jac and c[0] == (key[0], True, record))):
             return self._cache[1]  # a run with sensitivities also answers one without (the same flow)
         fl = self.flow
         out = fl.simulate(0.0, fl.state(0.0, x[:self.n], x[self.n:]), jac=jac,
