@@ -254,6 +254,11 @@ class _Tracer:
     def unknown_scale(self, x, lam):
         return unknown_scale(self.problem(lam), x)
 
+    def segment(self, x, lam):
+        """The smooth piece of the residual at ``(x, lam)``: the event sequence of an event-driven flow
+        (:meth:`PeriodicProblem.event_signature`), else ``None``."""
+        return self.problem(lam).event_signature(np.asarray(x, dtype=float))
+
     def stall_accept(self, x, lam):
         """A stalled corrector on an impacting orbit of a time-stepping method is accepted when periodic to
         one time step's accuracy (:func:`mshbm.solvers.starts.residual_accept`, as :func:`mshbm.solve`'s
@@ -485,7 +490,7 @@ def _run(system, lam_start, lam_end, method, period, parameter, omega_fixed, opt
             ds0=ds, ds_min=ds_min, ds_max=ds_max, max_points=int(max_points), tol=tol,
             max_corrector_iter=min(12, int(rest.get("max_iter", 12))),
             predictor=predictor, accept=accept, callback=progress, max_time=max_time,
-            stall_accept=tracer.stall_accept)
+            stall_accept=tracer.stall_accept, segment=tracer.segment)
     finally:
         progress.close()
     branch.points = []

@@ -51,11 +51,12 @@ def _kinked(lam):
 def test_arclength_passes_a_corner_of_the_branch_monotonically(lam0, lam1):
     """R(x, lam) = x - g(lam) with g piecewise linear (``_kinked``): dR/dx = I everywhere, dR/dlam jumps at the
     corner.  Before the kink handling the tangent oriented along the previous one pointed back after the
-    corner and the continuation cycled at lam = 1 (200 points, max_points); now it keeps the orientation of
-    the curve (sign det [J, g; t]), lam is monotone, no fold is reported and the corner is listed as a kink."""
+    corner and the continuation cycled at lam = 1 (200 points, max_points); told the smooth pieces
+    (``segment``), it keeps the orientation of the curve (sign det [J, g; t]) across the corner, lam is
+    monotone, no fold is reported and the corner is listed as a kink."""
     res = continuation(lambda x, l: (x - _kinked(l)[0], np.eye(2)), lambda x, l: -_kinked(l)[1], _kinked(lam0)[0],
                        lam0, lam1, residual_scale=lambda x, l: np.ones(2), unknown_scale=lambda x, l: np.ones(2),
-                       lam_scale=1.0, ds0=0.02, ds_max=0.2)
+                       lam_scale=1.0, ds0=0.02, ds_max=0.2, segment=lambda x, l: l < 1.0)
     assert res.success, res.message
     lam = np.array([p.lam for p in res.points])
     assert np.all(np.diff(lam) * np.sign(lam1 - lam0) > 0)

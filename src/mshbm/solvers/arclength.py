@@ -30,8 +30,9 @@ Algorithm (Keller's pseudo-arclength):
   shrinks by ``shrink`` after one of more than ``slow_iter``; a failed (or rejected, see ``accept``)
   corrector halves ``ds`` and retries, down to ``ds_min``;
 * kinks (nonsmooth points of the branch, e.g. a grazing impact: the saltation of an impact at velocity
-  ``v`` grows like ``1 / v``, so ``dR/dx`` jumps there and the branch has a corner): where the tangent
-  turns by more than ``acos(KINK_COS)`` in one step, the sign of ``t . t_prev`` says nothing about the
+  ``v`` grows like ``1 / v``, so ``dR/dx`` jumps there and the branch has a corner): where a step passes a
+  change of the residual's smooth piece (``segment``, e.g. the event sequence) and the tangent
+  turns by more than ``acos(KINK_COS)``, the sign of ``t . t_prev`` says nothing about the
   way on, and the new tangent is oriented to keep the curve's orientation ``sign det [J_y, g; t]``
   instead (constant along regular points, folds included; it changes only at branch points, where the
   tangent turns little).  When the corrector cannot turn a corner (``ds < ds_min``: past a corner of
@@ -75,7 +76,8 @@ class ContinuationPoint:
     residual: float
     payload: object = None
     stall: object = None
-    orientation: int = 0  # sign det [J_y, g; t^T] (scaled), 0 if singular
+    orientation: int = 0  # sign det [J_y, g; t^T] (scaled), 0 if singular or not computed
+    segment: object = None  # the smooth piece of the residual (``segment``), None if unknown
 
 
 @dataclass
@@ -176,7 +178,7 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
                  ds0=0.02, ds_min=1e-5, ds_max=0.2, max_points=200, tol=1e-10, max_corrector_iter=12,
                  fast_iter=3, slow_iter=7, grow=1.6, shrink=0.5, predictor="tangent", accept=None,
                  callback=None, fold_rtol=1e-3, max_time=None, lam_limits=None, stall_accept=None, max_jump=3.0,
-                 stall_fold_rtol=5e-3, natural_fallback=True, kink_crossing=True):
+                 stall_fold_rtol=5e-3, natural_fallback=True, kink_crossing=True, segment=None):
     """Trace the branch of ``R(x, lam) = 0`` from the converged point ``(x0, lam0)`` towards ``lam_end``.
 
     Parameters
@@ -212,6 +214,11 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
         events by whole steps and jitter) are taken from the sequence of ``lam`` along the branch
         instead: a turning point whose reversal exceeds ``stall_fold_rtol`` (relative), located at the
         extreme point (``"located": "extreme point"``).
+    segment : callable, optional
+        ``segment(x, lam) -> hashable or None``: which smooth piece of a piecewise-smooth residual the point
+        lies on (e.g. the event sequence of an event-driven flow).  Where it differs between two points the
+        step passed a kink, and the tangent there keeps the curve's orientation (module docstring); without
+        it (or where it returns ``None``) every step is taken as smooth.
     kink_crossing : bool
         When the step falls below ``ds_min`` at a point solved exactly (not by ``stall_accept``), try one
         step at fixed ``lam`` across a kink (module docstring) before stopping, once per point.
@@ -343,9 +350,10 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
         R, s, J, g = data
         w = np.asarray(unknown_scale(x, lam), dtype=float)
         t = tangent(J, g, s, w, lsc, previous=prev_t)
+        seg = segment(x, lam) if segment is not None and stall is None else None
         return ContinuationPoint(x=x, lam=float(lam), dx=t[:-1] * w, dlam=float(t[-1] * lsc), iterations=it,
-                                 ds=ds, residual=r, stall=stall,
-                                 orientation=orientation(J, g, s, w, lsc, t) if stall is None else 0), t, w
+                                 ds=ds, residual=r, stall=stall, segment=seg,
+                                 orientation=orientation(J, g, s, w, lsc, t) if seg is not None else 0), t, w
 
     def scaled_t(p, w):
         t = np.concatenate([p.dx / w, [p.dlam / lsc]])
@@ -478,11 +486,11 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
             q, tq, wq = make_point(x, lam, it, r, data, ds, scaled_t(p, np.asarray(unknown_scale(x, lam), float)), st)
             tp = scaled_t(p, wq)
             c_t = float(tq @ tp)
-            if p.stall is None and st is None and abs(c_t) < KINK_COS and p.orientation and q.orientation \
-                    and q.orientation != p.orientation:
-                # the tangent turned by more than acos(KINK_COS) in one step: a kink of the branch (a
-                # nonsmooth point, e.g. a grazing impact, whose saltation makes dR/dx jump), where the sign of
-                # t_p says nothing about the way on.  The orientation of the curve, sign det [A; t], is
+            if p.segment is not None and q.segment is not None and p.segment != q.segment and c_t < KINK_COS \
+                    and p.orientation and q.orientation and q.orientation != p.orientation:
+                # the step passed a change of the residual's smooth piece and the tangent turned by more than
+                # acos(KINK_COS): a kink of the branch (a nonsmooth point, e.g. a grazing impact, whose saltation
+                # makes dR/dx jump), where the sign of t_p says nothing about the way on.  The orientation of the curve, sign det [A; t], is
                 # kept instead (constant along a branch of regular points, folds included)
                 q.dx, q.dlam, q.orientation = -q.dx, -q.dlam, -q.orientation
                 kink = {"lam": float(p.lam), "lam_right": float(lam), "index": len(points), "cos_tangents": -c_t}
