@@ -497,10 +497,11 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
             else:
                 kink = None
             dist = float(np.linalg.norm(np.concatenate([(x - p.x) / w, [(lam - p.lam) / lsc]])))
-            if p.stall is None and st is None \
+            if p.segment is not None and st is None \
                     and float(scaled_t(p, w) @ np.concatenate([(x - p.x) / w, [(lam - p.lam) / lsc]])) < 0.1 * ds:
                 # a corrector polished at fixed lam (see ``corrector``) can return to p itself (at a corner
-                # the hyperplane misses the outgoing piece): no progress along the branch
+                # the hyperplane misses the outgoing piece): no progress along the branch (checked on
+                # piecewise-smooth residuals, ``segment``)
                 raise _Failed("the corrected point did not advance along the branch")
             if dist > max_jump * max(ds, ds0):
                 raise _Failed(f"the corrector moved {dist:.3g} away, more than {max_jump:g} x max(ds, ds0) "
