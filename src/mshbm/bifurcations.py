@@ -25,7 +25,16 @@ by which multipliers leave (or enter) the unit circle between two points:
     changes.  ``tau_NS = max{|mu| : Im mu != 0} - 1``.
 ``"grazing"``
     ``contact_active`` (any contact element closed or touching during the period) changes: the
-    branch's first or last contact.  ``tau_G = gap``, when the points give it: a signed number that
+    branch's first or last contact; or, between impacting orbits of the exact flow, ``impacts`` (the
+    number of impacts per period) changes: an impact appears or disappears with zero velocity (a near
+    miss touches the stop, or an impact's velocity vanishes).  The branch goes on with the other
+    impact sequence, with a kink in ``(x, omega)``: on the side with the extra impact the saltation
+    matrix of that impact grows like ``1 / v``, so multipliers there run off to infinity; a
+    period-doubling or Neimark-Sacker count change across it is attributed to the grazing.  Its test
+    function is ``-v_min / (omega D)`` (the smallest impact velocity, as a displacement, ``impact_margin``)
+    on the side with more impacts and ``miss / D`` (the smallest gap at a near miss, ``miss_margin``) on
+    the other; both vanish at the grazing and vary linearly in omega near it.  For the first or last
+    contact ``tau_G = gap``, when the points give it: a signed number that
     is positive without contact (e.g. the smallest gap over the period), negative with contact
     (e.g. minus the impact velocity or the penetration) and zero at grazing; else the midpoint.
     Where the contact state changes, the multipliers of a nonsmooth flow jump (the saltation
@@ -82,6 +91,14 @@ class BranchPoint:
         Any contact element closed or touching during the period.
     gap : float or None
         Signed grazing test function (see the module docstring).
+    impacts : int or None
+        Impacts per period of all contacts (exact event-driven solutions only).
+    impact_margin : float or None
+        ``-v_min / (omega D)``: minus the smallest impact velocity as a displacement, relative (``None``
+        without impacts).
+    miss_margin : float or None
+        The smallest gap at a near miss (a local minimum of the gap in free flight), relative (``None``
+        without one).
     """
 
     omega: float
@@ -90,6 +107,9 @@ class BranchPoint:
     tangent_omega: Optional[float] = None
     contact_active: Optional[bool] = None
     gap: Optional[float] = None
+    impacts: Optional[int] = None
+    impact_margin: Optional[float] = None
+    miss_margin: Optional[float] = None
 
     def __post_init__(self):
         self.omega = float(self.omega)
@@ -166,14 +186,20 @@ def _has_data(kind, p):
     return p.multipliers is not None and p.multipliers.size > 0 and bool(np.all(np.isfinite(p.multipliers)))
 
 
+def _impacts_change(a, b):
+    return a.impacts is not None and b.impacts is not None and int(a.impacts) != int(b.impacts)
+
+
 def _crosses(kind, a, b):
     """True when the event ``kind`` lies between the points ``a`` and ``b`` (both with data)."""
     if kind == "fold":
         return np.sign(a.tangent_omega) * np.sign(b.tangent_omega) < 0
     if kind == "grazing":
-        return bool(a.contact_active) != bool(b.contact_active)
+        return bool(a.contact_active) != bool(b.contact_active) or _impacts_change(a, b)
     if a.contact_active is not None and b.contact_active is not None and a.contact_active != b.contact_active:
         return False  # the multipliers jump at a grazing (the saltation diverges): reported as the grazing
+    if _impacts_change(a, b):
+        return False  # the same between impacting orbits: an impact appears or vanishes with zero velocity
     if kind == "period-doubling":
         return _n_flip(a.multipliers) != _n_flip(b.multipliers)
     return _n_ns(a.multipliers) != _n_ns(b.multipliers)
@@ -190,7 +216,13 @@ def _interpolate(kind, a, b):
             return max(wa, wb) if ta > 0 else min(wa, wb)
         c = (wb - wa) / ssum
         return wa + c * (ta * th + 0.5 * (tb - ta) * th * th)
-    fa, fb = _tau(kind, a), _tau(kind, b)
+    if kind == "grazing" and bool(a.contact_active) == bool(b.contact_active) and _impacts_change(a, b):
+        # between impacting orbits: the impact velocity on the side with the extra impact, the near miss
+        # on the other
+        fa = a.impact_margin if a.impacts > b.impacts else a.miss_margin
+        fb = b.impact_margin if b.impacts > a.impacts else b.miss_margin
+    else:
+        fa, fb = _tau(kind, a), _tau(kind, b)
     if fa is None or fb is None or fa == fb or np.sign(fa) * np.sign(fb) > 0:
         return 0.5 * (wa + wb)
     return wa + (wb - wa) * fa / (fa - fb)
@@ -283,6 +315,10 @@ def point_from_solution(system, sol, tangent_omega=None, x=None):
       contacts.  With contact, exact solutions (``info["events"]``) give ``gap = -v / omega`` (same
       scale) with ``v`` the largest impact velocity, which also vanishes at grazing, so that the
       grazing is interpolated between a positive and a negative value.  For a failed solve everything is ``None``.
+    * ``impacts``, ``impact_margin``, ``miss_margin``: from the exact event-driven flow's
+      ``info["contact_margins"]`` (:func:`mshbm.integrators.event.contact_margins`: impacts per period,
+      smallest impact velocity and smallest near-miss gap of each contact), relative to the same scale;
+      ``None`` for other solutions (a Moreau-Jean map resolves neither quantity).
     """
     from . import stability
     from .hill import HILL
@@ -314,6 +350,20 @@ def point_from_solution(system, sol, tangent_omega=None, x=None):
                 continue
         qd = float(np.asarray(q_max)[d]) if q_max is not None else float(np.max(sol.displacement([d])))
         gaps.append((el.gap - qd) / scale)
+    margins = sol.info.get("contact_margins") if isinstance(sol.info, dict) else None
+    n_imp = imp_m = miss_m = None
+    if margins:
+        n_imp, imp, miss = 0, [], []
+        for j, rec in margins.items():
+            el = system.elements[int(j)]
+            scale = max(abs(el.gap), float(np.max(np.abs(sol.displacement([el.dof])))), 1e-300)
+            n_imp += int(rec["impacts"])
+            if rec["impacts"] and np.isfinite(rec["v_min"]):
+                imp.append(-float(rec["v_min"]) / sol.omega / scale)
+            if np.isfinite(rec["miss"]):
+                miss.append(float(rec["miss"]) / scale)
+        imp_m = max(imp) if imp else None  # the impact nearest to grazing: the smallest velocity
+        miss_m = min(miss) if miss else None
     if gaps:
         g = min(gaps)
         active = g <= CONTACT_TOL
@@ -325,5 +375,5 @@ def point_from_solution(system, sol, tangent_omega=None, x=None):
                 amp = float(np.max(np.abs(sol.displacement([el.dof]))))
                 g = -v / sol.omega / max(abs(el.gap), amp, 1e-300)
         return BranchPoint(sol.omega, x=sol if x is None else x, multipliers=mu, tangent_omega=tangent_omega,
-                           contact_active=active, gap=g)
+                           contact_active=active, gap=g, impacts=n_imp, impact_margin=imp_m, miss_margin=miss_m)
     return BranchPoint(sol.omega, x=sol if x is None else x, multipliers=mu, tangent_omega=tangent_omega)

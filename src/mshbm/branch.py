@@ -254,6 +254,11 @@ class _Tracer:
     def unknown_scale(self, x, lam):
         return unknown_scale(self.problem(lam), x)
 
+    def segment(self, x, lam):
+        """The smooth piece of the residual at ``(x, lam)``: the event sequence of an event-driven flow
+        (:meth:`PeriodicProblem.event_signature`), else ``None``."""
+        return self.problem(lam).event_signature(np.asarray(x, dtype=float))
+
     def stall_accept(self, x, lam):
         """A stalled corrector on an impacting orbit of a time-stepping method is accepted when periodic to
         one time step's accuracy (:func:`mshbm.solvers.starts.residual_accept`, as :func:`mshbm.solve`'s
@@ -357,13 +362,19 @@ def _split_options(options):
     return cont, rest, prob
 
 
-def _detect_other(branch, system):
+def _detect_other(branch, system, locate=None):
     """Period doubling, Neimark-Sacker and grazing along the branch (:func:`mshbm.bifurcations.detect`
-    on the points' valid multipliers and contact gaps; folds are located by the continuation itself)."""
+    on the points' valid multipliers and contact gaps; folds are located by the continuation itself).
+    ``locate``: the bisection callback of :func:`mshbm.bifurcations.detect` (records' ``x`` are the
+    branch's :class:`BranchPoint` s)."""
     from . import bifurcations
 
-    records = [bifurcations.point_from_solution(system, bp.solution) for bp in branch.points]
-    found = bifurcations.detect(records, types=("period-doubling", "neimark-sacker", "grazing"))
+    records = [bifurcations.point_from_solution(system, bp.solution, x=bp) for bp in branch.points]
+    # rel_tol: only the grazings between impacting orbits are bisected (``locate``); their final interpolation
+    # mixes two test functions (impact velocity, near-miss gap) with different slopes, so the bracket
+    # itself is the accuracy: 1e-4 of omega, a few more event-driven solves
+    found = bifurcations.detect(records, locate=locate, rel_tol=1e-4,
+                                types=("period-doubling", "neimark-sacker", "grazing"))
     out = []
     k = int(branch.period)
     for b in found:
@@ -373,10 +384,47 @@ def _detect_other(branch, system):
             if "bracket" in rec:
                 rec["bracket"] = [k * float(v) for v in rec["bracket"]]
         rec["located"] = b.located
+        if b.located == "bisection":
+            rec["bisections"] = int(b.bisections)
         if branch.parameter != "omega":
             rec["load"] = float(branch.points[b.index].load)
         out.append(rec)
     return out, ""
+
+
+def _grazing_locator(tracer, system, tol):
+    """Bisection callback of :func:`mshbm.bifurcations.detect` for grazings between impacting orbits of the
+    exact event-driven flow (records with ``impacts``): the certified solution at the middle frequency,
+    by Newton at fixed omega from the linear interpolation of the bracketing points' unknowns (then from
+    each of them).  A solution farther from either end than ``1.5`` times the bracket (scaled units) is
+    another orbit, not the branch's, and ends the bisection (``None``); so does a failed solve.  Other
+    types and other records are located by interpolation (``None``)."""
+    from . import bifurcations
+    from .solvers.newton import newton
+
+    def locate(kind, a, b):
+        if kind != "grazing" or a.impacts is None or b.impacts is None:
+            return None
+        pa, pb = a.x, b.x  # the branch's points (their unknowns and forcing frequencies)
+        lam = 0.5 * (pa.omega + pb.omega)
+        problem = tracer.problem(lam)
+        w = np.asarray(tracer.unknown_scale(pa.x, lam), dtype=float)
+        span = float(np.linalg.norm(np.concatenate([(pb.x - pa.x) / w, [(pb.omega - pa.omega) / lam]])))
+        for x0 in (0.5 * (pa.x + pb.x), pa.x, pb.x):
+            res = newton(problem.residual, x0, tol=tol, max_iter=20, scale=problem.residual_scale)
+            if not res.success:
+                continue
+            far = max(float(np.linalg.norm(np.concatenate([(res.x - p.x) / w, [(lam - p.omega) / lam]])))
+                      for p in (pa, pb))
+            if far > 1.5 * span:
+                continue
+            pt = tracer.point(res.x, lam, res.nit, res.residual_norm)
+            if isinstance(pt, str):
+                continue
+            return bifurcations.point_from_solution(system, pt.solution, x=pt)
+        return None
+
+    return locate
 
 
 def _run(system, lam_start, lam_end, method, period, parameter, omega_fixed, options):
@@ -447,7 +495,7 @@ def _run(system, lam_start, lam_end, method, period, parameter, omega_fixed, opt
             ds0=ds, ds_min=ds_min, ds_max=ds_max, max_points=int(max_points), tol=tol,
             max_corrector_iter=min(12, int(rest.get("max_iter", 12))),
             predictor=predictor, accept=accept, callback=progress, max_time=max_time,
-            stall_accept=tracer.stall_accept)
+            stall_accept=tracer.stall_accept, segment=tracer.segment)
     finally:
         progress.close()
     branch.points = []
@@ -468,7 +516,8 @@ def _run(system, lam_start, lam_end, method, period, parameter, omega_fixed, opt
         if "bracket" in f:
             rec["bracket"] = f["bracket"]
         folds.append(rec)
-    others, note = ([], "") if not branch.points else _detect_other(branch, system)
+    others, note = ([], "") if not branch.points else _detect_other(
+        branch, system, _grazing_locator(tracer, system, tol) if parameter == "omega" else None)
     branch.bifurcations = sorted(folds + [dict(b) for b in others], key=lambda b: b.get("index", 0))
     branch.success = bool(res.success)
     branch.message = res.message + (f"; {note}" if note else "")

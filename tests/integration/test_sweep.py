@@ -40,6 +40,35 @@ def test_arclength_passes_and_locates_both_folds_of_a_cubic():
     assert x[-1] == pytest.approx(1.324717957244746, rel=1e-9) and lam[-1] == 1.0
 
 
+def _kinked(lam):
+    """A branch with a corner at lam = 1: x = (20 (1 - lam), 0) before it, (lam - 1, 5 (lam - 1)) after; the
+    incoming and outgoing tangents meet at 98 degrees (cos = -0.146), and lam increases along both pieces."""
+    return (np.array([20.0 * (1.0 - lam), 0.0]), np.array([-20.0, 0.0])) if lam < 1.0 else \
+        (np.array([lam - 1.0, 5.0 * (lam - 1.0)]), np.array([1.0, 5.0]))
+
+
+@pytest.mark.parametrize("lam0, lam1", [(0.5, 1.5), (1.5, 0.5)])
+def test_arclength_passes_a_corner_of_the_branch_monotonically(lam0, lam1):
+    """R(x, lam) = x - g(lam) with g piecewise linear (``_kinked``): dR/dx = I everywhere, dR/dlam jumps at the
+    corner.  Before the kink handling the tangent oriented along the previous one pointed back after the
+    corner and the continuation cycled at lam = 1 (200 points, max_points); told the smooth pieces
+    (``segment``), it keeps the orientation of the curve (sign det [J, g; t]) across the corner, lam is
+    monotone, no fold is reported and the corner is listed as a kink."""
+    res = continuation(lambda x, l: (x - _kinked(l)[0], np.eye(2)), lambda x, l: -_kinked(l)[1], _kinked(lam0)[0],
+                       lam0, lam1, residual_scale=lambda x, l: np.ones(2), unknown_scale=lambda x, l: np.ones(2),
+                       lam_scale=1.0, ds0=0.02, ds_max=0.2, segment=lambda x, l: l < 1.0)
+    assert res.success, res.message
+    lam = np.array([p.lam for p in res.points])
+    assert np.all(np.diff(lam) * np.sign(lam1 - lam0) > 0)
+    assert lam[-1] == lam1
+    for p in res.points:
+        np.testing.assert_allclose(p.x, _kinked(p.lam)[0], atol=1e-10)
+    assert res.folds == []
+    assert len(res.kinks) == 1
+    k = res.kinks[0]
+    assert min(k["lam"], k["lam_right"]) <= 1.0 <= max(k["lam"], k["lam_right"])
+
+
 # ----------------------------------------------------------------------------- closed forms
 def test_linear_branch_matches_exact_frf():
     s = chain([1.0, 2.0], [1.0, 0.5], 0.05, forcing=[{"dof": 1, "amplitude": 1.0}])
@@ -229,6 +258,53 @@ def test_switch_with_the_event_integrator_reaches_the_period_2_response_at_pi_ov
     ref = solve_period(impact5, w, "shooting", period=2, **opts)
     assert ref.success, ref.message
     assert a_interp == pytest.approx(ref.amplitude[0], rel=5e-3)
+
+
+def _grazing_reference(system, sols, key):
+    """omega where the linear fit of ``key`` (``"miss"``: the near-miss gap, ``"v_min"``: the smallest impact
+    velocity, both vary linearly in omega next to a grazing of a periodic orbit) over the solutions vanishes."""
+    w = np.array([s.info["forcing_omega"] if "forcing_omega" in s.info else 2 * s.omega for s in sols])
+    y = np.array([s.info["contact_margins"][0][key] for s in sols])
+    a, b = np.polyfit(w, y, 1)
+    return -b / a
+
+
+def test_event_period_2_branch_of_the_impact_chain_passes_its_grazing(impact5):
+    """The period-2 branch of the impact chain from pi/5 (issue 13): its second impact per 2T loses its velocity
+    at omega_g = 0.63935 (a grazing), and the branch goes on with one impact per 2T (a near miss there) to 0.7.
+    The event-driven sweep used to stop at 0.63935 (the corrector cycled between the two impact sequences,
+    the tangent pointed back after the corner, and a central dR/domega straddled the grazing: spurious
+    folds).  Now it reaches 0.7, reports the grazing (bisection) within 1e-3 of omega_g from each side's
+    own linear test function (near-miss gap, impact velocity; both fits agree to 1e-5, the impact velocity
+    being linear only close to it), no fold there, and the reverse sweep from 0.7 passes the same grazing."""
+    opts = dict(integrator="event", steps=2048)
+    b = mshbm.sweep(impact5, np.pi / 5, 0.7, "shooting", period=2, **opts)
+    assert b.success, b.message
+    assert b.omega[-1] == pytest.approx(0.7)
+    n_imp = [p.solution.info["contact_margins"][0]["impacts"] for p in b.points]
+    assert n_imp[0] == 2 and n_imp[-1] == 1
+    # omega_g from solves at fixed omega on each side (not from the sweep's bisection)
+    guess_1 = next(p.solution for p in b.points if p.omega > 0.642)
+    guess_2 = next(p.solution for p in b.points[::-1] if p.omega < 0.6392)
+    one = [solve_period(impact5, w, "shooting", period=2, guess=guess_1, **opts) for w in (0.6396, 0.6400)]
+    two = [solve_period(impact5, w, "shooting", period=2, guess=guess_2, **opts) for w in (0.6392, 0.6393)]
+    assert all(s.success for s in one + two)
+    assert [s.info["contact_margins"][0]["impacts"] for s in one + two] == [1, 1, 2, 2]
+    w_miss, w_v = _grazing_reference(impact5, one, "miss"), _grazing_reference(impact5, two, "v_min")
+    assert w_miss == pytest.approx(w_v, rel=1e-5)
+    assert 0.6390 < w_miss < 0.6396
+    graz = [f for f in b.bifurcations if f["type"] == "grazing"]
+    assert len(graz) == 1
+    assert graz[0]["omega"] == pytest.approx(w_miss, rel=1e-3)
+    assert not [f for f in b.bifurcations if f["type"] == "fold" and 0.636 < f["omega"] < 0.642]
+    assert b.counters.get("kinks", 0) + b.counters.get("kink_crossings", 0) >= 1
+    # the reverse sweep approaches the corner from the one-impact side (the hyperplane of the arclength
+    # corrector misses the two-impact piece there: a step at fixed omega crosses it)
+    r = mshbm.sweep(impact5, 0.7, np.pi / 5, "shooting", period=2, guess=b.points[-1].solution, **opts)
+    assert r.success, r.message
+    graz_r = [f for f in r.bifurcations if f["type"] == "grazing"]
+    assert len(graz_r) == 1 and graz_r[0]["omega"] == pytest.approx(w_miss, rel=1e-3)
+    assert r.amplitude[-1, 0] == pytest.approx(b.amplitude[0, 0], rel=1e-6)
 
 
 def test_period_option_of_sweep_reports_forcing_frequency(impact5):

@@ -221,6 +221,36 @@ def test_period_doubling_on_synthetic_multipliers_and_missing_data():
     assert detect([{"omega": w, "multipliers": [0.5, -0.9]} for w in (1.0, 2.0, 3.0)]) == []
 
 
+def _graze_point(w, w_g=2.0):
+    """A branch of impacting orbits whose second impact loses its velocity at w_g: two impacts below
+    (velocity margin -(w_g - w) ... linear), one above (near-miss gap 3 (w - w_g)); its multiplier runs off
+    to -infinity like -1 / v just below w_g (a saltation matrix's 1 / v), as the exact flow's do."""
+    if w < w_g:
+        return {"omega": w, "contact_active": True, "gap": -1.0, "impacts": 2, "impact_margin": -(w_g - w),
+                "miss_margin": 0.8, "multipliers": [-0.5 - 0.01 / (w_g - w), 0.3]}
+    return {"omega": w, "contact_active": True, "gap": -1.0, "impacts": 1, "impact_margin": -1.2,
+            "miss_margin": 3.0 * (w - w_g), "multipliers": [-0.6, 0.3]}
+
+
+def test_grazing_between_impacting_orbits_on_synthetic_records():
+    """The impact count changes between impacting orbits (contact active on both sides): a grazing, located from
+    the impact margin on the side with more impacts and the near-miss margin on the other (both linear, zero
+    at w_g); the multiplier through -1 next to it (the 1 / v of the vanishing impact) is not a period doubling
+    of its own when the impact counts differ, but a real one on the two-impact side is kept."""
+    ws = [1.0, 1.4, 1.7, 1.95, 1.99, 2.3, 2.6]
+    found = detect([_graze_point(w) for w in ws])
+    # mu = -0.5 - 0.01 / (2 - w): -0.7 at 1.95, -1.5 at 1.99 (a period doubling at 1.98 on the two-impact side),
+    # -0.6 on the one-impact side (its count change across the grazing is the grazing's)
+    assert [(b.type, b.index) for b in found] == [("period-doubling", 3), ("grazing", 4)]
+    assert 1.95 < found[0].omega < 1.99  # interpolated in its bracket (1.965: det(Phi + I) is not linear there)
+    assert found[1].omega == pytest.approx(2.0, abs=0.01)  # margins -0.01 and 0.9: interpolated 1.9934
+    # bisection with records on the branch: to rel_tol
+    fine = detect([_graze_point(w) for w in ws], rel_tol=1e-6, types=["grazing"],
+                  locate=lambda k, a, b: _graze_point(0.5 * (a.omega + b.omega)))
+    assert len(fine) == 1 and fine[0].located == "bisection"
+    assert fine[0].omega == pytest.approx(2.0, rel=1e-6)
+
+
 def test_bad_input():
     with pytest.raises(InputError, match="types"):
         detect([], types=["hopf"])

@@ -111,7 +111,8 @@ from ..errors import InputError
 from ..system import System
 
 __all__ = ["EventFlow", "EventTrajectory", "Event", "EventError", "STALL_EVENTS", "MODE_NAMES",
-           "FREE", "SLIP_P", "SLIP_M", "STICK", "CLOSED", "MOREAU", "mode_code", "mode_tuple"]
+           "FREE", "SLIP_P", "SLIP_M", "STICK", "CLOSED", "MOREAU", "mode_code", "mode_tuple",
+           "contact_margins"]
 
 FREE, SLIP_P, SLIP_M, STICK, CLOSED = 0, 1, 2, 3, 4
 MODE_NAMES = {FREE: "free", SLIP_P: "slip+", SLIP_M: "slip-", STICK: "stick", CLOSED: "closed"}
@@ -1602,3 +1603,61 @@ def extrema(flow, nodes):
             qmin[j] = min(qmin[j], qj)
             n_roots += 1
     return qmax, qmin, n_roots
+
+
+def contact_margins(flow, out):
+    """How far each contact of a simulated interval is from a grazing, from one :meth:`EventFlow.simulate`
+    output ``out`` (``record=True``).
+
+    A grazing is a contact touched with zero relative velocity: an impact whose velocity tends to 0, or a
+    near miss (a local minimum of the gap in free flight) whose gap tends to 0.  Where either vanishes
+    along a branch the number of impacts per period changes and the orbit's sensitivities jump (the
+    saltation matrix of an impact at velocity ``v`` grows like ``1 / v``).
+
+    Returns
+    -------
+    dict
+        Keyed by the element's index in ``system.elements`` (contacts only): ``{"impacts": int``, the
+        impacts of that contact in the interval; ``"v_min"``: the smallest ``|gamma_N^-|`` of those impacts
+        (m/s; ``inf`` without impacts); ``"miss"``: the smallest gap ``g_N = gap + w^T q >= 0`` at a local
+        minimum of ``g_N`` in free flight, located exactly on the flow between nodes (m; ``inf`` without
+        one); ``"t_miss"``: its time (s)``}``.
+    """
+    n, nodes = flow.n, out["nodes"]
+    res = {}
+    if not nodes:
+        return res
+    ts = np.array([nd[0] for nd in nodes])
+    Zl = np.array([nd[1] for nd in nodes])
+    Zr = np.array([nd[2] for nd in nodes])
+    codes = np.array([nd[3] for nd in nodes], dtype=np.int64)
+    for a in range(flow.m):
+        if not flow.is_contact[a]:
+            continue
+        j, d, sg, g0 = flow.index[a], int(flow.dof[a]), float(flow.sign[a]), float(flow.gap[a])
+        imps = [e for e in out["events"] if e.element == j and e.impulse != 0.0]
+        rec = {"impacts": len(imps), "v_min": min((abs(float(e.velocity)) for e in imps), default=math.inf),
+               "miss": math.inf, "t_miss": math.nan}
+        # g_N' = sg u_d goes from - to + inside a smooth piece [node i, node i+1] with the contact free
+        ga, gb = sg * Zr[:-1, n + d], sg * Zl[1:, n + d]
+        free = np.array([c != MOREAU and mode_tuple(c, flow.m)[a] == FREE for c in codes[:-1]], dtype=bool)
+        for i in np.nonzero(free & (ga < 0.0) & (gb > 0.0))[0]:
+            dt = ts[i + 1] - ts[i]
+            if dt <= 0.0:
+                continue
+            W = flow.powers(flow.mode(int(codes[i])), Zr[i])
+            cu = W[n + d]
+            if not _poly(cu, 0.0) * _poly(cu, dt) < 0.0:
+                continue
+            s = brentq(lambda s: _poly(cu, s), 0.0, dt, xtol=1e-15, rtol=8.9e-16)
+            g = g0 + sg * float(_poly(W[d], s))
+            if g < rec["miss"]:
+                rec["miss"], rec["t_miss"] = g, float(ts[i] + s)
+        # a minimum exactly at the ends of the interval (periodic orbit: g_N' < 0 at its end, > 0 at its start)
+        if codes[0] != MOREAU and mode_tuple(int(codes[0]), flow.m)[a] == FREE \
+                and sg * Zr[0, n + d] >= 0.0 and sg * Zl[-1, n + d] <= 0.0:
+            g = g0 + sg * float(Zr[0, d])
+            if g < rec["miss"]:
+                rec["miss"], rec["t_miss"] = g, float(ts[0])
+        res[j] = rec
+    return res

@@ -29,6 +29,8 @@ Contract (every subclass)
     Shape ``(n_x,)``, at fixed unknowns (their meaning does not change with omega: coefficients, or
     states at ``t = 0`` with a fixed number of steps per period).  Default: central differences of
     problems rebuilt at ``omega (1 +- 1e-6)``; what frequency continuation needs besides ``J``.
+    Where a difference crosses a change of the orbit's event sequence (``event_signature``), the
+    one-sided difference on the side of the same sequence is taken.
 ``solution_parts(x) -> dict``
     Keys ``t`` (N+1,), ``q_hat`` (2 n_h + 1, n), ``time_dofs`` (n_t,), ``q_time``, ``u_time``
     (N+1, n_t), ``lam`` (N+1, n_el) (element forces, N), ``impulses``, ``harmonics`` and ``info``.
@@ -190,12 +192,35 @@ class PeriodicProblem:
 
     def omega_derivative(self, x, rel_step=1e-6):
         """``dR/domega`` at fixed ``x``, shape ``(n_x,)``: central differences of the residuals of
-        this method's problems rebuilt at ``omega +- rel_step omega`` (error O(rel_step^2))."""
-        d = rel_step * self.omega
+        this method's problems rebuilt at ``omega +- rel_step omega`` (error O(rel_step^2)).
+
+        With an event-driven flow (``event_signature`` not ``None``) the residual is smooth only on one
+        event sequence: next to a grazing (an impact or a near miss with zero velocity) one of the two
+        differences may see another sequence, and its quotient is then O(1 / rel_step) wrong.  The
+        derivative is then the one-sided difference on the side of the same sequence (error
+        O(rel_step)); when both sides differ, the step is shortened (by 16, at most three times)."""
         x = np.asarray(x, dtype=float)
-        Rp = self.rebuilt(self.omega + d).residual(x, jac=False)[0]
-        Rm = self.rebuilt(self.omega - d).residual(x, jac=False)[0]
+        s0 = self.event_signature(x)
+        d = rel_step * self.omega
+        for _ in range(4):
+            pp, pm = self.rebuilt(self.omega + d), self.rebuilt(self.omega - d)
+            Rp = pp.residual(x, jac=False)[0]
+            Rm = pm.residual(x, jac=False)[0]
+            if s0 is None:
+                break
+            same_p, same_m = pp.event_signature(x) == s0, pm.event_signature(x) == s0
+            if same_p and same_m:
+                break
+            if same_p or same_m:
+                R0 = self.residual(x, jac=False)[0]
+                return (Rp - R0) / d if same_p else (R0 - Rm) / d
+            d /= 16.0
         return (Rp - Rm) / (2.0 * d)
+
+    def event_signature(self, x):
+        """The sequence of events ``((element, kind), ...)`` of the event-driven flow from ``x`` (optional
+        capability of problems with an event-driven flow; ``None``: no such flow, or it failed)."""
+        return None
 
     def rebuilt(self, omega):
         """The same problem (system, options) at another frequency."""

@@ -338,6 +338,13 @@ class _MixedBase(PeriodicProblem):
         self._ev_cache = ([(xb, sens, record, out)] + cache)[:3]
         return out
 
+    def event_signature(self, x):
+        """``((element, kind), ...)`` of the events of the period from ``x`` (event integrator), else ``None``."""
+        if getattr(self, "integrator", "moreau") != "event":
+            return None
+        out = self._event_run(np.asarray(x, dtype=float), False)
+        return None if out is None else tuple((int(e.element), e.kind) for e in out["events"])
+
     def _event_residual(self, x, jac):
         n1, a = self._time.size, self.nc * self._harm.size
         p, q0, u0 = self._split(x)
@@ -364,7 +371,7 @@ class _MixedBase(PeriodicProblem):
 
     def _event_solution_parts(self, x):
         from ..extrema import fourier_extrema
-        from ..integrators.event import MOREAU, extrema, run_summary
+        from ..integrators.event import MOREAU, contact_margins, extrema, run_summary
 
         p, q0, u0 = self._split(x)
         out = self._event_run(x, False, record=True)
@@ -401,7 +408,7 @@ class _MixedBase(PeriodicProblem):
         info = {**self._info(p, q_hat),
                 "amplitude_exact": 0.5 * (hi - lo),
                 "event_integrator": run_summary(out),
-                "event_list": out["events"]}
+                "event_list": out["events"], "contact_margins": contact_margins(fl, out)}
         return dict(t=self.td.t, q_hat=q_hat, time_dofs=self._time, q_time=q_t, u_time=u_t,
                     lam=lam, impulses=P, harmonics=self.n_h, info=info)
 

@@ -106,8 +106,9 @@ class ShootingProblem(PeriodicProblem):
     def _event_run(self, x, jac=False, record=False):
         """Event-driven flow over one period from ``x = (q0, u0)`` at ``t = 0`` (samples on ``self.t``)."""
         key = (x.tobytes(), jac, record)
-        if self._cache is not None and self._cache[0] == key:
-            return self._cache[1]
+        c = self._cache
+        if c is not None and (c[0] == key or (not jac and c[0] == (key[0], True, record))):
+            return self._cache[1]  # a run with sensitivities also answers one without (the same flow)
         fl = self.flow
         out = fl.simulate(0.0, fl.state(0.0, x[:self.n], x[self.n:]), jac=jac,
                           sample_times=self.t if record else None, record=False)
@@ -188,6 +189,18 @@ class ShootingProblem(PeriodicProblem):
             Phi = forward_difference_jacobian(end_state, x, out["z"][:2 * n])
         return R, Phi - np.eye(2 * n)
 
+    def event_signature(self, x):
+        """``((element, kind), ...)`` of the events of the period from ``x`` (event integrator), else ``None``."""
+        from ..integrators.event import EventError
+
+        if self.integrator != "event":
+            return None
+        try:
+            out = self._event_run(np.asarray(x, dtype=float))
+        except (EventError, ValueError):
+            return None
+        return tuple((int(e.element), e.kind) for e in out["events"])
+
     def monodromy(self, x):
         """Monodromy matrix ``d(q(T), u(T))/d(q0, u0)``, shape (2n, 2n)."""
         if self.integrator == "event":
@@ -196,7 +209,7 @@ class ShootingProblem(PeriodicProblem):
         return self.stepper.monodromy(tr.status, tr.P)
 
     def _event_solution_parts(self, x):
-        from ..integrators.event import MOREAU, extrema, run_summary
+        from ..integrators.event import MOREAU, contact_margins, extrema, run_summary
 
         fl, n, N = self.flow, self.n, self.N
         out = fl.simulate(0.0, fl.state(0.0, x[:n], x[n:]), jac=True, sample_times=self.t, record=True)
@@ -223,6 +236,7 @@ class ShootingProblem(PeriodicProblem):
         mult = np.linalg.eigvals(Phi)
         info = {"event_integrator": run_summary(out),
                 "event_multipliers": mult, "event_list": out["events"],
+                "contact_margins": contact_margins(fl, out),
                 "amplitude_exact": 0.5 * (qmax - qmin), "q_max": qmax, "q_min": qmin}
         return dict(t=self.t, q_hat=fourier.fft(q[:-1], n_h), time_dofs=np.arange(n), q_time=q, u_time=u,
                     lam=lam, impulses=P, harmonics=n_h, info=info)

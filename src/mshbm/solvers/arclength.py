@@ -29,8 +29,19 @@ Algorithm (Keller's pseudo-arclength):
 * step control: ``ds`` grows by ``grow`` after a corrector of at most ``fast_iter`` iterations,
   shrinks by ``shrink`` after one of more than ``slow_iter``; a failed (or rejected, see ``accept``)
   corrector halves ``ds`` and retries, down to ``ds_min``;
+* kinks (nonsmooth points of the branch, e.g. a grazing impact: the saltation of an impact at velocity
+  ``v`` grows like ``1 / v``, so ``dR/dx`` jumps there and the branch has a corner): where a step passes a
+  change of the residual's smooth piece (``segment``, e.g. the event sequence) and the tangent
+  turns by more than ``acos(KINK_COS)``, the sign of ``t . t_prev`` says nothing about the
+  way on, and the new tangent is oriented to keep the curve's orientation ``sign det [J_y, g; t]``
+  instead (constant along regular points, folds included; it changes only at branch points, where the
+  tangent turns little).  When the corrector cannot turn a corner (``ds < ds_min``: past a corner of
+  more than 90 degrees the hyperplane misses the outgoing piece and Newton cycles between the pieces),
+  one step at fixed ``lam`` in the direction of travel (relative ``KINK_STEPS``) crosses it where the
+  branch passes it monotonically in ``lam``; the result lists the ``kinks``;
 * stop: at ``lam_end`` (the last point is solved at ``lam = lam_end`` exactly), after
-  ``max_points`` points, when ``ds < ds_min``, or when the branch turns back beyond the start;
+  ``max_points`` points, when ``ds < ds_min`` (and no step at fixed ``lam`` helps), or when the branch
+  turns back beyond the start;
 * folds: a sign change of the ``lam`` component of the tangent between two points is located by
   a secant/bisection on the arclength from the earlier point, to ``fold_rtol`` in ``lam``.
 """
@@ -41,6 +52,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
+
+#: a step whose tangents at its ends have ``|cos| <`` this is taken as a kink of the branch (see ``continuation``)
+KINK_COS = 0.9
+#: relative steps in lam tried, in this order, by a step at fixed lam across a kink (``kink_crossing``)
+KINK_STEPS = (1e-3, 1e-4, 1e-5)
 
 __all__ = ["ContinuationPoint", "ContinuationResult", "continuation", "tangent"]
 
@@ -60,6 +76,8 @@ class ContinuationPoint:
     residual: float
     payload: object = None
     stall: object = None
+    orientation: int = 0  # sign det [J_y, g; t^T] (scaled), 0 if singular or not computed
+    segment: object = None  # the smooth piece of the residual (``segment``), None if unknown
 
 
 @dataclass
@@ -69,6 +87,9 @@ class ContinuationResult:
     message: str
     folds: list = field(default_factory=list)   # [{"lam", "x", "index"}]: between points index-1 and index
     counters: dict = field(default_factory=dict)
+    #: kinks passed (``{"lam", "lam_right", "index", "cos_tangents"}``, ``"fixed_lam": True`` when crossed by a
+    #: step at fixed lam): between points index-1 and index
+    kinks: list = field(default_factory=list)
 
 
 class _Failed(Exception):
@@ -109,6 +130,19 @@ class _Evaluator:
         return R, s, r, J, g
 
 
+def orientation(J, g, s, w, lam_scale, t):
+    """``sign det [J_y, g; t^T]`` (scaled as in :func:`tangent`; positive scales keep the sign): the
+    orientation of the tangent ``t`` of the curve ``R(x, lam) = 0``.  Along a branch of regular points
+    (folds included) the tangent oriented by ``t . t_prev > 0`` keeps it; it changes sign at a simple branch
+    point.  0 when the matrix is singular or not finite."""
+    A = np.hstack([(J * w[None, :]) / s[:, None], (g * lam_scale / s)[:, None]])
+    try:
+        sign, logdet = np.linalg.slogdet(np.vstack([A, t]))
+    except np.linalg.LinAlgError:
+        return 0
+    return int(sign) if np.isfinite(logdet) else 0
+
+
 def tangent(J, g, s, w, lam_scale, previous=None):
     """Unit tangent ``(t_y, t_mu)`` in scaled variables of ``R(x, lam) = 0`` (see the module docstring),
     oriented along ``previous`` (a scaled tangent) or, without one, towards increasing ``lam``."""
@@ -144,7 +178,7 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
                  ds0=0.02, ds_min=1e-5, ds_max=0.2, max_points=200, tol=1e-10, max_corrector_iter=12,
                  fast_iter=3, slow_iter=7, grow=1.6, shrink=0.5, predictor="tangent", accept=None,
                  callback=None, fold_rtol=1e-3, max_time=None, lam_limits=None, stall_accept=None, max_jump=3.0,
-                 stall_fold_rtol=5e-3, natural_fallback=True):
+                 stall_fold_rtol=5e-3, natural_fallback=True, kink_crossing=True, segment=None):
     """Trace the branch of ``R(x, lam) = 0`` from the converged point ``(x0, lam0)`` towards ``lam_end``.
 
     Parameters
@@ -180,6 +214,14 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
         events by whole steps and jitter) are taken from the sequence of ``lam`` along the branch
         instead: a turning point whose reversal exceeds ``stall_fold_rtol`` (relative), located at the
         extreme point (``"located": "extreme point"``).
+    segment : callable, optional
+        ``segment(x, lam) -> hashable or None``: which smooth piece of a piecewise-smooth residual the point
+        lies on (e.g. the event sequence of an event-driven flow).  Where it differs between two points the
+        step passed a kink, and the tangent there keeps the curve's orientation (module docstring); without
+        it (or where it returns ``None``) every step is taken as smooth.
+    kink_crossing : bool
+        When the step falls below ``ds_min`` at a point solved exactly (not by ``stall_accept``), try one
+        step at fixed ``lam`` across a kink (module docstring) before stopping, once per point.
     natural_fallback : bool
         When the step falls below ``ds_min`` at a point accepted by ``stall_accept``, continue by
         natural-parameter steps (Newton at fixed ``lam`` from the last point, ``lam`` step adapted,
@@ -221,16 +263,17 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
     def stalled(x, lam):
         return stall_accept(x, lam) if stall_accept is not None else None
 
-    def newton_fixed(x, lam, allow_stall=True):
+    def newton_fixed(x, lam, allow_stall=True, max_iter=None):
         """Newton at fixed ``lam`` (the start and the end point); returns (x, it, r, data, stall)."""
         best = None
-        for it in range(max_corrector_iter + 1):
+        max_iter = max_corrector_iter if max_iter is None else max_iter
+        for it in range(max_iter + 1):
             R, s, r, J, g = ev(x, lam)
             if best is None or r < best[2]:
                 best = (x, it, r, (R, s, J, g))
             if r <= tol:
                 return x, it, r, (R, s, J, g), None
-            if it == max_corrector_iter:
+            if it == max_iter:
                 break
             dx = _solve(J / s[:, None], -R / s)
             xn, ok = _backtrack(lambda xx: ev(xx, lam, jac=False)[2], x, dx, r)
@@ -307,8 +350,10 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
         R, s, J, g = data
         w = np.asarray(unknown_scale(x, lam), dtype=float)
         t = tangent(J, g, s, w, lsc, previous=prev_t)
+        seg = segment(x, lam) if segment is not None and stall is None else None
         return ContinuationPoint(x=x, lam=float(lam), dx=t[:-1] * w, dlam=float(t[-1] * lsc), iterations=it,
-                                 ds=ds, residual=r, stall=stall), t, w
+                                 ds=ds, residual=r, stall=stall, segment=seg,
+                                 orientation=orientation(J, g, s, w, lsc, t) if seg is not None else 0), t, w
 
     def scaled_t(p, w):
         t = np.concatenate([p.dx / w, [p.dlam / lsc]])
@@ -332,16 +377,59 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
         return ContinuationResult([], False, f"start point: {exc}", [], counters)
     p0, t0, _ = make_point(x, lam0, it, r, data, 0.0, None, st)
     if t0[-1] * direction < 0:  # orient towards lam_end
-        p0.dx, p0.dlam = -p0.dx, -p0.dlam
+        p0.dx, p0.dlam, p0.orientation = -p0.dx, -p0.dlam, -p0.orientation
     if accept is not None:
         ok, p0.payload = accept(p0.x, p0.lam, p0.stall)
         if not ok:
             return ContinuationResult([p0], False, "the start point was rejected", [], counters)
-    points, folds = [p0], []
+    points, folds, kinks = [p0], [], []
     if callback is not None:
         callback(p0, 1, ds0)
     ds, message, success = ds0, "", False
     natural, natural_reason = None, ""
+    crossed_from = -1  # the point from which a step at fixed lam across a kink was last tried
+
+    def cross_kink(p, w):
+        """A step at fixed ``lam`` from ``p`` in its direction of travel, across a kink of the branch that the
+        arclength corrector cannot turn: past a kink whose two pieces meet at more than 90 degrees the
+        hyperplane orthogonal to the incoming tangent misses the outgoing piece, and Newton on the
+        bordered system cycles between the two pieces.  Where the branch passes the kink monotonically in
+        ``lam`` a hyperplane ``lam = const`` meets it: Newton at fixed ``lam`` from ``p.x`` (relative
+        steps ``KINK_STEPS``, at most ``2 max_corrector_iter`` iterations, a jump guard of ``max_jump ds0``).
+        The new point keeps the orientation of the curve (sign det [A; t])."""
+        if p.dlam == 0.0:
+            raise _Failed("no direction of travel in lam")
+        sgn = 1.0 if p.dlam > 0 else -1.0
+        last = "no step tried"
+        for rel in KINK_STEPS:
+            lam_n = p.lam + sgn * rel * lsc
+            if (lam_n - lam_end) * direction > 0 and (p.lam - lam_end) * direction < 0:
+                lam_n = lam_end
+            try:
+                x, it, r, data, _ = newton_fixed(p.x, lam_n, allow_stall=False, max_iter=2 * max_corrector_iter)
+            except _Failed as exc:
+                last = str(exc)
+                continue
+            dist = float(np.linalg.norm(np.concatenate([(x - p.x) / w, [(lam_n - p.lam) / lsc]])))
+            if dist > max_jump * ds0:
+                last = f"the solution at lam = {lam_n:.6g} is {dist:.3g} away (another branch?)"
+                continue
+            q, tq, wq = make_point(x, lam_n, it, r, data, rel, scaled_t(p, w), None)
+            if p.orientation and q.orientation:
+                flip = q.orientation != p.orientation
+            else:
+                flip = q.dlam * sgn < 0
+            if flip:
+                q.dx, q.dlam, q.orientation = -q.dx, -q.dlam, -q.orientation
+            if accept is not None:
+                ok, q.payload = accept(q.x, q.lam, q.stall)
+                if not ok:
+                    last = "point rejected" + (f": {q.payload}" if isinstance(q.payload, str) else "")
+                    continue
+            kinks.append({"lam": float(p.lam), "lam_right": float(lam_n), "index": len(points),
+                          "cos_tangents": float(scaled_t(q, wq) @ scaled_t(p, wq)), "fixed_lam": True})
+            return q
+        raise _Failed(last)
 
     def finish_at_end(p, q):
         """Solve at ``lam_end`` from the interpolation between points ``p`` and ``q`` that bracket it."""
@@ -396,9 +484,25 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
             (x, lam, it, r, data, st), t_used = step(p, w, ds, points[-2] if len(points) > 1 else None)
             counters["corrector_iterations"] += it
             q, tq, wq = make_point(x, lam, it, r, data, ds, scaled_t(p, np.asarray(unknown_scale(x, lam), float)), st)
-            if float(tq @ scaled_t(p, wq)) < 0.0:
-                raise _Failed("tangent reversed (the step jumped across a branch point)")
+            tp = scaled_t(p, wq)
+            c_t = float(tq @ tp)
+            if p.segment is not None and q.segment is not None and p.segment != q.segment and c_t < KINK_COS \
+                    and p.orientation and q.orientation and q.orientation != p.orientation:
+                # the step passed a change of the residual's smooth piece and the tangent turned by more than
+                # acos(KINK_COS): a kink of the branch (a nonsmooth point, e.g. a grazing impact, whose saltation
+                # makes dR/dx jump), where the sign of t_p says nothing about the way on.  The orientation of the curve, sign det [A; t], is
+                # kept instead (constant along a branch of regular points, folds included)
+                q.dx, q.dlam, q.orientation = -q.dx, -q.dlam, -q.orientation
+                kink = {"lam": float(p.lam), "lam_right": float(lam), "index": len(points), "cos_tangents": -c_t}
+            else:
+                kink = None
             dist = float(np.linalg.norm(np.concatenate([(x - p.x) / w, [(lam - p.lam) / lsc]])))
+            if p.segment is not None and st is None \
+                    and float(scaled_t(p, w) @ np.concatenate([(x - p.x) / w, [(lam - p.lam) / lsc]])) < 0.1 * ds:
+                # a corrector polished at fixed lam (see ``corrector``) can return to p itself (at a corner
+                # the hyperplane misses the outgoing piece): no progress along the branch (checked on
+                # piecewise-smooth residuals, ``segment``)
+                raise _Failed("the corrected point did not advance along the branch")
             if dist > max_jump * max(ds, ds0):
                 raise _Failed(f"the corrector moved {dist:.3g} away, more than {max_jump:g} x max(ds, ds0) "
                               "(a jump to another branch?)")
@@ -420,9 +524,29 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
                     # Jacobian and dR/dlam do not predict; step in lam at fixed lam instead (no folds)
                     natural, natural_reason = ds0 * lsc * 0.5, str(exc)
                     continue
+                if kink_crossing and p.stall is None and crossed_from != len(points):
+                    crossed_from = len(points)
+                    try:
+                        q = cross_kink(p, w)
+                    except _Failed as exc2:
+                        message = (f"step size below ds_min = {ds_min:g} at lam = {p.lam:.6g} ({exc}; a step at "
+                                   f"fixed lam across a kink failed too: {exc2})")
+                        break
+                    counters["kink_crossings"] = counters.get("kink_crossings", 0) + 1
+                    points.append(q)
+                    if callback is not None:
+                        callback(q, len(points), ds0)
+                    if q.lam == lam_end:
+                        success, message = True, f"reached lam_end = {lam_end:.6g} in {len(points)} points"
+                        break
+                    ds = ds0
+                    continue
                 message = f"step size below ds_min = {ds_min:g} at lam = {p.lam:.6g} ({exc})"
                 break
             continue
+        if kink is not None:
+            kinks.append(kink)
+            counters["kinks"] = counters.get("kinks", 0) + 1
         # fold: the lam component of the tangent changed sign between p and q
         if p.dlam * q.dlam < 0 and p.stall is None and q.stall is None:
             try:
@@ -458,7 +582,7 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
     folds.sort(key=lambda f: f["index"])
     counters.update(residual_evaluations=ev.n_res, parameter_derivatives=ev.n_dlam,
                     wall_time=time.perf_counter() - t_start)
-    return ContinuationResult(points, success, message, folds, counters)
+    return ContinuationResult(points, success, message, folds, counters, kinks)
 
 
 def _stall_folds(points, rtol):
