@@ -51,6 +51,7 @@ def summarize(branches):
         num[f"{p}_points"] = len(omega)
         num[f"{p}_time"] = float(b["wall_time_s"])
         num[f"{p}_steps"] = b["options"].get("steps")  # time steps (or event-search sub-steps) per period
+        num[f"{p}_harmonics"] = b["options"].get("harmonics")  # n_h of HBM, DLFT and MS-HBM (None: shooting)
         num[f"{p}_omega_reached"] = omega[-1] if omega else None
         num[f"{p}_omega_min"] = min(omega) if omega else None
         num[f"{p}_omega_max"] = max(omega) if omega else None
