@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import contextvars
+import math
 
 import numpy as np
 import scipy.linalg as sla
@@ -58,8 +59,9 @@ class FactorReuse:
     last correction is at most ``rtol`` of ``X`` column by column (the error left is then about
     ``rtol rho / (1 - rho)``, ``rho <= contraction``), or when the corrections stopped shrinking below
     ``noise`` (the rounding level of ``H_ref^-1 dH X``, which grows with ``|dH|``: 1e-14 to 1e-11 measured
-    on the plate); otherwise, after ``max_iter`` iterations or a correction that shrank by less than
-    ``contraction`` above ``noise``, the condensation factorises afresh and that factorisation replaces the
+    on the plate); otherwise, after ``max_iter`` iterations, a correction that shrank by less than
+    ``contraction`` above ``noise``, or as soon as the observed contraction predicts more than ``max_iter``
+    iterations to reach ``noise``, the condensation factorises afresh and that factorisation replaces the
     kept one.  A solve accepted after more than ``refactor_after`` iterations drops its kept LU, so the
     next condensation of that harmonic factorises afresh near its own frequency (one LU of the 10^4-DOF
     plate costs as much as ~100 of its solves).
@@ -76,7 +78,7 @@ class FactorReuse:
     factorise as before.
     """
 
-    def __init__(self, rtol=1e-13, max_iter=30, contraction=0.7, noise=1e-10, refactor_after=10):
+    def __init__(self, rtol=1e-13, max_iter=40, contraction=0.7, noise=1e-10, refactor_after=20):
         self.rtol, self.max_iter, self.contraction = float(rtol), int(max_iter), float(contraction)
         self.refactor_after = int(refactor_after)
         self.noise = float(noise)
@@ -114,7 +116,10 @@ class FactorReuse:
                 stalled = last is not None and c > self.contraction * last
                 if stalled and c <= self.noise:
                     break  # the corrections stopped shrinking at rounding level: converged
-                if not np.isfinite(c) or its > self.max_iter or stalled:
+                # the iterations still needed to reach the rounding level at the observed contraction
+                hopeless = last is not None and not stalled and c > self.noise and \
+                    its + math.log(self.noise / c) / math.log(c / last) > self.max_iter
+                if not np.isfinite(c) or its > self.max_iter or stalled or hopeless:
                     self.counters["refine_iterations"] += its
                     self.counters["refine_failures"] += 1
                     return None

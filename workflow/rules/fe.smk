@@ -60,7 +60,9 @@ if config.get("fe_example"):
             argv=lambda w, input, output: [input.case, output[0], "--method", w.fmethod,
                                            "--omega-ratio", *[str(r) for r in FE["omega_ratio"]],
                                            "--harmonics", str(FE["harmonics"]), "--steps", str(FE["steps"]),
-                                           "--max-points", str(FE["max_points"]), "--ds-max", str(FE["ds_max"])],
+                                           "--max-points", str(FE["max_points"]), "--ds-max", str(FE["ds_max"]),
+                                           *[a for k, v in FE.get("sweep_options", {}).get(w.fmethod, {}).items()
+                                             for a in (f"--{k}", str(v))]],
             solver=SOLVER_DIGEST,
         log:
             f"{R}/logs/fe/fe_sweep_{{fmethod}}.log",
