@@ -33,6 +33,9 @@ B = S["branches"]
 
 COL = {"mshbm": nc.COLORS["mshbm"], "hbm": nc.COLORS["hbm"], "dlft": "#2ca02c", "shooting": "k"}
 LAB = {"mshbm": "MS-HBM", "hbm": "HBM", "dlft": "DLFT", "shooting": "full shooting"}
+for m in B:  # the curve's time integration (MS-HBM's sweep uses the event-driven flow, config fe_example.sweep_options)
+    if N.get(f"{m}_integrator") == "event" and m in LAB:
+        LAB[m] += " (event-driven)"
 
 
 def draw(ax, b, dof, color, label):
@@ -96,6 +99,15 @@ for m, b in B.items():
                   sum(v is False for v in b["stable"]), "" if b["success"] else b["message"][:160]))
 display(Markdown(nc.md_table(["method", "reached", "points", "ω range", "time (s)", "unstable points",
                               "stopped because"], table)))
+# %% [markdown]
+# Cost of each curve: DOFs of its model, time per point, corrector iterations and failures, and the sparse
+# factorisations of the condensation against the solves refined from kept LUs (`mshbm.condensation.FactorReuse`).
+
+# %%
+table = [(LAB.get(m, m), N.get(f"{m}_n_dofs"), f"{N[f'{m}_time_per_point']:.2f}", N.get(f"{m}_corrector_iterations"),
+          N.get(f"{m}_corrector_failures"), N.get(f"{m}_factorisations"), N.get(f"{m}_refined")) for m in B]
+display(Markdown(nc.md_table(["method", "DOFs", "s per point", "corrector iterations", "corrector failures",
+                              "factorisations", "refined solves"], table)))
 table = []
 for r in S["solves"]:
     if "skipped" in r:
