@@ -8,7 +8,11 @@
    (:func:`mshbm.solvers.arclength.continuation`) on the method's residual ``R(x, omega)``
    (:func:`mshbm.build_problem`) with its Jacobian and ``dR/domega``
    (:meth:`PeriodicProblem.omega_derivative`), in the scaled units of :func:`unknown_scale` and
-   ``problem.residual_scale``; it passes folds (turning points).
+   ``problem.residual_scale``; it passes folds (turning points).  The continuation runs inside
+   :func:`mshbm.condensation.reuse_factors`: a sparse condensation keeps its LU per harmonic and solves
+   at nearby frequencies (corrector iterations, ``dR/domega``) by a splitting iteration on it, which makes
+   ``R`` smooth in ``omega`` on ill-conditioned meshes (fresh LUs differ by their rounding) and saves most
+   factorisations (``Branch.counters["condensation"]``).
 3. Every point is certified (:func:`mshbm.certificate.certify` at the corrector's tolerance): a point
    whose certificate fails is rejected and the step is shortened.  Its stability is that of
    :func:`mshbm.stability.assess` (exact event-driven multipliers with saltation terms for elements on
