@@ -128,7 +128,7 @@ def summarize(modes, solves, sweeps, solve_modes=None):
         w, a = peak(b)
         cnt = b.get("counters", {})
         cond = cnt.get("condensation", {})
-        nums.update({f"{k}_n_dofs": b["n_dofs"], f"{k}_integrator": b["options"].get("integrator", "moreau"),
+        nums.update({f"{k}_n_dofs": b["n_dofs"], f"{k}_integrator": b["options"].get("integrator", "moreau") if k in ("mshbm", "shooting") else None,
                      f"{k}_corrector_failures": cnt.get("corrector_failures"),
                      f"{k}_corrector_iterations": cnt.get("corrector_iterations"),
                      f"{k}_residual_evaluations": cnt.get("residual_evaluations"),
