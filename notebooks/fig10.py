@@ -33,6 +33,10 @@ B = S["branches"]
 
 COL = {"mshbm": nc.COLORS["mshbm"], "hbm": nc.COLORS["hbm"], "dlft": "#2ca02c", "shooting": "k"}
 LAB = {"mshbm": "MS-HBM", "hbm": "HBM", "dlft": "DLFT", "shooting": "full shooting"}
+CURVE = dict(LAB)  # the curves' labels name their time integration (config fe_example.sweep_options)
+for m in B:
+    if N.get(f"{m}_integrator") == "event" and m in CURVE:
+        CURVE[m] += " (event-driven)"
 
 
 def draw(ax, b, dof, color, label):
@@ -59,7 +63,7 @@ fig, axes = plt.subplots(1, len(panels), figsize=(2.7 * len(panels), 3.0), squee
 for ax, (dof, title) in zip(axes[0], panels):
     for m, b in B.items():
         if dof in b["amplitude"]:
-            draw(ax, b, dof, COL.get(m, "0.4"), LAB.get(m, m))
+            draw(ax, b, dof, COL.get(m, "0.4"), CURVE.get(m, m))
     if dof == "pad":
         ax.axhline(N["gap"] * 1e3, color="0.5", lw=0.8, ls="-.", label="gap")
     ax.set_title(title)
@@ -91,11 +95,20 @@ display(Markdown(nc.md_table(["", "value"], rows)))
 # %%
 table = []
 for m, b in B.items():
-    table.append((LAB.get(m, m), "yes" if b["success"] else "NO", b["points"],
+    table.append((CURVE.get(m, m), "yes" if b["success"] else "NO", b["points"],
                   f"{min(b['omega']):.3f}–{max(b['omega']):.3f}" if b["omega"] else "–", f"{b['wall_time_s']:.1f}",
                   sum(v is False for v in b["stable"]), "" if b["success"] else b["message"][:160]))
 display(Markdown(nc.md_table(["method", "reached", "points", "ω range", "time (s)", "unstable points",
                               "stopped because"], table)))
+# %% [markdown]
+# Cost of each curve: DOFs of its model, time per point, corrector iterations and failures, and the sparse
+# factorisations of the condensation against the solves refined from kept LUs (`mshbm.condensation.FactorReuse`).
+
+# %%
+table = [(CURVE.get(m, m), N.get(f"{m}_n_dofs"), f"{N[f'{m}_time_per_point']:.2f}", N.get(f"{m}_corrector_iterations"),
+          N.get(f"{m}_corrector_failures"), N.get(f"{m}_factorisations"), N.get(f"{m}_refined")) for m in B]
+display(Markdown(nc.md_table(["method", "DOFs", "s per point", "corrector iterations", "corrector failures",
+                              "factorisations", "refined solves"], table)))
 table = []
 for r in S["solves"]:
     if "skipped" in r:

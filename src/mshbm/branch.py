@@ -8,7 +8,11 @@
    (:func:`mshbm.solvers.arclength.continuation`) on the method's residual ``R(x, omega)``
    (:func:`mshbm.build_problem`) with its Jacobian and ``dR/domega``
    (:meth:`PeriodicProblem.omega_derivative`), in the scaled units of :func:`unknown_scale` and
-   ``problem.residual_scale``; it passes folds (turning points).
+   ``problem.residual_scale``; it passes folds (turning points).  The continuation runs inside
+   :func:`mshbm.condensation.reuse_factors`: a sparse condensation keeps its LU per harmonic and solves
+   at nearby frequencies (corrector iterations, ``dR/domega``) by a splitting iteration on it, which makes
+   ``R`` smooth in ``omega`` on ill-conditioned meshes (fresh LUs differ by their rounding) and saves most
+   factorisations (``Branch.counters["condensation"]``).
 3. Every point is certified (:func:`mshbm.certificate.certify` at the corrector's tolerance): a point
    whose certificate fails is rejected and the step is shortened.  Its stability is that of
    :func:`mshbm.stability.assess` (exact event-driven multipliers with saltation terms for elements on
@@ -488,6 +492,12 @@ def _run(system, lam_start, lam_end, method, period, parameter, omega_fixed, opt
         return not isinstance(pt, str), pt
 
     lam_scale = abs(lam_start) if parameter == "omega" else max(abs(lam_start), abs(lam_end))
+    from .condensation import reuse_factors
+
+    # one kept LU per harmonic of the condensed part, reused by the nearby frequencies of a corrector and of
+    # dR/domega: faster, and R smooth in omega (mshbm.condensation.FactorReuse)
+    reuse_ctx = reuse_factors()
+    reuse = reuse_ctx.__enter__()
     try:
         res = continuation(
             tracer.residual, tracer.d_lam, np.asarray(sol0.x, dtype=float), float(lam_start), float(lam_end),
@@ -497,6 +507,7 @@ def _run(system, lam_start, lam_end, method, period, parameter, omega_fixed, opt
             predictor=predictor, accept=accept, callback=progress, max_time=max_time,
             stall_accept=tracer.stall_accept, segment=tracer.segment)
     finally:
+        reuse_ctx.__exit__(None, None, None)
         progress.close()
     branch.points = []
     for p in res.points:
@@ -521,7 +532,8 @@ def _run(system, lam_start, lam_end, method, period, parameter, omega_fixed, opt
     branch.bifurcations = sorted(folds + [dict(b) for b in others], key=lambda b: b.get("index", 0))
     branch.success = bool(res.success)
     branch.message = res.message + (f"; {note}" if note else "")
-    branch.counters = dict(res.counters, start_iterations=int(sol0.iterations), points=len(branch.points))
+    branch.counters = dict(res.counters, start_iterations=int(sol0.iterations), points=len(branch.points),
+                           condensation={k: int(v) for k, v in reuse.counters.items()})
     branch.wall_time = time.perf_counter() - t0
     return branch
 

@@ -69,6 +69,24 @@ def test_arclength_passes_a_corner_of_the_branch_monotonically(lam0, lam1):
     assert min(k["lam"], k["lam_right"]) <= 1.0 <= max(k["lam"], k["lam_right"])
 
 
+def test_arclength_records_why_its_corrector_failed():
+    """A point rejected by ``accept`` counts as a corrector failure, halves the step, and its reason is kept in
+    ``counters["failures"]`` with the parameter of the last point and the step tried."""
+    calls = []
+
+    def accept(x, lam, stall):
+        calls.append(lam)
+        return (False, "test rejection") if len(calls) == 2 else (True, None)  # the first step after the start
+
+    res = continuation(lambda x, l: (np.array([x[0] - 2.0 * l]), np.array([[1.0]])), lambda x, l: np.array([-2.0]),
+                       np.array([0.0]), 0.0, 1.0, residual_scale=lambda x, l: np.ones(1),
+                       unknown_scale=lambda x, l: np.ones(1), lam_scale=1.0, ds0=0.05, accept=accept)
+    assert res.success
+    assert res.counters["corrector_failures"] == 1 and res.counters["rejected"] == 1
+    assert res.counters["failures"] == [{"lam": 0.0, "ds": 0.05, "reason": "point rejected: test rejection"}]
+    assert res.points[1].ds == pytest.approx(0.025, rel=1e-12)
+
+
 # ----------------------------------------------------------------------------- closed forms
 def test_linear_branch_matches_exact_frf():
     s = chain([1.0, 2.0], [1.0, 0.5], 0.05, forcing=[{"dof": 1, "amplitude": 1.0}])

@@ -2,6 +2,11 @@
 (``modes.json`` of build_fe_model.py), the single solves (``solves.json`` of fe_example.py) and the
 frequency-response curves (``sweep_<method>.json`` of fe_sweep.py).
 
+Per curve (``<method>_...``): wall time, points, time per point, DOFs of its mesh, MS-HBM's integrator,
+corrector iterations and failures, residual evaluations, and the sparse LU factorisations of the
+condensation and the solves refined from kept ones (:class:`mshbm.condensation.FactorReuse`; ``None``
+when the curve's model is small enough for the dense condensation).
+
 Output ``results/summary/fe.json``: ``numbers`` (flat, for the paper's placeholders), ``model``,
 ``solves`` and ``branches`` (per method: omega, amplitudes of the named DOFs, stability).
 
@@ -119,8 +124,17 @@ def summarize(modes, solves, sweeps, solve_modes=None):
         k = b["method"]
         branches[k] = {key: b[key] for key in ("omega", "amplitude", "stable", "stability_method", "certified",
                                                "bifurcations", "success", "message", "points", "wall_time_s",
-                                               "options", "dofs")}
+                                               "options", "dofs", "n_dofs", "counters")}
         w, a = peak(b)
+        cnt = b.get("counters", {})
+        cond = cnt.get("condensation", {})
+        nums.update({f"{k}_n_dofs": b["n_dofs"], f"{k}_integrator": b["options"].get("integrator", "moreau") if k in ("mshbm", "shooting") else None,
+                     f"{k}_corrector_failures": cnt.get("corrector_failures"),
+                     f"{k}_corrector_iterations": cnt.get("corrector_iterations"),
+                     f"{k}_residual_evaluations": cnt.get("residual_evaluations"),
+                     f"{k}_factorisations": cond.get("factorisations"),
+                     f"{k}_refined": cond.get("refined"),
+                     f"{k}_time_per_point": b["wall_time_s"] / max(b["points"], 1)})
         nums.update({f"{k}_time": b["wall_time_s"], f"{k}_points": b["points"], f"{k}_success": b["success"],
                      f"{k}_peak_omega": w, f"{k}_peak_tip": a,
                      f"{k}_unstable": sum(v is False for v in b["stable"]),

@@ -517,6 +517,9 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
                     raise _Failed("point rejected" + (f": {q.payload}" if isinstance(q.payload, str) else ""))
         except _Failed as exc:
             counters["corrector_failures"] += 1
+            fails = counters.setdefault("failures", [])
+            if len(fails) < 50:  # the first reasons, for diagnosis
+                fails.append({"lam": float(p.lam), "ds": float(ds), "reason": str(exc)})
             ds *= 0.5
             if ds < ds_min:
                 if natural_fallback and p.stall is not None:
