@@ -43,8 +43,13 @@ def solution_finite(sol):
 
 
 def recheck_residual(system, omega, method, opts, sol, factor):
-    """Re-evaluate the residual at the returned unknowns; ``(ok, value, bound)``."""
-    o = {k: v for k, v in opts.items() if k in ("harmonics", "steps", "theta", "partition", "project", "condense")}
+    """Re-evaluate the residual at the returned unknowns; ``(ok, value, bound)``.  With the integrator that
+    produced the answer: the one asked for, or the exact event-driven flow when the solve says it fell back to it
+    (``info["integrator"] == "event"``, :func:`mshbm.solvers.driver._event_fallback`)."""
+    o = {k: v for k, v in opts.items() if k in ("harmonics", "steps", "theta", "partition", "project", "condense",
+                                                "integrator", "accumulation")}
+    if sol.info.get("integrator") == "event":
+        o["integrator"] = "event"
     try:
         problem, _ = mshbm.build_problem(system, omega, method, **o)
         R = problem.residual(np.asarray(sol.x, float), jac=False)[0]
