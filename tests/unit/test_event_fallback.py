@@ -90,3 +90,14 @@ def test_no_fallback_without_impacts():
     # and a converged friction solve is plain Moreau-Jean
     ok = mshbm.solve(system, OMEGA, "mshbm", **OPTS)
     assert ok.success and "event_fallback" not in ok.info and ok.time_step is not None
+
+
+def test_no_fallback_at_an_undamped_resonance():
+    # a stop 1e6 m away never closes, and the undamped 2-mass chain is forced at its first eigenfrequency: no
+    # periodic solution with any integrator (the certificate's undamped_resonance), so the fallback is not run
+    system = chain([1.0, 1.0], 1.0, 0.0, forcing=[{"dof": 1, "amplitude": 1.0}], elements=[Contact(0, 1e6)])
+    w = np.sqrt((3 - np.sqrt(5)) / 2)
+    sol = mshbm.solve(system, w, "shooting", steps=1024, stability=False)
+    assert not sol.success and "undamped_resonance" in sol.certificate.failed
+    assert sol.info["event_fallback"] == {"applied": False, "reason": "undamped resonance of the linear structure"}
+    assert "integrator" not in sol.info
