@@ -83,10 +83,13 @@ def test_no_fallback_without_impacts():
     assert not sol.success
     assert "event_fallback" not in sol.info and "integrator" not in sol.info
     assert "event-driven" not in sol.message
-    # with the stop instead, the same failing settings do try it (the condition is the contact, not the failure)
+    # with the stop instead, a failed Moreau-Jean ladder does try it (the condition is the contact, not the failure;
+    # one Newton iteration per start: with max_iter = 0 the fallback is not run, as the "frequency" start is not)
     graz = _system([Contact(1, 0.010223060602203507, 0.9, 3608.4060904752746, 0.0)])
-    sol2 = mshbm.solve(graz, OMEGA, "mshbm", max_iter=0, max_time=20.0, **OPTS)
+    sol2 = mshbm.solve(graz, OMEGA, "mshbm", max_iter=1, max_time=20.0, **OPTS)
     assert sol2.info["event_fallback"]["applied"] is True
+    sol3 = mshbm.solve(graz, OMEGA, "mshbm", max_iter=0, **OPTS)
+    assert not sol3.success and sol3.info["event_fallback"] == {"applied": False, "reason": "max_iter = 0"}
     # and a converged friction solve is plain Moreau-Jean
     ok = mshbm.solve(system, OMEGA, "mshbm", **OPTS)
     assert ok.success and "event_fallback" not in ok.info and ok.time_step is not None

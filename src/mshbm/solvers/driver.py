@@ -254,7 +254,8 @@ def _event_fallback(system, omega, method, options, failed, t0):
     says the fallback was not tried), the system has a contact element (impacts), the event-driven flow
     can integrate the system (else :class:`InputError` from building its problem: relative or elastic elements,
     too many DOFs or sub-steps; the message of ``failed`` then says why it did not apply), and the solve's
-    deadline (``max_time``) leaves time, and the failure is not the certificate's ``undamped_resonance`` (a linear
+    deadline (``max_time``) leaves time, ``max_iter`` is not 0 (as for the ``"frequency"`` start: no Newton
+    iterations asked for), and the failure is not the certificate's ``undamped_resonance`` (a linear
     structure at resonance has no periodic solution with any integrator).  It runs the ladder
     :data:`EVENT_FALLBACK_STARTS` on the event-driven
     problem (the failed Moreau-Jean solution first), within :data:`EVENT_FALLBACK_SECONDS`.
@@ -281,6 +282,9 @@ def _event_fallback(system, omega, method, options, failed, t0):
             failed.info["event_fallback"] = {"applied": False, "reason": "integrator='moreau' given explicitly"}
             failed.message += ("; the exact event-driven integrator was not tried (integrator='moreau' given "
                                "explicitly; leave it out to allow the fallback)")
+        return failed
+    if int(options.get("max_iter", 50)) < 1:  # no Newton iterations asked for: the starts as given, judged
+        failed.info["event_fallback"] = {"applied": False, "reason": "max_iter = 0"}
         return failed
     cert = getattr(failed, "certificate", None)
     if cert is not None and "undamped_resonance" in cert.failed:
