@@ -196,6 +196,16 @@ class Certificate:
         """JSON-ready list of dicts ``{name, value, bound, passed, gating, note}``."""
         return [c.as_dict() for c in self.checks]
 
+    def describe_warnings(self):
+        """The non-gating checks above their bound (the harmonic truncation estimates), for the message of a
+        certified solution; ``""`` when there are none."""
+        parts = [f"{c.name} {c.value:.3g} > {c.bound:.3g}" + (f" ({c.note})" if c.note else "")
+                 for c in self.checks if not c.gating and not c.passed and c.value is not None and c.bound is not None]
+        if not parts:
+            return ""
+        return ("the harmonic truncation error may exceed its bound: " + ", ".join(parts)
+                + "; more harmonics (option harmonics) reduce it")
+
     def describe_failures(self):
         parts = []
         for c in self.checks:
@@ -587,7 +597,7 @@ def _certify(problem, sol, tol, cert, step_accuracy=None):
                                      "max(0, -min g_N) in m of the truncated Fourier series; DLFT enforces the "
                                      "contact law on its Lagrangian displacement at the AFT samples, so this "
                                      "is a truncation error (reported, not gating)"))
-        elif is_hbm and getattr(problem, "penalty_quadrature", "samples") == "linear":
+        elif is_hbm and problem.penalty_quadrature == "linear":  # an HBM problem always sets it
             cert.checks.append(Check("non_penetration", pen, None, True, False,
                                      "max(0, -min g_N) in m at the AFT samples; with penalty_quadrature='linear' "
                                      "the penalty force is k_c times the penetration of the gap's linear "
@@ -923,7 +933,8 @@ def apply_certificate(problem, sol, tol, step_accuracy=None, cert=None):
 
     ``success`` stays True only if it was True (Newton converged) and every gating check
     passed; otherwise the message names the failed checks.  Non-gating checks (the truncation
-    estimates) stay in the certificate and are not named in the message.  ``cert``: the certificate
+    estimates) above their bound are named in the message of a certified solution as a warning
+    (:meth:`Certificate.describe_warnings`; ``success`` stays True).  ``cert``: the certificate
     already computed for the same problem, unknowns and ``step_accuracy`` (the start ladder's
     acceptance test), attached instead of computing it again.
     """
@@ -935,4 +946,6 @@ def apply_certificate(problem, sol, tol, step_accuracy=None, cert=None):
         sol.message = f"certificate failed: {cert.describe_failures()} (Newton: {sol.message})"
     elif not cert.passed:
         sol.message = f"{sol.message}; certificate failed: {cert.describe_failures()}"
+    if sol.success and cert.warnings:
+        sol.message = f"{sol.message}; warning: {cert.describe_warnings()}"
     return cert

@@ -35,7 +35,10 @@ flow (:mod:`mshbm.integrators.event`) removes the time-discretisation error (fir
 and stick-slip for Moreau-Jean) and gives the exact saltation-corrected monodromy, but it supports
 friction and contact between a DOF and the ground only (no relative or Jenkins elements), uses dense
 matrices (small systems) and its cost grows with the number of events; Moreau-Jean handles every
-element, any accumulation, and large subsystems.
+element, any accumulation, and large subsystems.  Without ``integrator`` given, a solve whose start ladder found
+no certified Moreau-Jean solution of a system with contacts ends by trying the event-driven flow
+(:func:`mshbm.solvers.driver._event_fallback`; the result then says so in its message and
+``info["integrator"] == "event"``); ``integrator="moreau"`` given explicitly keeps Moreau-Jean only.
 """
 from __future__ import annotations
 

@@ -63,7 +63,8 @@ def test_every_row_is_complete_and_finite(quick):
     cats = {r["category"] for r in rows}
     assert cats == {"resonance", "stiff", "starts", "random"}
     for r in rows:
-        assert r["outcome"] in ("converged", "failed-with-diagnosis", "failed-certificate", "WRONG")
+        assert r["outcome"] in ("converged", "failed-with-diagnosis", "failed-certificate", "truncation-warned",
+                                "WRONG")
         for key in ("case", "method", "options", "outcome", "message", "reference"):
             assert key in r, (key, r)
         for key in ("omega", "residual", "error", "time_s", "tolerance", "residual_recheck", "error_setvalued"):
@@ -80,10 +81,13 @@ def test_every_row_is_complete_and_finite(quick):
             assert r["certificate"] and all(c in r["message"] for c in r["certificate"]), r
         if r["outcome"] == "converged":
             assert r["certificate"] == [], r
+        if r["outcome"] == "truncation-warned":  # outside the tolerance, and the solution's message warned of it
+            assert r["error"] > r["tolerance"] and "warning: the harmonic truncation error" in r["message"], r
     assert not re.search(r"\b(nan|inf)\b", md, re.I)  # no NaN in the Markdown table either
     assert "| case | omega |" in md and "## Convergence from poor starts" in md
     assert "## Certificate failures" in md
-    assert set(summary["counts"]) == {"converged", "failed-with-diagnosis", "failed-certificate", "WRONG"}
+    assert set(summary["counts"]) == {"converged", "failed-with-diagnosis", "failed-certificate",
+                                      "truncation-warned", "WRONG"}
 
 
 def test_singular_harmonic_is_solved_and_said(quick):

@@ -96,16 +96,19 @@ def build(md_path, results_dir, out_html, out_md=None, stress_md=None, bench_md=
             counts = {}
             for r in data["rows"]:
                 c = counts.setdefault((r["category"], r["method"]), {"converged": 0, "failed-with-diagnosis": 0,
-                                                                     "WRONG": 0})
+                                                                     "truncation-warned": 0, "WRONG": 0})
                 c[r["outcome"]] = c.get(r["outcome"], 0) + 1
-            rows = [(cat, meth, c["converged"], c["failed-with-diagnosis"], c["WRONG"])
+            rows = [(cat, meth, c["converged"], c["failed-with-diagnosis"], c["truncation-warned"], c["WRONG"])
                     for (cat, meth), c in sorted(counts.items())]
-            total = {k: sum(c.get(k, 0) for c in counts.values()) for k in ("converged", "failed-with-diagnosis", "WRONG")}
+            total = {k: sum(c.get(k, 0) for c in counts.values())
+                     for k in ("converged", "failed-with-diagnosis", "truncation-warned", "WRONG")}
             head = (f"Profile `{data['profile']}`: {len(data['rows'])} solves in {data['wall_time_s']:.0f} s; "
                     f"converged {total['converged']}, failed with a diagnosis {total['failed-with-diagnosis']}, "
+                    f"truncation-warned {total['truncation-warned']}, "
                     f"WRONG {total['WRONG']}.  Every row, with its reference or message: "
                     f"`{os.path.relpath(path, results_dir)}`.")
-            table = md_table(["category", "method", "converged", "failed with diagnosis", "WRONG"], rows)
+            table = md_table(["category", "method", "converged", "failed with diagnosis", "truncation-warned", "WRONG"],
+                             rows)
             return f'<div class="table" id="stress">\n\n{head}\n\n{table}\n\n</div>'
         if name == "benchmarks":
             if not (bench_md and os.path.exists(bench_md)):

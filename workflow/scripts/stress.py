@@ -14,6 +14,9 @@ options, outcome, residual, error against the reference, wall time.  Outcomes:
   (e.g. ``omega`` on an exactly singular ``H_LL``);
 * ``failed-certificate`` -- Newton converged but the certificate (:mod:`mshbm.certificate`) refused the
   answer: success=False with a message naming the failed checks (column ``certificate``);
+* ``truncation-warned`` -- success=True and certified, the error exceeds the tolerance, but the certificate
+  warned that the harmonic truncation error may exceed its bound (named in the message), and the same method with
+  more harmonics, started from the answer, agrees with the reference (the error is that truncation);
 * ``WRONG`` -- success=True but the error exceeds the tolerance, the residual re-evaluated from the
   unknowns contradicts the claim, NaN/inf or garbage in the solution; or an unexpected exception
   (a crash instead of a diagnosis); or success=False without a message.

@@ -209,10 +209,20 @@ class ShootingProblem(PeriodicProblem):
         return self.stepper.monodromy(tr.status, tr.P)
 
     def _event_solution_parts(self, x):
-        from ..integrators.event import MOREAU, contact_margins, extrema, run_summary
+        from ..integrators.event import MOREAU, EventError, contact_margins, extrema, run_summary
 
         fl, n, N = self.flow, self.n, self.N
-        out = fl.simulate(0.0, fl.state(0.0, x[:n], x[n:]), jac=True, sample_times=self.t, record=True)
+        try:
+            out = fl.simulate(0.0, fl.state(0.0, x[:n], x[n:]), jac=True, sample_times=self.t, record=True)
+        except (EventError, ValueError) as exc:  # as in _event_residual: no flow from this state
+            # non-finite parts, which the driver reports as a failure, with why (as MS-HBM does)
+            m = len(self.system.elements)
+            return dict(t=self.t, q_hat=np.full((2 * min(self.n_h, (N - 1) // 2) + 1, n), np.nan),
+                        time_dofs=np.arange(n), q_time=np.full((N + 1, n), np.nan),
+                        u_time=np.full((N + 1, n), np.nan), lam=np.full((N + 1, m), np.nan),
+                        impulses=np.full((N, m), np.nan), harmonics=min(self.n_h, (N - 1) // 2),
+                        info={"failure": f"the event-driven flow failed at the solution: {type(exc).__name__}: "
+                                         f"{exc}"})
         qmax, qmin, _ = extrema(fl, out["nodes"])  # true extrema from the flow (zeros of u between nodes)
         Z = out["samples"]
         q, u = Z[:n].T.copy(), Z[n:2 * n].T.copy()

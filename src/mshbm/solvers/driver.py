@@ -11,7 +11,16 @@ The chain (each step runs only when the previous ones failed and ``continuation`
 2. **homotopy** -- the problem's softened-law stages (:meth:`PeriodicProblem.homotopy`, HBM), each
    solution starting the next;
 3. **continuation** -- for the mixed methods with a guess and ``continuation=True`` given explicitly:
-   restarts and parameter continuation (:func:`mshbm.solvers.continuation.solve_with_continuation`).
+   restarts and parameter continuation (:func:`mshbm.solvers.continuation.solve_with_continuation`);
+4. **event-driven fallback** -- the last step of the start ladder (:func:`_event_fallback`): when shooting or
+   MS-HBM with Moreau-Jean steps (by the default rule: ``integrator`` not given) found no certified solution of a system
+   with contact (impact) elements, the same solve with the exact event-driven integrator
+   (``integrator="event"``, :mod:`mshbm.integrators.event`), where that integrator applies to the system,
+   time-boxed by :data:`EVENT_FALLBACK_SECONDS` and the solve's ``max_time``.  Near a grazing or
+   near-grazing impact the Moreau-Jean map moves the impact by whole steps and may have no periodic point
+   at all (its residual stalls above the one-step bound from every start), while the exact flow has the
+   orbit.  A solution found so says so: ``info["integrator"] == "event"``, ``info["event_fallback"]`` and
+   its message name the integrator that produced it, and it is certified like any other.
 
 Then: the solution parts, the certificate (:mod:`mshbm.certificate`: ``success`` only if certified)
 and the stability analysis (:mod:`mshbm.stability`).  The solvers see the problem only through the
@@ -29,7 +38,7 @@ from .. import stability as _stability
 from .. import validate
 from ..certificate import apply_certificate, certify
 from ..condensation import SingularHarmonicError
-from ..errors import ConvergenceError
+from ..errors import ConvergenceError, InputError
 from ..methods.registry import build_problem
 from ..result import PeriodicSolution
 from . import newton as newton_
@@ -37,7 +46,18 @@ from . import starts
 from .continuation import solve_with_continuation
 from .newton import solve_problem
 
-__all__ = ["solve", "build_problem"]
+__all__ = ["solve", "build_problem", "EVENT_FALLBACK_SECONDS"]
+
+#: time box (s) of the event-driven fallback of the start ladder (:func:`_event_fallback`), within the solve's
+#: ``max_time``: the ladder on the event-driven problem tries no start and no Newton iteration after it
+EVENT_FALLBACK_SECONDS = 10.0
+#: the starts of that fallback's ladder (:mod:`mshbm.solvers.starts`), in this order: the failed Moreau-Jean
+#: solution first (its orbit is within one time step of the exact one when only the discrete map lacks a periodic
+#: point), the exact orbit and the simulated transient next (the starts that rescued the stress suite's rows),
+#: then the cheap default starts and the continuations, as far as the time box reaches
+EVENT_FALLBACK_STARTS = ("guess", "exact", "transient", "linear", "clamped", "zero", "forcing", "frequency")
+#: methods whose periodic problem can integrate the period by the exact event-driven flow (``integrator``)
+EVENT_METHODS = ("shooting", "mshbm", "mshbm-intermediate")
 
 
 class _Progress:
@@ -116,10 +136,12 @@ def _solve_chain(system, omega, method, options):
         return _stability.assess(system, sol, stab, theta=options.get("theta", 0.5))
 
 
-def _solve(system, omega, method, options, ladder=True, built=None):
+def _solve(system, omega, method, options, ladder=True, built=None, ladder_starts=None):
     """``built``: a dict shared by the fast path's two calls (the guess alone, then the ladder) of the same
     problem; the first stores ``(problem, solver options)`` there and the second reuses them instead of building
-    the problem again (MS-HBM: the condensation's sparse factorisations, ~0.6 s on a 10^4-DOF plate)."""
+    the problem again (MS-HBM: the condensation's sparse factorisations, ~0.6 s on a 10^4-DOF plate).
+    ``ladder_starts``: the starts of the ladder (default :data:`mshbm.solvers.starts.DEFAULT_STARTS`).  When the
+    ladder ran and found no certified solution, :func:`_event_fallback` (the ladder's last step)."""
     t0 = time.perf_counter()  # wall time includes set-up (condensation, factorisations)
     if built is not None and "problem" in built:
         problem, sopts = built["problem"]
@@ -135,6 +157,7 @@ def _solve(system, omega, method, options, ladder=True, built=None):
             built["problem"] = (problem, dict(sopts))
     progress = _Progress(method, sopts.get("progress", False))
     accept = None
+    laddered = False
     try:
         x0 = problem.initial_guess(sopts.get("guess"))  # validates a caller's guess (MS-HBM: cached linear start)
         nkw = dict(tol=float(sopts.get("tol", 1e-10)), max_iter=int(sopts.get("max_iter", 50)),
@@ -143,8 +166,10 @@ def _solve(system, omega, method, options, ladder=True, built=None):
             # a ladder of starts, the first accepted one wins (mshbm.solvers.starts); a caller's guess is its
             # first rung, so a poor guess falls back to the default starts instead of failing
             accept = _certified_accept(problem, method, omega, sopts, nkw, system)
+            laddered = True
             res = starts.solve_from_starts(problem, method, system, omega, nkw, accept,
-                                           guess=sopts.get("guess"), solve_options=options, solve=solve)
+                                           guess=sopts.get("guess"), solve_options=options, solve=solve,
+                                           **({} if ladder_starts is None else {"starts": ladder_starts}))
         else:
             res = solve_problem(problem, x0, fallback=bool(sopts.get("continuation", True)), **nkw)
         section = res.info.get("section")
@@ -214,9 +239,103 @@ def _solve(system, omega, method, options, ladder=True, built=None):
     apply_certificate(problem, sol, nkw["tol"], step_accuracy, cert=None if cached is None else cached["cert"])
     if section is not None:
         _unshift(sol, section)
+    if laddered and not sol.success:
+        sol = _event_fallback(system, omega, method, options, sol, t0)
     if not sol.success and sopts.get("raise_on_failure", False):
         raise ConvergenceError(sol.message)
     return sol
+
+
+def _event_fallback(system, omega, method, options, failed, t0):
+    """The last step of the start ladder: the solve again with the exact event-driven integrator.
+
+    Applies when ``method`` integrates the period (:data:`EVENT_METHODS`) with Moreau-Jean steps by the default
+    rule (``integrator`` not given; ``integrator="moreau"`` given explicitly keeps Moreau-Jean, and the message
+    says the fallback was not tried), the system has a contact element (impacts), the event-driven flow
+    can integrate the system (else :class:`InputError` from building its problem: relative or elastic elements,
+    too many DOFs or sub-steps; the message of ``failed`` then says why it did not apply), and the solve's
+    deadline (``max_time``) leaves time, ``max_iter`` is not 0 (as for the ``"frequency"`` start: no Newton
+    iterations asked for), and the failure is not the certificate's ``undamped_resonance`` (a linear
+    structure at resonance has no periodic solution with any integrator).  It runs the ladder
+    :data:`EVENT_FALLBACK_STARTS` on the event-driven
+    problem (the failed Moreau-Jean solution first), within :data:`EVENT_FALLBACK_SECONDS`.
+
+    Parameters
+    ----------
+    failed : PeriodicSolution
+        The certified-failed result of the Moreau-Jean ladder (``success=False``).
+    t0 : float
+        ``time.perf_counter()`` at the start of the Moreau-Jean solve (``wall_time`` counts both).
+
+    Returns
+    -------
+    PeriodicSolution
+        The event-driven solution when it is certified: ``info["integrator"] = "event"``,
+        ``info["event_fallback"]`` (the Moreau-Jean attempt's message, residual and starts) and a message naming
+        the integrator; else ``failed``, its message extended by why the fallback did not apply or failed.
+    """
+    if method not in EVENT_METHODS or not any(el.unilateral for el in system.elements) \
+            or starts.in_frequency_start():
+        return failed  # (the anchor solves of the "frequency" start: the outer ladder ends with this fallback)
+    if options.get("integrator") is not None:  # asked for explicitly: that integrator only
+        if options["integrator"] == "moreau":
+            failed.info["event_fallback"] = {"applied": False, "reason": "integrator='moreau' given explicitly"}
+            failed.message += ("; the exact event-driven integrator was not tried (integrator='moreau' given "
+                               "explicitly; leave it out to allow the fallback)")
+        return failed
+    if int(options.get("max_iter", 50)) < 1:  # no Newton iterations asked for: the starts as given, judged
+        failed.info["event_fallback"] = {"applied": False, "reason": "max_iter = 0"}
+        return failed
+    cert = getattr(failed, "certificate", None)
+    if cert is not None and "undamped_resonance" in cert.failed:
+        # no element acts and a forced harmonic sits on an undamped natural frequency: the linear structure has no
+        # periodic solution, whatever the integrator
+        failed.info["event_fallback"] = {"applied": False, "reason": "undamped resonance of the linear structure"}
+        return failed
+    now = time.perf_counter()
+    outer = [d for d in (newton_.deadline(), starts.deadline()) if d is not None]
+    box = now + EVENT_FALLBACK_SECONDS
+    if outer:
+        if min(outer) - now <= 0.0:
+            failed.info["event_fallback"] = {"applied": False, "reason": "time budget spent"}
+            failed.message += "; the exact event-driven integrator was not tried (time budget spent)"
+            return failed
+        box = min(box, min(outer))
+    opts = {k: v for k, v in options.items() if k not in ("guess", "raise_on_failure", "integrator")}
+    opts["integrator"] = "event"
+    guess = failed if np.all(np.isfinite(failed.x)) and np.all(np.isfinite(failed.q_hat)) else None
+    record = {"applied": True, "moreau_message": failed.message, "moreau_residual": float(failed.residual),
+              "moreau_starts": failed.info.get("starts"), "time_box_s": box - now}
+    try:
+        with newton_.time_box(box), starts.time_limit(box):
+            ev = _solve(system, omega, method, dict(opts, guess=guess), ladder_starts=EVENT_FALLBACK_STARTS)
+    except InputError as exc:  # the event-driven flow does not apply to this system
+        failed.info["event_fallback"] = {"applied": False, "reason": str(exc)}
+        failed.message += f"; the exact event-driven integrator does not apply here ({exc})"
+        return failed
+    except (FloatingPointError, np.linalg.LinAlgError, ValueError, OverflowError) as exc:
+        failed.info["event_fallback"] = dict(record, success=False, message=f"{type(exc).__name__}: {exc}")
+        failed.message += f"; the exact event-driven integrator (integrator='event') failed too: " \
+                          f"{type(exc).__name__}: {exc}"
+        return failed
+    record.update(success=bool(ev.success), message=ev.message, wall_time_s=float(ev.wall_time))
+    if not ev.success:
+        failed.info["event_fallback"] = record
+        spent = " (its time box spent)" if time.perf_counter() > box else ""
+        failed.message += f"; the exact event-driven integrator (integrator='event') failed too{spent}: {ev.message}"
+        return failed
+    summary = ev.info.get("event_integrator") or {}
+    mixed = summary.get("switched_to_moreau")
+    how = ("the exact event-driven integrator (integrator='event'" + (
+        ", with Moreau-Jean steps over the accumulation of impacts it reports in info['event_integrator'])"
+        if mixed else ")"))
+    frm = " from the best Moreau-Jean attempt" if ev.info.get("start_used") == "guess" else ""
+    ev.message = (f"{ev.message}; solved with {how}{frm}, after the Moreau-Jean steps (integrator='moreau') found "
+                  f"no certified solution (best ||R||_inf = {failed.residual:.2e})")
+    ev.info["integrator"] = "event"
+    ev.info["event_fallback"] = record
+    ev.wall_time = time.perf_counter() - t0
+    return ev
 
 
 def _unshift(sol, section):

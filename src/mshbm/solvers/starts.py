@@ -91,7 +91,8 @@ from . import newton as newton_
 from .newton import NewtonResult, solve_problem
 from ..methods.registry import build_problem
 
-__all__ = ["solve_from_starts", "residual_accept", "Attempt", "DEFAULT_STARTS", "active", "shifted_system",
+__all__ = ["solve_from_starts", "residual_accept", "Attempt", "DEFAULT_STARTS", "active", "in_frequency_start",
+           "deadline", "shifted_system",
            "clamped_response", "force_scale", "displacement_scale",
            "impact_jump"]
 
@@ -129,6 +130,17 @@ SWEEP = [None]
 def active():
     """True while a start strategy runs (nested :func:`mshbm.solve` calls then use one start only)."""
     return _ACTIVE.get()
+
+
+def in_frequency_start():
+    """True within the nested solves of the ``"frequency"`` start (its anchor solves and branch)."""
+    return _FREQUENCY.get()
+
+
+def deadline():
+    """The wall-clock deadline (``time.perf_counter()``) ladders inherit in this context (:func:`time_limit`);
+    ``None``: none."""
+    return _DEADLINE.get()
 
 
 @contextlib.contextmanager
@@ -798,7 +810,7 @@ class _Runner:
                 if not (np.all(np.isfinite(q)) and np.all(np.isfinite(u))):
                     return self._try("transient", self.problem.initial_guess("linear"),
                                      f"the simulation diverged after {done} periods", 0, t0)
-                if time.perf_counter() - t0 > self.transient_seconds:
+                if self._transient_over(t0):
                     break
             if tr is None:
                 break
@@ -811,13 +823,19 @@ class _Runner:
                 return att
             self.attempts.pop()  # keep one record per start: the last checkpoint
             it += att.newton.nit
-            if time.perf_counter() - t0 > self.transient_seconds:
+            if self._transient_over(t0):
                 break
         if att is not None:
             self.attempts.append(att)
             att.note += f"; time box {self.transient_seconds:g} s" if time.perf_counter() - t0 > \
                 self.transient_seconds else ""
         return att
+
+    def _transient_over(self, t0):
+        """The ``"transient"`` start's simulation stops: its time box ``transient_seconds`` is spent, or the
+        ladder's deadline has passed (its Newton solves would stop at once)."""
+        now = time.perf_counter()
+        return now - t0 > self.transient_seconds or (self.deadline is not None and now > self.deadline)
 
     def _continuation(self, strategy):
         if self.solve is None:
@@ -1016,10 +1034,14 @@ def solve_from_starts(problem, method, system, omega, newton_options, accept, *,
                   transient_periods, transient_budget, transient_seconds, solve)
     won, skipped, t_start = None, [], time.perf_counter()
     inherited = _DEADLINE.get()
+    by_caller = False  # the caller's deadline (max_time, an enclosing time box) stopped the ladder, not its own budget
     with _activated():
         for name in starts:
-            if run.attempts and (time.perf_counter() - t_start > max(LADDER_SECONDS, LADDER_FACTOR * run.attempts[0].wall_time)
-                                 or (inherited is not None and time.perf_counter() > inherited)):
+            own = run.attempts and time.perf_counter() - t_start > max(LADDER_SECONDS,
+                                                                       LADDER_FACTOR * run.attempts[0].wall_time)
+            outer = run.attempts and inherited is not None and time.perf_counter() > inherited
+            if own or outer:
+                by_caller = by_caller or (outer and not own and not skipped)
                 skipped.append(name)  # the ladder's time budget is spent: report, do not try further starts
                 continue
             if run.attempts and run.deadline is None:
@@ -1065,8 +1087,9 @@ def solve_from_starts(problem, method, system, omega, newton_options, accept, *,
     res.nit, res.nfev = nit, nfev
     res.info = dict(res.info or {})
     if skipped and won is None:
-        res.message += (f"; time budget of the start ladder (max({LADDER_SECONDS:g} s, {LADDER_FACTOR:g} x the first "
-                        f"attempt)) spent, starts not tried: {', '.join(skipped)}")
+        budget = ("the caller's time budget (max_time or an enclosing time box)" if by_caller else
+                  f"time budget of the start ladder (max({LADDER_SECONDS:g} s, {LADDER_FACTOR:g} x the first attempt))")
+        res.message += f"; {budget} spent, starts not tried: {', '.join(skipped)}"
     res.info["starts"] = records
     res.info["start_used"] = None if won is None else won.start
     chosen = won if won is not None else (run._best() or run.attempts[-1])
