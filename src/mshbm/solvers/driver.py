@@ -234,7 +234,8 @@ def _solve(system, omega, method, options, ladder=True, built=None, ladder_start
     step_accuracy = res.info.get("step_accuracy")
     if step_accuracy is not None:
         sol.info["step_accuracy"] = {"ratio": step_accuracy["ratio"], "verdict": step_accuracy["verdict"],
-                                     "bound": np.asarray(step_accuracy["bound"], dtype=float)}
+                                     "bound": np.asarray(step_accuracy["bound"], dtype=float),
+                                     "step_change": step_accuracy.get("step_change")}
     # success only if certified (mshbm.certificate)
     apply_certificate(problem, sol, nkw["tol"], step_accuracy, cert=None if cached is None else cached["cert"])
     if section is not None:

@@ -404,7 +404,10 @@ def residual_accept(problem, system, omega, rtol=1e-8, step_accuracy=True, max_i
                 return False
         if np.all(np.abs(R) <= bound):
             k = int(np.argmax(np.abs(R) / bound))
-            attempt.step_accuracy = {"ratio": float(np.max(np.abs(R) / bound)), "bound": bound}
+            # step_change: the displacement change of one step at the impact, h J (m), without the gain g (the
+            # certificate's step_accuracy_size compares it with the orbit's size)
+            attempt.step_accuracy = {"ratio": float(np.max(np.abs(R) / bound)), "bound": bound,
+                                     "step_change": float(h * J)}
             attempt.verdict = (f"periodic to one time step's accuracy, not to Newton's tolerance: worst residual "
                                f"entry {abs(R[k]):.2e} <= {bound[k]:.2e}, the change when an impact (velocity jump "
                                f"{J:.3g}) moves by one step h = {h:.3g} s, amplified by at most {gain:.3g} over "
