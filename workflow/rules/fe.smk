@@ -26,6 +26,9 @@ if config.get("fe_example"):
 
     rule fe_model:
         input:
+            # the config snapshot: its mesh sizes enter only through the callable params below, and Snakemake
+            # records no callable params, so without this input a changed mesh did not rebuild the model
+            config=f"{R}/config.json",
             script="workflow/scripts/build_fe_model.py",
         output:
             case=f"{FE_DIR}/{{mesh}}/fe.yaml",
@@ -49,6 +52,7 @@ if config.get("fe_example"):
 
     rule fe_sweep:
         input:
+            config=f"{R}/config.json",  # FE options enter through callable params, which Snakemake does not record
             case=f"{FE_DIR}/sweep/fe.yaml",
             M=f"{FE_DIR}/sweep/M.mtx",
             K=f"{FE_DIR}/sweep/K.mtx",
@@ -79,6 +83,7 @@ if config.get("fe_example"):
 
     rule fe_example:
         input:
+            config=f"{R}/config.json",  # as fe_sweep
             case=f"{FE_DIR}/solve/fe.yaml",
             M=f"{FE_DIR}/solve/M.mtx",
             K=f"{FE_DIR}/solve/K.mtx",
