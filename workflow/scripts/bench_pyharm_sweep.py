@@ -265,7 +265,9 @@ def specs(profile, config=None):
     ]
     if not quick:  # the labelled variants of the Fig. 9 branch (e.g. mshbm-event: the exact event-driven flow)
         for label, opts in im.items():
-            if label not in ("shooting", "mshbm"):
+            # the curves above keep their settings (hbm: n_H and the sampled law of pyHarm's twin; Fig. 9's own
+            # HBM curve, n_H = 40 with the linear quadrature, would replace the twin of the same name)
+            if label not in {r["name"] for r in ours}:
                 o = {k: v for k, v in opts.items() if k != "method"}
                 ours.append({"name": label, "method": opts.get("method", label),
                              "law": "set-valued impact (Newton, e_N), " + (
