@@ -436,6 +436,8 @@ def _grazing_locator(tracer, system, tol):
 
 
 def _run(system, lam_start, lam_end, method, period, parameter, omega_fixed, options):
+    from .condensation import reuse_factors
+    from .methods.hbm import linear_quadrature_unsupported
     from .options import METHODS
     from .period import check_period, period_options, subharmonic_system, subharmonic_content, PERIOD_K_TOL
     from .period import solve as solve_period
@@ -449,7 +451,7 @@ def _run(system, lam_start, lam_end, method, period, parameter, omega_fixed, opt
         raise InputError("method", f"unknown method {method!r} (choose from {', '.join(METHODS)})")
     k = check_period(period)
     if method == "hbm" and "penalty_quadrature" not in options and any(el.unilateral for el in system.elements) \
-            and all(getattr(el, "penalty_damping", 0.0) == 0.0 and el.normal_contact is None for el in system.elements):
+            and linear_quadrature_unsupported(system.elements) is None:
         # the sampled penalty law makes the branch a chain of kinks (mshbm.methods.hbm, "Quadrature of the
         # penalty law"); integrated on the gap's linear interpolant the residual is C^1 and the branch smooth
         options = dict(options, penalty_quadrature="linear")
@@ -496,22 +498,18 @@ def _run(system, lam_start, lam_end, method, period, parameter, omega_fixed, opt
         return not isinstance(pt, str), pt
 
     lam_scale = abs(lam_start) if parameter == "omega" else max(abs(lam_start), abs(lam_end))
-    from .condensation import reuse_factors
-
     # one kept LU per harmonic of the condensed part, reused by the nearby frequencies of a corrector and of
     # dR/domega: faster, and R smooth in omega (mshbm.condensation.FactorReuse)
-    reuse_ctx = reuse_factors()
-    reuse = reuse_ctx.__enter__()
     try:
-        res = continuation(
-            tracer.residual, tracer.d_lam, np.asarray(sol0.x, dtype=float), float(lam_start), float(lam_end),
-            residual_scale=tracer.residual_scale, unknown_scale=tracer.unknown_scale, lam_scale=lam_scale,
-            ds0=ds, ds_min=ds_min, ds_max=ds_max, max_points=int(max_points), tol=tol,
-            max_corrector_iter=min(12, int(rest.get("max_iter", 12))),
-            predictor=predictor, accept=accept, callback=progress, max_time=max_time,
-            stall_accept=tracer.stall_accept, segment=tracer.segment)
+        with reuse_factors() as reuse:
+            res = continuation(
+                tracer.residual, tracer.d_lam, np.asarray(sol0.x, dtype=float), float(lam_start), float(lam_end),
+                residual_scale=tracer.residual_scale, unknown_scale=tracer.unknown_scale, lam_scale=lam_scale,
+                ds0=ds, ds_min=ds_min, ds_max=ds_max, max_points=int(max_points), tol=tol,
+                max_corrector_iter=min(12, int(rest.get("max_iter", 12))),
+                predictor=predictor, accept=accept, callback=progress, max_time=max_time,
+                stall_accept=tracer.stall_accept, segment=tracer.segment)
     finally:
-        reuse_ctx.__exit__(None, None, None)
         progress.close()
     branch.points = []
     for p in res.points:

@@ -69,7 +69,8 @@ from ..errors import InputError
 from ..scaling import force_scale
 from ..solvers.newton import NewtonResult, follow_pl_path, newton
 
-__all__ = ["HBMProblem", "scaled_regularisation", "hat_integrals", "PENALTY_QUADRATURES"]
+__all__ = ["HBMProblem", "scaled_regularisation", "hat_integrals", "linear_quadrature_unsupported",
+           "PENALTY_QUADRATURES"]
 
 #: values of the option ``penalty_quadrature`` (module docstring)
 PENALTY_QUADRATURES = ("samples", "linear")
@@ -123,21 +124,37 @@ def hat_integrals(a, b):
     La[m], Lb[m], Ra[m], Rb[m] = -1.0 / 3.0, -1.0 / 6.0, -1.0 / 6.0, -1.0 / 3.0
     m = (a < 0.0) & (b > 0.0)  # closed at the left end
     if m.any():
-        A, d = a[m], b[m] - a[m]
-        r, r2, r3 = A / d, (A / d) ** 2, (A / d) ** 3
-        IR[m] = -A * r2 / 6.0
-        IL[m] = A * r / 2.0 + A * r2 / 6.0
-        Ra[m], Rb[m] = -r2 / 2.0 - r3 / 3.0, r3 / 3.0
-        La[m], Lb[m] = r + r2 + r3 / 3.0, -r2 / 2.0 - r3 / 3.0
+        IL[m], IR[m], La[m], Lb[m], Ra[m], Rb[m] = _one_end_closed(a[m], b[m])
     m = (a > 0.0) & (b < 0.0)  # closed at the right end: the mirror image (a <-> b, L <-> R)
     if m.any():
-        B, d = b[m], a[m] - b[m]
-        r, r2, r3 = B / d, (B / d) ** 2, (B / d) ** 3
-        IL[m] = -B * r2 / 6.0
-        IR[m] = B * r / 2.0 + B * r2 / 6.0
-        Lb[m], La[m] = -r2 / 2.0 - r3 / 3.0, r3 / 3.0
-        Rb[m], Ra[m] = r + r2 + r3 / 3.0, -r2 / 2.0 - r3 / 3.0
+        IR[m], IL[m], Rb[m], Ra[m], Lb[m], La[m] = _one_end_closed(b[m], a[m])
     return IL, IR, La, Lb, Ra, Rb
+
+
+def linear_quadrature_unsupported(elements):
+    """Why ``penalty_quadrature="linear"`` cannot take these elements (one sentence), or ``None``: it needs
+    contacts without penalty damping and no friction loaded by a contact."""
+    for el in elements:
+        if el.unilateral and el.penalty_damping != 0.0:
+            return f"'linear' needs contacts without penalty damping (d_c = 0), got d_c = {el.penalty_damping:g}"
+        if el.normal_contact is not None:
+            return "'linear' does not support friction loaded by a contact (normal_contact)"
+    return None
+
+
+def hat_mass_dft(k, Ns):
+    """``D_k = (2 + cos(2 pi k / N_s)) / 3``: the DFT at frequency index ``k`` (array) of the consistent mass
+    matrix of the ``N_s`` periodic hat functions (circulant 1-4-1 / 6, in units of the sample spacing)."""
+    return (2.0 + np.cos(2.0 * np.pi * k / Ns)) / 3.0
+
+
+def _one_end_closed(c, o):
+    """:func:`hat_integrals` on intervals closed at one end only (gap ``c < 0`` there, ``o > 0`` at the other):
+    ``(I_c, I_o, dI_c/dc, dI_c/do, dI_o/dc, dI_o/do)``, ``I_c`` against the hat of the closed end."""
+    d = o - c
+    r, r2, r3 = c / d, (c / d) ** 2, (c / d) ** 3
+    return (c * r / 2.0 + c * r2 / 6.0, -c * r2 / 6.0,
+            r + r2 + r3 / 3.0, -r2 / 2.0 - r3 / 3.0, -r2 / 2.0 - r3 / 3.0, r3 / 3.0)
 
 
 def scaled_regularisation(system, factor):
@@ -185,14 +202,9 @@ class HBMProblem(HarmonicProblem):
         self.penalty_quadrature = penalty_quadrature
         # contacts integrated on the linear interpolant of the gap (module docstring), else all laws sampled
         self._linear = penalty_quadrature == "linear" and any(el.unilateral for el in system.elements)
-        if self._linear:
-            for el in system.elements:
-                if el.unilateral and el.penalty_damping != 0.0:
-                    raise InputError("penalty_quadrature", "'linear' needs contacts without penalty damping "
-                                                           f"(d_c = 0), got d_c = {el.penalty_damping:g}")
-                if el.normal_contact is not None:
-                    raise InputError("penalty_quadrature", "'linear' does not support friction loaded by a "
-                                                           "contact (normal_contact)")
+        why = linear_quadrature_unsupported(system.elements) if self._linear else None
+        if why:
+            raise InputError("penalty_quadrature", why)
         self._fast = None if self._linear else _fast_laws(system.elements, self.nl_cols, pos)
 
     def residual_scale(self, x=None):
@@ -285,8 +297,7 @@ class HBMProblem(HarmonicProblem):
     def _hat_mass(self):
         """``D_k = (2 + cos(2 pi k / N_s)) / 3`` per coefficient row (``[0, c_1, s_1, ...]``): the DFT of the
         hats' consistent mass matrix (circulant 1-4-1 / 6)."""
-        k = np.r_[0, np.repeat(np.arange(1, self.n_h + 1), 2)]
-        return (2.0 + np.cos(2.0 * np.pi * k / self.Ns)) / 3.0
+        return hat_mass_dft(np.r_[0, np.repeat(np.arange(1, self.n_h + 1), 2)], self.Ns)
 
     def _linear_contact_forces(self, q):
         """Per contact: ``(b, db)`` with ``b`` (N_s,) the hat-weighted contact force ``k_c int max(0, -g) hat_s dt
@@ -572,7 +583,7 @@ class HBMProblem(HarmonicProblem):
                 lam[:, sampled] = regularised_forces([self.system.elements[j] for j in sampled],
                                                      [self._ldof[j] for j in sampled], q, u, coupling=True)[0]
             Ns = q.shape[0]
-            mh = (2.0 + np.cos(2.0 * np.pi * np.arange(Ns // 2 + 1) / Ns)) / 3.0
+            mh = hat_mass_dft(np.arange(Ns // 2 + 1), Ns)
             idx = [j for j, el in enumerate(self.system.elements) if el.unilateral]
             for j, (b, _) in zip(idx, self._linear_contact_forces(q)):
                 lam[:, j] = np.fft.irfft(np.fft.rfft(b) / mh, Ns)
