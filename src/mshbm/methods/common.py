@@ -7,7 +7,18 @@ from .. import condensation, fourier
 from ..errors import InputError
 from ..validate import check_guess, check_guess_values
 
-__all__ = ["linear_response", "pad_hat", "guess_parts", "complement"]
+__all__ = ["linear_response", "pad_hat", "guess_parts", "complement", "failed_parts"]
+
+
+def failed_parts(t, N, hat_shape, time_dofs, n_el, harmonics, why):
+    """``solution_parts`` of a method that cannot form its solution at the given unknowns (e.g. the
+    event-driven flow fails from them): ``t`` as given, every series NaN (``q_hat`` of shape ``hat_shape``,
+    ``q_time``/``u_time`` (N + 1, len(time_dofs)), ``lam`` (N + 1, n_el), ``impulses`` (N, n_el)), which the
+    driver reports as a failure, and ``info["failure"] = why``."""
+    nt = len(time_dofs)
+    return dict(t=t, q_hat=np.full(hat_shape, np.nan), time_dofs=time_dofs, q_time=np.full((N + 1, nt), np.nan),
+                u_time=np.full((N + 1, nt), np.nan), lam=np.full((N + 1, n_el), np.nan),
+                impulses=np.full((N, n_el), np.nan), harmonics=harmonics, info={"failure": why})
 
 
 def complement(n, idx):

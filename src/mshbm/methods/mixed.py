@@ -57,7 +57,7 @@ import scipy.sparse as sp
 
 from .. import fourier
 from .base import Partition, PeriodicProblem, forward_difference_jacobian
-from .common import complement, guess_parts
+from .common import complement, failed_parts, guess_parts
 from ..errors import InputError
 from ..condensation import Condensation, condense_around_resonances, resonance_note
 from ..integrators.moreau_jean import MoreauJean, Trajectory
@@ -376,12 +376,9 @@ class _MixedBase(PeriodicProblem):
         p, q0, u0 = self._split(x)
         out = self._event_run(x, False, record=True)
         if out is None:  # no flow to report: non-finite parts, which the driver reports as a failure, with why
-            n1, N, m = self._time.size, self.td.N, len(self.system.elements)
-            return dict(t=self.td.t, q_hat=np.full((self.nc, self.system.n), np.nan), time_dofs=self._time,
-                        q_time=np.full((N + 1, n1), np.nan), u_time=np.full((N + 1, n1), np.nan),
-                        lam=np.full((N + 1, m), np.nan), impulses=np.full((N, m), np.nan), harmonics=self.n_h,
-                        info={"failure": f"the event-driven flow failed at the solution: "
-                                         f"{getattr(self, 'last_error', 'unknown error')}"})
+            return failed_parts(self.td.t, self.td.N, (self.nc, self.system.n), self._time,
+                                len(self.system.elements), self.n_h, "the event-driven flow failed at the "
+                                f"solution: {getattr(self, 'last_error', 'unknown error')}")
         fl, n1, N = self.flow, self._time.size, self.td.N
         Z = out["samples"]
         q_t, u_t = Z[:n1].T.copy(), Z[n1:2 * n1].T.copy()

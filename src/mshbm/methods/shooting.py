@@ -26,7 +26,7 @@ import numpy as np
 
 from .. import fourier
 from .base import Partition, PeriodicProblem, forward_difference_jacobian
-from .common import guess_parts
+from .common import failed_parts, guess_parts
 from ..integrators import kernels
 from ..integrators.moreau_jean import MoreauJean
 
@@ -216,13 +216,9 @@ class ShootingProblem(PeriodicProblem):
             out = fl.simulate(0.0, fl.state(0.0, x[:n], x[n:]), jac=True, sample_times=self.t, record=True)
         except (EventError, ValueError) as exc:  # as in _event_residual: no flow from this state
             # non-finite parts, which the driver reports as a failure, with why (as MS-HBM does)
-            m = len(self.system.elements)
-            return dict(t=self.t, q_hat=np.full((2 * min(self.n_h, (N - 1) // 2) + 1, n), np.nan),
-                        time_dofs=np.arange(n), q_time=np.full((N + 1, n), np.nan),
-                        u_time=np.full((N + 1, n), np.nan), lam=np.full((N + 1, m), np.nan),
-                        impulses=np.full((N, m), np.nan), harmonics=min(self.n_h, (N - 1) // 2),
-                        info={"failure": f"the event-driven flow failed at the solution: {type(exc).__name__}: "
-                                         f"{exc}"})
+            n_h = min(self.n_h, (N - 1) // 2)
+            return failed_parts(self.t, N, (2 * n_h + 1, n), np.arange(n), len(self.system.elements), n_h,
+                                f"the event-driven flow failed at the solution: {type(exc).__name__}: {exc}")
         qmax, qmin, _ = extrema(fl, out["nodes"])  # true extrema from the flow (zeros of u between nodes)
         Z = out["samples"]
         q, u = Z[:n].T.copy(), Z[n:2 * n].T.copy()

@@ -202,19 +202,22 @@ _DEADLINE = contextvars.ContextVar("mshbm_newton_deadline", default=None)
 
 
 @contextlib.contextmanager
-def time_box(deadline):
-    """Within the block, every Newton solve stops at ``deadline`` (a ``time.perf_counter()`` value; ``None``:
-    no new limit), failing with the message "time budget spent"; an enclosing earlier deadline stays."""
-    outer = _DEADLINE.get()
-    if deadline is None:
-        new = outer
-    else:
-        new = float(deadline) if outer is None else min(outer, float(deadline))
-    token = _DEADLINE.set(new)
+def tighter_deadline(var, deadline):
+    """Within the block the context variable ``var`` holds the earlier of its value and ``deadline`` (a
+    ``time.perf_counter()`` value; ``None``: no new limit, an enclosing one stays)."""
+    outer = var.get()
+    new = outer if deadline is None else (float(deadline) if outer is None else min(outer, float(deadline)))
+    token = var.set(new)
     try:
         yield
     finally:
-        _DEADLINE.reset(token)
+        var.reset(token)
+
+
+def time_box(deadline):
+    """Within the block, every Newton solve stops at ``deadline`` (a ``time.perf_counter()`` value; ``None``:
+    no new limit), failing with the message "time budget spent"; an enclosing earlier deadline stays."""
+    return tighter_deadline(_DEADLINE, deadline)
 
 
 def deadline():

@@ -157,17 +157,10 @@ def _nested(deadline=None):
             var.reset(tok)
 
 
-@contextlib.contextmanager
 def time_limit(deadline):
     """Within the block, ladders try no further start after ``deadline`` (a ``time.perf_counter()`` value;
     ``None``: no new limit; an enclosing earlier one stays): :func:`mshbm.solvers.driver.solve`'s ``max_time``."""
-    outer = _DEADLINE.get()
-    new = outer if deadline is None else (float(deadline) if outer is None else min(outer, float(deadline)))
-    token = _DEADLINE.set(new)
-    try:
-        yield
-    finally:
-        _DEADLINE.reset(token)
+    return newton_.tighter_deadline(_DEADLINE, deadline)
 
 
 @contextlib.contextmanager
