@@ -496,9 +496,9 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
                 kink = {"lam": float(p.lam), "lam_right": float(lam), "index": len(points), "cos_tangents": -c_t}
             else:
                 kink = None
-            dist = float(np.linalg.norm(np.concatenate([(x - p.x) / w, [(lam - p.lam) / lsc]])))
-            if p.segment is not None and st is None \
-                    and float(scaled_t(p, w) @ np.concatenate([(x - p.x) / w, [(lam - p.lam) / lsc]])) < 0.1 * ds:
+            moved = np.concatenate([(x - p.x) / w, [(lam - p.lam) / lsc]])  # the step in scaled units
+            dist = float(np.linalg.norm(moved))
+            if p.segment is not None and st is None and float(scaled_t(p, w) @ moved) < 0.1 * ds:
                 # a corrector polished at fixed lam (see ``corrector``) can return to p itself (at a corner
                 # the hyperplane misses the outgoing piece): no progress along the branch (checked on
                 # piecewise-smooth residuals, ``segment``)

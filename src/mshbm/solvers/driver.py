@@ -280,27 +280,23 @@ def _event_fallback(system, omega, method, options, failed, t0):
         return failed  # (the anchor solves of the "frequency" start: the outer ladder ends with this fallback)
     if options.get("integrator") is not None:  # asked for explicitly: that integrator only
         if options["integrator"] == "moreau":
-            failed.info["event_fallback"] = {"applied": False, "reason": "integrator='moreau' given explicitly"}
-            failed.message += ("; the exact event-driven integrator was not tried (integrator='moreau' given "
-                               "explicitly; leave it out to allow the fallback)")
+            return _declined(failed, {"applied": False, "reason": "integrator='moreau' given explicitly"},
+                             "was not tried (integrator='moreau' given explicitly; leave it out to allow the fallback)")
         return failed
     if int(options.get("max_iter", 50)) < 1:  # no Newton iterations asked for: the starts as given, judged
-        failed.info["event_fallback"] = {"applied": False, "reason": "max_iter = 0"}
-        return failed
+        return _declined(failed, {"applied": False, "reason": "max_iter = 0"})
     cert = getattr(failed, "certificate", None)
     if cert is not None and "undamped_resonance" in cert.failed:
         # no element acts and a forced harmonic sits on an undamped natural frequency: the linear structure has no
         # periodic solution, whatever the integrator
-        failed.info["event_fallback"] = {"applied": False, "reason": "undamped resonance of the linear structure"}
-        return failed
+        return _declined(failed, {"applied": False, "reason": "undamped resonance of the linear structure"})
     now = time.perf_counter()
     outer = [d for d in (newton_.deadline(), starts.deadline()) if d is not None]
     box = now + EVENT_FALLBACK_SECONDS
     if outer:
         if min(outer) - now <= 0.0:
-            failed.info["event_fallback"] = {"applied": False, "reason": "time budget spent"}
-            failed.message += "; the exact event-driven integrator was not tried (time budget spent)"
-            return failed
+            return _declined(failed, {"applied": False, "reason": "time budget spent"},
+                             "was not tried (time budget spent)")
         box = min(box, min(outer))
     opts = {k: v for k, v in options.items() if k not in ("guess", "raise_on_failure", "integrator")}
     opts["integrator"] = "event"
@@ -311,20 +307,14 @@ def _event_fallback(system, omega, method, options, failed, t0):
         with newton_.time_box(box), starts.time_limit(box):
             ev = _solve(system, omega, method, dict(opts, guess=guess), ladder_starts=EVENT_FALLBACK_STARTS)
     except InputError as exc:  # the event-driven flow does not apply to this system
-        failed.info["event_fallback"] = {"applied": False, "reason": str(exc)}
-        failed.message += f"; the exact event-driven integrator does not apply here ({exc})"
-        return failed
+        return _declined(failed, {"applied": False, "reason": str(exc)}, f"does not apply here ({exc})")
     except (FloatingPointError, np.linalg.LinAlgError, ValueError, OverflowError) as exc:
-        failed.info["event_fallback"] = dict(record, success=False, message=f"{type(exc).__name__}: {exc}")
-        failed.message += f"; the exact event-driven integrator (integrator='event') failed too: " \
-                          f"{type(exc).__name__}: {exc}"
-        return failed
+        return _declined(failed, dict(record, success=False, message=f"{type(exc).__name__}: {exc}"),
+                         f"(integrator='event') failed too: {type(exc).__name__}: {exc}")
     record.update(success=bool(ev.success), message=ev.message, wall_time_s=float(ev.wall_time))
     if not ev.success:
-        failed.info["event_fallback"] = record
         spent = " (its time box spent)" if time.perf_counter() > box else ""
-        failed.message += f"; the exact event-driven integrator (integrator='event') failed too{spent}: {ev.message}"
-        return failed
+        return _declined(failed, record, f"(integrator='event') failed too{spent}: {ev.message}")
     summary = ev.info.get("event_integrator") or {}
     mixed = summary.get("switched_to_moreau")
     how = ("the exact event-driven integrator (integrator='event'" + (
@@ -337,6 +327,15 @@ def _event_fallback(system, omega, method, options, failed, t0):
     ev.info["event_fallback"] = record
     ev.wall_time = time.perf_counter() - t0
     return ev
+
+
+def _declined(failed, record, note=None):
+    """``failed`` with ``info["event_fallback"] = record`` and, with ``note``, its message extended by "the
+    exact event-driven integrator <note>" (:func:`_event_fallback`)."""
+    failed.info["event_fallback"] = record
+    if note:
+        failed.message += f"; the exact event-driven integrator {note}"
+    return failed
 
 
 def _unshift(sol, section):
