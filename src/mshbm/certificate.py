@@ -514,14 +514,13 @@ def el_dofs_each(system):
 
 def _certify(problem, sol, tol, cert, step_accuracy=None, step_size_gating=True):
     system, omega = problem.system, float(sol.omega)
-    is_hbm = problem.method in ("hbm", "dlft")  # Fourier series of all DOFs, AFT samples
-    is_dlft = problem.method == "dlft"
+    is_hbm = problem.fourier_all_dofs  # Fourier series of all DOFs, AFT samples
     stepper = problem.time_stepper()  # None for HBM and DLFT
     T = 2.0 * np.pi / omega
     t = np.asarray(sol.t)
     N = t.size - 1
     h = T / N
-    F = force_scale(system, penalty=is_hbm and not is_dlft)
+    F = force_scale(system, penalty=problem.penalty_contact)
     D0 = displacement_floor(system, omega)
     els = list(system.elements)
     el_dofs, col, I, J, sign, fr, ct = _element_tables(system)
@@ -625,9 +624,9 @@ def _certify(problem, sol, tol, cert, step_accuracy=None, step_size_gating=True)
             # g_N = gap + w^T q (relative contacts: on q_I - q_J): min g_N = gap + min w^T q
             p = max(0.0, float(-(e.gap + terms[j, _S_MIN])))
             umax = float(terms[j, _WU_MAX])  # max |w^T u|
-            if is_dlft:  # the law holds on the Lagrangian displacement; the truncated series may cross
+            if problem.lagrangian_contact:  # the law holds on the Lagrangian displacement; the series may cross
                 b = None
-            elif is_hbm:
+            elif problem.penalty_contact:
                 b = (max(0.0, float(terms[j, _LAM_MAX])) + e.penalty_damping * umax) / e.penalty_stiffness + 1e-9 * D
             elif stepper is not None and stepper.project:
                 b = 1e-9 * D
@@ -638,12 +637,12 @@ def _certify(problem, sol, tol, cert, step_accuracy=None, step_size_gating=True)
             elif p - b > pen - bnd or bnd == np.inf:
                 pen, bnd = p, b
             comp = max(comp, float(-terms[j, _LAM_MIN]) / F)
-        if is_dlft:
+        if problem.lagrangian_contact:
             cert.checks.append(Check("non_penetration", pen, None, True, False,
                                      "max(0, -min g_N) in m of the truncated Fourier series; DLFT enforces the "
                                      "contact law on its Lagrangian displacement at the AFT samples, so this "
                                      "is a truncation error (reported, not gating)"))
-        elif is_hbm and problem.penalty_quadrature == "linear":  # an HBM problem always sets it
+        elif problem.penalty_contact and problem.penalty_quadrature == "linear":
             cert.checks.append(Check("non_penetration", pen, None, True, False,
                                      "max(0, -min g_N) in m at the AFT samples; with penalty_quadrature='linear' "
                                      "the penalty force is k_c times the penetration of the gap's linear "
@@ -662,7 +661,7 @@ def _certify(problem, sol, tol, cert, step_accuracy=None, step_size_gating=True)
     _resonance(problem, sol, system, omega, h, is_hbm, els, lam, cert, terms)
 
     # 6. harmonic truncation (HBM, MS-HBM)
-    if problem.method != "shooting":
+    if problem.harmonic_truncation:
         n_h = int(sol.harmonics)
         top = float(mags.max(initial=0.0))
         eq = float(mags[-1].max()) / top if top > 0 and mags.shape[0] else 0.0
@@ -750,7 +749,7 @@ def _connectivity_work(problem, sol, system, omega, R, Ld):
     ``X_L`` were condensed under the coupling ``H_LN q_hat_N``, while the solution reports ``FFT(q_N)`` on
     ``N``, so the Parseval sums of ``L`` miss ``W_delta = T/2 sum_k Re(conj(U_L,k)^T H_LN,k Delta_k)``
     (``U_L,k = i k omega X_L,k``, ``Delta_k`` the complex form of ``delta``)."""
-    if problem.method != "mshbm" or R is None or not Ld.size:
+    if not problem.certify_connectivity_work or R is None or not Ld.size:
         return None
     td = np.asarray(sol.time_dofs, dtype=np.int64)
     qh = np.asarray(sol.q_hat)
@@ -879,7 +878,7 @@ def _energy(problem, sol, system, omega, h, N, is_hbm, stepper, els, col, ue_max
         if event:
             bound_rel, note = ENERGY_TOL, ("event-driven flow sampled on the output grid: the sums are a "
                                            "trapezoidal quadrature, O(h) at events (reported, not gating)")
-        elif problem.method == "shooting":
+        elif not problem.time_integrated_subset:
             bound_rel, note = ENERGY_TOL, "Moreau-Jean discrete work (exact balance for theta = 1/2)"
         else:
             bound_rel = ENERGY_TOL + (int(sol.harmonics) * omega * h) ** 2

@@ -64,8 +64,9 @@ import scipy.linalg as sla
 from scipy.spatial import cKDTree
 
 from . import fourier
-from .errors import InputError
 from .elements import regularised_forces  # the regularised-force Jacobian: imported in this one place only
+from .errors import InputError
+from .options import aft_steps
 
 __all__ = ["hill_matrices", "hill_exponents", "hill_multipliers", "assess_hbm", "HILL", "MAX_SIZE"]
 
@@ -96,7 +97,7 @@ def hill_matrices(system, omega, q_hat, steps=None):
     q_hat : ndarray, shape (2 n_h + 1, n)
         Fourier coefficients of the periodic solution (all DOFs).
     steps : int, optional
-        AFT samples ``N_s`` (default: those of :func:`mshbm.api.default_steps` for HBM).
+        AFT samples ``N_s`` (default: :func:`mshbm.options.aft_steps`, those of HBM).
 
     Returns
     -------
@@ -110,9 +111,7 @@ def hill_matrices(system, omega, q_hat, steps=None):
     if n * nc > MAX_SIZE:
         raise InputError("harmonics", f"Hill matrix of {n * nc} coefficients exceeds {MAX_SIZE} (dense eigenproblem)")
     if steps is None:
-        from .options import default_steps
-
-        steps = default_steps("hbm", n_h)
+        steps = aft_steps(n_h)
     Ns = int(steps)
     M, C, K = system.dense("M"), system.dense("C"), system.dense("K")
     I = np.eye(nc)

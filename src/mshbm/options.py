@@ -1,9 +1,10 @@
 """The option registry: which solve options exist, which method accepts which, and their checks.
 
 Every option of :func:`mshbm.solve` is validated here, once: :func:`check_options` is called by
-:func:`mshbm.solvers.driver.build_problem`, and the case-file reader (:mod:`mshbm.io`) takes its key
-sets from :data:`METHODS` and :data:`COMMON`.  Registering a method is one entry in :data:`METHODS`
-(its options) and one in :data:`mshbm.solvers.driver.PROBLEMS` (its problem class).
+:func:`mshbm.methods.registry.build_problem`, and the case-file reader (:mod:`mshbm.io`) takes its key
+sets from :data:`METHODS` and :data:`COMMON`.  What differs between methods (their options, default
+harmonics and steps) is read from the capability table :mod:`mshbm.methods.capabilities`, never from a
+comparison of method names.
 
 Options and their meaning
 -------------------------
@@ -48,22 +49,16 @@ import numpy as np
 
 from . import stability as _stability
 from .errors import InputError
+from .methods.capabilities import CAPABILITIES, capabilities
 
-__all__ = ["COMMON", "METHODS", "allowed", "check_options", "default_steps"]
+__all__ = ["COMMON", "METHODS", "allowed", "check_options", "default_steps", "default_harmonics", "aft_steps"]
 
 #: options of every method (driver and Newton options)
 COMMON = frozenset({"guess", "tol", "max_iter", "line_search", "progress", "raise_on_failure", "continuation",
                     "stability", "max_time"})
-#: options accepted by each method besides the common ones (the method registry's option table)
-METHODS = {
-    "shooting": frozenset({"steps", "theta", "jacobian", "harmonics", "project", "integrator", "accumulation"}),
-    "hbm": frozenset({"harmonics", "steps", "condense", "partition", "penalty_quadrature"}),
-    "mshbm": frozenset({"harmonics", "steps", "theta", "jacobian", "partition", "project", "integrator",
-                        "accumulation"}),
-    "mshbm-intermediate": frozenset({"harmonics", "steps", "theta", "jacobian", "partition", "project",
-                                     "integrator", "accumulation"}),
-    "dlft": frozenset({"harmonics", "steps", "condense", "partition", "dlft_penalty", "dlft_predictor"}),
-}
+#: options accepted by each method besides the common ones (from the capability table,
+#: :data:`mshbm.methods.capabilities.CAPABILITIES`)
+METHODS = {name: c.options for name, c in CAPABILITIES.items()}
 
 
 def allowed(method):
@@ -71,12 +66,24 @@ def allowed(method):
     return METHODS[method] | COMMON
 
 
+def aft_steps(n_h):
+    """Default AFT samples per period of ``n_h`` harmonics: ``max(512, 16 (2 n_h + 1))`` rounded up to a
+    power of two."""
+    return 1 << max(9, math.ceil(math.log2(16 * (2 * n_h + 1))))
+
+
 def default_steps(method, n_h):
-    """Default time points per period: 4096 for time-stepping, ``max(512, 16 (2 n_h + 1))`` rounded
-    up to a power of two for the AFT of HBM and DLFT."""
-    if method in ("hbm", "dlft"):
-        return 1 << max(9, math.ceil(math.log2(16 * (2 * n_h + 1))))
+    """Default time points per period: :func:`aft_steps` for the methods whose ``steps`` are AFT samples
+    (HBM, DLFT), else 4096 time steps."""
+    caps = CAPABILITIES.get(method)
+    if caps is not None and caps.aft_samples:
+        return aft_steps(n_h)
     return 4096
+
+
+def default_harmonics(method):
+    """``n_h`` of ``method`` when ``harmonics`` is not given."""
+    return capabilities(method).default_harmonics
 
 
 def _int_option(key, value, minimum):
@@ -91,19 +98,18 @@ def _int_option(key, value, minimum):
 
 
 def check_options(method, options):
-    if method not in METHODS:
-        raise InputError("method", f"unknown method {method!r} (choose from {', '.join(METHODS)})")
-    allowed = METHODS[method] | COMMON
+    caps = capabilities(method)
+    allowed = caps.options | COMMON
     for key in options:
         if key not in allowed:
             raise InputError(key, f"unknown option for method {method!r} (allowed: {', '.join(sorted(allowed))})")
     opts = dict(options)
-    n_h = _int_option("harmonics", opts.get("harmonics", 10 if method == "shooting" else 5), 1)
+    n_h = _int_option("harmonics", opts.get("harmonics", caps.default_harmonics), 1)
     if n_h > 2000:
         raise InputError("harmonics", f"{n_h} harmonics is beyond what this solver supports (max 2000)")
     opts["harmonics"] = n_h
     steps = opts.get("steps", default_steps(method, n_h))
-    min_steps = max(8, 2 * n_h + 2) if method != "shooting" else 8
+    min_steps = max(8, 2 * n_h + 2) if caps.harmonic_unknowns else 8
     steps = _int_option("steps", steps, min_steps)
     if steps > 1 << 24:
         raise InputError("steps", f"{steps} steps per period is beyond what this solver supports (max 2^24)")

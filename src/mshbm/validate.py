@@ -39,6 +39,7 @@ import scipy.sparse.csgraph  # noqa: F401 -- sp.csgraph
 import scipy.sparse.linalg as spla
 
 from .errors import InputError
+from .methods.capabilities import capabilities
 
 __all__ = ["check_forcing", "check_partition", "check_guess", "check_free_free", "check_float_range",
            "FLOAT_LIMIT", "GUESS_LIMIT"]
@@ -96,7 +97,7 @@ def check_forcing(system, method, n_h, steps, time_dofs):
     if bad.size:
         d = int(bad[np.argmax(top[bad])])
         k = int(top[d])
-        where = {"hbm": "HBM", "dlft": "DLFT"}.get(method) or f"the harmonic part of {method}"
+        where = capabilities(method).harmonic_part
         raise InputError("harmonics", f"the forcing has harmonic {k} (on DOF {d}), above harmonics={n_h}: "
                                       f"{where} cannot represent it and would drop it; use harmonics >= {k}")
     bad = np.flatnonzero(timed & (2 * top >= steps))
@@ -140,7 +141,7 @@ def check_partition(system, method, partition):
     """Validated partition: int array (``hbm``, ``mshbm``) or a pair of int arrays (``mshbm-intermediate``)."""
     n = system.n
     el_dofs = sorted({int(d) for e in system.elements for d in e.dofs})
-    if method == "mshbm-intermediate":
+    if capabilities(method).partition_pair:
         if isinstance(partition, np.ndarray) and partition.dtype != object and partition.ndim == 2 \
                 and partition.shape[0] == 2:
             partition = list(partition)
@@ -294,7 +295,7 @@ def check_float_range(system, omega, n_h, steps, method):
     w = n_h * omega
     terms = [("K", "max |K|", mK), ("omega", f"({n_h} omega)^2 max |M|", w * w * mM),
              ("omega", f"{n_h} omega max |C|", w * mC)]
-    if method not in ("hbm", "dlft"):
+    if not capabilities(method).aft_samples:  # steps are time steps
         h = 2 * math.pi / omega / steps
         terms += [("steps", "max |M| / h^2 (h = T/steps)", mM / (h * h)), ("steps", "max |C| / h", mC / h)]
     terms += [("forcing", "max |f|", mf)]
@@ -310,14 +311,7 @@ def check_inputs(system, omega, method, n_h, steps, partition=None):
     float range, free-free structure, forcing representation (``partition`` already validated)."""
     check_float_range(system, omega, n_h, steps, method)
     check_free_free(system)
-    if method == "shooting":
-        time_dofs = np.arange(system.n)
-    elif method in ("hbm", "dlft"):
-        time_dofs = np.zeros(0, dtype=np.int64)
-    elif method == "mshbm":
-        time_dofs = system.nonlinear_dofs if partition is None else partition
-    else:
-        time_dofs = system.nonlinear_dofs if partition is None else partition[0]
+    time_dofs = capabilities(method).timed_dofs(system, partition)
     check_forcing(system, method, n_h, steps, time_dofs)
 
 

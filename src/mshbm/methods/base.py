@@ -75,6 +75,33 @@ has them)
     The Jacobian costs little more than ``R`` (HBM, DLFT), or the full step is nearly always taken (MS-HBM
     with the event-driven flow): Newton evaluates the full step with it and keeps it when the step is
     taken; the iterates do not change.
+
+Declared representation (class attributes; the certificate, :mod:`mshbm.certificate`, reads them instead of
+the method's name)
+-----------------------------------------------------------------------------------------------------------
+``fourier_all_dofs`` : bool (default False)
+    Every DOF is a truncated Fourier series and the element laws act at the ``steps`` AFT samples (HBM,
+    DLFT): the time series are periodic by construction, the energy balance is Parseval's plus the AFT
+    quadrature of the element work, and no time step bounds the checks.
+``penalty_contact`` : bool (default False)
+    Contacts obey the regularised penalty law (``penalty_stiffness``, ``penalty_damping`` of the elements;
+    HBM): the force scale includes the penalty, and the penetration the law needs is allowed.
+``penalty_quadrature`` : str or None (default None)
+    With ``penalty_contact``: ``"samples"`` or ``"linear"`` (:mod:`mshbm.methods.hbm`); ``None`` otherwise.
+``lagrangian_contact`` : bool (default False)
+    Contacts hold on a Lagrangian displacement at the AFT samples, not on the truncated series (DLFT): the
+    penetration of the series is a truncation error, reported but not gated.
+``harmonic_truncation`` : bool (default False)
+    Unknowns are Fourier coefficients truncated at ``n_h`` (all methods but shooting): the certificate
+    reports the truncation estimates.
+``time_integrated_subset`` : bool (default False)
+    Only a subset of the DOFs is time-stepped, the others are Fourier series entering the discrete work
+    sums on the time grid (both MS-HBM variants): the energy balance allows their quadrature error
+    ``(n_h omega h)^2``.
+``certify_connectivity_work`` : bool (default False)
+    The leading residual rows are MS-HBM's connectivity residual ``q_hat_N - FFT(q_N)`` (Section 3.2), whose
+    work on the linear subsystem the certificate subtracts from the energy balance and gates as
+    ``connectivity_work``.
 """
 from __future__ import annotations
 
@@ -155,6 +182,15 @@ class PeriodicProblem:
     #: sentences on how the problem was set up differently from what was asked (e.g. resonant DOFs kept
     #: instead of condensed); the driver puts them in ``info["notes"]`` and the message
     notes: tuple = ()
+
+    # ------------------------------------------------------------------ declared representation (contract)
+    fourier_all_dofs = False
+    penalty_contact = False
+    penalty_quadrature = None
+    lagrangian_contact = False
+    harmonic_truncation = False
+    time_integrated_subset = False
+    certify_connectivity_work = False
 
     # ------------------------------------------------------------------ required
     @property
@@ -257,6 +293,8 @@ class HarmonicProblem(PeriodicProblem):
     gap contact."""
 
     cheap_jacobian = True  # the AFT Jacobian is a few products more than the residual
+    fourier_all_dofs = True
+    harmonic_truncation = True
 
     def _setup_harmonic_balance(self, system, omega, harmonics, steps, condense, partition):
         """The linear part both methods share: kept DOFs ``keep`` (the element DOFs or ``partition``; all

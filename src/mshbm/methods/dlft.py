@@ -201,6 +201,7 @@ class DLFTProblem(HarmonicProblem):
     """
 
     method = "dlft"
+    lagrangian_contact = True  # declared representation (mshbm.methods.base)
 
     def __init__(self, system, omega, harmonics, steps, condense=True, partition=None, dlft_penalty=None,
                  dlft_predictor="velocity"):

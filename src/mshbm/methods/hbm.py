@@ -188,6 +188,7 @@ class HBMProblem(HarmonicProblem):
     """
 
     method = "hbm"
+    penalty_contact = True  # declared representation (mshbm.methods.base); penalty_quadrature: set per problem
 
     def __init__(self, system, omega, harmonics, steps, condense=True, partition=None, penalty_quadrature="samples"):
         if penalty_quadrature not in PENALTY_QUADRATURES:

@@ -275,6 +275,11 @@ class _MixedBase(PeriodicProblem):
     ``_time``; residual ``(balance(FFT(q_1), p), q_1(T) - q_1(0), u_1(T) - u_1(0))``.  Subclasses set
     ``_time``, ``_harm``, ``_cond_dofs``, ``td``, ``cond``, ``nc`` and the balance hooks."""
 
+    # -- declared representation (mshbm.methods.base contract), read by the certificate
+    harmonic_truncation = True
+    time_integrated_subset = True
+    # --
+
     @property
     def n_unknowns(self):
         return self.nc * self._harm.size + 2 * self.nA
@@ -541,6 +546,10 @@ class MixedProblem(_MixedBase):
 
     method = "mshbm"
 
+    # -- declared representation (mshbm.methods.base contract), read by the certificate
+    certify_connectivity_work = True
+    # --
+
     def __init__(self, system, omega, harmonics, steps, theta=0.5, jacobian="exact", partition=None,
                  project=True, integrator="moreau", accumulation="moreau"):
         self.system, self.omega, self.n_h = system, float(omega), int(harmonics)
@@ -757,6 +766,11 @@ class StandardAsIntermediate(MixedProblem):
     the requested method with a note in ``info["notes"]`` and the message."""
 
     method = "mshbm-intermediate"
+
+    # -- declared representation (mshbm.methods.base contract), read by the certificate: reported as the
+    # intermediate variant, its certificate has no connectivity_work check
+    certify_connectivity_work = False
+    # --
 
     def __init__(self, system, omega, harmonics, steps, theta=0.5, jacobian="exact", project=True,
                  integrator="moreau"):

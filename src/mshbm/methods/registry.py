@@ -2,7 +2,8 @@
 problem is constructed from validated options (:mod:`mshbm.options`).
 
 Registering a method: its problem class (a :class:`mshbm.methods.base.PeriodicProblem`) in
-:data:`PROBLEMS`, its options in :data:`mshbm.options.METHODS`.
+:data:`PROBLEMS`, its options and the other declarations that the checks read before the problem exists in
+:data:`mshbm.methods.capabilities.CAPABILITIES` (re-exported here with :func:`capabilities`).
 """
 from __future__ import annotations
 
@@ -14,12 +15,13 @@ from .. import options as options_
 from .. import validate
 from ..errors import InputError
 from ..system import System
+from .capabilities import CAPABILITIES, capabilities
 from .dlft import DLFTProblem
 from .hbm import HBMProblem
 from .mixed import IntermediateProblem, MixedProblem, intermediate_problem
 from .shooting import ShootingProblem
 
-__all__ = ["PROBLEMS", "build_problem"]
+__all__ = ["PROBLEMS", "CAPABILITIES", "build_problem", "capabilities"]
 
 #: problem class of each method
 PROBLEMS = {"shooting": ShootingProblem, "hbm": HBMProblem, "mshbm": MixedProblem,
@@ -47,8 +49,6 @@ def build_problem(system, omega, method="mshbm", **options):
     opts = options_.check_options(method, options)
     solver_keys = options_.COMMON
     prob_opts = {k: v for k, v in opts.items() if k not in solver_keys and k in options_.METHODS[method]}
-    if method == "hbm":
-        prob_opts.pop("theta", None)
     if prob_opts.get("partition") is not None:
         prob_opts["partition"] = validate.check_partition(system, method, prob_opts["partition"])
     validate.check_inputs(system, float(omega), method, opts["harmonics"], opts["steps"], prob_opts.get("partition"))
