@@ -1,0 +1,164 @@
+"""The element-law checks of a certificate and the per-element table they read.
+
+``friction_cone`` (gating, friction elements)
+    ``max_j max_t |lambda_j| / (mu F_N)_j``; bound ``1 + 1e-9`` (the projected Gauss-Seidel solver resolves
+    the cone to ~1e-14; the arctan law of HBM stays strictly inside).  Where ``F_N`` follows a contact, the
+    cone is taken per sample.
+``non_penetration`` (gating, contacts)
+    Largest penetration ``max(0, -min g_N)`` (m).  Bound, time stepping: ``1e-9 D`` with position
+    projection (the projection puts a penetrating contact back on ``g_N = 0`` to rounding), otherwise one
+    step's travel ``h max |u_dof|`` (the velocity-level law can let a contact run into the obstacle for at
+    most one step); penalty contact (HBM): the penetration the penalty law itself needs to carry the contact
+    force, ``(max lambda_N + d_c max |u_dof|) / k_c``, plus ``1e-9 D``.  Reported, not gating, where the
+    penetration is the law's by construction (``penalty_quadrature="linear"``) or a truncation error of the
+    series (contacts on a Lagrangian displacement, DLFT).
+``contact_compression`` (gating, contacts, time series)
+    ``-min lambda_N / F`` (contact forces push, never pull); bound ``1e-9``.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .. import fourier
+from .kernels import LAM_ABS, LAM_MAX, LAM_MIN, S_MIN, WU_MAX, element_terms, element_terms_fourier
+from .record import Check
+
+__all__ = ["element_tables", "el_dofs_each", "element_series", "element_terms_table", "law_checks", "max_abs"]
+
+
+def max_abs(a):
+    """``max |a|`` (0 for an empty array)."""
+    return float(np.abs(a).max(initial=0.0))
+
+
+def element_tables(system):
+    """The element bookkeeping of the certificate (cached on the system while its element tuple is the same;
+    shared: not to be modified): ``el_dofs`` (sorted DOFs carrying elements), ``col`` (DOF -> index in
+    ``el_dofs``), ``I``, ``J`` (per element: index of its DOF and of its second DOF, -1 for the ground),
+    ``sign`` (per element), ``fr`` and ``ct`` (``[(j, element)]`` of the bounded and the unilateral
+    elements)."""
+    def compute():
+        els = tuple(system.elements)
+        el_dofs = np.array(sorted({int(d) for e in els for d in e.dofs}), dtype=np.int64)
+        col = {int(d): i for i, d in enumerate(el_dofs)}
+        I = np.array([col[int(e.dof)] for e in els], dtype=np.int64)
+        J = np.array([-1 if e.relative_to is None else col[int(e.relative_to)] for e in els], dtype=np.int64)
+        sign = np.array([float(e.sign) for e in els])
+        for a in (el_dofs, I, J, sign):
+            a.flags.writeable = False
+        fr = tuple((j, e) for j, e in enumerate(els) if e.bounded)
+        ct = tuple((j, e) for j, e in enumerate(els) if e.unilateral)
+        return el_dofs, col, I, J, sign, fr, ct
+
+    return system.derived("certificate_elements", ("elements",), compute)
+
+
+def el_dofs_each(system):
+    """The DOF of each element, shape ``(m,)``, int64, read-only (cached on the system)."""
+    def compute():
+        a = np.array([e.dof for e in system.elements], dtype=np.int64)
+        a.flags.writeable = False
+        return a
+
+    return system.derived("element_dof_each", ("elements",), compute)
+
+
+def element_series(sol, dofs, N):
+    """``q(t_k)`` and ``u(t_k)`` of ``dofs``, ``k = 0..N``, each (N+1, len(dofs)): as
+    ``sol.displacement(dofs)``, ``sol.velocity(dofs)``; for a solution given by its Fourier series
+    alone (HBM, DLFT) both from one product with the inverse DFT matrix."""
+    if not dofs.size:
+        return np.zeros((N + 1, 0)), np.zeros((N + 1, 0))
+    qh = np.asarray(sol.q_hat)
+    nc, m = qh.shape[0], dofs.size
+    if np.size(sol.time_dofs) or not (nc <= 64 and N > 2 * (nc // 2)):
+        return sol.displacement(dofs), sol.velocity(dofs)
+    coef = np.empty((nc, 2 * m))
+    coef[:, :m] = qh[:, dofs]
+    coef[:, m:] = fourier.derivative(coef[:, :m], sol.omega)
+    out = np.empty((N + 1, 2 * m))
+    np.matmul(fourier.idft_matrix(N, nc // 2), coef, out=out[:N])
+    out[N] = out[0]  # t_N = T: periodic
+    return out[:, :m], out[:, m:]
+
+
+def element_terms_table(sol, system, omega, N, lam):
+    """Per element the extremes of ``w^T q``, ``w^T u``, ``lambda`` on the grid and its work, shape ``(m, 8)``
+    (columns :data:`mshbm.certificate.kernels.S_MIN` ...), and the largest velocity of the element DOFs
+    (m/s), in one compiled pass; ``lam`` the element forces (N+1, m)."""
+    els = list(system.elements)
+    el_dofs, _, I, J, sign, _, _ = element_tables(system)
+    qh = np.asarray(sol.q_hat)
+    # per element: extremes of w^T q, w^T u, lambda on the grid and the element's work (one compiled pass)
+    terms = np.zeros((len(els), 8))
+    nc = qh.shape[0]
+    if els and not np.size(sol.time_dofs) and nc <= 64 and N > 2 * (nc // 2) and lam.shape[0] == N + 1:
+        # Fourier series alone (HBM, DLFT): the grid values of the element DOFs are summed in the pass
+        ue_max = element_terms_fourier(np.ascontiguousarray(qh[:, el_dofs], dtype=float),
+                                       fourier.idft_matrix(N, nc // 2), omega,
+                                       np.ascontiguousarray(lam, dtype=float), I, J, sign, N, terms)
+    else:
+        qe, ue = element_series(sol, el_dofs, N)
+        ue_max = max_abs(ue)
+        if els:
+            element_terms(np.ascontiguousarray(qe), np.ascontiguousarray(ue), np.ascontiguousarray(lam, dtype=float),
+                          I, J, sign, N, terms)
+    return terms, ue_max
+
+
+def law_checks(problem, system, terms, lam, F, D, h, stepper, cert):
+    """Append ``friction_cone``, ``non_penetration`` and ``contact_compression`` to ``cert`` (module
+    docstring) for the elements that have them; ``terms`` from :func:`element_terms_table`, ``F`` the force
+    scale (N), ``D`` the displacement scale (m), ``h`` the step (s), ``stepper`` the problem's (or ``None``)."""
+    is_hbm = problem.fourier_all_dofs
+    fr, ct = element_tables(system)[5:]
+    if fr:
+        ratios = []
+        for j, e in fr:
+            if e.normal_contact is None:
+                lmax = float(terms[j, LAM_ABS])  # max |lambda_j|
+                ratios.append(lmax / e.bound if e.bound > 0 else (0.0 if lmax == 0 else np.inf))
+                continue
+            # normal load from a contact: the cone per sample, |lambda_T| <= mu (N_0 + lambda_N(t))
+            b, lt = e.bound_samples(lam), np.abs(lam[:, j])
+            big = float(np.max(b, initial=0.0))
+            r = np.where(b > 1e-12 * big, lt / np.where(b > 0, b, 1.0), np.where(lt <= 1e-12 * big, 0.0, np.inf))
+            ratios.append(float(np.max(r, initial=0.0)))
+        val = max(ratios)
+        cert.checks.append(Check("friction_cone", val, 1.0 + 1e-9, bool(val <= 1.0 + 1e-9),
+                                 note="max |lambda_T| / (mu F_N) (per sample where F_N follows a contact)"))
+    if ct:
+        pen, bnd, comp = 0.0, np.inf, 0.0
+        for j, e in ct:
+            # g_N = gap + w^T q (relative contacts: on q_I - q_J): min g_N = gap + min w^T q
+            p = max(0.0, float(-(e.gap + terms[j, S_MIN])))
+            umax = float(terms[j, WU_MAX])  # max |w^T u|
+            if problem.lagrangian_contact:  # the law holds on the Lagrangian displacement; the series may cross
+                b = None
+            elif problem.penalty_contact:
+                b = (max(0.0, float(terms[j, LAM_MAX])) + e.penalty_damping * umax) / e.penalty_stiffness + 1e-9 * D
+            elif stepper is not None and stepper.project:
+                b = 1e-9 * D
+            else:
+                b = h * umax + 1e-9 * D
+            if b is None:
+                pen = max(pen, p)
+            elif p - b > pen - bnd or bnd == np.inf:
+                pen, bnd = p, b
+            comp = max(comp, float(-terms[j, LAM_MIN]) / F)
+        if problem.lagrangian_contact:
+            cert.checks.append(Check("non_penetration", pen, None, True, False,
+                                     "max(0, -min g_N) in m of the truncated Fourier series; DLFT enforces the "
+                                     "contact law on its Lagrangian displacement at the AFT samples, so this "
+                                     "is a truncation error (reported, not gating)"))
+        elif problem.penalty_contact and problem.penalty_quadrature == "linear":
+            cert.checks.append(Check("non_penetration", pen, None, True, False,
+                                     "max(0, -min g_N) in m at the AFT samples; with penalty_quadrature='linear' "
+                                     "the penalty force is k_c times the penetration of the gap's linear "
+                                     "interpolant, deepest at a sample, so the penetration is the law's by "
+                                     "construction (reported, not gating)"))
+        else:
+            cert.checks.append(Check("non_penetration", pen, bnd, bool(pen <= bnd), note="max(0, -min g_N) in m"))
+        if not is_hbm:
+            cert.checks.append(Check("contact_compression", comp, 1e-9, bool(comp <= 1e-9),
+                                     note="-min lambda_N / F"))

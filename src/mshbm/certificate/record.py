@@ -1,0 +1,88 @@
+"""The record of a certificate: one :class:`Check` per check, and the :class:`Certificate` that holds them,
+decides ``passed`` (every gating check passed) and words the message of failures and warnings."""
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+__all__ = ["Check", "Certificate"]
+
+
+@dataclass
+class Check:
+    """One check: ``passed`` is ``value <= bound`` (``undamped_resonance``: ``value > bound``)."""
+
+    name: str
+    value: float | None
+    bound: float | None
+    passed: bool
+    gating: bool = True
+    note: str = ""
+
+    def as_dict(self):
+        d = asdict(self)
+        for k in ("value", "bound"):
+            v = d[k]
+            d[k] = None if v is None or not np.isfinite(v) else float(v)
+        d["passed"], d["gating"] = bool(d["passed"]), bool(d["gating"])
+        return d
+
+
+@dataclass
+class Certificate:
+    """The checks of one solution (see the module docstring); ``passed``: every gating check passed."""
+
+    checks: list = field(default_factory=list)
+    info: dict = field(default_factory=dict)
+
+    @property
+    def passed(self):
+        return all(c.passed for c in self.checks if c.gating)
+
+    @property
+    def failed(self):
+        """Names of the gating checks that failed."""
+        return [c.name for c in self.checks if c.gating and not c.passed]
+
+    @property
+    def warnings(self):
+        """Names of the non-gating checks above their bound."""
+        return [c.name for c in self.checks if not c.gating and not c.passed and c.value is not None]
+
+    def __getitem__(self, name):
+        for c in self.checks:
+            if c.name == name:
+                return c
+        raise KeyError(name)
+
+    def __contains__(self, name):
+        return any(c.name == name for c in self.checks)
+
+    def as_list(self):
+        """JSON-ready list of dicts ``{name, value, bound, passed, gating, note}``."""
+        return [c.as_dict() for c in self.checks]
+
+    def describe_warnings(self):
+        """The non-gating checks above their bound (the harmonic truncation estimates), for the message of a
+        certified solution; ``""`` when there are none."""
+        above = [c for c in self.checks if not c.gating and not c.passed and c.value is not None and c.bound is not None]
+        parts = [f"{c.name} {c.value:.3g} > {c.bound:.3g}" + (f" ({c.note})" if c.note else "")
+                 for c in above if c.name != "step_accuracy_size"]
+        out = []
+        if parts:
+            out.append("the harmonic truncation error may exceed its bound: " + ", ".join(parts)
+                       + "; more harmonics (option harmonics) reduce it")
+        out += [f"one step's accuracy is {c.value:.3g} of the orbit's size (> {c.bound:.3g}); more steps (option "
+                "steps) reduce it" for c in above if c.name == "step_accuracy_size"]
+        return "; ".join(out)
+
+    def describe_failures(self):
+        parts = []
+        for c in self.checks:
+            if c.gating and not c.passed:
+                v = "n/a" if c.value is None else f"{c.value:.3g}"
+                b = "n/a" if c.bound is None else f"{c.bound:.3g}"
+                rel = "<=" if c.name == "undamped_resonance" else ">"
+                parts.append(f"{c.name} ({v} {rel} bound {b}{': ' + c.note if c.note else ''})")
+        return ", ".join(parts)
