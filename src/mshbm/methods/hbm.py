@@ -11,70 +11,29 @@ DOFs ``N``, the linear DOFs ``L`` are eliminated exactly per harmonic
 :class:`mshbm.condensation.Condensation`).  ``condense=False`` solves the full
 (sparse) system instead.  The Jacobian is analytic.
 
-Robust solution with penalty contact
-------------------------------------
-With penalty contacts only (eq. 45, any ``k_c``, ``d_c``), the AFT residual is
-*exactly piecewise linear* in ``q_hat``: it is affine between the hyperplanes
-``g_N(t_j) = 0`` of the ``N_s`` samples.  For stiff ``k_c`` the pieces are tiny
-and the solution branch has turning points (the grazing bifurcation of the
-impact oscillator), so damped Newton stalls at ``||R|| ~ O(1)`` from any start
-that is not already in the right region.  :meth:`HBMProblem.newton_fallback`
-(called by :func:`mshbm.solvers.newton.newton` when the line search fails) then traces
-the solution curve exactly, segment by segment, through the folds
-(:func:`mshbm.solvers.newton.follow_pl_path`):
-
-1. a Newton homotopy ``R(q_hat) = (1 - t) R(q_hat_0)``, ``t: 0 -> 1``, from the
-   given start (skipped when the start is the linear response);
-2. a gap continuation: all gaps offset by ``lambda``, from ``lambda_0`` where
-   the linear response just touches down to ``lambda = 0``.
-
-The end point is polished by Newton on the unmodified residual, and success is
-declared only by ``||R / s||_inf <= tol`` of the real problem (``s`` from
-:meth:`HBMProblem.residual_scale`): no smoothing of the law is involved.
-
-Quadrature of the penalty law (``penalty_quadrature``)
------------------------------------------------------
-``"samples"`` (default): eq. (45) at the ``N_s`` samples, as above (piecewise linear).  Its Jacobian
-jumps by ``k_c h`` (``h = T / N_s``) whenever a sample enters or leaves the contact, which on a stiff,
-short contact is as large as the structure's dynamic stiffness: along a frequency sweep the branch of
-the sampled equations is a chain of kinks whose tangents turn by up to 90 degrees (measured on the
-5-mass impact chain, ``k_c = 8000``, contact ~1 % of the period, ``n_H = 20``, ``N_s = 8192``), and
-some kinks are genuine turning points of the sampled equations (``N_s = 512``, ``n_H = 9``: a fold at
-0.531 rad/s that leads back to 0.39 rad/s).
-
-``"linear"``: the contact force is integrated *exactly* on the piecewise-linear interpolant of the
-gap between samples (:func:`hat_integrals`), against the hat functions of the samples, and the result
-is mapped back to samples by the consistent (circulant 1-4-1) mass matrix of the hats, which the DFT
-diagonalises (``E M^-1 = D^-1 E`` with ``D_k = (2 + cos(2 pi k / N_s)) / 3``).  While every sample of
-a contact is closed it is exactly the sampled law; where the gap changes sign inside an interval the
-force and its Jacobian are continuous in ``q_hat`` (the residual is C^1), so the branch is smooth and
-the continuation's tangents are meaningful.  Ground and relative contacts with ``d_c = 0``.  The exact
-piecewise-linear fallback above then traces the sampled equations and Newton polishes on these.
+With penalty contacts only, Newton's failures are taken over by an exact piecewise-linear path follower
+(:mod:`mshbm.methods.hbm_path`); the penalty law is evaluated at the AFT samples or integrated on the
+linear interpolant of the gap (:mod:`mshbm.methods.hbm_quadrature`).
 """
 from __future__ import annotations
 
 import functools
-from dataclasses import replace
 
 import numpy as np
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 from .. import fourier
 from . import hbm_kernels
 from .base import HarmonicProblem
 from .common import guess_parts
+from .hbm_path import PiecewiseLinearPaths
+from .hbm_quadrature import PENALTY_QUADRATURES, hat_integrals, hat_mass_dft, linear_quadrature_unsupported
 from ..elements import Contact, Friction, regularised_forces
 from ..errors import InputError
 from ..scaling import force_scale
-from ..solvers.newton import NewtonResult, follow_pl_path, newton
 
 __all__ = ["HBMProblem", "scaled_regularisation", "hat_integrals", "linear_quadrature_unsupported",
            "PENALTY_QUADRATURES"]
-
-#: values of the option ``penalty_quadrature`` (module docstring)
-PENALTY_QUADRATURES = ("samples", "linear")
-
 
 #: placeholder Jacobian argument of the compiled kernel when only ``R`` is wanted
 _NO_JAC = np.empty((0, 0, 0, 0))
@@ -104,66 +63,13 @@ def _fast_laws(elements, nl_cols, pos):
             np.array(p2, float), np.array(p3, float))
 
 
-def hat_integrals(a, b):
-    """Hat-weighted integrals of the penetration on one sample interval, and their derivatives.
-
-    The gap is linear on the interval, ``g(tau) = a + (b - a) tau`` (``tau`` in ``[0, 1]``, ``a, b`` the
-    gaps at its left and right sample, m).  Returns ``(I_L, I_R, dI_L/da, dI_L/db, dI_R/da, dI_R/db)``
-    (arrays shaped like ``a``) with ``I_L = int_0^1 max(0, -g) (1 - tau) dtau`` and
-    ``I_R = int_0^1 max(0, -g) tau dtau`` (m).  Closed forms: both samples closed,
-    ``I_L = -(2a + b)/6``, ``I_R = -(a + 2b)/6``; ``a < 0 < b`` (``d = b - a``),
-    ``I_R = -a^3 / (6 d^2)``, ``I_L = a^2 / (2 d) + a^3 / (6 d^2)``; ``a > 0 > b`` by symmetry; both
-    open, 0.  The integrals are continuously differentiable in ``(a, b)`` (except at ``a = b = 0``).
-    """
-    a = np.asarray(a, dtype=float)
-    b = np.asarray(b, dtype=float)
-    IL, IR = np.zeros_like(a), np.zeros_like(a)
-    La, Lb, Ra, Rb = (np.zeros_like(a) for _ in range(4))
-    m = (a <= 0.0) & (b <= 0.0)
-    IL[m], IR[m] = -(2.0 * a[m] + b[m]) / 6.0, -(a[m] + 2.0 * b[m]) / 6.0
-    La[m], Lb[m], Ra[m], Rb[m] = -1.0 / 3.0, -1.0 / 6.0, -1.0 / 6.0, -1.0 / 3.0
-    m = (a < 0.0) & (b > 0.0)  # closed at the left end
-    if m.any():
-        IL[m], IR[m], La[m], Lb[m], Ra[m], Rb[m] = _one_end_closed(a[m], b[m])
-    m = (a > 0.0) & (b < 0.0)  # closed at the right end: the mirror image (a <-> b, L <-> R)
-    if m.any():
-        IR[m], IL[m], Rb[m], Ra[m], Lb[m], La[m] = _one_end_closed(b[m], a[m])
-    return IL, IR, La, Lb, Ra, Rb
-
-
-def linear_quadrature_unsupported(elements):
-    """Why ``penalty_quadrature="linear"`` cannot take these elements (one sentence), or ``None``: it needs
-    contacts without penalty damping and no friction loaded by a contact."""
-    for el in elements:
-        if el.unilateral and el.penalty_damping != 0.0:
-            return f"'linear' needs contacts without penalty damping (d_c = 0), got d_c = {el.penalty_damping:g}"
-        if el.normal_contact is not None:
-            return "'linear' does not support friction loaded by a contact (normal_contact)"
-    return None
-
-
-def hat_mass_dft(k, Ns):
-    """``D_k = (2 + cos(2 pi k / N_s)) / 3``: the DFT at frequency index ``k`` (array) of the consistent mass
-    matrix of the ``N_s`` periodic hat functions (circulant 1-4-1 / 6, in units of the sample spacing)."""
-    return (2.0 + np.cos(2.0 * np.pi * k / Ns)) / 3.0
-
-
-def _one_end_closed(c, o):
-    """:func:`hat_integrals` on intervals closed at one end only (gap ``c < 0`` there, ``o > 0`` at the other):
-    ``(I_c, I_o, dI_c/dc, dI_c/do, dI_o/dc, dI_o/do)``, ``I_c`` against the hat of the closed end."""
-    d = o - c
-    r, r2, r3 = c / d, (c / d) ** 2, (c / d) ** 3
-    return (c * r / 2.0 + c * r2 / 6.0, -c * r2 / 6.0,
-            r + r2 + r3 / 3.0, -r2 / 2.0 - r3 / 3.0, -r2 / 2.0 - r3 / 3.0, r3 / 3.0)
-
-
 def scaled_regularisation(system, factor):
     """Copy of ``system`` whose HBM laws are ``factor`` times stiffer (``kappa``; ``k_c`` and ``d_c``:
     :meth:`mshbm.elements.Element.scaled`)."""
     return system.with_elements([el.scaled(factor) for el in system.elements])
 
 
-class HBMProblem(HarmonicProblem):
+class HBMProblem(PiecewiseLinearPaths, HarmonicProblem):
     """HBM-AFT periodic problem.
 
     Parameters
@@ -367,211 +273,6 @@ class HBMProblem(HarmonicProblem):
             rr, cc = np.meshgrid(idx, idx, indexing="ij")
             J = self.A - sp.csr_matrix((Jn.ravel(), (rr.ravel(), cc.ravel())), shape=self.A.shape)
         return J
-
-    # ------------------------------------------------------------------------------------------
-    # exact piecewise-linear solution (penalty contact only)
-
-    @property
-    def piecewise_linear(self):
-        """True if every element's regularised law is piecewise linear (penalty contact, eq. 45).
-
-        The AFT residual is then piecewise affine in ``q_hat``: affine on each
-        region where the set of closed samples ``{(t_j, contact): g_N(t_j) <= 0}``
-        is fixed.  With ``d_c = 0`` it is also continuous, and the path following
-        of :meth:`newton_fallback` is exact.  With ``d_c > 0`` eq. (45) jumps by
-        ``d_c gamma_N`` where ``g_N`` changes sign, so the residual jumps too and an
-        exact zero need not exist (measured: found for ``d_c <= 5``, not for
-        ``d_c = 50`` on the 5-mass chain, ``k_c = 8000``).  Contacts relative to a second DOF are
-        piecewise linear in the same way (on ``w^T q``).
-        """
-        els = self.system.elements
-        return len(els) > 0 and all(el.piecewise_linear for el in els)
-
-    def _contacts(self):
-        """``[(i, element)]``: index ``i`` into ``nl_cols`` of each contact's DOF."""
-        cols = {int(c): i for i, c in enumerate(self.nl_cols)}
-        return [(cols[d if isinstance(d, (int, np.integer)) else d[0]], el)
-                for el, d in zip(self.system.elements, self.local_dof) if el.unilateral]
-
-    def _contact_directions(self):
-        """``[[(i, w_i), ...]]`` per contact: indices ``i`` into ``nl_cols`` and entries of ``w``."""
-        cols = {int(self.keep[c]): i for i, c in enumerate(self.nl_cols)}
-        return [[(cols[int(d)], w) for d, w in el.direction] for _, el in self._contacts()]
-
-    def _gaps(self, x, offset=0.0):
-        """Sampled gaps ``g_N(t_j) + offset = gap + offset + w^T q(t_j)`` of the contacts, shape (N_s, n_contacts)."""
-        q = self.Vs @ x.reshape(2 * self.n_h + 1, self.nR)[:, self.nl_cols]
-        col = {int(self.keep[c]): i for i, c in enumerate(self.nl_cols)}
-        return np.stack([el.gap + offset + el.local(q, col) for _, el in self._contacts()], axis=1)
-
-    def _pl_jacobian(self, closed):
-        """Jacobian of the residual on the region with closed samples ``closed`` (N_s, n_contacts)."""
-        nc, nN = 2 * self.n_h + 1, self.nl_cols.size
-        Jn = np.zeros((nc, nN, nc, nN))
-        for j, ((i, el), wdir) in enumerate(zip(self._contacts(), self._contact_directions())):
-            S = np.flatnonzero(closed[:, j])
-            if not S.size:
-                continue
-            # closed: d f / d q = -k_c w w^T, d f / d u = -d_c w w^T
-            block = self.E[:, S] @ (el.penalty_stiffness * self.Vs[S] + el.penalty_damping * self.VsOm[S])
-            if el.relative_to is None:
-                Jn[:, i, :, i] -= block
-            else:
-                for a, wa in wdir:
-                    for b, wb in wdir:
-                        Jn[:, a, :, b] -= (wa * wb) * block
-        return self._jacobian(Jn)
-
-    def _gap_derivative(self, closed):
-        """``dR / d lambda`` when every gap is offset by ``lambda`` (region ``closed``)."""
-        h = np.zeros((2 * self.n_h + 1, self.nR))
-        for j, ((i, el), wdir) in enumerate(zip(self._contacts(), self._contact_directions())):
-            S = np.flatnonzero(closed[:, j])
-            if el.relative_to is None:
-                h[:, self.nl_cols[i]] -= el.penalty_stiffness * self.E[:, S].sum(axis=1)
-            else:  # R = ... - E w lambda, d lambda / d offset = -k_c on the closed samples
-                for a, wa in wdir:
-                    h[:, self.nl_cols[a]] += wa * el.penalty_stiffness * self.E[:, S].sum(axis=1)
-        return h.reshape(-1)
-
-    def _pl_crossing(self, x, dx, closed, offset, doffset):
-        """First sample switch along ``x + s dx`` (gap offset ``offset + s doffset``).
-
-        Returns ``(s, closed_after)``; ``s = inf`` if no sample switches.
-        """
-        g = self._gaps(x, offset)
-        dq = self.Vs @ dx.reshape(2 * self.n_h + 1, self.nR)[:, self.nl_cols]
-        col = {int(self.keep[c]): i for i, c in enumerate(self.nl_cols)}
-        dg = np.stack([doffset - dq[:, i] if el.relative_to is None else doffset + el.local(dq, col)
-                       for i, el in self._contacts()], axis=1)
-        moving = np.where(closed, dg > 0.0, dg < 0.0)
-        if not moving.any():
-            return np.inf, closed
-        s = np.full(g.shape, np.inf)
-        s[moving] = np.maximum(-g[moving] / dg[moving], 0.0)  # clip: a sample rounded onto the wrong side
-        smin = float(s.min())
-        flip = moving & (s <= smin * (1.0 + 1e-12))  # simultaneous switches (ties)
-        return smin, closed ^ flip
-
-    def _linear_solution(self):
-        return np.asarray(spla.spsolve(sp.csc_matrix(self.A), self.r) if sp.issparse(self.A)
-                          else np.linalg.solve(self.A, self.r), dtype=float)
-
-    def newton_homotopy_path(self, x0, max_segments=None):
-        """Trace ``R(q_hat) = (1 - t) R(q_hat_0)`` exactly from ``t = 0`` (at ``x0``) to ``t = 1``.
-
-        Only for :attr:`piecewise_linear` problems.  Returns a
-        :class:`mshbm.solvers.newton.PathResult` (``x`` is the solution if ``success``).
-        """
-        x0 = np.asarray(x0, dtype=float)
-        F0, _ = self.residual(x0, jac=False)
-        closed0 = self._gaps(x0) <= 0.0
-        return follow_pl_path(lambda x, t, c: (self._pl_jacobian(c), F0),
-                              lambda x, t, dx, dt, c: self._pl_crossing(x, dx, c, 0.0, 0.0),
-                              x0, 0.0, 1.0, closed0, max_segments=max_segments or self._max_segments())
-
-    def gap_continuation_path(self, max_segments=None):
-        """Trace the solution branch exactly while all gaps are offset by ``lambda``, down to ``lambda = 0``.
-
-        Starts at the linear response (``lambda_0`` just above its first touch
-        down, no sample closed) and follows the branch through its turning
-        points.  Only for :attr:`piecewise_linear` problems.  Returns a
-        :class:`mshbm.solvers.newton.PathResult`.
-        """
-        x_lin = self._linear_solution()
-        g = self._gaps(x_lin)
-        touch = float(-g.min())  # offset at which the first sample touches
-        lam0 = touch + max(1e-9, 1e-6 * abs(touch))
-        closed0 = np.zeros(g.shape, dtype=bool)
-        return follow_pl_path(lambda x, lam, c: (self._pl_jacobian(c), self._gap_derivative(c)),
-                              lambda x, lam, dx, dlam, c: self._pl_crossing(x, dx, c, lam, dlam),
-                              x_lin, lam0, 0.0, closed0, direction=-1.0,
-                              max_segments=max_segments or self._max_segments())
-
-    def _max_segments(self):
-        return 10 * self.Ns * len(self.system.elements) + 1000
-
-    def newton_fallback(self, x0, failed=None, tol=1e-10, scale=None, max_iter=50, callback=None):
-        """Second globalisation stage for penalty contact, called by :func:`mshbm.solvers.newton.newton`.
-
-        For :attr:`piecewise_linear` problems, tries in turn (1) the exact Newton
-        homotopy from ``x0`` (skipped when ``x0`` is the linear response) and
-        (2) the exact gap continuation from the linear response
-        (:meth:`newton_homotopy_path`, :meth:`gap_continuation_path`).  Each path
-        end is polished by damped Newton on the unmodified residual.
-
-        Parameters
-        ----------
-        x0 : ndarray
-            Start of the failed Newton iteration.
-        failed : NewtonResult, optional
-            The failed result (unused; part of the hook's signature).
-        tol, scale, max_iter, callback
-            As in :func:`mshbm.solvers.newton.newton`; success means
-            ``||R / s||_inf <= tol`` for the real problem (default scale
-            :meth:`residual_scale`).
-
-        Returns
-        -------
-        NewtonResult or None
-            ``None`` when not applicable (smooth laws: friction).
-        """
-        if not self.piecewise_linear:
-            return None
-        from ..solvers.newton import _scale_function, scaled_norm
-
-        x0 = np.asarray(x0, dtype=float)
-        scale = _scale_function(self.residual, self.residual_scale if scale is None else scale)
-        key = (x0.tobytes(), float(tol))
-        cache = self.__dict__.setdefault("_fallback_cache", {})
-        if key in cache:  # same start already tried (e.g. by a continuation driver)
-            return replace(cache[key], history=list(cache[key].history), info=dict(cache[key].info))
-        try:
-            x_lin = self._linear_solution()
-        except (np.linalg.LinAlgError, RuntimeError):
-            return None
-        routes = []
-        if not np.allclose(x0, x_lin, rtol=1e-10, atol=1e-12 * max(1e-300, float(np.max(np.abs(x_lin), initial=0)))):
-            routes.append(("Newton homotopy", lambda: self.newton_homotopy_path(x0)))
-        routes.append(("gap continuation", self.gap_continuation_path))
-        segs, nfev, hist, notes = 0, 0, [], []
-        out = None
-        for name, run in routes:
-            path = run()
-            segs += path.segments
-            note = f"{name}: {path.message}"
-            if path.success:
-                pol = newton(self.residual, path.x, tol, max_iter, True, callback, scale)
-                if not pol.success:  # end point off by rounding across a kink: short exact path from there
-                    path2 = self.newton_homotopy_path(pol.x)
-                    segs += path2.segments
-                    if path2.success:
-                        pol = newton(self.residual, path2.x, tol, max_iter, True, callback, scale)
-                segs += pol.nit
-                nfev += pol.nfev
-                hist += pol.history
-                if pol.success:
-                    nclosed = (self._gaps(pol.x) <= 0.0).sum(axis=0)
-                    info = {"fallback": name, "segments": segs, "folds": path.folds,
-                            "closed_samples": [int(k) for k in nclosed]}
-                    note = ""
-                    if 0 < nclosed.min() < 4:  # measured: the HBM solution is then not unique (sample-level)
-                        note = (f"; note: a contact is closed at only {int(nclosed.min())} of {self.Ns} AFT "
-                                "samples: under-resolved, increase steps")
-                    out = NewtonResult(pol.x, True, f"converged: scaled ||R||_inf = {pol.residual_norm:.2e} by exact "
-                                       f"piecewise-linear {name} ({path.segments} segments, {path.folds} "
-                                       f"folds) and {pol.nit} Newton iterations{note}", segs, nfev,
-                                       pol.residual_norm, hist, info)
-                    break
-                note += f", but Newton polishing failed: {pol.message}"
-            notes.append(note)
-        if out is None:
-            R, _ = self.residual(x0, jac=False)
-            out = NewtonResult(x0, False, "exact piecewise-linear path following failed (" + "; ".join(notes) + ")",
-                               segs, nfev, scaled_norm(R, scale(x0)), hist,
-                               {"fallback": "failed", "segments": segs})
-        cache[key] = replace(out, history=list(out.history), info=dict(out.info))
-        return out
 
     def _element_forces(self, q, u):
         """Element forces ``lambda_j`` (N_s, m) at the samples ``q, u`` (N_s, n_N) of the nonlinear DOFs:
