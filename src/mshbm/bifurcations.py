@@ -19,7 +19,7 @@ by which multipliers leave (or enter) the unit circle between two points:
     multiplier passes -1 and is smooth in omega also where two multipliers meet on the negative
     real axis just before the crossing (a complex pair contributes ``|mu + 1|^2 > 0``), unlike
     ``|mu| - 1`` of the multiplier nearest -1.  On the impact oscillator's closed-form branch
-    (omega step 0.07) it locates the period doubling to 0.09 % against 0.9 % for ``|mu| - 1``.
+    it locates the period doubling an order of magnitude more precisely than ``|mu| - 1``.
 ``"neimark-sacker"`` (secondary Hopf)
     a complex pair passes the unit circle: the number of non-real multipliers with ``|mu| > 1``
     changes.  ``tau_NS = max{|mu| : Im mu != 0} - 1``.

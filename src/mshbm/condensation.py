@@ -50,24 +50,23 @@ class FactorReuse:
 
     ``dH`` is formed from ``M_EE`` and ``C_EE`` alone, never as the difference of two dynamic stiffnesses, and
     the residual ``B - H X`` is never formed: on a fine mesh ``K_EE`` is so much stiffer than the low modes
-    that rounding in ``H X`` is amplified by ``cond(H_EE)`` (measured on the 10^4-DOF plate: a classical
-    refinement step moves ``T`` by 1e-5 relative, while two LUs with different pivoting agree to 1e-12).
+    that rounding in ``H X`` is amplified by ``cond(H_EE)`` (a classical refinement step moves ``T`` far
+    more than the difference between two LUs with different pivoting).
     The iteration converges when the spectral radius of ``H_ref^-1 dH`` is below 1: for ``|omega -
     omega_ref|`` small against the distance (in the damping's units) from ``k omega`` to the nearest
     eigenfrequency of ``E``, e.g. the ``omega +- 1e-6 omega`` of a finite-difference ``dR/domega``, the
     corrector iterations of a continuation step, and always at ``k = 0``.  A solve is accepted when the
     last correction is at most ``rtol`` of ``X`` column by column (the error left is then about
     ``rtol rho / (1 - rho)``, ``rho <= contraction``), or when the corrections stopped shrinking below
-    ``noise`` (the rounding level of ``H_ref^-1 dH X``, which grows with ``|dH|``: 1e-14 to 1e-11 measured
-    on the plate); otherwise, after ``max_iter`` iterations, a correction that shrank by less than
+    ``noise`` (the rounding level of ``H_ref^-1 dH X``, which grows with ``|dH|``); otherwise, after ``max_iter`` iterations, a correction that shrank by less than
     ``contraction`` above ``noise``, or as soon as the observed contraction predicts more than ``max_iter``
     iterations to reach ``noise``, the condensation factorises afresh and that factorisation replaces the
     kept one.  A solve accepted after more than ``refactor_after`` iterations drops its kept LU, so the
-    next condensation of that harmonic factorises afresh near its own frequency (one LU of the 10^4-DOF
-    plate costs as much as ~100 of its solves).
+    next condensation of that harmonic factorises afresh near its own frequency (on a large mesh one LU
+    costs as much as many solves).
 
     Why it matters beyond speed: the condensation of an ill-conditioned ``H_EE`` is accurate only to
-    ``~cond(H_EE) eps`` (on the 10^4-DOF plate ``T`` to ~1e-6 relative), and a fresh LU at each ``omega``
+    ``~cond(H_EE) eps``, and a fresh LU at each ``omega``
     puts a *different* rounding error there, so ``R(x, omega)`` jumps at that level when ``omega`` moves by
     any amount: a central difference ``dR/domega`` over ``omega (1 +- 1e-6)`` is then noise of order one,
     and a continuation corrector (whose ``omega`` moves every iteration) stalls above its tolerance.  With
@@ -353,7 +352,7 @@ class Condensation:
                 else:
                     try:
                         # H is complex symmetric: symmetric mode keeps the fill-reducing ordering
-                        # (default pivoting destroys it on 2-D meshes: 30 s instead of 0.03 s a harmonic)
+                        # (default pivoting destroys it on 2-D meshes, and the factorisation becomes far slower)
                         lu = spla.splu(sp.csc_matrix(H_EE), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.1,
                                        options=dict(SymmetricMode=True))
                     except RuntimeError:

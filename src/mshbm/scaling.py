@@ -14,10 +14,9 @@ from the starting guess:
   ``|K| + omega^2 M + omega |C|``);
 * velocity-like rows against ``V = D max(1, omega)`` (:func:`velocity_scale`, ``omega`` in
   rad/s): ``omega D`` for fast motion; for ``omega < 1 rad/s`` ``D`` per second, which weighs
-  the rows of Newton's line search as before this scaling (measured on the work-precision
-  grid of the paper: 232 of 232 MS-HBM/HBM/shooting solves converge with ``D max(1, omega)``,
-  230 with ``max(omega D, max |u|)``: the line search on these nonsmooth residuals is sensitive
-  to the weights).  Only force units are required to drop out; a change of the *time* unit
+  the rows of Newton's line search as the unscaled residual did (the line search on these
+  nonsmooth residuals is sensitive to the weights: on the paper's work-precision grid every solve
+  converges with ``D max(1, omega)``, not every one with ``max(omega D, max |u|)``).  Only force units are required to drop out; a change of the *time* unit
   changes the weights below 1 rad/s.
 
 Under a change of force unit (``M, C, K, f``, ``mu F_N``, ``k_c``, ``d_c`` all times

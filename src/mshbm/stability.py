@@ -19,7 +19,7 @@ How (:func:`assess`):
 
 1. **Friction and contact elements on single DOFs (any number), n <= MAX_EXACT_DOFS** (or
    ``stability=True``): the exact event-driven flow (:mod:`mshbm.integrators.event`, several
-   elements with simultaneous events since issue 14) is shot to periodicity, started from the
+   elements with simultaneous events) is shot to periodicity, started from the
    converged solution of whichever method (a few Newton iterations), and the multipliers
    are those of its exact monodromy matrix: the products of the closed-form mode flows and
    the saltation matrices ``S = R + (f+ - R f-) c^T / (c^T f-)`` at every impact
@@ -34,15 +34,14 @@ How (:func:`assess`):
    labelled :data:`STEP_MAP`, and it decides only when the motion is smooth over the period
    (no impulse of a contact, no stick, no reversal of a slip velocity) and
    ``| max|mu| - 1 | > STEP_MAP_TOL``; else ``stable`` is ``None``.  Never a verdict from the
-   step map at impacts, where its multipliers are wrong (for the 5-DOF impact chain of the
-   paper: ``max|mu| = 0.84`` against the exact ``-1.108``).
+   step map at impacts, where its multipliers are wrong (on the 5-DOF impact chain of the
+   paper even the sign and the side of the unit circle of the largest one).
 3. Above ``MAX_EXACT_DOFS`` by default, or with ``stability=False``, or for a solve that did
    not converge: nothing is computed, ``stable = None``.
 
 ``MAX_EXACT_DOFS = 200``: the exact flow works with dense ``(2n+1+2n_f)``-square matrices
-(matrix exponentials, monodromy products), so its cost grows like ``n^3``; measured on the
-damped impact chain (one thread): 0.05 s at n = 5, 0.2-0.4 s at 50, 0.75 s at 100, 2.3 s at
-200, 9.5 s at 400.  ``stability=True`` lifts the limit (up to the event flow's own
+(matrix exponentials, monodromy products), so its cost grows like ``n^3`` (a few seconds at
+``n = 200`` on one thread).  ``stability=True lifts the limit (up to the event flow's own
 :data:`mshbm.integrators.event.MAX_DOFS` = 1000; above it the step map's estimate with the reason).
 """
 from __future__ import annotations
@@ -59,8 +58,8 @@ __all__ = ["assess", "check_option", "describe", "multipliers_json", "set_exact"
 
 #: largest system for which the exact flow is used by default (see the module docstring)
 MAX_EXACT_DOFS = 200
-#: wall-time limit (s) of the exact flow's periodic solve in the stability analysis: the exact flow needs
-#: 0.05-2.3 s up to 200 DOFs; a flow that has not converged by then (an event sequence that makes no progress,
+#: wall-time limit (s) of the exact flow's periodic solve in the stability analysis, well above what the exact
+#: flow needs up to MAX_EXACT_DOFS; a flow that has not converged by then (an event sequence that makes no progress,
 #: e.g. a slip velocity that stays at its switching threshold) is reported as "exact flow failed", never a hang
 EXACT_TIME_LIMIT = 20.0
 #: most Moreau-Jean steps per period of the step-map estimate (its cost is O(steps n^2))

@@ -65,22 +65,18 @@ M_dd`` of the unresolved, mass-like harmonics, which a positive ``1 / eps`` does
 ``eps`` is a tolerance: a true stick needs ``(I - P) lambda / eps`` to absorb the wiggles of the
 truncated series (``eps`` not too large), and at a slip reversal the same compliance turns the
 force over a finite time (``eps`` not too small).  As ``eps -> inf`` both predictors tend to the
-sign law on the series itself (Den Hartog ``n_h = 25``: -0.265 %), which cannot hold a stick.
+sign law on the series itself, which cannot hold a stick.
 
 The two friction predictors differ in *where* that transition sits.  Velocity: at a slip
 reversal ``u ~ a t`` and ``lambda = lambda_L - eps_v u`` crosses the cone in ``|t| < b / (eps_v a)``
-centred on the zero of ``u``: the force reverses on time, and the orbit hardly notices
-(Den Hartog ``n_h = 25``: -0.277 % against the -0.265 % limit).  Displacement: the stick starts at the reversal and lasts until
-``eps (xi - xi_r) ~ eps a t^2 / 2`` has turned the force across the cone: the force reverses
-late by ``~ (b / (eps a))^(1/2)``, a lag of the force that costs amplitude (Den Hartog
-``n_h = 25``: -0.85 %).  Measured there (``N_s = 1024``): the force crosses zero 0.02 samples after
-the velocity of the series with the velocity predictor, 4.5 samples after it with the
-displacement predictor.  Its memory adds a second defect: after a stick onset the
-ringing series slips once more, which moves ``xi_r`` and shifts the force of the whole stick
-phase (friction chain: slip onsets ~26 samples of 1024 early at every ``n_h``); a larger ``eps``
-shortens the lag and amplifies this.  Too coarse a grid adds a lag of up to a sample: with
-``N_s = 2 n_h + 2`` (no unresolved harmonic on the grid, hence no ``eps`` dependence) Den Hartog
-``n_h = 25`` is -2.4 %; at the default samples (below) the grid's share is < 0.02 %.
+centred on the zero of ``u``: the force reverses on time, and the orbit hardly notices.
+Displacement: the stick starts at the reversal and lasts until ``eps (xi - xi_r) ~ eps a t^2 / 2`` has
+turned the force across the cone: the force reverses late by ``~ (b / (eps a))^(1/2)``, a lag of the
+force that costs amplitude.  Its memory adds a second defect: after a stick onset the ringing series
+slips once more, which moves ``xi_r`` and shifts the force of the whole stick phase; a larger ``eps``
+shortens the lag and amplifies this.  Too coarse a grid adds a lag of up to a sample (with
+``N_s = 2 n_h + 2`` there is no unresolved harmonic on the grid, hence no ``eps`` dependence, but that
+lag); at the default samples (below) the grid's share is negligible.
 
 Jacobian (analytic, exact on each region of fixed sample states): with ``y_n`` the part of the
 prediction affine in ``X`` (contact and displacement friction ``y_n = lambda_L(t_n) - eps w
@@ -98,22 +94,10 @@ the stiffness at the resolution of the series (``~ (n_h omega)^2 M_dd``, so ``ep
 M_dd``, the impedance there), which scales the tolerance with the wiggles of the truncated series
 (:func:`default_penalty`).  If the rule gives 0, ``(n_h omega)^2 M_dd``.  Option ``dlft_penalty``: one ``eps`` (N/m, > 0) for all elements.
 
-Measured sensitivity (Den Hartog, ``n_h = 25``, ``eps`` = 1, 56, 224 (default), 896, 1e4): velocity
--0.71, -0.34, -0.28, -0.26, -0.27 %; displacement -1.6, -1.1, -0.85, -0.60, -0.38 %.  Friction
-chain (``examples/friction3.yaml``, ``n_h = 10, 15, 20, 25, 30, 41``, largest amplitude error):
-velocity with ``eps`` = 0.25 ... 4 times the default 0.04-1.7 % (default: 0.70, 0.17, 0.78,
-0.48, 0.05, 0.11 %); displacement with 0.5 ... 64 times the default 0.4-7 %, erratic in both
-``eps`` and ``n_h`` (default: 4.8, 4.8, 3.3, 1.27, 1.9, 1.19 %).
-
-Accuracy (measured; see ``workflow/scripts/bench_dlft.py`` and ``tests/unit/test_dlft.py``)
-------------------------------------------------------------------------------------
-Friction, default options: Den Hartog's undamped Coulomb oscillator (``beta = 0.6``, ``mu F_N /
-P = 0.3``, no stick) -1.37, -0.76, -0.46, -0.28, -0.17 % at ``n_h = 5, 9, 15, 25, 41`` (``n_h``
-times the error constant to 1 %; HBM with the arctan law ``kappa = 800``: -0.31 % at 25;
-displacement predictor -4.8, -2.5, -1.45, -0.85, -0.51 %).  The friction chain (``N_s = 1024``)
-0.70, 0.48, 0.11 % at ``n_h = 10, 25, 41`` (displacement predictor 4.9, 1.27, 1.19 %).  At
-``n_h = 25`` it has exactly the two stick intervals of the exact orbit; the stick onset is
-located to one AFT sample, the slip onset to ``~ 0.15 T / n_h`` (0.06 s of ``T = 10`` s).
+The velocity predictor depends less on ``eps`` than the displacement predictor, whose error is
+erratic in both ``eps`` and ``n_h``; against Den Hartog's closed form and the exact orbit of the friction
+chain the velocity predictor is the more accurate at every ``n_h`` tested, its error falling like
+``1 / n_h`` (the workflow's DLFT benchmark, ``bench_dlft.py``, and ``tests/unit/test_dlft.py`` measure both).
 
 What DLFT represents for a gap (restitution)
 -------------------------------------------
@@ -123,13 +107,10 @@ as a contact force spread over tens of AFT samples (closed samples per period:
 ``info["closed_samples"]``), acting on a smooth series that runs into the obstacle around them
 by about the amplitude error (the gap is enforced on the Lagrangian displacement at the
 samples, not on the truncated series).  The law has no restitution coefficient: ``e_N`` is not
-used.  Measured against the exact ``e_N = 1`` orbit (1-DOF oscillator ``x'' + 0.1 x' + x =
-cos(0.8 t)``, gap 0.5): the DLFT contact force does almost no work over a period
-(``|W_contact| / W_in`` below 1 %: a nearly elastic, persistent soft contact over ~20-50
-samples); the amplitude is *below* the exact one by 16 % (``n_h = 5``), 9.9 % (10), 4.5 % (25),
-2.3 % (50) (HBM with the penalty law ``k_c = 8000``: 16 %, 9.0 %, 3.7 %, 2.1 %), and the series
-penetrates the obstacle by 0.14, 0.08, 0.04, 0.02 (gap 0.5).  On the impact chain
-(``examples/impact5.yaml``): 95 %, 63 %, 25 %, 12 % (HBM: 72 %, 42 %, 24 %, 20 %; MS-HBM 0.3 %).
+used.  Against the exact ``e_N = 1`` orbit the DLFT contact force does almost no work over a period
+(a nearly elastic, persistent soft contact over tens of samples); the amplitude lies *below* the exact
+one, by an error that falls with ``n_h`` much as that of HBM with the penalty law, and the series
+penetrates the obstacle by a part of the gap that falls likewise.
 
 Newton on contacts: the DLFT contact residual is continuous and piecewise linear in ``X`` (affine
 on each region of fixed closed samples), like HBM's penalty law, and damped Newton stalls on it
