@@ -1,6 +1,7 @@
 """The problem contract (:mod:`mshbm.methods.base`) that every registered method must pass, and the
 package's import graph (no cycles)."""
 import ast
+import re
 from pathlib import Path
 
 import numpy as np
@@ -153,3 +154,27 @@ def test_nothing_probes_a_problem():
         text = path.read_text()
         for probe in ("hasattr(problem", "getattr(problem", "__self__", "hasattr(self.problem"):
             assert probe not in text, f"{path.name}: {probe}"
+
+
+#: a test of a method's name: ``method == ...``, ``method != ...``, ``method in (...)``, ``problem.method``
+_NAME_TEST = re.compile(r"\bmethod\s*(==|!=)|\bmethod\s+(not\s+)?in\s*\(|\bproblem\.method\b")
+
+
+def test_checks_ask_capabilities_not_method_names():
+    """The certificate, the option and input checks, the stability analyses and the case reader read what
+    differs between methods from the declarations (:mod:`mshbm.methods.capabilities`, the problem's declared
+    representation in :mod:`mshbm.methods.base`), never from a test of the method's name."""
+    root = Path(mshbm.__file__).parent
+    paths = list((root / "certificate").glob("*.py")) + list((root / "io").glob("*.py")) + [
+        root / n for n in ("validate.py", "options.py", "hill.py", "stability.py", "bifurcations.py", "floquet.py")]
+    for path in paths:
+        for i, line in enumerate(path.read_text().splitlines(), 1):
+            assert not _NAME_TEST.search(line), f"{path.name}:{i}: {line.strip()}"
+
+
+def test_capability_table_names_the_registered_methods():
+    """Every registered method has a capability declaration, and the option table is read from it."""
+    from mshbm.methods.capabilities import CAPABILITIES
+
+    assert list(CAPABILITIES) == list(METHODS) and set(CAPABILITIES) == set(PROBLEMS)
+    assert all(METHODS[m] == c.options for m, c in CAPABILITIES.items())

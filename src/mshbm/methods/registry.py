@@ -26,6 +26,9 @@ __all__ = ["PROBLEMS", "CAPABILITIES", "build_problem", "capabilities"]
 #: problem class of each method
 PROBLEMS = {"shooting": ShootingProblem, "hbm": HBMProblem, "mshbm": MixedProblem,
             "mshbm-intermediate": IntermediateProblem, "dlft": DLFTProblem}
+#: what builds each method's problem: its class, but for mshbm-intermediate the function that returns the
+#: standard MS-HBM when the default subsystem 2 is empty (:func:`mshbm.methods.mixed.intermediate_problem`)
+_BUILDERS = {**PROBLEMS, "mshbm-intermediate": intermediate_problem}
 
 
 def build_problem(system, omega, method="mshbm", **options):
@@ -52,8 +55,6 @@ def build_problem(system, omega, method="mshbm", **options):
     if prob_opts.get("partition") is not None:
         prob_opts["partition"] = validate.check_partition(system, method, prob_opts["partition"])
     validate.check_inputs(system, float(omega), method, opts["harmonics"], opts["steps"], prob_opts.get("partition"))
-    # mshbm-intermediate with an empty default subsystem 2 is the standard MS-HBM (mixed.intermediate_problem)
-    build = intermediate_problem if method == "mshbm-intermediate" else PROBLEMS[method]
-    problem = build(system, float(omega), **prob_opts)
+    problem = _BUILDERS[method](system, float(omega), **prob_opts)
     problem.build_options = dict(prob_opts)
     return problem, {k: v for k, v in opts.items() if k in solver_keys}
