@@ -36,7 +36,8 @@ and ``impact_dissipation``.
     :data:`CONNECTIVITY_WORK_BOUND`, the accuracy at which the truncation estimates warn: the step-accuracy
     acceptance of the ``residual`` check bounds ``delta`` by one step's travel of an impact amplified over
     the period, which through a stiff coupling can still be a force error of several per cent of the
-    forcing on ``L``.
+    forcing on ``L``.  Evaluated where the problem declares ``certify_connectivity_work``; problems given by
+    Fourier series of every DOF report it as 0.
 ``friction_dissipation`` / ``impact_dissipation`` (gating)
     Friction never delivers energy: ``W_friction <= bound``; impacts with ``e_N = 1`` conserve energy,
     ``e_N < 1`` (and penalty damping) only dissipate: ``W_contact <= bound`` (and ``|W_contact| <= bound``
