@@ -53,12 +53,29 @@ def _as_matrix(key, A, n=None):
     return A
 
 
-def _is_symmetric(A):
+#: largest relative asymmetry ``max|A - A^T| / max|A|`` accepted for ``M`` and for ``C``, ``K``
+SYMMETRY_RTOL = {"M": 1e-12, "C": 1e-10, "K": 1e-10}
+
+
+def asymmetry(A):
+    """Relative asymmetry ``max|A - A^T| / max|A|`` (entrywise maxima) of a square matrix; 0 for ``A = 0``."""
     if sp.issparse(A):
         d = abs(A - A.T)
-        scale = abs(A).max() if A.nnz else 1.0
-        return (d.max() if d.nnz else 0.0) <= 1e-12 * max(scale, 1e-300)
-    return np.allclose(A, A.T, rtol=0.0, atol=1e-12 * max(np.abs(A).max(), 1e-300))
+        num = d.max() if d.nnz else 0.0
+        scale = abs(A).max() if A.nnz else 0.0
+    else:
+        num = np.abs(A - A.T).max() if A.size else 0.0
+        scale = np.abs(A).max() if A.size else 0.0
+    return float(num) / float(scale) if scale > 0 else 0.0
+
+
+def _check_symmetric(key, A):
+    """:class:`InputError` naming ``key`` when ``A`` is not symmetric (see :data:`SYMMETRY_RTOL`)."""
+    r = asymmetry(A)
+    if r > SYMMETRY_RTOL[key]:
+        raise InputError(key, f"must be symmetric: relative asymmetry max|{key} - {key}^T| / max|{key}| = "
+                              f"{r:.3g} exceeds {SYMMETRY_RTOL[key]:g}"
+                              + ("" if key == "M" else " (circulatory or gyroscopic terms are not supported)"))
 
 
 def _check_positive_definite(M):
@@ -104,8 +121,10 @@ class System:
     Parameters
     ----------
     M, C, K : array_like or sparse matrix, shape (n, n)
-        Mass (kg), damping (Ns/m) and stiffness (N/m) matrices.  ``M`` must
-        be symmetric positive definite.
+        Mass (kg), damping (Ns/m) and stiffness (N/m) matrices, symmetric (relative asymmetry
+        :func:`asymmetry` at most :data:`SYMMETRY_RTOL`: 1e-12 for ``M``, 1e-10 for ``C`` and ``K``;
+        skew-symmetric, i.e. gyroscopic or circulatory, terms are refused).  ``M`` must be
+        positive definite.
     f_hat : array_like, shape (2*n_f + 1, n) or (n,)
         Fourier coefficients of the forcing (N) in the order
         ``[f0, fc_1, fs_1, ..., fc_nf, fs_nf]``; a 1-D array is a constant force.
@@ -129,9 +148,10 @@ class System:
             raise InputError("M", "must have at least one DOF")
         self.C = _as_matrix("C", C, n)
         self.K = _as_matrix("K", K, n)
-        if not _is_symmetric(self.M):
-            raise InputError("M", "must be symmetric")
+        _check_symmetric("M", self.M)
         _check_positive_definite(self.M)
+        _check_symmetric("C", self.C)
+        _check_symmetric("K", self.K)
         f_hat = np.array(f_hat, dtype=float) if not isinstance(f_hat, np.ndarray) else f_hat.astype(float)
         if f_hat.ndim == 1:
             f_hat = f_hat.reshape(1, -1)

@@ -1,6 +1,9 @@
 """Matrices from files (mshbm.io.matrices): .mtx/.npz give bit for bit the solution of the same chain
 built inline, Rayleigh damping, and one clear line naming the key (exit 2) for every bad matrix file."""
 import copy
+import shutil
+import subprocess
+import sys
 import zipfile
 
 import numpy as np
@@ -9,7 +12,7 @@ import scipy.io as sio
 import scipy.sparse as sp
 import yaml
 
-from mshbm import InputError
+from mshbm import InputError, System
 from mshbm.cli import main
 from mshbm.io import load_case, parse_case
 from mshbm.io import matrices as mio
@@ -263,3 +266,175 @@ def test_large_sparse_mass_positive_definite_check():
     with pytest.raises(InputError, match="positive definite") as info:
         _check_positive_definite(indefinite)
     assert info.value.key == "M"
+
+
+# ----------------------------------------------------------------------------- malformed raw arrays
+def _raw(A, fmt):
+    """The arrays scipy.sparse.save_npz writes for ``A`` in format ``fmt`` (a dict, to corrupt)."""
+    B = sp.csr_matrix(A).asformat(fmt)
+    out = {"format": np.array(fmt), "shape": np.array(B.shape)}
+    if fmt in ("csr", "csc", "bsr"):
+        out.update(data=B.data, indices=B.indices, indptr=B.indptr)
+    elif fmt == "dia":
+        out.update(data=B.data, offsets=B.offsets)
+    else:
+        out.update(data=B.data, row=B.row, col=B.col)
+    return out
+
+
+def _malformed(K):
+    """(label, {member: array or None to drop}) of .npz files written from ``K`` (4x4 tridiagonal)."""
+    csr = _raw(K, "csr")
+    nnz = csr["data"].size
+
+    def csr_with(**kw):
+        return {**csr, **kw}
+
+    def edit(arr, i, v):
+        arr = arr.copy()
+        arr[i] = v
+        return arr
+
+    coo = _raw(K, "coo")
+    bsr = sp.bsr_matrix(sp.csr_matrix(K), blocksize=(2, 2))
+    bsr = {"format": np.array("bsr"), "shape": np.array(bsr.shape), "data": bsr.data, "indices": bsr.indices,
+           "indptr": bsr.indptr}
+    dia = _raw(K, "dia")
+    return [
+        ("csr-index-too-large", csr_with(indices=edit(csr["indices"], 1, 9))),
+        ("csr-index-negative", csr_with(indices=edit(csr["indices"], 0, -3))),
+        ("csr-indptr-not-monotone", csr_with(indptr=edit(csr["indptr"], 2, 1))),
+        ("csr-indptr-wrong-length", csr_with(indptr=csr["indptr"][:-1])),
+        ("csr-indptr-not-from-0", csr_with(indptr=csr["indptr"] + 1)),
+        ("csr-indptr-last-not-nnz", csr_with(indptr=edit(csr["indptr"], -1, nnz - 1))),
+        ("csr-indptr-beyond-nnz", csr_with(indptr=edit(csr["indptr"], 2, nnz + 5))),
+        ("csr-data-indices-lengths", csr_with(data=csr["data"][:-1])),
+        ("csr-float-indices", csr_with(indices=csr["indices"].astype(float))),
+        ("csr-2d-data", csr_with(data=csr["data"].reshape(1, -1))),
+        ("csr-missing-indptr", csr_with(indptr=None)),
+        ("csr-nan", csr_with(data=edit(csr["data"], 0, np.nan))),
+        ("csr-inf", csr_with(data=edit(csr["data"], 3, -np.inf))),
+        ("csr-complex", csr_with(data=csr["data"].astype(complex))),
+        ("csr-text-data", csr_with(data=np.array(["a"] * nnz))),
+        ("csc-index-too-large", {**_raw(K, "csc"), "indices": edit(_raw(K, "csc")["indices"], -1, 4)}),
+        ("coo-row-too-large", {**coo, "row": edit(coo["row"], 0, 4)}),
+        ("coo-col-negative", {**coo, "col": edit(coo["col"], 2, -1)}),
+        ("coo-lengths", {**coo, "col": coo["col"][:-1]}),
+        ("coo-coords-too-large", {**coo, "row": None, "col": None,
+                                  "coords": np.array([coo["row"], edit(coo["col"], 0, 7)])}),
+        ("bsr-index-too-large", {**bsr, "indices": edit(bsr["indices"], 0, 2)}),
+        ("bsr-blocks-do-not-tile", {**bsr, "data": np.ones((bsr["data"].shape[0], 3, 3))}),
+        ("bsr-indptr-last-not-nnz", {**bsr, "indptr": np.array([0, 2, 1])}),
+        ("dia-offset-outside", {**dia, "offsets": edit(dia["offsets"], 0, 4)}),
+        ("dia-offsets-repeated", {**dia, "offsets": np.full_like(dia["offsets"], 0)}),
+        ("dia-offsets-count", {**dia, "offsets": dia["offsets"][:-1]}),
+        ("shape-smaller-than-indices", {**csr, "shape": np.array([3, 3]), "indptr": csr["indptr"][:4]}),
+    ]
+
+
+def _write_npz(path, arrays):
+    np.savez(path, **{k: v for k, v in arrays.items() if v is not None})
+    return path
+
+
+@pytest.fixture
+def malformed_files(tmp_path):
+    """(label, case path) for every malformed K.npz, the other matrices good .mtx files."""
+    K = parse_case(copy.deepcopy(FRICTION_CHAIN)).system.dense("K")
+    out = []
+    for label, arrays in _malformed(K):
+        _write_npz(tmp_path / f"{label}.npz", arrays)
+        out.append((label, _files_case(tmp_path, K=str(tmp_path / f"{label}.npz"))))
+        shutil.copy(out[-1][1], tmp_path / f"{label}.yaml")
+        out[-1] = (label, tmp_path / f"{label}.yaml")
+    return out
+
+
+def test_good_raw_arrays_read_as_save_npz(tmp_path):
+    """The raw arrays of every format, written with numpy.savez, read as the matrix itself."""
+    K = parse_case(copy.deepcopy(FRICTION_CHAIN)).system.dense("K")
+    for fmt in ("csr", "csc", "coo", "bsr", "dia"):
+        A = mio.read_matrix_file("K", str(_write_npz(tmp_path / f"{fmt}.npz", _raw(K, fmt))))
+        assert np.array_equal(A.toarray(), K), fmt
+    coo = _raw(K, "coo")
+    coords = {**coo, "coords": np.array([coo.pop("row"), coo.pop("col")])}
+    A = mio.read_matrix_file("K", str(_write_npz(tmp_path / "coords.npz", coords)))
+    assert np.array_equal(A.toarray(), K)
+
+
+def test_malformed_npz_is_an_input_error_naming_the_key(malformed_files, capsys):
+    for label, path in malformed_files:
+        with pytest.raises(InputError) as info:
+            load_case(path)
+        assert info.value.key == "K", (label, str(info.value))
+        code, out, err = run(capsys, "solve", path)
+        assert_input_error(code, out, err, "K")
+
+
+@pytest.mark.parametrize("label", ["csr-index-too-large", "csr-indptr-not-monotone", "coo-row-too-large"])
+def test_malformed_npz_cli_process_exit_2(malformed_files, label):
+    """A real process: exit 2 and one line naming the key (no crash after 'success')."""
+    path = dict(malformed_files)[label]
+    proc = subprocess.run([sys.executable, "-m", "mshbm", "solve", str(path)], capture_output=True, text=True,
+                          timeout=120)
+    assert proc.returncode == 2, (proc.returncode, proc.stdout[-300:], proc.stderr[-300:])
+    assert "Traceback" not in proc.stdout + proc.stderr and "success" not in proc.stdout
+    assert proc.stderr.strip().splitlines() == [proc.stderr.strip()]
+    assert proc.stderr.startswith("error: K: ")
+
+
+def test_malformed_mtx_is_an_input_error_naming_the_key(tmp_path, capsys):
+    head = "%%MatrixMarket matrix coordinate real general\n4 4 4\n"
+    cases = {
+        "row-too-large": head + "1 1 1.0\n2 2 1.0\n3 3 1.0\n5 4 1.0\n",
+        "index-zero": head + "0 1 1.0\n2 2 1.0\n3 3 1.0\n4 4 1.0\n",
+        "nan": head + "1 1 nan\n2 2 1.0\n3 3 1.0\n4 4 1.0\n",
+        "inf": head + "1 1 1.0\n2 2 inf\n3 3 1.0\n4 4 1.0\n",
+        "overflow": head + "1 1 1.0\n2 2 1.0\n3 3 1e400\n4 4 1.0\n",
+        "array-nan": "%%MatrixMarket matrix array real general\n4 4\n" + "1\n0\n0\n0\n" * 3 + "0\n0\n0\nnan\n",
+    }
+    for label, text in cases.items():
+        p = tmp_path / f"{label}.mtx"
+        p.write_text(text)
+        with pytest.raises(InputError) as info:
+            mio.read_matrix_file("C", str(p))
+        assert info.value.key == "C", label
+        path = _files_case(tmp_path, C=str(p))
+        assert_input_error(*run(capsys, "solve", path), "C")
+
+
+# ----------------------------------------------------------------------------- symmetry of M, C, K
+def test_non_symmetric_matrices_are_input_errors(tmp_path, capsys):
+    """Circulatory (skew K) and gyroscopic (skew C) terms, from files and inline: exit 2 naming the
+    key, with the measured relative asymmetry and the tolerance in the message."""
+    s = parse_case(copy.deepcopy(FRICTION_CHAIN)).system
+    skew = np.zeros((4, 4))
+    skew[0, 1], skew[1, 0] = 0.05, -0.05
+    for name in "CK":
+        A = s.dense(name) + skew
+        sp.save_npz(tmp_path / f"{name}skew.npz", sp.csr_matrix(A))
+        file_case = _files_case(tmp_path, **{name: str(tmp_path / f"{name}skew.npz")})
+        data = {k: v for k, v in FRICTION_CHAIN.items() if k not in ("masses", "stiffness", "damping")}
+        data.update(M=s.dense("M").tolist(), C=s.dense("C").tolist(), K=s.dense("K").tolist())
+        data[name] = A.tolist()
+        inline_case = write_yaml(tmp_path / f"inline_{name}.yaml", data)
+        for path in (file_case, inline_case):
+            with pytest.raises(InputError, match=r"relative asymmetry .* exceeds 1e-10") as info:
+                load_case(path)
+            assert info.value.key == name
+            code, out, err = run(capsys, "solve", path)
+            assert_input_error(code, out, err, name)
+        proc = subprocess.run([sys.executable, "-m", "mshbm", "solve", str(inline_case)], capture_output=True,
+                              text=True, timeout=120)
+        assert proc.returncode == 2 and proc.stderr.startswith(f"error: {name}: ")
+        assert proc.stderr.strip().splitlines() == [proc.stderr.strip()] and "Traceback" not in proc.stderr
+    # the API too, dense and sparse; rounding-level asymmetry is accepted
+    M, C, K = (s.dense(k) for k in "MCK")
+    for key, mats in (("K", (M, C, K + skew)), ("C", (M, C + skew, K)),
+                      ("K", (M, C, sp.csr_matrix(K + skew))), ("C", (M, sp.csr_matrix(C + skew), K))):
+        with pytest.raises(InputError) as info:
+            System(*mats, s.f_hat)
+        assert info.value.key == key
+    tiny = np.zeros((4, 4))
+    tiny[0, 1] = 1e-13 * np.abs(K).max()
+    System(M, C + tiny * np.abs(C).max() / np.abs(K).max(), K + tiny, s.f_hat)

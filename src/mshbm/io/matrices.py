@@ -108,6 +108,8 @@ def read_matrix_file(key, value, base_dir=None):
     A = sp.csr_matrix(A, dtype=float)
     if A.shape[0] != A.shape[1]:
         raise InputError(key, f"must be a square matrix, got {A.shape[0]}x{A.shape[1]} from {str(path)!r}")
+    if not np.all(np.isfinite(A.data)):
+        raise InputError(key, f"matrix file {str(path)!r} contains NaN or inf values")
     A.sum_duplicates()
     A.sort_indices()
     return A
@@ -171,14 +173,127 @@ def _read_npz(key, path):
             rows, cols = (int(s) for s in shape)
             nnz = sizes.get("data.npy", 0) // 8
             _check_size(key, path, rows, cols, nnz)
-            A = sp.load_npz(path)
+            names = _npz_members(fmt, sizes)
+            missing = [name for name in names if f"{name}.npy" not in sizes]
+            if missing:
+                raise InputError(key, f"{what}: no {missing[0]!r} entry (a {fmt} matrix has "
+                                      f"{', '.join(names)})")
+            arrays = {name: npz[name] for name in names}
     except InputError:
         raise
+    except Exception as exc:  # noqa: BLE001
+        raise InputError(key, f"{what}: {_short(exc)}") from None
+    data = arrays["data"]
+    if data.dtype.kind not in "biuf":
+        raise InputError(key, f"matrix file {str(path)!r} holds {data.dtype} values; real numbers are needed")
+    _check_npz_arrays(key, path, fmt, rows, cols, arrays)
+    try:
+        A = _npz_matrix(fmt, (rows, cols), arrays)
     except Exception as exc:  # noqa: BLE001
         raise InputError(key, f"{what}: {_short(exc)}") from None
     if A.nnz > MAX_VALUES:
         raise InputError(key, f"matrix file {str(path)!r} holds {A.nnz:,} entries; at most {MAX_VALUES:,}")
     return A
+
+
+def _npz_members(fmt, sizes):
+    """Names of the arrays of a ``fmt`` matrix in an .npz (as :func:`scipy.sparse.save_npz` writes them)."""
+    if fmt in ("csr", "csc", "bsr"):
+        return ("data", "indices", "indptr")
+    if fmt == "dia":
+        return ("data", "offsets")
+    return ("data", "coords") if "coords.npy" in sizes and "row.npy" not in sizes else ("data", "row", "col")
+
+
+def _check_npz_arrays(key, path, fmt, rows, cols, arrays):
+    """Check the raw arrays of a ``rows x cols`` sparse matrix in format ``fmt`` (see the module
+    docstring); scipy.sparse does not check index values when it builds a matrix from arrays."""
+
+    def bad(problem):
+        return InputError(key, f"malformed {fmt} matrix in {str(path)!r}: {problem}")
+
+    def index_array(name, ndim=1):
+        a = arrays[name]
+        if a.dtype.kind not in "iu":
+            raise bad(f"{name!r} must hold integers, got {a.dtype}")
+        if a.ndim != ndim:
+            raise bad(f"{name!r} must be a {ndim}-D array, got shape {a.shape}")
+        return a
+
+    def in_range(name, a, lo, hi):
+        """Every entry of ``a`` in ``lo..hi``."""
+        if a.size and (int(a.min()) < lo or int(a.max()) > hi):
+            i = int(np.flatnonzero((a < lo) | (a > hi))[0])
+            where = f"{name}[{i}]" if a.ndim == 1 else f"{name}{list(np.unravel_index(i, a.shape))}"
+            raise bad(f"{where} = {int(a.flat[i])} is outside {lo}..{hi}")
+
+    def same_length(name, a, other, n):
+        if a.shape[-1] != n:
+            raise bad(f"{name!r} has {a.shape[-1]} entries, {other!r} has {n}")
+
+    data = arrays["data"]
+    if fmt in ("csr", "csc", "bsr"):
+        if fmt == "bsr":
+            if data.ndim != 3:
+                raise bad(f"'data' must be a 3-D array of blocks, got shape {data.shape}")
+            R, C = data.shape[1:]
+            if R < 1 or C < 1 or rows % R or cols % C:
+                raise bad(f"blocks of {R}x{C} do not tile the {rows}x{cols} matrix")
+            major, minor = rows // R, cols // C
+        else:
+            if data.ndim != 1:
+                raise bad(f"'data' must be a 1-D array, got shape {data.shape}")
+            major, minor = (rows, cols) if fmt == "csr" else (cols, rows)
+        stored = data.shape[0]
+        indptr, indices = index_array("indptr"), index_array("indices")
+        if indptr.size != major + 1:
+            raise bad(f"'indptr' has {indptr.size} entries, a {rows}x{cols} {fmt} matrix needs {major + 1}")
+        same_length("indices", indices, "data", stored)
+        ptr = indptr.astype(np.int64)
+        if ptr[0] != 0:
+            raise bad(f"indptr[0] = {ptr[0]}, must be 0")
+        if ptr[-1] != stored:
+            raise bad(f"indptr[-1] = {ptr[-1]} differs from the {stored} stored "
+                      f"{'blocks' if fmt == 'bsr' else 'entries'} of 'data'")
+        drops = np.flatnonzero(np.diff(ptr) < 0)
+        if drops.size:  # with indptr[0] = 0 and indptr[-1] = stored, every entry is then in 0..stored
+            i = int(drops[0])
+            raise bad(f"indptr is not non-decreasing (indptr[{i}] = {ptr[i]} > indptr[{i + 1}] = {ptr[i + 1]})")
+        in_range("indices", indices, 0, minor - 1)
+    elif fmt == "coo":
+        if data.ndim != 1:
+            raise bad(f"'data' must be a 1-D array, got shape {data.shape}")
+        if "coords" in arrays:
+            coords = index_array("coords", ndim=2)
+            if coords.shape[0] != 2:
+                raise bad(f"'coords' must have 2 rows (row and column indices), got shape {coords.shape}")
+            row, col = coords
+        else:
+            row, col = index_array("row"), index_array("col")
+        same_length("row", row, "data", data.size)
+        same_length("col", col, "data", data.size)
+        in_range("row", row, 0, rows - 1)
+        in_range("col", col, 0, cols - 1)
+    else:  # dia
+        offsets = index_array("offsets")
+        if data.ndim != 2:
+            raise bad(f"'data' must be a 2-D array (one row per diagonal), got shape {data.shape}")
+        if offsets.size != data.shape[0]:
+            raise bad(f"'offsets' has {offsets.size} entries, 'data' has {data.shape[0]} diagonals")
+        in_range("offsets", offsets, -(rows - 1), cols - 1)
+        if np.unique(offsets).size != offsets.size:
+            raise bad("'offsets' repeats a diagonal")
+
+
+def _npz_matrix(fmt, shape, arrays):
+    """The sparse matrix of checked arrays (:func:`_check_npz_arrays`)."""
+    cls = getattr(sp, f"{fmt}_matrix")
+    if fmt in ("csr", "csc", "bsr"):
+        return cls((arrays["data"], arrays["indices"], arrays["indptr"]), shape=shape)
+    if fmt == "dia":
+        return cls((arrays["data"], arrays["offsets"]), shape=shape)
+    row, col = arrays["coords"] if "coords" in arrays else (arrays["row"], arrays["col"])
+    return cls((arrays["data"], (row, col)), shape=shape)
 
 
 def matrix_storage(mats):
