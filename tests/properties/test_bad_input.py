@@ -46,9 +46,14 @@ def small():
     (sp.diags([1.0, -1.0]).tocsr(), I2, K2, "M"),                        # sparse, negative diagonal
     (I2, sp.csr_matrix(np.eye(3)), K2, "C"),
     (I2, I2, sp.csr_matrix(np.array([[np.nan, 0.0], [0.0, 1.0]])), "K"),
+    (I2, np.array([[0.1, 0.3], [-0.3, 0.1]]), K2, "C"),    # gyroscopic
+    (I2, I2, np.array([[2.0, -1.0], [-0.9, 1.0]]), "K"),   # circulatory
+    (I2, sp.csr_matrix(np.array([[0.1, 0.3], [-0.3, 0.1]])), K2, "C"),
+    (I2, I2, sp.csr_matrix(np.array([[2.0, -1.0], [-1.0 + 1e-8, 1.0]])), "K"),
 ], ids=["M-nonsquare", "M-1d", "M-empty", "C-mismatch", "K-nonsquare", "K-mismatch", "M-nonsymmetric",
         "M-indefinite", "M-singular", "M-negative", "M-nan", "C-inf", "K-nan", "M-string",
-        "M-sparse-indefinite", "M-sparse-negative", "C-sparse-mismatch", "K-sparse-nan"])
+        "M-sparse-indefinite", "M-sparse-negative", "C-sparse-mismatch", "K-sparse-nan",
+        "C-nonsymmetric", "K-nonsymmetric", "C-sparse-nonsymmetric", "K-sparse-nonsymmetric"])
 def test_system_matrices(M, C, K, key):
     assert key_of(System, M, C, K, F2) == key
 

@@ -22,6 +22,19 @@ Limits (checked before the values are read)
     inflated) and the ``shape`` and ``format`` members are read first.  ``.npz`` files are read
     with ``allow_pickle=False``: no code runs.
 
+Checks (after the limits, before any computation)
+    The arrays of an ``.npz`` are checked against its format before the sparse matrix is built
+    (scipy.sparse does not check index values): integer index arrays of the right dimension;
+    ``indptr`` of length (rows or block rows or columns) + 1, starting at 0, non-decreasing and
+    ending at the number of stored entries; ``indices``, ``row``, ``col`` (or ``coords``) as long
+    as ``data`` and inside the shape; ``bsr`` blocks that tile the shape; ``dia`` offsets inside
+    the shape, one per diagonal of ``data`` and not repeated.  Entries of ``.mtx`` files outside
+    the declared size are refused by the reader.  Values must be real and finite.  ``M``, ``C``
+    and ``K`` must be symmetric (:class:`mshbm.system.System`): their relative asymmetry
+    ``max|A - A^T| / max|A|`` may not exceed 1e-12 for ``M`` and 1e-10 for ``C`` and ``K``
+    (circulatory and gyroscopic terms are not supported), for matrices from files and inline
+    alike.  Every failure is an :class:`~mshbm.errors.InputError` naming the key.
+
 Storage
     Matrices read from files are kept sparse (CSR) when ``n > 200`` -- the rule of
     :func:`mshbm.system.chain` -- and all three of ``M, C, K`` are then sparse; for ``n <= 200``
@@ -86,7 +99,8 @@ def read_matrix_file(key, value, base_dir=None):
     ------
     InputError
         With ``key`` (``"M"``, ``"C"`` or ``"K"``): unsupported extension, missing or unreadable
-        file, a file over the limits, malformed content, a matrix that is not square or not real.
+        file, a file over the limits, malformed content (arrays inconsistent with their format or
+        shape), a matrix that is not square, not real or not finite.
     """
     path = resolve_path(key, value, base_dir)
     ext = path.suffix.lower()
