@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import mshbm
-from mshbm.solvers import strategies
+from mshbm import strategies
 from paper_systems import OMEGA, system
 
 KW = dict(harmonics=3, steps=1024, stability=False)

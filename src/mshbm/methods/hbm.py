@@ -188,6 +188,7 @@ class HBMProblem(HarmonicProblem):
     """
 
     method = "hbm"
+    penalty_laws, solve_defaults = True, {"penalty_quadrature": "samples"}  # solve-route capabilities
 
     def __init__(self, system, omega, harmonics, steps, condense=True, partition=None, penalty_quadrature="samples"):
         if penalty_quadrature not in PENALTY_QUADRATURES:

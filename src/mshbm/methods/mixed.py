@@ -275,6 +275,9 @@ class _MixedBase(PeriodicProblem):
     ``_time``; residual ``(balance(FFT(q_1), p), q_1(T) - q_1(0), u_1(T) - u_1(0))``.  Subclasses set
     ``_time``, ``_harm``, ``_cond_dofs``, ``td``, ``cond``, ``nc`` and the balance hooks."""
 
+    supports_event_integrator = True  # solve-route capabilities (mshbm.methods.base)
+    explicit_continuation = True
+
     @property
     def n_unknowns(self):
         return self.nc * self._harm.size + 2 * self.nA
@@ -671,6 +674,7 @@ class IntermediateProblem(_MixedBase):
     """
 
     method = "mshbm-intermediate"
+    force_row_unknowns = property(lambda self: self.nc * self.n2)  # solve-route capability (mshbm.methods.base)
 
     def __init__(self, system, omega, harmonics, steps, theta=0.5, jacobian="exact", partition=None,
                  project=True, integrator="moreau", accumulation="moreau"):
@@ -757,6 +761,7 @@ class StandardAsIntermediate(MixedProblem):
     the requested method with a note in ``info["notes"]`` and the message."""
 
     method = "mshbm-intermediate"
+    force_row_unknowns = property(lambda self: self.nc * self.n2)  # solve-route capability (mshbm.methods.base)
 
     def __init__(self, system, omega, harmonics, steps, theta=0.5, jacobian="exact", project=True,
                  integrator="moreau"):

@@ -233,7 +233,7 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
         residual, or ``max_corrector_iter`` reached) above ``tol``, the iterate is accepted when this
         returns a truthy ``info`` (e.g. an orbit periodic to one time step's accuracy of a
         time-stepping method, whose discrete map moves impacts by whole steps and has no exact
-        root; :func:`mshbm.solvers.starts.residual_accept`).
+        root; :class:`mshbm.route.acceptance.ResidualTest`).
     callback : callable, optional
         ``callback(point, n_points, ds)`` after each accepted point (progress display).
     fold_rtol : float
