@@ -1,4 +1,4 @@
-"""Named solve strategies (mshbm.solvers.strategies): nearby-frequency start, linear start, restart from
+"""Named solve strategies (mshbm.strategies): nearby-frequency start, linear start, restart from
 another method's solution."""
 import numpy as np
 import pytest
