@@ -56,7 +56,7 @@ from .options import METHODS
 from .outfile import jsonable
 from .route.acceptance import ResidualTest
 from .route.driver import Route, assemble
-from .route.options import capabilities
+from .route.options import capabilities, only, without
 from .scaling import displacement_floor
 from .solvers.arclength import continuation
 from .solvers.newton import newton
@@ -361,10 +361,9 @@ def _check_number(key, value, positive=True):
 
 
 def _split_options(options):
-    cont = {k: options[k] for k in _CONT_KEYS if k in options}
-    rest = {k: v for k, v in options.items() if k not in _CONT_KEYS}
-    prob = {k: v for k, v in rest.items() if k not in _SOLVER_KEYS}
-    return cont, rest, prob
+    """``(the continuation's options, the start solve's options, the problem's options)``."""
+    rest = without(options, *_CONT_KEYS)
+    return only(options, *_CONT_KEYS), rest, without(rest, *_SOLVER_KEYS)
 
 
 def _detect_other(branch, system, locate=None):
@@ -466,7 +465,7 @@ def _run(route, system, lam_start, lam_end, method, period, parameter, omega_fix
     else:
         sol0 = route.solve_period(scaled_forcing(system, lam_start), omega_fixed, method, period=k, stability=False,
                                   **rest)
-    tracer = _Tracer(sys_k, method, {kk: v for kk, v in prob_k.items()}, parameter, omega_fixed, k, tol, stab)
+    tracer = _Tracer(sys_k, method, dict(prob_k), parameter, omega_fixed, k, tol, stab)
     branch = Branch(success=False, message="", method=method, period=k, parameter=parameter)
     if not sol0.success:
         branch.message = f"no certified solution at the start {parameter} = {lam_start:g}: {sol0.message}"

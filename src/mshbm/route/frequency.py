@@ -23,6 +23,7 @@ import numpy as np
 from ..errors import InputError
 from ..methods.exact import exact_periodic
 from .continuation import solve_with_continuation
+from .options import NEWTON_KEYS, only, without
 from .starts import EXACT_MAX_DOFS, exact_section
 
 __all__ = ["ContinuationStart", "FrequencyStart", "FREQUENCY_RATIOS", "FREQUENCY_SECONDS", "FREQUENCY_FACTOR"]
@@ -41,11 +42,7 @@ _SOLVE_ERRORS = (InputError, FloatingPointError, np.linalg.LinAlgError, ValueErr
 
 def _nested_options(ladder):
     """The ladder's method options with its Newton options (``tol``, ``max_iter``, ``line_search``)."""
-    opts = dict(ladder.options)
-    for key in ("tol", "max_iter", "line_search"):
-        if key in ladder.nkw:
-            opts[key] = ladder.nkw[key]
-    return opts
+    return {**ladder.options, **only(ladder.nkw, *NEWTON_KEYS)}
 
 
 class ContinuationStart:
@@ -124,8 +121,7 @@ class FrequencyStart:
             left = None if ladder.deadline is None else max(1.0, ladder.deadline - time.perf_counter())
             try:
                 br = ladder.route.anchor().trace(system, wa, omega, method, guess=sol_a, stability=False, max_time=left,
-                                                 **{k: v for k, v in opts.items()
-                                                    if k not in ("guess", "stability", "max_time")})
+                                                 **without(opts, "guess", "stability", "max_time"))
             except _SOLVE_ERRORS as exc:
                 why.append(f"branch from {wa:.4g}: {type(exc).__name__}: {exc}"[:160])
                 continue

@@ -43,6 +43,7 @@ from ..solvers import newton as newton_
 from ..solvers.newton import NewtonResult, solve_problem
 from .acceptance import ResidualTest
 from .frequency import ContinuationStart, FrequencyStart
+from .options import DRIVER_KEYS, without
 from .starts import (ClampedStart, ExactStart, GuessStart, LinearStart, RegularisationStart, SectionStart,
                      ShiftedStart, TransientStart, ZeroStart, hat_guess)
 
@@ -177,8 +178,7 @@ class Ladder:
         self.route = route
         self.nkw = dict(newton_options)
         self.accept = accept
-        self.options = {k: v for k, v in dict(options or {}).items()
-                        if k not in ("guess", "progress", "raise_on_failure", "continuation", "blas_threads")}
+        self.options = without(options or {}, *DRIVER_KEYS)
         self.guess = guess
         self.fallback = fallback
         self.transient_periods = tuple(sorted(int(p) for p in transient_periods))
