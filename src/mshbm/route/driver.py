@@ -247,7 +247,7 @@ class Route:
     def _solve(self, system, omega, method, options, ladder=True, built=None, ladder_starts=None):
         """``built``: a dict shared by the fast path's two calls (the guess alone, then the ladder) of the same
         problem; the first stores ``(problem, solver options)`` there and the second reuses them instead of building
-        the problem again (MS-HBM: the condensation's sparse factorisations, ~0.6 s on a 10^4-DOF plate).
+        the problem again (MS-HBM: the condensation's sparse factorisations).
         ``ladder_starts``: the starts of the ladder (default :data:`mshbm.route.ladder.DEFAULT_STARTS`).  When the
         ladder ran and found no certified solution, :func:`_event_fallback` (the ladder's last step)."""
         t0 = time.perf_counter()  # wall time includes set-up (condensation, factorisations)
