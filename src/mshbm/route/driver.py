@@ -287,22 +287,7 @@ class Route:
             path = problem.homotopy() if not res.success and sopts.get("continuation", True) \
                 and "starts" not in res.info else []
             if path:
-                # fallback: continuation from softened laws to the requested ones
-                x = x0
-                total_it, total_fev = res.nit, res.nfev
-                for sub in path:
-                    r = solve_problem(sub, x, **nkw)
-                    total_it, total_fev = total_it + r.nit, total_fev + r.nfev
-                    if not r.success:
-                        break
-                    x = r.x
-                fallback = f"regularisation continuation over {len(path)} stages"
-                if r.success:
-                    res = r
-                    res.message = f"{r.message} (after {fallback})"
-                else:
-                    res.message = f"{res.message}; {fallback} failed too: {r.message}"
-                res.nit, res.nfev = total_it, total_fev
+                res = _homotopy(res, path, x0, nkw)
             # the accepted start's solution parts and certificate, when they are of this problem and x
             cached = getattr(accept, "accepted", None)
             if cached is not None and not (cached["problem"] is problem and np.array_equal(cached["x"], res.x)):
@@ -313,25 +298,7 @@ class Route:
         finally:
             progress.close()
         wall = time.perf_counter() - t0
-        success, message = res.success, res.message
-        for key in ("q_time", "u_time", "q_hat", "lam"):
-            if parts[key].size and not np.isfinite(parts[key]).all():  # (HBM: empty q_time, u_time)
-                success, message = False, f"non-finite {key} in the solution ({message})"
-        failure = (parts.get("info") or {}).get("failure")
-        if failure:  # the method could not form the solution at its converged unknowns
-            success, message = False, f"{failure} ({message})"
-        message = validate.overflow_message(success, message, res.residual_norm)
-        rc = problem.conditioning()
-        # a block far worse conditioned than the static one (k = 0, no resonance there): finite-element blocks
-        # have tiny pivot ratios at every harmonic, which is no resonance
-        if not success and rc is not None and rc.size > 1 and float(rc[1:].min()) < 1e-4 * float(rc[0]):
-            k = 1 + int(np.argmin(rc[1:]))
-            message += (f"; note: the condensed block is nearly singular at harmonic k={k} (rcond {rc[k]:.1e}): "
-                        "k*omega is at a resonance of the linear subsystem, where the periodic solution may be "
-                        "non-unique or unbounded (add damping or move omega)")
-        notes = list(problem.notes)
-        if notes:
-            message = f"{message}; note: {'; '.join(notes)}"
+        success, message, notes = _outcome(problem, res, parts)
         sol = _solution(problem, method, res, parts, success, message, wall)
         if notes:
             sol.info["notes"] = notes
@@ -352,7 +319,6 @@ class Route:
         if not sol.success and sopts.get("raise_on_failure", False):
             raise ConvergenceError(sol.message)
         return sol
-
 
     def _event_fallback(self, system, omega, method, options, failed, t0):
         """The last step of the start ladder: the solve again with the exact event-driven integrator.
@@ -435,6 +401,54 @@ class Route:
         ev.info["event_fallback"] = record
         ev.wall_time = time.perf_counter() - t0
         return ev
+
+
+def _homotopy(res, path, x0, nkw):
+    """The fallback of a failed Newton: continuation from the problem's softened laws (``path``, ending with
+    the requested problem) from ``x0``, each stage's solution starting the next; the Newton result of the
+    last stage on success, else ``res`` with a message saying so (iterations of every stage counted)."""
+    x = x0
+    total_it, total_fev = res.nit, res.nfev
+    for sub in path:
+        r = solve_problem(sub, x, **nkw)
+        total_it, total_fev = total_it + r.nit, total_fev + r.nfev
+        if not r.success:
+            break
+        x = r.x
+    fallback = f"regularisation continuation over {len(path)} stages"
+    if r.success:
+        res = r
+        res.message = f"{r.message} (after {fallback})"
+    else:
+        res.message = f"{res.message}; {fallback} failed too: {r.message}"
+    res.nit, res.nfev = total_it, total_fev
+    return res
+
+
+def _outcome(problem, res, parts):
+    """``(success, message, notes)`` of the Newton result ``res`` with its solution ``parts``: not a success
+    when a part is not finite or the method could not form the solution; the message notes an overflow, a
+    nearly singular condensed block (a resonance of the linear subsystem) and the problem's ``notes``."""
+    success, message = res.success, res.message
+    for key in ("q_time", "u_time", "q_hat", "lam"):
+        if parts[key].size and not np.isfinite(parts[key]).all():  # (HBM: empty q_time, u_time)
+            success, message = False, f"non-finite {key} in the solution ({message})"
+    failure = (parts.get("info") or {}).get("failure")
+    if failure:  # the method could not form the solution at its converged unknowns
+        success, message = False, f"{failure} ({message})"
+    message = validate.overflow_message(success, message, res.residual_norm)
+    rc = problem.conditioning()
+    # a block far worse conditioned than the static one (k = 0, no resonance there): finite-element blocks
+    # have tiny pivot ratios at every harmonic, which is no resonance
+    if not success and rc is not None and rc.size > 1 and float(rc[1:].min()) < 1e-4 * float(rc[0]):
+        k = 1 + int(np.argmin(rc[1:]))
+        message += (f"; note: the condensed block is nearly singular at harmonic k={k} (rcond {rc[k]:.1e}): "
+                    "k*omega is at a resonance of the linear subsystem, where the periodic solution may be "
+                    "non-unique or unbounded (add damping or move omega)")
+    notes = list(problem.notes)
+    if notes:
+        message = f"{message}; note: {'; '.join(notes)}"
+    return success, message, notes
 
 
 def _declined(failed, record, note=None):
