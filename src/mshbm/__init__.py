@@ -10,7 +10,8 @@ method of Schreyer & Leine (2016), behind one call::
 """
 from . import stability  # noqa: F401  (mshbm.stability: Floquet multipliers and verdicts)
 from .api import METHODS, build_problem, residual_omega_derivative, solve
-from .branch import Branch, continue_forcing, sweep, switch_period_doubling
+from .branch import Branch, continue_forcing, sweep
+from .switching import switch_period_doubling
 from .elements import Contact, Element, Friction, Jenkins
 from .errors import ConvergenceError, InputError
 from .methods.exact import exact_periodic

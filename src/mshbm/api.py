@@ -12,11 +12,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import period as _period
+from .branch import ROUTE
 from .methods.registry import build_problem
 from .options import METHODS, default_steps
-from .solvers import continuation as _continuation
-from .solvers import driver as _driver
-from .solvers import starts as _starts
+from .route import continuation as _continuation
 
 __all__ = ["solve", "build_problem", "residual_omega_derivative", "solve_with_continuation", "METHODS",
            "default_steps"]
@@ -35,7 +35,7 @@ def solve(system, omega, method="mshbm", **options):
         ``harmonics`` (n_h, default 5; shooting: harmonics of the reported
         ``q_hat``, default 10), ``steps`` (time steps per period; default 4096,
         HBM: AFT samples, see :func:`default_steps`), ``guess`` (``None``:
-        a ladder of starts, the first accepted one wins, :mod:`mshbm.solvers.starts`, ending with
+        a ladder of starts, the first accepted one wins, :mod:`mshbm.route.ladder`, ending with
         continuation in the forcing frequency from an anchor frequency where the ladder succeeds;
         ``"linear"``: linear response; ``"zero"``; a PeriodicSolution, e.g. at a
         nearby frequency; a dict with ``q_hat``, ``q0``, ``u0``; a given guess is the ladder's first
@@ -57,7 +57,7 @@ def solve(system, omega, method="mshbm", **options):
         oversubscribing the cores; ``None`` leaves the setting alone),
         ``continuation`` (``False``: Newton from the one start (the guess), no ladder; mixed methods with
         a guess: ``True`` opts in to restarts and continuation fallbacks,
-        :mod:`mshbm.solvers.continuation`; HBM: when Newton fails,
+        :mod:`mshbm.route.continuation`; HBM: when Newton fails,
         follow the exact piecewise-linear solution path of penalty contacts
         (:meth:`mshbm.methods.hbm.HBMProblem.newton_fallback`), else
         retry by continuation from softened regularisations; default True),
@@ -84,10 +84,9 @@ def solve(system, omega, method="mshbm", **options):
     """
     period = options.pop("period", 1)
     if not (isinstance(period, (int, np.integer)) and not isinstance(period, bool) and int(period) == 1):
-        from . import period as _period  # kT-periodic solutions (subharmonic base frequency omega / k)
-
+        # kT-periodic solutions (subharmonic base frequency omega / k)
         return _period.solve(system, omega, method, period=period, **options)
-    return _driver.solve(system, omega, method, **options)
+    return ROUTE.solve(system, omega, method, **options)
 
 
 def residual_omega_derivative(system, omega, method, x, rel_step=1e-6, **options):
@@ -116,7 +115,6 @@ def residual_omega_derivative(system, omega, method, x, rel_step=1e-6, **options
 
 def solve_with_continuation(system, omega, method="mshbm", guess=None, **options):
     """:func:`solve` with restarts and parameter continuation when the direct solve fails
-    (:func:`mshbm.solvers.continuation.solve_with_continuation` with this package's solver)."""
-    # when the fallbacks fail, the start ladder as in solve() (not inside a ladder: its nested solves are single starts)
-    options.setdefault("ladder", not _starts.active())
-    return _continuation.solve_with_continuation(system, omega, method, guess, solve=_driver.solve, **options)
+    (:func:`mshbm.route.continuation.solve_with_continuation` on the package's solve route)."""
+    options.setdefault("ladder", True)  # when the fallbacks fail, the start ladder as in solve()
+    return _continuation.solve_with_continuation(system, omega, method, guess, solve=ROUTE.solve, **options)

@@ -3,7 +3,7 @@
 ``sweep(system, omega_start, omega_end, method="mshbm", period=1, **options) -> Branch``
 
 1. The first point is :func:`mshbm.solve` at ``omega_start`` from its default start (the start
-   ladder, :mod:`mshbm.solvers.starts`), or from ``guess``.
+   ladder, :mod:`mshbm.route.ladder`), or from ``guess``.
 2. The branch is continued in ``omega`` by pseudo-arclength continuation
    (:func:`mshbm.solvers.arclength.continuation`) on the method's residual ``R(x, omega)``
    (:func:`mshbm.build_problem`) with its Jacobian and ``dR/domega``
@@ -20,8 +20,12 @@
 4. Folds are located from the sign change of the tangent's ``omega`` component (to ``1e-3``
    relative); other bifurcations come from :func:`mshbm.bifurcations.detect` when that module exists.
 
-``period=k`` traces ``kT``-periodic solutions (:mod:`mshbm.period`): the problem lives on the base
+``period=k`` traces ``kT``-periodic solutions (:mod:`mshbm.subharmonic`): the problem lives on the base
 frequency ``omega / k``; the branch reports the forcing frequency ``omega``.
+
+The sweep is the branch component of the solve route (:class:`mshbm.route.driver.Route`): the start solves
+go through the route it is given (:func:`trace`), and :data:`ROUTE`, the route of the public functions,
+traces the ``"frequency"`` start's branches with :func:`trace`.
 
 ``continue_forcing(system, omega, load_start, load_end, ...)`` continues instead in a load factor
 on the forcing (``f_hat`` times ``load``) at fixed ``omega``.
@@ -32,15 +36,34 @@ from __future__ import annotations
 
 import json
 import math
+import sys
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from . import bifurcations
+from . import stability as _stability
+from . import validate
+from ._blas import blas_threads, check_threads
+from .certificate import certify
+from .condensation import reuse_factors
 from .errors import InputError
+from .hill import assess_hbm
+from .methods.hbm import linear_quadrature_unsupported
+from .methods.registry import build_problem
+from .options import METHODS
+from .outfile import jsonable
+from .route.acceptance import ResidualTest
+from .route.driver import Route, assemble
+from .route.options import capabilities, only, without
+from .scaling import displacement_floor
+from .solvers.arclength import continuation
+from .solvers.newton import newton
+from .subharmonic import PERIOD_K_TOL, check_period, period_options, subharmonic_content, subharmonic_system
 from .system import System
 
-__all__ = ["Branch", "BranchPoint", "sweep", "continue_forcing", "switch_period_doubling", "unknown_scale"]
+__all__ = ["Branch", "BranchPoint", "sweep", "continue_forcing", "trace", "unknown_scale", "ROUTE"]
 
 #: options of the continuation itself (the others go to the method)
 _CONT_KEYS = {"ds", "ds_min", "ds_max", "max_points", "predictor", "max_time", "progress", "stability"}
@@ -76,11 +99,9 @@ class BranchPoint:
     solution: object = None
 
     def as_dict(self):
-        from .stability import multipliers_json
-
         return {"omega": self.omega, "load": self.load, "amplitude": [float(a) for a in self.amplitude],
                 "iterations": int(self.iterations), "residual": float(self.residual),
-                "certificate": self.certificate, "floquet_multipliers": multipliers_json(self.floquet_multipliers),
+                "certificate": self.certificate, "floquet_multipliers": _stability.multipliers_json(self.floquet_multipliers),
                 "stable": self.stable, "stability_method": self.stability_method, "contact": self.contact,
                 "x": [float(v) for v in self.x]}
 
@@ -158,8 +179,6 @@ class Branch:
 
     def to_json(self, **kwargs):
         """JSON text (non-finite numbers as ``null``)."""
-        from .outfile import jsonable
-
         return json.dumps(jsonable(self.to_dict()), allow_nan=False, **kwargs)
 
 
@@ -172,19 +191,17 @@ def unknown_scale(problem, x):
     MS-HBM (Section 3.3): its harmonic-balance rows are forces, their unknowns displacement
     coefficients (scale ``D``).  HBM: every unknown is a displacement coefficient, scale
     ``max(D_0, max |x|)`` (:func:`mshbm.scaling.displacement_floor` of the penalty problem).
+    The problem's capabilities say which case applies (``penalty_laws``, ``force_row_unknowns``).
     """
-    from .scaling import displacement_floor
-
     x = np.asarray(x, dtype=float)
-    if problem.method == "hbm":
+    if problem.penalty_laws:
         if "_sweep_D0" not in problem.__dict__:
             problem._sweep_D0 = displacement_floor(problem.system, problem.omega, penalty=True)
         return np.full(x.size, max(problem._sweep_D0, float(np.max(np.abs(x), initial=0.0))))
     s = np.array(problem.residual_scale(x), dtype=float)
-    if problem.method == "mshbm-intermediate":
-        a = problem.nc * problem.n2
-        if a < s.size:
-            s[:a] = s[a]
+    a = problem.force_row_unknowns
+    if a and a < s.size:
+        s[:a] = s[a]
     return s
 
 
@@ -219,8 +236,6 @@ class _Tracer:
     """The method's problem as a function of the parameter (cached), and the point bookkeeping."""
 
     def __init__(self, system, method, options, parameter, omega_fixed=None, k=1, tol=1e-10, stability="auto"):
-        from .api import build_problem
-
         self.build_problem = build_problem
         self.system, self.method, self.options, self.parameter = system, method, options, parameter
         self.omega_fixed, self.k, self.tol, self.stability = omega_fixed, k, tol, stability
@@ -265,29 +280,20 @@ class _Tracer:
 
     def stall_accept(self, x, lam):
         """A stalled corrector on an impacting orbit of a time-stepping method is accepted when periodic to
-        one time step's accuracy (:func:`mshbm.solvers.starts.residual_accept`, as :func:`mshbm.solve`'s
+        one time step's accuracy (:class:`mshbm.route.acceptance.ResidualTest`, as :func:`mshbm.solve`'s
         start ladder does); returns the ``step_accuracy`` record for the certificate, else ``None``."""
-        from .solvers.newton import NewtonResult
-        from .solvers.starts import Attempt, residual_accept
-
-        if self.method == "hbm":
-            return None
         problem = self.problem(lam)
-        x = np.asarray(x, dtype=float)
-        res = NewtonResult(x=x, success=False, nit=0, nfev=0, residual_norm=float("nan"), message="stalled")
-        att = Attempt(start="continuation", x0=x, newton=res, problem=problem)
+        if problem.penalty_laws:
+            return None
         try:
-            ok = residual_accept(problem, problem.system, problem.omega)(att)
+            v = ResidualTest(problem, problem.system, problem.omega)(np.asarray(x, dtype=float), converged=False,
+                                                                     iterations=0)
         except (np.linalg.LinAlgError, ValueError, FloatingPointError):
             return None
-        return att.step_accuracy if ok and att.step_accuracy is not None else None
+        return v.step_accuracy if v.accepted and v.step_accuracy is not None else None
 
     def point(self, x, lam, iterations, residual, step_accuracy=None):
         """Certified :class:`BranchPoint` at ``(x, lam)``, or the reason (str) if the certificate fails."""
-        from . import stability as _stability
-        from .certificate import certify
-        from .solvers.driver import assemble
-
         t0 = time.perf_counter()
         problem = self.problem(lam)
         x = np.asarray(x, dtype=float)
@@ -295,20 +301,17 @@ class _Tracer:
         sol = assemble(problem, self.method, x, problem.solution_parts(x), success=True,
                        message="continuation corrector converged", iterations=int(iterations), nfev=0,
                        residual=float(residual), wall_time=0.0)
-        # step_accuracy_size reported, not gating: on the 2048-step shooting branch of impact5 (Fig. 9) h J / D is
-        # 1.0e-3 to 2.5e-3, 13 of its 24 one-step points above the bound; gated, that sweep stalls at omega = 0.579
+        # step_accuracy_size reported, not gating: along a branch of Moreau-Jean orbits h J / D exceeds its bound at
+        # many one-step points that are the branch's, and gated the sweep would stall there
         cert = certify(problem, sol, self.tol, step_accuracy, step_size_gating=False)
         sol.certificate = cert
         if not cert.passed:
             return f"certificate failed: {cert.describe_failures()}"
         system = problem.system
-        if self.method == "hbm" and self.stability is not False \
+        if problem.penalty_laws and self.stability is not False \
                 and not any(el.unilateral for el in system.elements):
-            # Hill's method: stability of the regularised system HBM solves.  Not with penalty contacts:
-            # there its truncated spectrum gave a spurious |mu| = 2.51 at one point of a stable impact
-            # oscillator branch (n_h = 5), i.e. a false Neimark-Sacker pair
-            from .hill import assess_hbm
-
+            # Hill's method: stability of the regularised system HBM solves.  Not with penalty contacts: there its
+            # truncated spectrum can give spurious multipliers outside the unit circle (a false Neimark-Sacker pair)
             assess_hbm(system, sol)
         else:
             _stability.assess(system, sol, self.stability, theta=self.options.get("theta", 0.5))
@@ -335,22 +338,16 @@ class _Tracer:
 
 class _Progress:
     def __init__(self, enabled, label):
-        import sys
-
         self.enabled = enabled is True and sys.stderr.isatty() or enabled == "always"
         self.label = label
 
     def __call__(self, point, n, ds):
         if self.enabled:
-            import sys
-
             print(f"\r[sweep {self.label}] points {n:4d}  {point.lam:12.6g}  step {ds:.3g}   ", end="",
                   file=sys.stderr, flush=True)
 
     def close(self):
         if self.enabled:
-            import sys
-
             print(file=sys.stderr)
 
 
@@ -364,10 +361,9 @@ def _check_number(key, value, positive=True):
 
 
 def _split_options(options):
-    cont = {k: options[k] for k in _CONT_KEYS if k in options}
-    rest = {k: v for k, v in options.items() if k not in _CONT_KEYS}
-    prob = {k: v for k, v in rest.items() if k not in _SOLVER_KEYS}
-    return cont, rest, prob
+    """``(the continuation's options, the start solve's options, the problem's options)``."""
+    rest = without(options, *_CONT_KEYS)
+    return only(options, *_CONT_KEYS), rest, without(rest, *_SOLVER_KEYS)
 
 
 def _detect_other(branch, system, locate=None):
@@ -375,8 +371,6 @@ def _detect_other(branch, system, locate=None):
     on the points' valid multipliers and contact gaps; folds are located by the continuation itself).
     ``locate``: the bisection callback of :func:`mshbm.bifurcations.detect` (records' ``x`` are the
     branch's :class:`BranchPoint` s)."""
-    from . import bifurcations
-
     records = [bifurcations.point_from_solution(system, bp.solution, x=bp) for bp in branch.points]
     # rel_tol: only the grazings between impacting orbits are bisected (``locate``); their final interpolation
     # mixes two test functions (impact velocity, near-miss gap) with different slopes, so the bracket
@@ -407,9 +401,6 @@ def _grazing_locator(tracer, system, tol):
     each of them).  A solution farther from either end than ``1.5`` times the bracket (scaled units) is
     another orbit, not the branch's, and ends the bisection (``None``); so does a failed solve.  Other
     types and other records are located by interpolation (``None``)."""
-    from . import bifurcations
-    from .solvers.newton import newton
-
     def locate(kind, a, b):
         if kind != "grazing" or a.impacts is None or b.impacts is None:
             return None
@@ -435,28 +426,21 @@ def _grazing_locator(tracer, system, tol):
     return locate
 
 
-def _run(system, lam_start, lam_end, method, period, parameter, omega_fixed, options):
-    from .condensation import reuse_factors
-    from .methods.hbm import linear_quadrature_unsupported
-    from .options import METHODS
-    from .period import check_period, period_options, subharmonic_system, subharmonic_content, PERIOD_K_TOL
-    from .period import solve as solve_period
-    from .solvers.arclength import continuation
-    from .stability import check_option
-
+def _run(route, system, lam_start, lam_end, method, period, parameter, omega_fixed, options):
     t0 = time.perf_counter()
     if not isinstance(system, System):
         raise InputError("system", f"must be an mshbm.System, got {type(system).__name__}")
     if method not in METHODS:
         raise InputError("method", f"unknown method {method!r} (choose from {', '.join(METHODS)})")
     k = check_period(period)
-    if method == "hbm" and "penalty_quadrature" not in options and any(el.unilateral for el in system.elements) \
+    if capabilities(method).penalty_laws and "penalty_quadrature" not in options \
+            and any(el.unilateral for el in system.elements) \
             and linear_quadrature_unsupported(system.elements) is None:
         # the sampled penalty law makes the branch a chain of kinks (mshbm.methods.hbm, "Quadrature of the
         # penalty law"); integrated on the gap's linear interpolant the residual is C^1 and the branch smooth
         options = dict(options, penalty_quadrature="linear")
     cont, rest, prob = _split_options(options)
-    stab = check_option(cont.get("stability", "auto"))
+    stab = _stability.check_option(cont.get("stability", "auto"))
     max_points = cont.get("max_points", 400)
     if isinstance(max_points, bool) or not isinstance(max_points, (int, np.integer)) or max_points < 2:
         raise InputError("max_points", f"must be an integer >= 2, got {max_points!r}")
@@ -477,11 +461,11 @@ def _run(system, lam_start, lam_end, method, period, parameter, omega_fixed, opt
     prob_k = period_options(method, k, prob)
     # 1. the start point: mshbm.solve from its default start (or the given guess)
     if parameter == "omega":
-        sol0 = solve_period(system, lam_start, method, period=k, stability=False, **rest)
+        sol0 = route.solve_period(system, lam_start, method, period=k, stability=False, **rest)
     else:
-        sol0 = solve_period(scaled_forcing(system, lam_start), omega_fixed, method, period=k, stability=False,
-                            **rest)
-    tracer = _Tracer(sys_k, method, {kk: v for kk, v in prob_k.items()}, parameter, omega_fixed, k, tol, stab)
+        sol0 = route.solve_period(scaled_forcing(system, lam_start), omega_fixed, method, period=k, stability=False,
+                                  **rest)
+    tracer = _Tracer(sys_k, method, dict(prob_k), parameter, omega_fixed, k, tol, stab)
     branch = Branch(success=False, message="", method=method, period=k, parameter=parameter)
     if not sol0.success:
         branch.message = f"no certified solution at the start {parameter} = {lam_start:g}: {sol0.message}"
@@ -561,9 +545,9 @@ def sweep(system, omega_start, omega_end, method="mshbm", period=1, **options):
         ``max_time`` (s), ``progress`` (show progress on a terminal; ``"always"``: also elsewhere),
         ``stability`` (as for :func:`mshbm.solve`), ``blas_threads`` (default 1, as for :func:`mshbm.solve`).
         HBM with penalty contacts (``d_c = 0``, no friction loaded by a contact) defaults to
-        ``penalty_quadrature="linear"`` here (:mod:`mshbm.methods.hbm`): with the sampled law the branch of
-        the 5-mass impact chain folds back at kinks of the sampled equations (0.531 -> 0.39 rad/s at
-        ``n_H = 9``); give ``penalty_quadrature="samples"`` for the branch of :func:`mshbm.solve`'s default.
+        ``penalty_quadrature="linear"`` here (:mod:`mshbm.methods.hbm`): with the sampled law the branch
+        folds back at kinks of the sampled equations; give ``penalty_quadrature="samples"`` for the branch of
+        :func:`mshbm.solve`'s default.
 
     Returns
     -------
@@ -573,119 +557,29 @@ def sweep(system, omega_start, omega_end, method="mshbm", period=1, **options):
     w1 = _check_number("omega_end", omega_end)
     if w0 == w1:
         raise InputError("omega_end", "must differ from omega_start")
-    return _guarded(system, w0, w1, method, period, "omega", None, options)
+    return _guarded(ROUTE, system, w0, w1, method, period, "omega", None, options)
 
 
-def _guarded(system, a, b, method, period, parameter, omega, options):
+def trace(route, system, omega_start, omega_end, method="mshbm", period=1, **options):
+    """:func:`sweep` whose start solves go through ``route`` (:class:`mshbm.route.driver.Route`): the sweep
+    component of the solve route."""
+    w0 = _check_number("omega_start", omega_start)
+    w1 = _check_number("omega_end", omega_end)
+    if w0 == w1:
+        raise InputError("omega_end", "must differ from omega_start")
+    return _guarded(route, system, w0, w1, method, period, "omega", None, options)
+
+
+#: the solve route of the public functions (:func:`mshbm.solve`, :func:`sweep`, :func:`mshbm.period.solve`):
+#: no deadline of its own, and :func:`trace` as the sweep of its ``"frequency"`` start
+ROUTE = Route(sweep=trace)
+
+
+def _guarded(route, system, a, b, method, period, parameter, omega, options):
     """``_run`` with one BLAS thread (option ``blas_threads``, as :func:`mshbm.solve`) and quiet floats."""
-    from . import validate
-    from ._blas import blas_threads, check_threads
-
     options = dict(options)
     with blas_threads(check_threads(options.pop("blas_threads", 1))), validate.quiet_floats():
-        return _run(system, a, b, method, period, parameter, omega, options)
-
-
-def switch_period_doubling(system, branch, omega_end, bifurcation=None, offset=5e-3, size=0.05, **options):
-    """The branch of period ``2k`` born at a period doubling of ``branch`` (period ``k``), traced to ``omega_end``.
-
-    At the branch point next to the bifurcation, the monodromy of the ``kT`` orbit (full shooting's
-    Jacobian ``Phi - I`` at the orbit's state, with the orbit's steps per period) gives the eigenvector
-    ``v`` of the multiplier nearest ``-1``.  The ``2kT``-periodic problem is then solved by full shooting
-    at ``omega_pd (1 +- offset)`` from the orbit's state perturbed by ``+- size D v`` (``D`` its largest
-    displacement), on the side towards ``omega_end`` first, then from the default starts of
-    :func:`mshbm.period.solve` there (Newton from an explicit guess does not accept impacting
-    Moreau-Jean orbits that are periodic only to one time step); a certified solution with ``2kT`` content
-    (:func:`mshbm.period.subharmonic_content` at least :data:`mshbm.period.PERIOD_K_TOL`) starts
-    :func:`sweep` with ``period=2k`` and the branch's method (``options``: its options; ``steps`` per
-    forcing period defaults to the branch's).  The result's ``origin`` records the bifurcation; a
-    failure is a :class:`Branch` with ``success=False`` and a message listing the starts tried.
-    """
-    from .api import build_problem
-    from .period import PERIOD_K_TOL, subharmonic_content, subharmonic_system
-    from .period import solve as solve_period
-
-    if not isinstance(branch, Branch) or branch.parameter != "omega" or not branch.points:
-        raise InputError("branch", "must be a non-empty frequency branch (mshbm.sweep)")
-    pds = [b for b in branch.bifurcations if b.get("type") == "period-doubling"]
-    bif = bifurcation if bifurcation is not None else (pds[0] if pds else None)
-    if bif is None or bif.get("type") != "period-doubling":
-        raise InputError("bifurcation", "the branch has no period-doubling bifurcation to switch at")
-    omega_end = _check_number("omega_end", omega_end)
-    t0 = time.perf_counter()
-    k, method, n = int(branch.period), branch.method, system.n
-    i = min(max(int(bif.get("index", 0)), 0), len(branch.points) - 1)
-    sol1 = branch.points[i].solution
-    N = max(int(sol1.steps) // k, 16)  # steps per forcing period
-    sys_k = subharmonic_system(system, k)
-    try:  # the exact event-driven monodromy over kT from t = 0 (saltation terms at impacts and stick-slip)
-        from .integrators.exact_flow import ExactFlow
-
-        flow = ExactFlow(sys_k, float(sol1.omega))
-        Phi = np.asarray(flow.simulate(0.0, flow.state(0.0, sol1.q[0], sol1.u[0]), jac=True)["Phi"])[:2 * n]
-        if not np.all(np.isfinite(Phi)):
-            raise ValueError("non-finite monodromy")
-        how = "exact event-driven monodromy"
-    except Exception:  # noqa: BLE001 -- several elements: the Moreau-Jean map (valid without impacts)
-        prob, _ = build_problem(sys_k, float(sol1.omega), "shooting", steps=k * N)
-        q1, u1 = sol1.initial_state()
-        x1 = prob.initial_guess({"q_hat": sol1.q_hat, "q0": q1, "u0": u1})
-        _, J = prob.residual(x1)
-        J = J.toarray() if hasattr(J, "toarray") else np.asarray(J)
-        half = x1.size // 2
-        keep = np.r_[np.arange(n), half + np.arange(n)]
-        Phi = (J + np.eye(J.shape[0]))[np.ix_(keep, keep)]  # shooting: R = x(kT) - x(0), J = Phi - I
-        how = "Moreau-Jean step-map monodromy"
-    mu, V = np.linalg.eig(Phi)
-    j = int(np.argmin(np.abs(mu + 1.0)))
-    v = np.real(V[:, j])
-    vq, vu = v[:n], v[n:2 * n]
-    D = max(float(np.max(np.abs(sol1.q))), 1e-300)
-    eps = size * D / max(float(np.max(np.abs(vq))), 1e-300)
-    qh1 = np.asarray(sol1.q_hat, dtype=float)
-    nh1 = (qh1.shape[0] - 1) // 2
-    qh2 = np.zeros((4 * nh1 + 1, n))  # harmonic j of omega/k is harmonic 2j of omega/2k
-    qh2[0] = qh1[0]
-    qh2[3::4], qh2[4::4] = qh1[1::2], qh1[2::2]
-    w_pd = float(bif["omega"])
-    toward = 1.0 if omega_end > w_pd else -1.0
-    # the start is solved with the branch's own time integration: a 2T orbit of Moreau-Jean steps near the
-    # bifurcation need not be one of the event-driven flow (their period doublings differ by the step error)
-    sh_opts = {key: options[key] for key in ("theta", "tol", "max_iter", "integrator") if key in options}
-    tried, start = [], None
-    for side in (toward, -toward):
-        w0 = w_pd * (1.0 + side * offset)
-        for sign in (1.0, -1.0, None):
-            # the orbit perturbed along +-v; then the default starts of mshbm.period (its start ladder, whose
-            # acceptance knows impacting Moreau-Jean orbits periodic to one step, and a transient from rest)
-            guess = None if sign is None else \
-                {"q_hat": qh2, "q0": sol1.q[0] + sign * eps * vq, "u0": sol1.u[0] + sign * eps * vu}
-            sh = solve_period(system, w0, "shooting", period=2 * k, steps=N, guess=guess, stability=False,
-                              **sh_opts)
-            content = subharmonic_content(sh, 2) if sh.success else 0.0
-            label = "default starts" if sign is None else ("+v" if sign > 0 else "-v")
-            tried.append(f"omega = {w0:.6g}, {label}: "
-                         + ("certified" if sh.success else "not certified") + f", 2kT content {content:.1e}")
-            if sh.success and content >= PERIOD_K_TOL:
-                start = (w0, sh, label)
-                break
-        if start is not None:
-            break
-    if start is None:
-        return Branch(success=False, method=method, period=2 * k, origin=dict(bif, period=k),
-                      message=f"no period-{2 * k} solution found next to the period doubling at omega = {w_pd:.6g} "
-                              f"(multiplier {mu[j]:.4g} of the {how}); tried: " + "; ".join(tried),
-                      wall_time=time.perf_counter() - t0)
-    w0, sh, label = start
-    opts = dict(options)
-    opts.setdefault("steps", N)
-    if label != "default starts":  # the period-2k orbit found from +-v starts the sweep (any method)
-        opts.setdefault("guess", sh)
-    out = sweep(system, w0, omega_end, method, period=2 * k, **opts)
-    out.origin = dict(type="period-doubling", omega=w_pd, period=k, multiplier=[float(mu[j].real), float(mu[j].imag)],
-                      eigenvector_from=how, start_omega=w0, start=label)
-    out.wall_time = time.perf_counter() - t0  # the switch (eigenvector, period-2k start) included
-    return out
+        return _run(route, system, a, b, method, period, parameter, omega, options)
 
 
 def continue_forcing(system, omega, load_start, load_end=1.0, method="mshbm", period=1, **options):
@@ -699,14 +593,4 @@ def continue_forcing(system, omega, load_start, load_end=1.0, method="mshbm", pe
     b = _check_number("load_end", load_end)
     if a == b:
         raise InputError("load_end", "must differ from load_start")
-    return _guarded(system, a, b, method, period, "forcing", w, options)
-
-
-def _register():
-    """Make :func:`sweep` the continuation driver of the start ladder's ``"frequency"`` start."""
-    from .solvers import starts
-
-    starts.SWEEP[0] = sweep
-
-
-_register()
+    return _guarded(ROUTE, system, a, b, method, period, "forcing", w, options)

@@ -11,10 +11,18 @@ import argparse
 import json
 import sys
 
+from . import __version__
+from . import cli_sweep
+from .errors import ConvergenceError, InputError
+from . import io as _io
+from .options import METHODS
+from .outfile import check_out, jsonable, write_text
+from .validate import quiet_floats
+
 __all__ = ["main"]
 
 EXIT_OK, EXIT_NOT_CONVERGED, EXIT_INPUT, EXIT_INTERNAL, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
-METHOD_CHOICES = ("shooting", "hbm", "mshbm", "mshbm-intermediate", "dlft")
+METHOD_CHOICES = tuple(METHODS)
 
 
 def _one_line(text):
@@ -26,8 +34,6 @@ def _error(text):
 
 
 def _parser():
-    from . import __version__
-
     p = argparse.ArgumentParser(prog="mshbm", description="Periodic solutions of linear structures with local "
                                 "friction and contact (shooting, HBM, mixed shooting-harmonic balance).")
     p.add_argument("--version", action="version", version=f"mshbm {__version__}")
@@ -48,9 +54,7 @@ def _parser():
                    help="write the result summary as JSON (keeps the permissions of an existing file, writes "
                    "through symlinks, FIFOs and character devices; never the case file itself)")
     s.add_argument("--quiet", action="store_true", help="print no table (errors still go to stderr)")
-    from .cli_sweep import add_parser as _add_sweep
-
-    _add_sweep(sub, METHOD_CHOICES)  # mshbm sweep: mshbm.cli_sweep
+    cli_sweep.add_parser(sub, METHOD_CHOICES)  # mshbm sweep: mshbm.cli_sweep
     return p
 
 
@@ -89,21 +93,13 @@ def _table(case, summary):
 
 
 def _write_json(path, payload, case=None):
-    from .outfile import jsonable, write_text
-
     write_text(path, json.dumps(jsonable(payload), indent=2, allow_nan=False) + "\n", case)
 
 
 def _solve(args):
-    from . import __version__
-    from .errors import ConvergenceError, InputError
-    from .io import load_case
-
     if args.out is not None:
-        from .outfile import check_out
-
         check_out(args.out, args.case)  # --out rules: mshbm.outfile
-    case = load_case(args.case)
+    case = _io.load_case(args.case)
     cli_opts = {k: getattr(args, k) for k in ("harmonics", "steps", "period", "integrator")
                 if getattr(args, k) is not None}
     try:
@@ -144,16 +140,10 @@ def main(argv=None):
             parser.print_usage(sys.stderr)
             _error("a command is required (e.g. 'mshbm solve CASE.yaml')")
             return EXIT_INPUT
-        from .errors import InputError
-
-        from .validate import quiet_floats
-
         try:
             with quiet_floats():  # no RuntimeWarnings on the terminal: non-finite numbers are reported
                 if args.command == "sweep":
-                    from .cli_sweep import run as _sweep
-
-                    return _sweep(args, (EXIT_OK, EXIT_NOT_CONVERGED), _write_json, _error)
+                    return cli_sweep.run(args, (EXIT_OK, EXIT_NOT_CONVERGED), _write_json, _error)
                 return _solve(args)
         except InputError as exc:
             _error(f"{exc.key}: {exc.problem}")

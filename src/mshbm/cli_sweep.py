@@ -15,6 +15,16 @@ markers at bifurcations.
 """
 from __future__ import annotations
 
+from io import BytesIO
+
+import numpy as np
+
+from . import __version__
+from .branch import sweep
+from .errors import InputError
+from . import io as _io
+from .options import COMMON as _COMMON, METHODS
+from .outfile import check_out
 
 __all__ = ["add_parser", "run"]
 
@@ -44,8 +54,6 @@ def add_parser(sub, method_choices):
 
 
 def _check_dofs(dofs, n):
-    from .errors import InputError
-
     if dofs is None:
         return list(range(min(n, 6)))
     for d in dofs:
@@ -59,8 +67,6 @@ def plot(branch, path, dofs, title=""):
     import matplotlib.pyplot as plt
 
     fig = figure(branch, dofs, title)
-    from io import BytesIO
-
     buf = BytesIO()
     fig.savefig(buf, format="png", dpi=120)
     plt.close(fig)
@@ -79,7 +85,6 @@ def figure(branch, dofs, title=""):
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    import numpy as np
 
     w, A, st = branch.omega, branch.amplitude, branch.stable
     fig, ax = plt.subplots(figsize=(8.5, 4.5))
@@ -122,19 +127,11 @@ def figure(branch, dofs, title=""):
 
 def run(args, exit_codes, write_json, error):
     """Run ``mshbm sweep`` (``args`` from :func:`add_parser`); returns the exit code."""
-    from . import __version__
-    from .branch import sweep
-    from .errors import InputError
-    from .io import load_case
-    from .options import COMMON as _COMMON, METHODS
-
     ok, not_conv = exit_codes
     for key, path in (("--out", args.out), ("--plot", args.plot)):
         if path is not None:
-            from .outfile import check_out
-
             check_out(path, args.case)
-    case = load_case(args.case)
+    case = _io.load_case(args.case)
     method = args.method or case.method
     dofs = _check_dofs(args.dofs, case.system.n)
     defaults = {k: v for k, v in case.solver.items() if k != "method" and k in (METHODS.get(method, set()) | _COMMON)}

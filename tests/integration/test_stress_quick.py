@@ -18,7 +18,7 @@ import yaml
 import mshbm
 from paper_systems import OMEGA, friction_chain, impact_chain
 from mshbm.api import solve_with_continuation
-from mshbm.solvers.continuation import scaled_system
+from mshbm.route.continuation import scaled_system
 
 ROOT = Path(__file__).resolve().parents[2]
 SCRIPT = ROOT / "workflow" / "scripts" / "stress.py"

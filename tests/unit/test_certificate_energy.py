@@ -13,7 +13,7 @@ import pytest
 import mshbm
 from mshbm.certificate import ENERGY_TOL, certify
 from mshbm.methods.registry import build_problem
-from mshbm.solvers.driver import assemble
+from mshbm.route.driver import assemble
 from paper_systems import OMEGA, impact_chain
 
 N_H, STEPS = 5, 4096

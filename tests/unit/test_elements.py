@@ -190,7 +190,7 @@ def test_homotopies_of_a_system_delegate_to_the_elements():
     """``hbm.scaled_regularisation`` and ``continuation.scaled_system`` change each element as its own
     :meth:`scaled` / :meth:`bound_scaled` says; the matrices are shared."""
     from mshbm.methods.hbm import scaled_regularisation
-    from mshbm.solvers.continuation import scaled_system
+    from mshbm.route.continuation import scaled_system
 
     els = [Friction(0, 0.5, 2.0, 40.0), Contact(1, 0.1, 0.7, 100.0, 1.0)]
     system = mshbm.chain([1.0, 2.0], 1.0, 0.1, forcing=[{"dof": 1, "amplitude": 1.0}], elements=els)

@@ -29,7 +29,7 @@ def test_fast_path_builds_the_problem_once(monkeypatch):
     """A caller's guess that Newton alone does not take to a certified answer: the start ladder that follows
     reuses the problem of the first attempt (MS-HBM: no second condensation), and its answer is a solution of
     the problem built afresh."""
-    from mshbm.solvers import driver
+    from mshbm.route import driver
 
     system = impact_chain(5, e=0.8)
     calls = []

@@ -43,7 +43,7 @@ def test_small_one_step_bound_still_accepted(impact5_at_1):
     c = sol.certificate["step_accuracy_size"]
     assert c.gating and c.passed and c.bound == STEP_ACCURACY_SIZE_BOUND == 2e-3
     # the value is h J (one step times the largest velocity jump at an impact) over the certificate's D
-    from mshbm.solvers.starts import impact_jump
+    from mshbm.route.acceptance import impact_jump
 
     prob, _ = mshbm.build_problem(system, 1.0, "mshbm", harmonics=5, steps=2048)
     J = impact_jump(system, prob.solution_parts(np.asarray(sol.x)))

@@ -1,10 +1,10 @@
-"""Named solve strategies (mshbm.solvers.strategies): nearby-frequency start, linear start, restart from
+"""Named solve strategies (mshbm.strategies): nearby-frequency start, linear start, restart from
 another method's solution."""
 import numpy as np
 import pytest
 
 import mshbm
-from mshbm.solvers import strategies
+from mshbm import strategies
 from paper_systems import OMEGA, system
 
 KW = dict(harmonics=3, steps=1024, stability=False)

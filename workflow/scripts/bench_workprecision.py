@@ -40,12 +40,12 @@ import wfcore  # noqa: E402
 import mshbm  # noqa: E402
 from mshbm.methods.exact import exact_periodic  # noqa: E402
 from mshbm.methods.hbm import scaled_regularisation  # noqa: E402
-from mshbm.solvers import strategies  # noqa: E402
+from mshbm import strategies  # noqa: E402
 
 
 def timed_solve(system, omega, factor, method, repeats, warmup=True, **opts):
     """Start from the method's own solution at ``factor * omega`` (the nearby strategy of
-    :mod:`mshbm.solvers.strategies`; the linear start when that one did not converge); wall times of
+    :mod:`mshbm.strategies`; the linear start when that one did not converge); wall times of
     ``repeats`` solves at ``omega`` from that start.
 
     ``warmup``: one untimed solve first (numba compilation; needed once per method and process).

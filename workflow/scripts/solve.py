@@ -9,7 +9,7 @@ once, untimed, on the displayed solution), stick fraction, impacts) and ``<stem>
     python workflow/scripts/solve.py workflow/config.yaml impact5 mshbm 3 4096 results/solves/impact5/mshbm_nh3_N4096
 
 Start protocol (config ``systems.<case>.starts``, tried in order until one converges): the named
-strategies of :mod:`mshbm.solvers.strategies`,
+strategies of :mod:`mshbm.strategies`,
 
 * ``linear``: Newton at omega from the linear response at omega;
 * ``nearby``: Newton at omega from the method's own converged solution at
@@ -41,7 +41,7 @@ import time  # noqa: E402
 import numpy as np  # noqa: E402
 
 import mshbm  # noqa: E402
-from mshbm.solvers import strategies  # noqa: E402
+from mshbm import strategies  # noqa: E402
 from mshbm.accumulation import from_impulses  # noqa: E402
 from mshbm.integrators.moreau_jean import WORK  # noqa: E402
 from wfcore import build_system, get_key, omega as config_omega, runs, split_method, write_json  # noqa: E402

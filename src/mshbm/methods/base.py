@@ -4,7 +4,7 @@ A *method* (``"shooting"``, ``"hbm"``, ``"dlft"``, ``"mshbm"``, ``"mshbm-interme
 ``M q'' + C q' + K q = f_ex(t) + f_nl`` at angular frequency ``omega`` (period ``T = 2 pi / omega``)
 into a square nonlinear system ``R(x) = 0`` in its own unknowns ``x`` (Fourier coefficients ``q_hat``
 of ``n_h`` harmonics, states ``q(0), u(0)`` at the Poincaré section, or both).  The solvers
-(:mod:`mshbm.solvers`: Newton, the start ladder, homotopy, continuation, :mod:`mshbm.solvers.driver`)
+(:mod:`mshbm.solvers`: Newton, continuation; :mod:`mshbm.route`: the start ladder, homotopy, the driver)
 see a method only through :class:`PeriodicProblem`; they never probe for attributes.
 
 Contract (every subclass)
@@ -177,7 +177,7 @@ class PeriodicProblem:
     #: the Jacobian costs little more than the residual: Newton evaluates its full step with the
     #: Jacobian and keeps it when the step is taken (:func:`mshbm.solvers.newton.newton`)
     cheap_jacobian = False
-    #: keyword options the problem was built with (set by :func:`mshbm.solvers.driver.build_problem`)
+    #: keyword options the problem was built with (set by :func:`mshbm.methods.registry.build_problem`)
     build_options: dict = {}
     #: sentences on how the problem was set up differently from what was asked (e.g. resonant DOFs kept
     #: instead of condensed); the driver puts them in ``info["notes"]`` and the message
@@ -191,6 +191,32 @@ class PeriodicProblem:
     harmonic_truncation = False
     time_integrated_subset = False
     certify_connectivity_work = False
+    # ------------------------------------------------------------------ capabilities read by the solve route
+    # (mshbm.route, mshbm.branch, mshbm.period): what differs between the methods, declared by each problem
+    # class so that the route never tests a method's name
+    #: default number of harmonics ``n_h`` of the option ``harmonics`` (full shooting: of the reported ``q_hat``)
+    default_harmonics = 5
+    #: the unknowns are the full state at ``t = 0`` of a time-stepped period (full shooting)
+    full_shooting = False
+    #: the period can be integrated by the exact event-driven flow instead of Moreau-Jean steps (option
+    #: ``integrator``): the start ladder ends with that fallback for systems with contacts
+    supports_event_integrator = False
+    #: with a guess, ``continuation=True`` given explicitly opts in to restarts and parameter continuation
+    #: (:mod:`mshbm.route.continuation`) before the start ladder
+    explicit_continuation = False
+    #: the elements' laws are regularised penalty laws (HBM): ``continuation=True`` is the problem's own
+    #: homotopy of softened laws (kept in continuation stages), the unknowns are displacement coefficients
+    #: scaled by the penalty displacement floor, stability is Hill's (without contacts)
+    penalty_laws = False
+    #: option values :func:`mshbm.solve` takes by default where :func:`mshbm.sweep`'s default differs (HBM: the
+    #: sampled penalty law); a branch traced for a solve's start uses them, so that it follows this problem
+    solve_defaults: dict = {}
+
+    @property
+    def force_row_unknowns(self):
+        """Number of leading unknowns that are displacement coefficients balanced by force rows (MS-HBM,
+        Section 3.3: ``nc n_2``); their branch scale is the displacement one, not ``residual_scale``."""
+        return 0
 
     # ------------------------------------------------------------------ required
     @property

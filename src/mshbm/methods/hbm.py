@@ -95,6 +95,7 @@ class HBMProblem(PiecewiseLinearPaths, HarmonicProblem):
 
     method = "hbm"
     penalty_contact = True  # declared representation (mshbm.methods.base); penalty_quadrature: set per problem
+    penalty_laws, solve_defaults = True, {"penalty_quadrature": "samples"}  # solve-route capabilities
 
     def __init__(self, system, omega, harmonics, steps, condense=True, partition=None, penalty_quadrature="samples"):
         if penalty_quadrature not in PENALTY_QUADRATURES:

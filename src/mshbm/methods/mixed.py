@@ -279,6 +279,8 @@ class _MixedBase(PeriodicProblem):
     harmonic_truncation = True
     time_integrated_subset = True
     # --
+    supports_event_integrator = True  # solve-route capabilities (mshbm.methods.base)
+    explicit_continuation = True
 
     @property
     def n_unknowns(self):
@@ -680,6 +682,7 @@ class IntermediateProblem(_MixedBase):
     """
 
     method = "mshbm-intermediate"
+    force_row_unknowns = property(lambda self: self.nc * self.n2)  # solve-route capability (mshbm.methods.base)
 
     def __init__(self, system, omega, harmonics, steps, theta=0.5, jacobian="exact", partition=None,
                  project=True, integrator="moreau", accumulation="moreau"):
@@ -766,6 +769,7 @@ class StandardAsIntermediate(MixedProblem):
     the requested method with a note in ``info["notes"]`` and the message."""
 
     method = "mshbm-intermediate"
+    force_row_unknowns = property(lambda self: self.nc * self.n2)  # solve-route capability (mshbm.methods.base)
 
     # -- declared representation (mshbm.methods.base contract), read by the certificate: reported as the
     # intermediate variant, its certificate has no connectivity_work check

@@ -202,22 +202,20 @@ _DEADLINE = contextvars.ContextVar("mshbm_newton_deadline", default=None)
 
 
 @contextlib.contextmanager
-def tighter_deadline(var, deadline):
-    """Within the block the context variable ``var`` holds the earlier of its value and ``deadline`` (a
-    ``time.perf_counter()`` value; ``None``: no new limit, an enclosing one stays)."""
-    outer = var.get()
+def time_box(deadline):
+    """Within the block, every Newton solve stops at ``deadline`` (a ``time.perf_counter()`` value; ``None``:
+    no new limit), failing with the message "time budget spent"; an enclosing earlier deadline stays.
+
+    The deadline is carried by the context (not an argument) because Newton solves run deep inside the
+    problems (homotopy stages, path followers, exact orbits); the solve route sets it
+    (:class:`mshbm.route.driver.Route`, :class:`mshbm.route.ladder.Ladder`)."""
+    outer = _DEADLINE.get()
     new = outer if deadline is None else (float(deadline) if outer is None else min(outer, float(deadline)))
-    token = var.set(new)
+    token = _DEADLINE.set(new)
     try:
         yield
     finally:
-        var.reset(token)
-
-
-def time_box(deadline):
-    """Within the block, every Newton solve stops at ``deadline`` (a ``time.perf_counter()`` value; ``None``:
-    no new limit), failing with the message "time budget spent"; an enclosing earlier deadline stays."""
-    return tighter_deadline(_DEADLINE, deadline)
+        _DEADLINE.reset(token)
 
 
 def deadline():

@@ -1,4 +1,4 @@
-"""Adversarial cases of the default start strategy (issue 10, item 4; :mod:`mshbm.solvers.starts`).
+"""Adversarial cases of the default start strategy (issue 10, item 4; :mod:`mshbm.route.ladder`).
 
 Every case asserts a correct answer against an exact value (closed form, the exact event-driven
 orbit of :func:`mshbm.exact_periodic`, or the same discrete problem solved from a known-good
@@ -16,15 +16,15 @@ from mshbm.methods.common import linear_response
 from mshbm.api import build_problem
 from mshbm.errors import InputError
 from mshbm.methods.exact import exact_periodic
-from mshbm.solvers import driver
+from mshbm.branch import ROUTE
 from mshbm.solvers.newton import solve_problem
 from paper_systems import system as paper_system
 
 try:
-    from mshbm.solvers import starts
+    from mshbm.route import ladder, starts
 except ImportError:  # the package before the start strategy (counting the cases wrong there)
-    starts = None
-needs_starts = pytest.mark.skipif(starts is None, reason="tests a piece of mshbm.solvers.starts")
+    ladder = starts = None
+needs_starts = pytest.mark.skipif(starts is None, reason="tests a piece of mshbm.route.ladder")
 
 METHODS = ("shooting", "hbm", "mshbm", "mshbm-intermediate")
 
@@ -78,9 +78,9 @@ def test_residual_check_rejects_the_garbage_of_the_linear_start(method):
     system = stick_chain()
     problem, _ = build_problem(system, W1, method, harmonics=3, steps=1024)
     res = solve_problem(problem, problem.initial_guess(None), tol=1e-10, max_iter=50)
-    att = starts.Attempt("linear", problem.initial_guess(None), res, problem)
+    att = ladder.Attempt("linear", problem.initial_guess(None), res, problem)
     assert np.max(np.abs(problem.solution_parts(res.x)["q_hat"])) > 1e6  # the garbage
-    assert not starts.residual_accept(problem, system, W1)(att)
+    assert not ladder.residual_accept(problem, system, W1)(att)
 
 
 @needs_starts
@@ -285,7 +285,7 @@ def test_shifted_system_is_the_time_shifted_forcing(t0):
                        rtol=0, atol=1e-13)
     # the linear response of the shifted system is the shifted linear response
     q_s = linear_response(starts.shifted_system(system, t0, w), w, 3)
-    assert np.allclose(q_s, starts._shift_hat(linear_response(system, w, 3), w, t0), rtol=0, atol=1e-12)
+    assert np.allclose(q_s, starts.shift_hat(linear_response(system, w, 3), w, t0), rtol=0, atol=1e-12)
 
 
 @needs_starts
@@ -293,10 +293,10 @@ def test_section_shift_avoids_events():
     parts = {"impulses": np.zeros((100, 1)), "t": np.linspace(0, 1, 101)}
     parts["impulses"][[3, 97]] = 1.0
     system = oscillator(0.0, 0.5)
-    assert starts._section_shift(parts, system, 100) == 50
+    assert starts.section_shift(parts, system, 100) == 50
     parts["impulses"][:] = 0.0
     parts["impulses"][[40]] = 1.0
-    k = starts._section_shift(parts, system, 100)
+    k = starts.section_shift(parts, system, 100)
     assert min(abs(k - 40), 100 - abs(k - 40)) == 50
 
 
@@ -306,9 +306,9 @@ def test_failure_reports_best_residual_and_every_start():
     the smallest residual is returned as a failure."""
     system = stick_chain()
     problem, _ = build_problem(system, W1, "mshbm", harmonics=3, steps=256)
-    res = starts.solve_from_starts(problem, "mshbm", system, W1, dict(tol=1e-10, max_iter=20),
+    res = ladder.solve_from_starts(problem, "mshbm", system, W1, dict(tol=1e-10, max_iter=20),
                                    lambda a: False, solve_options=dict(harmonics=3, steps=256),
-                                   transient_periods=(2,), solve=driver.solve)
+                                   transient_periods=(2,), route=ROUTE)
     tried = [r["start"] for r in res.info["starts"]]
     assert tried == ["linear", "clamped", "zero", "exact", "transient", "forcing", "friction", "frequency"]
     assert not res.success and res.info["start_used"] is None
@@ -322,9 +322,9 @@ def test_explicit_guess_is_tried_first():
     system = stick_chain()
     problem, _ = build_problem(system, W1, "mshbm", harmonics=3, steps=256)
     g = {"q_hat": starts.clamped_response(system, W1, 3)}
-    res = starts.solve_from_starts(problem, "mshbm", system, W1, dict(tol=1e-10), 
-                                   starts.residual_accept(problem, system, W1), guess=g,
-                                   solve_options=dict(harmonics=3, steps=256))
+    res = ladder.solve_from_starts(problem, "mshbm", system, W1, dict(tol=1e-10), 
+                                   ladder.residual_accept(problem, system, W1), guess=g,
+                                   solve_options=dict(harmonics=3, steps=256), route=ROUTE)
     assert res.success and res.info["start_used"] == "guess" and len(res.info["starts"]) == 1
     amp = problem.solution_parts(res.x)["q_hat"][1]
     assert np.allclose(np.abs(amp), clamped_amplitudes(W1), rtol=1e-4, atol=1e-9)
@@ -335,7 +335,8 @@ def test_unknown_start_is_an_input_error():
     system = stick_chain()
     problem, _ = build_problem(system, W1, "mshbm", harmonics=3, steps=256)
     with pytest.raises(InputError, match="starts"):
-        starts.solve_from_starts(problem, "mshbm", system, W1, {}, lambda a: True, starts=("linear", "random"))
+        ladder.solve_from_starts(problem, "mshbm", system, W1, {}, lambda a: True, starts=("linear", "random"),
+                                 route=ROUTE)
 
 
 def test_explicit_guess_is_the_first_rung_and_continuation_false_a_single_start():
@@ -348,7 +349,7 @@ def test_explicit_guess_is_the_first_rung_and_continuation_false_a_single_start(
     sol = mshbm.solve(system, 0.3, "mshbm", harmonics=3, steps=256, continuation=False)
     assert "starts" not in sol.info
     assert np.allclose(sol.amplitude[1:], clamped_amplitudes(0.3)[1:], rtol=1e-3)
-    assert starts is None or not starts.active()
+    assert not ROUTE.single_start  # the public route is not left inside a ladder
 
 
 def test_poor_explicit_guess_falls_back_to_the_ladder():

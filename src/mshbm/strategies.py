@@ -1,7 +1,7 @@
 """Named solve strategies: where a solve at the forcing frequency ``omega`` starts from.
 
 :func:`mshbm.solve` turns a starting guess into a periodic solution (with its own ladder of starts
-when no guess is given, :mod:`mshbm.solvers.starts`).  The strategies here choose that guess one
+when no guess is given, :mod:`mshbm.route.ladder`).  The strategies here choose that guess one
 level up, from *other solves*, as the paper does for its sweeps and as the workflow does for every
 figure (``workflow/scripts/solve.py``) and the work-precision benchmark
 (``workflow/scripts/bench_workprecision.py``):
@@ -25,6 +25,8 @@ counts solves passes its own wrapper, so the strategies never change *which* sol
 from __future__ import annotations
 
 from dataclasses import dataclass
+
+from .api import solve as _solve
 
 __all__ = ["Start", "linear_start", "nearby_start", "restart_start", "make_start", "solve_from", "NEARBY_FACTOR",
            "STRATEGIES"]
@@ -67,9 +69,7 @@ class Start:
 
 
 def _solver(solve):
-    if solve is None:
-        from ..api import solve
-    return solve
+    return _solve if solve is None else solve
 
 
 def linear_start():

@@ -48,10 +48,15 @@ import time
 
 import numpy as np
 
-from ..methods.common import linear_response
-from ..errors import InputError
+from .. import fourier
+from .. import stability as _stability
+from .._blas import blas_threads, check_threads
+from ..errors import ConvergenceError, InputError
+from ..integrators.moreau_jean import MAX_DENSE_DOFS, MoreauJean
+from ..methods.common import guess_parts, linear_response
 from ..result import PeriodicSolution
 from ..system import System
+from .options import capabilities, without
 
 __all__ = ["solve_with_continuation", "scaled_system", "STRATEGIES"]
 
@@ -73,11 +78,11 @@ def scaled_system(system, forcing=1.0, friction=1.0):
 
 
 def _inner(method, options):
-    """Options of the solves made here: for the mixed methods ``continuation=False``, so that a future
-    fallback inside :func:`mshbm.solve` (which may call this module) cannot recurse; HBM keeps its own
-    regularisation continuation."""
+    """Options of the solves made here: ``continuation=False`` (Newton from the stage's start, no ladder and
+    no continuation of its own), except for penalty laws (HBM), whose ``continuation`` is the problem's own
+    regularisation homotopy."""
     opts = dict(options)
-    if method != "hbm":
+    if not capabilities(method).penalty_laws:
         opts["continuation"] = False
     return opts
 
@@ -105,9 +110,7 @@ def _first_touch_scale(system, omega, n_h=10, samples=256):
     if not contacts:
         return math.inf
     q_hat = linear_response(system, omega, n_h)
-    from ..fourier import ifft
-
-    q = ifft(q_hat, samples)
+    q = fourier.ifft(q_hat, samples)
     best = math.inf
     for e in contacts:
         # g = gap - q_d(t) > 0 for s * q_d(t) < gap  (the forcing is affine: q = s * q_lin)
@@ -180,14 +183,11 @@ def _transient(solve, system, omega, method, guess, options, periods, budget):
 
     Returns ``(solution or None, message, log)``.
     """
-    from .. import fourier
-    from ..methods.common import guess_parts
-    from ..integrators.moreau_jean import MAX_DENSE_DOFS, MoreauJean
-
     log = []
     n = system.n
-    n_h = int(options.get("harmonics", 10 if method == "shooting" else 5))
-    steps = int(options.get("steps", 2048)) if method != "hbm" else 2048
+    cap = capabilities(method)
+    n_h = int(options.get("harmonics", cap.default_harmonics))
+    steps = int(options.get("steps", 2048)) if not cap.penalty_laws else 2048  # (HBM's steps are AFT samples)
     steps = max(steps, 2 * n_h + 2)
     total = max(periods)
     if n > MAX_DENSE_DOFS or float(n) * n * steps * total > budget:
@@ -202,7 +202,7 @@ def _transient(solve, system, omega, method, guess, options, periods, budget):
     t = np.linspace(0.0, T, steps + 1)
     B = stepper.increments(system.forcing(t, omega))
     done, sol = 0, None
-    opts = _inner(method, {k: v for k, v in options.items() if k != "guess"})
+    opts = _inner(method, without(options, "guess"))
     for checkpoint in sorted(periods):
         tr = None
         while done < checkpoint:
@@ -233,9 +233,7 @@ def solve_with_continuation(system, omega, method="mshbm", guess=None, *, solve,
     ----------
     solve : callable
         The full solver, ``solve(system, omega, method, **options) -> PeriodicSolution``
-        (:func:`mshbm.solvers.driver.solve`): every stage is a complete solve.  Passed in, so that this
-        module does not import the driver that calls it (:func:`mshbm.api.solve_with_continuation`
-        binds it).
+        (:meth:`mshbm.route.driver.Route.solve` of the caller's route): every stage is a complete solve.
     system : System
     omega : float
         Requested forcing frequency (rad/s).
@@ -261,10 +259,10 @@ def solve_with_continuation(system, omega, method="mshbm", guess=None, *, solve,
     transient_budget : float
         Largest ``n^2 x steps x periods`` simulated by the ``"transient"`` strategy.
     ladder : bool
-        When every strategy fails: a last full solve with the start ladder (:mod:`mshbm.solvers.starts`, the
-        guess its first rung), as :func:`mshbm.solve` does by default, so that opting in to continuation never
-        ends worse than not doing so (callers inside a ladder and the driver, which runs the ladder itself,
-        pass ``False``; :func:`mshbm.api.solve_with_continuation` passes ``True`` outside a ladder).
+        When every strategy fails: a last full solve with the start ladder (:mod:`mshbm.route.ladder`, the
+        guess its first start), as :func:`mshbm.solve` does by default, so that opting in to continuation
+        never ends worse than not doing so (the ladder's starts and the driver, which runs the ladder itself,
+        pass ``False``; :func:`mshbm.api.solve_with_continuation` passes ``True``).
     **options
         Options of :func:`mshbm.solve` (``harmonics``, ``steps``, ``tol``, ``blas_threads``...);
         ``blas_threads`` (default 1) also applies to the transient simulation.
@@ -285,12 +283,8 @@ def solve_with_continuation(system, omega, method="mshbm", guess=None, *, solve,
     unknown = [s for s in strategies if s not in STRATEGIES]
     if unknown:
         raise InputError("strategies", f"unknown strategy {unknown[0]!r} (choose from {', '.join(STRATEGIES)})")
-    from .._blas import blas_threads, check_threads
-
     # the same BLAS pinning as solve() (bit-identical results whatever the thread settings), also
     # around the transient simulation that runs outside solve()
-    from .. import stability as _stability
-
     stab = _stability.check_option(options.pop("stability", "auto"))
     options["stability"] = False  # intermediate solves: no Floquet analysis; the final solution gets it below
     with blas_threads(check_threads(options.get("blas_threads", 1))):
@@ -338,11 +332,10 @@ def _solve_with_continuation(solve, system, omega, method, guess, strategies, fo
             tried = ", ".join(f"{a['strategy']} ({a['result']})" for a in info["attempts"]) or "none applicable"
             sol = direct
             sol.message = f"{direct.message}; continuation fallbacks failed: {tried}"
-            if ladder and method != "hbm" and options.get("continuation", True) is not False:
+            if ladder and not capabilities(method).penalty_laws and options.get("continuation", True) is not False:
                 # the start ladder (the guess first), as mshbm.solve without the opt-in; options without an explicit
                 # continuation=True, so the driver does not come back here
-                last = solve(system, omega, method, guess=guess,
-                             **{k: v for k, v in options.items() if k != "continuation"})
+                last = solve(system, omega, method, guess=guess, **without(options, "continuation"))
                 total_it += int(last.iterations)
                 if last.success:
                     info["used"] = "start ladder"
@@ -356,8 +349,6 @@ def _solve_with_continuation(solve, system, omega, method, guess, strategies, fo
     info["wall_time_s"] = time.perf_counter() - t0
     sol.info["continuation"] = info
     if raise_on_failure and not sol.success:
-        from ..errors import ConvergenceError
-
         raise ConvergenceError(sol.message)
     return sol
 

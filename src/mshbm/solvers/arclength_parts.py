@@ -1,0 +1,206 @@
+"""The pieces of pseudo-arclength continuation (:mod:`mshbm.solvers.arclength`): the points and the result,
+the scaled evaluation of the residual, the tangent and its orientation, the location of folds, and the
+backtracking of the fixed-parameter Newton.
+
+Notation as in :mod:`mshbm.solvers.arclength`: ``R(x, lam)`` the residual with row scale ``s``, ``J = dR/dx``,
+``g = dR/dlam``, unknowns scaled by ``w``, the parameter by ``lam_scale``; ``t = (t_y, t_mu)`` the unit
+tangent in scaled variables.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+
+__all__ = ["ContinuationPoint", "ContinuationResult", "Failed", "bordered_solve", "Evaluator", "orientation",
+           "tangent", "backtrack", "stall_folds", "locate_fold"]
+
+
+
+@dataclass
+class ContinuationPoint:
+    """One converged point: unknowns ``x``, parameter ``lam``, unit tangent (physical units ``dx/ds,
+    dlam/ds``), corrector iterations, the step ``ds`` that led here, scaled residual, and the payload
+    returned by ``accept``."""
+
+    x: np.ndarray
+    lam: float
+    dx: np.ndarray
+    dlam: float
+    iterations: int
+    ds: float
+    residual: float
+    payload: object = None
+    stall: object = None
+    orientation: int = 0  # sign det [J_y, g; t^T] (scaled), 0 if singular or not computed
+    segment: object = None  # the smooth piece of the residual (``segment``), None if unknown
+
+
+@dataclass
+class ContinuationResult:
+    points: list
+    success: bool
+    message: str
+    folds: list = field(default_factory=list)   # [{"lam", "x", "index"}]: between points index-1 and index
+    counters: dict = field(default_factory=dict)
+    #: kinks passed (``{"lam", "lam_right", "index", "cos_tangents"}``, ``"fixed_lam": True`` when crossed by a
+    #: step at fixed lam): between points index-1 and index
+    kinks: list = field(default_factory=list)
+
+
+class Failed(Exception):
+    """A step, corrector or Newton solve of the continuation failed (the message says why)."""
+
+    pass
+
+
+def bordered_solve(A, b):
+    """``A^-1 b`` (least squares if ``A`` is singular); :class:`Failed` if not finite."""
+    try:
+        z = np.linalg.solve(A, b)
+    except np.linalg.LinAlgError:
+        z = np.linalg.lstsq(A, b, rcond=None)[0]
+    if not np.all(np.isfinite(z)):
+        raise Failed("singular bordered system")
+    return z
+
+
+class Evaluator:
+    """Scaled evaluation of the callables at ``(x, lam)``, counting calls."""
+
+    def __init__(self, residual, d_lam, residual_scale, unknown_scale, lam_scale):
+        self.residual, self.d_lam = residual, d_lam
+        self.residual_scale, self.unknown_scale = residual_scale, unknown_scale
+        self.lam_scale = float(lam_scale)
+        self.n_res = self.n_dlam = 0
+
+    def __call__(self, x, lam, jac=True):
+        R, J = self.residual(x, lam)
+        self.n_res += 1
+        s = np.asarray(self.residual_scale(x, lam), dtype=float)
+        r = float(np.max(np.abs(R) / s)) if R.size else 0.0
+        if not jac:
+            return R, s, r, None, None
+        g = np.asarray(self.d_lam(x, lam), dtype=float)
+        self.n_dlam += 1
+        # the bordered systems are dense (the harmonic methods' unknowns are few; condense=False gives
+        # a sparse J of the same small size)
+        J = J.toarray() if sp.issparse(J) else np.asarray(J, dtype=float)
+        return R, s, r, J, g
+
+
+def orientation(J, g, s, w, lam_scale, t):
+    """``sign det [J_y, g; t^T]`` (scaled as in :func:`tangent`; positive scales keep the sign): the
+    orientation of the tangent ``t`` of the curve ``R(x, lam) = 0``.  Along a branch of regular points
+    (folds included) the tangent oriented by ``t . t_prev > 0`` keeps it; it changes sign at a simple branch
+    point.  0 when the matrix is singular or not finite."""
+    A = np.hstack([(J * w[None, :]) / s[:, None], (g * lam_scale / s)[:, None]])
+    try:
+        sign, logdet = np.linalg.slogdet(np.vstack([A, t]))
+    except np.linalg.LinAlgError:
+        return 0
+    return int(sign) if np.isfinite(logdet) else 0
+
+
+def tangent(J, g, s, w, lam_scale, previous=None):
+    """Unit tangent ``(t_y, t_mu)`` in scaled variables of ``R(x, lam) = 0`` (see the module docstring),
+    oriented along ``previous`` (a scaled tangent) or, without one, towards increasing ``lam``."""
+    A = np.hstack([(J * w[None, :]) / s[:, None], (g * lam_scale / s)[:, None]])
+    n = A.shape[1]
+    if previous is None:
+        # the row that fixes the gauge: the column of A least in its range (lam, unless at a fold)
+        row = np.zeros(n)
+        row[-1] = 1.0
+        B = np.vstack([A, row])
+        try:
+            z = np.linalg.solve(B, np.eye(n)[-1])
+            if not np.all(np.isfinite(z)):
+                raise np.linalg.LinAlgError
+        except np.linalg.LinAlgError:
+            z = np.linalg.svd(A)[2][-1]
+    else:
+        B = np.vstack([A, previous])
+        try:
+            z = np.linalg.solve(B, np.eye(n)[-1])
+            if not np.all(np.isfinite(z)):
+                raise np.linalg.LinAlgError
+        except np.linalg.LinAlgError:
+            z = np.linalg.svd(A)[2][-1]
+    z = z / np.linalg.norm(z)
+    ref = previous if previous is not None else np.eye(n)[-1]
+    if float(z @ ref) < 0:
+        z = -z
+    return z
+
+
+def backtrack(norm, x, dx, r):
+    """``x + a dx`` with the largest ``a`` in ``1, 1/2, ..., 1/128`` that lowers ``norm`` below ``r``, and
+    True; else ``(x + dx, False)``."""
+    a = 1.0
+    for _ in range(8):
+        xt = x + a * dx
+        rt = norm(xt)
+        if np.isfinite(rt) and rt < r:
+            return xt, True
+        a *= 0.5
+    return x + dx, False
+
+
+def stall_folds(points, rtol):
+    """Turning points of ``lam`` along the branch with a reversal of more than ``rtol`` (relative), kept
+    where the extreme point or a neighbour was accepted at step accuracy (tangent folds cover the rest)."""
+    lam = np.array([p.lam for p in points])
+    out, ext, trend = [], 0, 0
+    for i in range(1, lam.size):
+        thr = rtol * max(abs(lam[ext]), 1e-300)
+        if trend == 0:
+            if abs(lam[i] - lam[0]) > thr:
+                trend, ext = (1 if lam[i] > lam[0] else -1), i
+        elif trend * (lam[i] - lam[ext]) >= 0:
+            ext = i
+        elif trend * (lam[ext] - lam[i]) > thr:
+            out.append(ext)
+            trend, ext = -trend, i
+    folds = []
+    for i in out:
+        near = points[max(i - 1, 0):i + 2]
+        if any(p.stall is not None for p in near):
+            folds.append({"lam": float(lam[i]), "x": points[i].x, "index": int(i), "located": "extreme point"})
+    return folds
+
+
+def locate_fold(step, p, w, ds, q, index, rtol, lsc):
+    """Arclength ``sigma`` in ``(0, ds)`` from ``p`` where the ``lam`` component of the tangent vanishes:
+    secant steps safeguarded by bisection on ``f(sigma) = dlam/ds``."""
+    a, fa, la = 0.0, p.dlam, p.lam
+    b, fb, lb = ds, q.dlam, q.lam
+    best = q
+    for _ in range(40):
+        if abs(lb - la) <= rtol * max(abs(la), abs(lb), 1e-300) and abs(b - a) < 1e-3 * ds or abs(b - a) < 1e-9:
+            break
+        sig = b - fb * (b - a) / (fb - fa) if fb != fa else 0.5 * (a + b)
+        if not (a + 0.05 * (b - a) < sig < b - 0.05 * (b - a)):
+            sig = 0.5 * (a + b)
+        (x, lam, it, r, data, _), _ = step(p, w, sig)
+        from_p = point_tangent_lam(data, x, lam, p, w, lsc)
+        if from_p * fa > 0:
+            a, fa, la = sig, from_p, lam
+        else:
+            b, fb, lb = sig, from_p, lam
+        best = (x, lam)
+        if abs(from_p) < 1e-12:
+            break
+    x, lam = best if isinstance(best, tuple) else (best.x, best.lam)
+    # the fold lies between la and lb; report the extreme (the turning point) of the bracket
+    lam_f = max(la, lb) if p.dlam > 0 else min(la, lb)
+    return {"lam": float(lam_f), "x": x, "index": index, "located": True,
+            "bracket": [float(min(la, lb)), float(max(la, lb))]}
+
+
+def point_tangent_lam(data, x, lam, p, w, lsc):
+    R, s, J, g = data
+    t_prev = np.concatenate([p.dx / w, [p.dlam / lsc]])
+    t_prev /= np.linalg.norm(t_prev)
+    t = tangent(J, g, s, w, lsc, previous=t_prev)
+    return float(t[-1] * lsc)
