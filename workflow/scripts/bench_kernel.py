@@ -166,7 +166,7 @@ def _event_cases():
         fl = prob.flow
         fl.set_forcing((prob._c0 + prob._Tr @ p).reshape(prob.nc, prob._time.size))
         z0 = fl.state(0.0, q0, u0)
-        n_ev = len(fl.simulate(0.0, z0)["events"])
+        n_ev = len(fl.simulate(0.0, z0).events)
         for kind, kw, what in (("plain", {}, "one period, flow only"),
                                ("jac_fourier", dict(jac=True, jac_cols="all", fourier=n_h),
                                 "one period with monodromy (q0, u0, coupling) and exact Fourier coefficients "
@@ -180,7 +180,7 @@ def _event_cases():
         x = sp_.initial_guess(sol)
         fl = sp_.flow
         z0 = fl.state(0.0, x[:system.n], x[system.n:])
-        n_ev = len(fl.simulate(0.0, z0)["events"])
+        n_ev = len(fl.simulate(0.0, z0).events)
         for kind, kw, what in (("plain", {}, "one period, flow only"),
                                ("jac", dict(jac=True), "one period with the saltation-corrected monodromy "
                                                       "(one shooting residual + Jacobian)")):

@@ -343,7 +343,7 @@ class _MixedBase(PeriodicProblem):
         if getattr(self, "integrator", "moreau") != "event":
             return None
         out = self._event_run(np.asarray(x, dtype=float), False)
-        return None if out is None else tuple((int(e.element), e.kind) for e in out["events"])
+        return None if out is None else tuple((int(e.element), e.kind) for e in out.events)
 
     def _event_residual(self, x, jac):
         n1, a = self._time.size, self.nc * self._harm.size
@@ -351,16 +351,16 @@ class _MixedBase(PeriodicProblem):
         out = self._event_run(x, jac and self.jacobian == "exact")
         if out is None:
             return np.full(x.size, np.nan), (np.full((x.size, x.size), np.nan) if jac else None)
-        R = np.concatenate([self._balance(out["q_hat"].reshape(-1), p), out["z"][:n1] - q0,
-                            out["z"][n1:2 * n1] - u0])
+        R = np.concatenate([self._balance(out.q_hat.reshape(-1), p), out.end_state[:n1] - q0,
+                            out.end_state[n1:2 * n1] - u0])
         if not jac:
             return R, None
         if self.jacobian == "fd":
             return R, forward_difference_jacobian(lambda xp: self._event_residual(xp, False)[0], x, R)
         # Phi columns: [q0, u0, forcing states = d/dc]; x = [p, q0, u0], dc/dp = Tr
-        dq = out["dq_hat"].reshape(self.nc * n1, -1)
+        dq = out.q_hat_sensitivity.reshape(self.nc * n1, -1)
         Dq = np.hstack([dq[:, 2 * n1:] @ self._Tr, dq[:, :2 * n1]])
-        Pz = out["Phi"][:2 * n1]
+        Pz = out.monodromy[:2 * n1]
         Dz = np.hstack([Pz[:, 2 * n1:] @ self._Tr, Pz[:, :2 * n1]])
         J = np.zeros((x.size, x.size))
         J[:a] = self._balance_dq(Dq)
@@ -380,32 +380,32 @@ class _MixedBase(PeriodicProblem):
                                 len(self.system.elements), self.n_h, "the event-driven flow failed at the "
                                 f"solution: {getattr(self, 'last_error', 'unknown error')}")
         fl, n1, N = self.flow, self._time.size, self.td.N
-        Z = out["samples"]
+        Z = out.samples
         q_t, u_t = Z[:n1].T.copy(), Z[n1:2 * n1].T.copy()
         X = p.reshape(self.nc, self._harm.size)
         q_hat = np.zeros((self.nc, self.system.n))
-        q_hat[:, self._time] = out["q_hat"]
+        q_hat[:, self._time] = out.q_hat
         if not self._harmonic_dofs_are_time_dofs:
             q_hat[:, self._harm] = X
         if self._cond_dofs.size:
             q_hat[:, self._cond_dofs] = fourier.from_complex(self.cond.recover(fourier.to_complex(X)))
         lam = np.full((N + 1, len(self.system.elements)), np.nan)
-        modes = out["sample_modes"]
+        modes = out.sample_modes
         for code in np.unique(modes):
             sel = modes == code
-            lam[sel] = (fl.moreau_force(out["moreau"], self.td.t[sel]) if code == MOREAU
+            lam[sel] = (fl.moreau_force(out.moreau_segments, self.td.t[sel]) if code == MOREAU
                         else fl.full_force(int(code), Z[:, sel]).T)
         P = np.nan_to_num(lam[:-1]) * self.td.h
-        for ev in out["events"]:
+        for ev in out.events:
             if ev.impulse != 0.0:
                 P[min(int(ev.t / self.td.h), N - 1), ev.element] += ev.impulse
         hi, lo = fourier_extrema(q_hat)
-        qmax, qmin, _ = extrema(fl, out["nodes"])  # time DOFs: the true extrema of the flow
+        qmax, qmin, _ = extrema(fl, out.nodes)  # time DOFs: the true extrema of the flow
         hi[self._time], lo[self._time] = qmax, qmin
         info = {**self._info(p, q_hat),
                 "amplitude_exact": 0.5 * (hi - lo),
                 "event_integrator": run_summary(out),
-                "event_list": out["events"], "contact_margins": contact_margins(fl, out)}
+                "event_list": out.events, "contact_margins": contact_margins(fl, out)}
         return dict(t=self.td.t, q_hat=q_hat, time_dofs=self._time, q_time=q_t, u_time=u_t,
                     lam=lam, impulses=P, harmonics=self.n_h, info=info)
 

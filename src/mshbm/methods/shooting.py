@@ -174,19 +174,19 @@ class ShootingProblem(PeriodicProblem):
         except (EventError, ValueError) as exc:  # ValueError: event bracketing lost to rounding
             self.last_error = f"{type(exc).__name__}: {exc}"
             return np.full(2 * n, np.nan), (np.full((2 * n, 2 * n), np.nan) if jac else None)
-        R = out["z"][:2 * n] - x
+        R = out.end_state[:2 * n] - x
         if not jac:
             return R, None
         if self.jacobian == "exact":
-            Phi = out["Phi"][:2 * n]
+            Phi = out.monodromy[:2 * n]
         else:
             def end_state(xp):
                 try:
-                    return self._event_run(xp)["z"][:2 * n]
+                    return self._event_run(xp).end_state[:2 * n]
                 except (EventError, ValueError):
                     return np.full(2 * n, np.nan)
 
-            Phi = forward_difference_jacobian(end_state, x, out["z"][:2 * n])
+            Phi = forward_difference_jacobian(end_state, x, out.end_state[:2 * n])
         return R, Phi - np.eye(2 * n)
 
     def event_signature(self, x):
@@ -199,12 +199,12 @@ class ShootingProblem(PeriodicProblem):
             out = self._event_run(np.asarray(x, dtype=float))
         except (EventError, ValueError):
             return None
-        return tuple((int(e.element), e.kind) for e in out["events"])
+        return tuple((int(e.element), e.kind) for e in out.events)
 
     def monodromy(self, x):
         """Monodromy matrix ``d(q(T), u(T))/d(q0, u0)``, shape (2n, 2n)."""
         if self.integrator == "event":
-            return self._event_run(np.asarray(x, dtype=float), jac=True)["Phi"][:2 * self.n]
+            return self._event_run(np.asarray(x, dtype=float), jac=True).monodromy[:2 * self.n]
         tr = self.simulate(x)
         return self.stepper.monodromy(tr.status, tr.P)
 
@@ -219,29 +219,29 @@ class ShootingProblem(PeriodicProblem):
             n_h = min(self.n_h, (N - 1) // 2)
             return failed_parts(self.t, N, (2 * n_h + 1, n), np.arange(n), len(self.system.elements), n_h,
                                 f"the event-driven flow failed at the solution: {type(exc).__name__}: {exc}")
-        qmax, qmin, _ = extrema(fl, out["nodes"])  # true extrema from the flow (zeros of u between nodes)
-        Z = out["samples"]
+        qmax, qmin, _ = extrema(fl, out.nodes)  # true extrema from the flow (zeros of u between nodes)
+        Z = out.samples
         q, u = Z[:n].T.copy(), Z[n:2 * n].T.copy()
         m_all = len(self.system.elements)
         lam = np.full((N + 1, m_all), np.nan)
-        modes = out["sample_modes"]
+        modes = out.sample_modes
         for code in np.unique(modes):
             sel = modes == code
             if code == MOREAU:  # inside a Moreau-Jean segment: impulse / h of the step
-                lam[sel] = fl.moreau_force(out["moreau"], self.t[sel])
+                lam[sel] = fl.moreau_force(out.moreau_segments, self.t[sel])
                 continue
             lam[sel] = fl.full_force(int(code), Z[:, sel]).T
         # impulse of every sampling interval: the element force times h plus the impacts in it
         P = np.nan_to_num(lam[:-1]) * self.h
-        for ev in out["events"]:
+        for ev in out.events:
             if ev.impulse != 0.0:
                 k = min(int(ev.t / self.h), N - 1)
                 P[k, ev.element] += ev.impulse
         n_h = min(self.n_h, (N - 1) // 2)
-        Phi = out["Phi"][:2 * n]
+        Phi = out.monodromy[:2 * n]
         mult = np.linalg.eigvals(Phi)
         info = {"event_integrator": run_summary(out),
-                "event_multipliers": mult, "event_list": out["events"],
+                "event_multipliers": mult, "event_list": out.events,
                 "contact_margins": contact_margins(fl, out),
                 "amplitude_exact": 0.5 * (qmax - qmin), "q_max": qmax, "q_min": qmin}
         return dict(t=self.t, q_hat=fourier.fft(q[:-1], n_h), time_dofs=np.arange(n), q_time=q, u_time=u,
