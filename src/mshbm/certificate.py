@@ -516,7 +516,7 @@ def _certify(problem, sol, tol, cert, step_accuracy=None, step_size_gating=True)
     system, omega = problem.system, float(sol.omega)
     is_hbm = problem.method in ("hbm", "dlft")  # Fourier series of all DOFs, AFT samples
     is_dlft = problem.method == "dlft"
-    stepper = problem.time_stepper()  # None for HBM and DLFT
+    stepper = None if problem.integrator is None else problem.integrator.stepper  # None: HBM, DLFT, event flow
     T = 2.0 * np.pi / omega
     t = np.asarray(sol.t)
     N = t.size - 1
@@ -920,7 +920,7 @@ def _energy(problem, sol, system, omega, h, N, is_hbm, stepper, els, col, ue_max
                                  note="work of the friction forces over a period (must not be positive)"))
     ct = [j for j, e in enumerate(els) if e.unilateral]
     if ct:
-        if not is_hbm and problem.time_stepper() is not None:
+        if not is_hbm and problem.integrator is not None and problem.integrator.stepper is not None:
             # Moreau-Jean: gamma_N+ = -e gamma_N- makes P gamma_N,theta vanish (e = 1) exactly
             bound = ENERGY_TOL * E
         worst, ok = -np.inf, True
