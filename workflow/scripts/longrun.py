@@ -122,7 +122,7 @@ def run(config, case, stem, log=print):
         t += T
         ends.append(z[:2 * n].copy())
         if k >= P - keep:
-            traces.append((ts, out["samples"][0].copy(), out["samples"][n].copy()))
+            traces.append((ts, out.samples[0].copy(), out.samples[n].copy()))
         if (k + 1) % max(1, P // 10) == 0:
             log(f"  period {k + 1}: amplitude of mass 1 {amp[-1]:.6f}, {len(imps)} impact(s)")
     wall = time.perf_counter() - t0w

@@ -38,8 +38,8 @@ class PeriodRun:
         ``d end / d (q0, u0, p)``, shape ``(2 n_A, 2 n_A + n_p)`` (with ``sensitivities``).
     q_hat : ndarray or None
         Fourier coefficients of ``q`` of the time-stepped DOFs over the period, flattened harmonic-major,
-        shape ``((2 n_h + 1) n_1,)`` (integrators built with ``harmonics``; not formed by recorded
-        Moreau-Jean runs).
+        shape ``((2 n_h + 1) n_1,)`` (integrators built with a ``coupling`` of ``harmonics = n_h``; not
+        formed by recorded Moreau-Jean runs, whose solution takes the FFT of the samples).
     q_hat_jacobian : ndarray or None
         ``d q_hat / d (q0, u0, p)``, shape ``((2 n_h + 1) n_1, 2 n_A + n_p)``.
     q, u : ndarray or None
@@ -122,7 +122,8 @@ class PeriodIntegrator:
         return fourier.fft(run.q[:-1, :self.n_time], n_h)
 
     def solution_info(self, run, whole_system=False):
-        """The integrator's entries of a solution's ``info`` from a recorded run with sensitivities.
+        """The integrator's entries of a solution's ``info`` from a recorded run (with sensitivities when
+        ``whole_system``).
 
         ``whole_system``: the integrated states are the whole structure's (shooting), so the eigenvalues of
         ``run.jacobian`` are the period map's multipliers and ``run.extrema`` the structure's."""

@@ -36,11 +36,44 @@ class ExactFlow(EventFlow):
     """:class:`~mshbm.integrators.event.EventFlow` with the exact Zeno closure of accumulations of impacts
     by default (``accumulation="close"``: the contact closes with ``e = 0`` once the next bounce would rise
     less than ``1e-10`` of the displacement scale); the reference solutions of :func:`exact_periodic` rely
-    on it."""
+    on it.
+
+    For systems with one acting element: ``element``, ``kind``, ``unilateral``, ``w`` (shape (n,)),
+    ``mw = M^-1 w`` and ``sw = w^T M^-1 w``.
+    """
 
     def __init__(self, system, omega, substeps=128, max_events=10000, accumulation="close", moreau_steps=4096):
         super().__init__(system, omega, substeps=substeps, max_events=max_events, accumulation=accumulation,
                          moreau_steps=moreau_steps)
+
+    def _one(self, what):
+        if self.m != 1:
+            raise AttributeError(f"ExactFlow.{what} is defined for one acting element, the system has {self.m}")
+        return 0
+
+    @property
+    def element(self):
+        return self.elements[self._one("element")] if self.m else None
+
+    @property
+    def kind(self):
+        return None if self.m == 0 else self.element.kind
+
+    @property
+    def unilateral(self):
+        return bool(self.m == 1 and self.is_contact[0])
+
+    @property
+    def w(self):
+        return self.W[:, self._one("w")]
+
+    @property
+    def mw(self):
+        return self.MW[:, self._one("mw")]
+
+    @property
+    def sw(self):
+        return float(self.sw_all[self._one("sw")])
 
 
 class ExactTrajectory(EventTrajectory):

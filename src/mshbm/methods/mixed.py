@@ -53,13 +53,10 @@ __all__ = ["MixedProblem", "IntermediateProblem", "StandardAsIntermediate", "aut
            "intermediate_problem"]
 
 
-_sub = submatrix
-
-
 def _coupling(system, r, c, n_h, omega):
     """Complex per-harmonic blocks ``H_rc,k``, shape (n_h+1, len(r), len(c))."""
     out = np.zeros((n_h + 1, len(r), len(c)), dtype=complex)
-    Ms, Cs, Ks = (_sub(getattr(system, a), r, c) for a in "MCK")
+    Ms, Cs, Ks = (submatrix(getattr(system, a), r, c) for a in "MCK")
     dense = lambda A: A.toarray() if sp.issparse(A) else A
     Ms, Cs, Ks = dense(Ms), dense(Cs), dense(Ks)
     for k in range(n_h + 1):
@@ -386,7 +383,7 @@ class IntermediateProblem(_MixedBase):
             raise InputError("partition", "subsystems 1 and 2 must be disjoint DOF sets within range")
         I3 = np.setdiff1d(np.arange(n), np.concatenate([I1, I2]))
         for a in "MCK":
-            blk = _sub(getattr(system, a), I1, I3)
+            blk = submatrix(getattr(system, a), I1, I3)
             nz = blk.nnz if sp.issparse(blk) else np.count_nonzero(blk)
             if I3.size and nz:
                 raise InputError("partition", f"{a}_13 must vanish for Section 3.3 (subsystem 1 couples to 3)")

@@ -69,8 +69,6 @@ class ShootingProblem(PeriodicProblem):
         self.jacobian, self.n_h = jacobian, int(harmonics)
         self.integrator = make_integrator(integrator, system, self.omega, self.N, theta=theta, project=project,
                                           accumulation=accumulation)
-        self.T = 2 * np.pi / self.omega
-        self.h = self.T / self.N
         self.t = self.integrator.t
         self.ns = system.n
         self.n = self.integrator.n  # integrated states (the structure's, then the Jenkins sliders')
