@@ -13,8 +13,10 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
 
 from .. import fourier
+from ..elements import Contact, Friction, Jenkins
 from ..errors import InputError
 from .moreau_jean import MoreauJean, Trajectory
 
@@ -49,10 +51,6 @@ def _blocks(M, C, K, elements):
     is one block or carries an element whose coupling this function does not know (then it is integrated
     as one block).
     """
-    from scipy.sparse.csgraph import connected_components
-
-    from ..elements import Contact, Friction, Jenkins
-
     n = M.shape[0]
     if n < 2 or any(type(el) not in (Friction, Contact, Jenkins) for el in elements):
         return None

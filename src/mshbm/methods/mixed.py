@@ -45,6 +45,8 @@ from .. import fourier
 from .base import Partition, PeriodicProblem, forward_difference_jacobian
 from .common import complement, failed_parts, guess_parts
 from ..errors import InputError
+from ..extrema import fourier_extrema
+from ..scaling import displacement_floor, force_scale, velocity_scale
 from ..condensation import Condensation, condense_around_resonances, resonance_note
 from ..integrators.registry import make_integrator
 from ..integrators.subsystem import submatrix
@@ -169,8 +171,6 @@ class _MixedBase(PeriodicProblem):
         return R, J
 
     def solution_parts(self, x):
-        from ..extrema import fourier_extrema
-
         x = np.asarray(x, dtype=float)
         p, q0, u0 = self._split(x)
         ig, n1 = self.integrator, self._time.size
@@ -312,8 +312,6 @@ class MixedProblem(_MixedBase):
 
 def _mixed_scale(problem, x, a, n1, force_rows):
     """Row scales ``(coefficient rows (a), q rows (n1), u rows (n1))`` of the mixed residuals."""
-    from ..scaling import displacement_floor, force_scale, velocity_scale
-
     if "_FD0" not in problem.__dict__:
         F = force_scale(problem.system)
         problem._FD0 = (F, displacement_floor(problem.system, problem.omega, F))

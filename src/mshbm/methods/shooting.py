@@ -25,6 +25,7 @@ import numpy as np
 from .base import Partition, PeriodicProblem, forward_difference_jacobian
 from .common import failed_parts, guess_parts
 from ..integrators.registry import make_integrator
+from ..scaling import displacement_floor, velocity_scale
 
 __all__ = ["ShootingProblem"]
 
@@ -111,8 +112,6 @@ class ShootingProblem(PeriodicProblem):
 
     def residual_scale(self, x):
         """Per-row scale of the residual at unknowns ``x``, shape ``(2n,)`` (m, then m/s)."""
-        from ..scaling import displacement_floor, velocity_scale
-
         if "_D0" not in self.__dict__:
             self._D0 = displacement_floor(self.system, self.omega)
         n, w = self.n, self.omega

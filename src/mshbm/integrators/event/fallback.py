@@ -12,6 +12,7 @@ import time
 
 import numpy as np
 
+from ..moreau_jean import MoreauJean
 from .modes import MOREAU, RELEASE_STEPS, EventError
 
 __all__ = ["MoreauFallback"]
@@ -22,8 +23,6 @@ class MoreauFallback:
 
     # ------------------------------------------------------------------ Moreau-Jean fallback
     def _stepper(self, h):
-        from ..moreau_jean import MoreauJean
-
         key = float(h)
         if key not in self._mj:
             s = self.system

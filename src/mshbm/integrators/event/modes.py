@@ -23,13 +23,10 @@ __all__ = ["FREE", "SLIP_P", "SLIP_M", "STICK", "CLOSED", "MODE_NAMES", "MOREAU"
            "MAX_COMBINATIONS", "MAX_DOFS", "MAX_SUBSTEPS", "EventError", "Event", "mode_code", "mode_tuple",
            "ModeCatalogue"]
 
-
 FREE, SLIP_P, SLIP_M, STICK, CLOSED = 0, 1, 2, 3, 4
 MODE_NAMES = {FREE: "free", SLIP_P: "slip+", SLIP_M: "slip-", STICK: "stick", CLOSED: "closed"}
 #: mode code of the nodes and samples inside a Moreau-Jean segment
 MOREAU = -1
-
-
 #: this many identical transitions at one instant: no progress (chattering)
 STALL_EVENTS = 50
 #: a Moreau-Jean segment ends after this many steps without impulse at the contacts / status change
@@ -108,7 +105,6 @@ class Event:
 
 class _Mode:
     __slots__ = ("st", "A", "Lam", "C", "CA", "ev", "h", "E", "n_taylor", "code", "shared", "Ey", "scale", "norm_xx")
-
 
 
 class ModeCatalogue:

@@ -16,6 +16,7 @@ import itertools
 
 import numpy as np
 
+from ...accumulation import find_accumulations
 from .modes import (CLOSED, FREE, MAX_COMBINATIONS, MODE_NAMES, SLIP_M, SLIP_P, STALL_EVENTS, STICK, Event,
                     EventError, _Switch, mode_code)
 
@@ -175,8 +176,6 @@ class Transitions:
                 if not zeno and self.accumulation != "close":
                     imp = ctx["impacts"].setdefault(k, [])
                     if len(imp) >= 5:
-                        from ...accumulation import find_accumulations
-
                         acc = find_accumulations(imp[-11:] + [t], min_impacts=6)
                         zeno = bool(acc) and abs(acc[-1].t_last - t) <= 1e-12 * max(abs(t), self.T)
                 if zeno:
@@ -266,7 +265,6 @@ class Transitions:
                 if s == CLOSED:
                     Phi[self.dof[j]] = 0.0
         return Phi
-
 
 
 def _lcp(A, b):
