@@ -1,6 +1,11 @@
-"""The event-driven flow: :class:`EventFlow` (its parameters, the augmented state, and :meth:`EventFlow.simulate`).
+"""The event-driven flow: :class:`EventFlow` (its parameters and the augmented state) and
+:meth:`EventFlow.simulate`, which returns a :class:`FlowRun`.
 
-The module docstring of :mod:`mshbm.integrators.event` describes the model and the numerics.
+:meth:`EventFlow.simulate` advances sub-step by sub-step of the current mode, locates the first event on
+each (:func:`~.location.locate`), applies the transition and the saltation of the sensitivities
+(:mod:`.transitions`), samples the state on the requested times, adds the Fourier integrals
+(:mod:`.quadrature`) and switches to Moreau-Jean segments at accumulations (:mod:`.fallback`).  The module
+docstring of :mod:`mshbm.integrators.event` describes the model and the numerics.
 """
 from __future__ import annotations
 
@@ -21,6 +26,7 @@ from .quadrature import FourierQuadrature
 from .transitions import Transitions
 
 __all__ = ["EventFlow", "FlowRun"]
+
 
 @dataclass
 class FlowRun:
