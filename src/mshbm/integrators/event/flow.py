@@ -81,6 +81,61 @@ class FlowRun:
         return bool(self.moreau_segments)
 
 
+class _Samples:
+    """The state at the requested sample times of one run, filled in time order: ``Z`` (D, k) and the mode
+    code of each sample ``modes`` (k,)."""
+
+    def __init__(self, times, D):
+        self.t = np.asarray(times if times is not None else [], dtype=float)
+        self.Z = np.empty((D, self.t.size))
+        self.modes = np.empty(self.t.size, dtype=np.int64)
+        self.i = 0  # the next sample to fill
+
+    def at_start(self, a, z, code):
+        """Samples at or before the start ``a``: the start state ``z``."""
+        while self.i < self.t.size and self.t[self.i] <= a:
+            self.Z[:, self.i], self.modes[self.i] = z, code
+            self.i += 1
+
+    def due(self, t_end):
+        """The slice of the unfilled samples at times ``<= t_end``, or None."""
+        i0 = self.i
+        if not (i0 < self.t.size and self.t[i0] <= t_end):
+            return None
+        j1 = i0
+        while j1 < self.t.size and self.t[j1] <= t_end:
+            j1 += 1
+        return slice(i0, j1)
+
+    def fill(self, due, Z, code, nodes=None):
+        """Fill the samples ``due`` with the states ``Z`` (D, k) of mode ``code`` (and record them as nodes)."""
+        self.Z[:, due] = Z
+        self.modes[due] = code
+        if nodes is not None:
+            for jj in range(due.start, due.stop):
+                nodes.append((self.t[jj], self.Z[:, jj].copy(), self.Z[:, jj].copy(), code))
+        self.i = due.stop
+
+    def interpolate(self, tt, Zs, code=MOREAU):
+        """Samples up to ``tt[-1]`` by linear interpolation of the states ``Zs`` (D, len(tt)) at ``tt``
+        (Moreau-Jean segments)."""
+        i0 = self.i
+        i1 = i0
+        while i1 < self.t.size and self.t[i1] <= tt[-1]:
+            i1 += 1
+        if i1 > i0:
+            for r in range(self.Z.shape[0]):
+                self.Z[r, i0:i1] = np.interp(self.t[i0:i1], tt, Zs[r])
+            self.modes[i0:i1] = code
+            self.i = i1
+
+    def at_end(self, z, code):
+        """The samples left (at the end time, by rounding): the end state ``z``."""
+        if self.i < self.t.size:
+            self.Z[:, self.i:] = z[:, None]
+            self.modes[self.i:] = code
+
+
 class EventFlow(ModeCatalogue, Transitions, FourierQuadrature, MoreauFallback):
     """Exact event-driven flow of a linear structure with any number of friction and contact elements.
 
@@ -262,10 +317,7 @@ class EventFlow(ModeCatalogue, Transitions, FourierQuadrature, MoreauFallback):
             nfr = int(fourier)
             # [n_f, q_hat sums, dq_hat sums, full sub-steps whose pieces are summed at the end per mode]
             four = [nfr, np.zeros((2 * nfr + 1, n)), np.zeros((2 * nfr + 1, n, cols.size)) if jac else None, {}]
-        sample_t = np.asarray(sample_times if sample_times is not None else [], dtype=float)
-        samples = np.empty((D, sample_t.size))
-        smodes = np.empty(sample_t.size, dtype=np.int64)
-        isamp = [0]
+        samp = _Samples(sample_times, D)
         nodes = [] if record else None
         events = []
         moreau = []
@@ -278,17 +330,6 @@ class EventFlow(ModeCatalogue, Transitions, FourierQuadrature, MoreauFallback):
                                       np.ones(D - 2 * n)])
         thr_cache = {}
 
-        def sample_at(tt, Zs, code=MOREAU):
-            i0 = isamp[0]
-            i1 = i0
-            while i1 < sample_t.size and sample_t[i1] <= tt[-1]:
-                i1 += 1
-            if i1 > i0:
-                for r in range(D):
-                    samples[r, i0:i1] = np.interp(sample_t[i0:i1], tt, Zs[r])
-                smodes[i0:i1] = code
-                isamp[0] = i1
-
         a = float(t0)
         st = None
         if mode is not None:
@@ -299,10 +340,7 @@ class EventFlow(ModeCatalogue, Transitions, FourierQuadrature, MoreauFallback):
         if jac:
             Phi = self._project_jac(Phi, st)
         st, z, Phi = self._start_in_penetration(st, z, a, ctx, Phi, events, nodes)
-        if isamp[0] < sample_t.size and sample_t[0] <= a:
-            while isamp[0] < sample_t.size and sample_t[isamp[0]] <= a:
-                samples[:, isamp[0]], smodes[isamp[0]] = z, mode_code(st)
-                isamp[0] += 1
+        samp.at_start(a, z, mode_code(st))
         if record:
             nodes.append((a, z.copy(), z.copy(), mode_code(st)))
 
@@ -328,19 +366,11 @@ class EventFlow(ModeCatalogue, Transitions, FourierQuadrature, MoreauFallback):
                 zb = W @ self.spow(h, nt)
             s_ev, i_ev, W = locate(self, md, z, zb, W, h, thr, est, a)
             s_end = h if s_ev is None else s_ev
-            i0 = isamp[0]
-            if i0 < sample_t.size and sample_t[i0] <= a + s_end:
-                j1 = i0
-                while j1 < sample_t.size and sample_t[j1] <= a + s_end:
-                    j1 += 1
+            due = samp.due(a + s_end)
+            if due is not None:  # samples on this piece: from the Taylor series of the flow
                 if W is None:
                     W = self.powers(md, z)
-                samples[:, i0:j1] = W @ self.spow(sample_t[i0:j1] - a, nt).T
-                smodes[i0:j1] = md.code
-                if record:
-                    for jj in range(i0, j1):
-                        nodes.append((sample_t[jj], samples[:, jj].copy(), samples[:, jj].copy(), md.code))
-                isamp[0] = j1
+                samp.fill(due, W @ self.spow(samp.t[due] - a, nt).T, md.code, nodes)
             mode_time[md.code] = mode_time.get(md.code, 0.0) + s_end
             if four is not None and s_end > 0.0:
                 self._fourier_piece(md, z, W, Phi, a, s_end, four)
@@ -365,7 +395,7 @@ class EventFlow(ModeCatalogue, Transitions, FourierQuadrature, MoreauFallback):
             except _Switch as sw:
                 if record:
                     nodes.append((a, z.copy(), z.copy(), MOREAU))
-                a, z, Phi, seg = self._moreau(a, z, T_end, Phi, sample_at, nodes, sw.reason, four)
+                a, z, Phi, seg = self._moreau(a, z, T_end, Phi, samp.interpolate, nodes, sw.reason, four)
                 moreau.append(seg)
                 mode_time[MOREAU] = mode_time.get(MOREAU, 0.0) + seg["t_end"] - seg["t_start"]
                 ctx["impacts"].clear()
@@ -386,14 +416,12 @@ class EventFlow(ModeCatalogue, Transitions, FourierQuadrature, MoreauFallback):
             md, thr, est = enter(st, z)
         if record:
             nodes.append((T_end, z.copy(), z.copy(), md.code))
-        if isamp[0] < sample_t.size:  # samples at T_end (rounding)
-            samples[:, isamp[0]:] = z[:, None]
-            smodes[isamp[0]:] = md.code
+        samp.at_end(z, md.code)
         msg = ""
         if moreau:
             msg = (f"switched to Moreau-Jean ({self.moreau_steps} steps per period) in {len(moreau)} segment(s): "
                    + "; ".join(f"{s['reason']}, until t = {s['t_end']:.9g}" for s in moreau))
-        res = FlowRun(end_state=z, monodromy=Phi, events=events, samples=samples, sample_modes=smodes, nodes=nodes,
+        res = FlowRun(end_state=z, monodromy=Phi, events=events, samples=samp.Z, sample_modes=samp.modes, nodes=nodes,
                       mode_time=mode_time, end_mode=md.code, moreau_segments=moreau, monodromy_exact=not moreau,
                       message=msg)
         if four is not None:
