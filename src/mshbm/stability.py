@@ -138,7 +138,7 @@ def _assess(system, sol, stability, steps, theta, t0):
 
 
 def _exact(system, sol):
-    from .integrators.exact_flow import EventError
+    from .integrators.event import EventError
     from .methods.exact import exact_periodic
 
     try:

@@ -48,10 +48,10 @@ def switch_period_doubling(system, branch, omega_end, bifurcation=None, offset=5
     N = max(int(sol1.steps) // k, 16)  # steps per forcing period
     sys_k = subharmonic_system(system, k)
     try:  # the exact event-driven monodromy over kT from t = 0 (saltation terms at impacts and stick-slip)
-        from .integrators.exact_flow import ExactFlow
+        from .methods.exact import ExactFlow
 
         flow = ExactFlow(sys_k, float(sol1.omega))
-        Phi = np.asarray(flow.simulate(0.0, flow.state(0.0, sol1.q[0], sol1.u[0]), jac=True)["Phi"])[:2 * n]
+        Phi = np.asarray(flow.simulate(0.0, flow.state(0.0, sol1.q[0], sol1.u[0]), jac=True).monodromy)[:2 * n]
         if not np.all(np.isfinite(Phi)):
             raise ValueError("non-finite monodromy")
         how = "exact event-driven monodromy"

@@ -14,7 +14,7 @@ import pytest
 
 from mshbm import Contact, chain
 from mshbm.accumulation import find_accumulations, from_events, from_impulses
-from mshbm.integrators.exact_flow import ExactFlow
+from mshbm.methods.exact import ExactFlow
 from mshbm.methods.exact import exact_periodic
 from mshbm.integrators.moreau_jean import MoreauJean
 
@@ -38,7 +38,7 @@ def test_exact_flow_ball_accumulates_at_the_closed_form_time(e, gap):
     sys = ball(e, gap)
     flow = ExactFlow(sys, 1.0)
     out = flow.simulate(0.0, flow.state(0.0, np.array([gap - H]), np.array([0.0])), duration=1.2 * zeno_time(e))
-    events = out["events"]
+    events = out.events
     acc = from_events(events)
     assert len(acc) == 1, acc
     a = acc[0]
@@ -51,17 +51,17 @@ def test_exact_flow_ball_accumulates_at_the_closed_form_time(e, gap):
     assert len(closing) == 1
     tail = 2 * e * abs(closing[0].velocity) / (G * (1 - e))
     assert 0.0 < tail <= 1e-3 and abs(a.t_inf - closing[0].t - tail) <= 1e-9
-    assert out["end_mode"] == 4 and abs(out["z"][0] - gap) <= 1e-12
+    assert out.end_mode == 4 and abs(out.end_state[0] - gap) <= 1e-12
 
 
 def test_exact_flow_elastic_ball_does_not_accumulate():
     sys = ball(1.0, 0.0)
     flow = ExactFlow(sys, 1.0)
     out = flow.simulate(0.0, flow.state(0.0, np.array([-H]), np.array([0.0])), duration=5.0)
-    impacts = [ev.t for ev in out["events"] if ev.impulse > 0]
+    impacts = [ev.t for ev in out.events if ev.impulse > 0]
     assert len(impacts) == 8  # t_1 + k 2 t_1, t_1 = 0.319 s
     assert np.allclose(np.diff(impacts), 2 * np.sqrt(2 * H / G), rtol=1e-9)
-    assert from_events(out["events"]) == []
+    assert from_events(out.events) == []
 
 
 @pytest.mark.parametrize("e", [0.5, 1.0])

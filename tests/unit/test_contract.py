@@ -86,7 +86,7 @@ def test_contract(method, kind):
     covered = np.union1d(np.union1d(p.time, p.harmonic), p.condensed)
     assert np.array_equal(covered, np.arange(system.n)) and not np.intersect1d(p.harmonic, p.condensed).size
     assert (problem.time_step is None) == (p.time.size == 0)
-    assert (problem.time_stepper() is None) == (problem.time_step is None)
+    assert (problem.integrator is None or problem.integrator.stepper is None) == (problem.time_step is None)
     rc = problem.conditioning()
     assert rc is None or (rc.shape in ((4,), (0,)) and np.all(rc > 0))
     assert isinstance(problem.homotopy(), list) and (problem.path_fallback() is None or callable(problem.path_fallback()))

@@ -182,14 +182,14 @@ def test_accumulation_switches_to_moreau_jean_and_says_so():
     fl = EventFlow(s, 1.0)  # accumulation="moreau" is the default of the integrator
     z0 = fl.state(0.0, np.array([0.3]), np.array([0.0]))
     out = fl.simulate(0.0, z0, duration=2 * fl.T, jac=True)
-    assert out["switched"] and not out["jacobian_exact"]
-    assert "Moreau-Jean" in out["message"] and "accumulation of impacts" in out["message"]
-    seg = out["moreau"][0]
+    assert out.switched and not out.monodromy_exact
+    assert "Moreau-Jean" in out.message and "accumulation of impacts" in out.message
+    seg = out.moreau_segments[0]
     assert seg["t_start"] < seg["t_end"] and seg["steps"] > 0
     # against the exact Zeno closure of the same flow: Moreau-Jean's error over that phase only
     ref = EventFlow(s, 1.0, accumulation="close").simulate(0.0, z0, duration=2 * fl.T)
-    assert not ref["switched"]
-    assert np.abs(out["z"][:2] - ref["z"][:2]).max() <= 1e-4  # measured 2.2e-7 (4096 steps per period)
+    assert not ref.switched
+    assert np.abs(out.end_state[:2] - ref.end_state[:2]).max() <= 1e-4  # measured 2.2e-7 (4096 steps per period)
     # accumulation="error": a clear error instead
     with pytest.raises(EventError, match="accumulation of impacts"):
         EventFlow(s, 1.0, accumulation="error").simulate(0.0, z0, duration=2 * fl.T)
@@ -211,9 +211,9 @@ def test_ball_accumulation_in_moreau_mode_and_event_cap():
     fl = EventFlow(s, 1.0)
     out = fl.simulate(0.0, fl.state(0.0, np.array([-H]), np.array([0.0])), duration=2.0)
     t_inf = math.sqrt(2 * H / G) * (1 + 2 * 0.5 / (1 - 0.5))  # Zeno time
-    seg = out["moreau"][0]
+    seg = out.moreau_segments[0]
     assert seg["t_start"] < t_inf and seg["t_end"] == pytest.approx(2.0)  # resting on the stop to the end
-    assert abs(out["z"][0]) <= 1e-4 and abs(out["z"][1]) <= 1e-12
+    assert abs(out.end_state[0]) <= 1e-4 and abs(out.end_state[1]) <= 1e-12
     # e = 1 never accumulates; a cap on events per period ends the run with a clear message
     s1 = chain([1.0], 0.0, 0.0, forcing=[{"dof": 0, "amplitude": 0.0, "constant": G}],
                elements=[Contact(0, 0.0, 1.0)])
@@ -242,20 +242,20 @@ def test_monodromy_of_two_element_flow_against_finite_differences(case, two_stop
     fl = EventFlow(s, omega)
     ts = 0.1 if case == "two stops" else ex.info["section_time"]
     if case == "two stops":
-        x0 = fl.simulate(0.0, fl.state(0.0, x0[:n], x0[n:]), duration=ts)["z"][:2 * n]
+        x0 = fl.simulate(0.0, fl.state(0.0, x0[:n], x0[n:]), duration=ts).end_state[:2 * n]
     z0 = np.concatenate([x0, fl.osc(ts)])
     t = time.perf_counter()
     out = fl.simulate(ts, z0, jac=True)
     wall = time.perf_counter() - t
-    assert out["jacobian_exact"]
-    Phi = out["Phi"][:2 * n]
+    assert out.monodromy_exact
+    Phi = out.monodromy[:2 * n]
     F = np.empty_like(Phi)
     d = 1e-6
     for i in range(2 * n):
         zp, zm = z0.copy(), z0.copy()
         zp[i] += d
         zm[i] -= d
-        F[:, i] = (fl.simulate(ts, zp)["z"][:2 * n] - fl.simulate(ts, zm)["z"][:2 * n]) / (2 * d)
+        F[:, i] = (fl.simulate(ts, zp).end_state[:2 * n] - fl.simulate(ts, zm).end_state[:2 * n]) / (2 * d)
     # measured: 8.6e-9 (friction+contact), relative to max |Phi|
     assert np.abs(Phi - F).max() <= 1e-6 * np.abs(Phi).max()
     assert wall < 5.0  # one period with sensitivities: measured 2.7 ms (friction+contact), 1.7 ms (two stops)
@@ -329,17 +329,17 @@ def test_forcing_states_and_exact_fourier_coefficients():
     q0, u0 = np.array([0.5, -1.0]), np.array([0.2, 0.1])
     a = fl.simulate(0.0, fl.state(0.0, q0, u0), jac=True, jac_cols="all", fourier=5)
     b = ref.simulate(0.0, ref.state(0.0, q0, u0), jac=True)
-    assert len(a["events"]) >= 4
-    assert np.abs(a["z"][:4] - b["z"][:4]).max() <= 1e-12  # measured 1.6e-15
-    assert np.abs(a["Phi"][:4, :4] - b["Phi"][:4, :4]).max() <= 1e-12
+    assert len(a.events) >= 4
+    assert np.abs(a.end_state[:4] - b.end_state[:4]).max() <= 1e-12  # measured 1.6e-15
+    assert np.abs(a.monodromy[:4, :4] - b.monodromy[:4, :4]).max() <= 1e-12
     # Fourier coefficients against a fine trapezoidal rule (the orbit is not periodic: no FFT)
     tt = np.linspace(0.0, fl.T, 200001)
-    q = fl.simulate(0.0, fl.state(0.0, q0, u0), sample_times=tt)["samples"][:2].T
+    q = fl.simulate(0.0, fl.state(0.0, q0, u0), sample_times=tt).samples[:2].T
     B = fl._fourier_basis(tt, 5)
     w = np.full(11, 2.0 / fl.T)
     w[0] = 1.0 / fl.T
     qh = np.trapezoid(B[:, :, None] * q[:, None, :], tt, axis=0) * w[:, None]
-    assert np.abs(qh - a["q_hat"]).max() <= 1e-9  # measured 2.1e-10 (the trapezoidal rule's error)
+    assert np.abs(qh - a.q_hat).max() <= 1e-9  # measured 2.1e-10 (the trapezoidal rule's error)
     # sensitivities to q0, u0 and F_c (the forcing states at t = 0 are F_c) against central differences
     cols = fl.jac_columns("all")
     z0 = fl.state(0.0, q0, u0)
@@ -361,8 +361,8 @@ def test_forcing_states_and_exact_fourier_coefficients():
             fl.set_forcing(Fm)
             om = fl.simulate(0.0, z0, fourier=5)
             fl.set_forcing(Fc)
-        err_q = max(err_q, np.abs((op["q_hat"] - om["q_hat"]) / (2 * d) - a["dq_hat"][:, :, c_i]).max())
-        err_z = max(err_z, np.abs((op["z"][:4] - om["z"][:4]) / (2 * d) - a["Phi"][:4, c_i]).max())
+        err_q = max(err_q, np.abs((op.q_hat - om.q_hat) / (2 * d) - a.q_hat_sensitivity[:, :, c_i]).max())
+        err_z = max(err_z, np.abs((op.end_state[:4] - om.end_state[:4]) / (2 * d) - a.monodromy[:4, c_i]).max())
     # measured 2.1e-9 and 4.7e-9 (central differences), against max |.| ~ 2.2 and 3.5
     assert err_q <= 1e-6 and err_z <= 1e-6
 
@@ -375,9 +375,9 @@ def test_structure_of_the_forcing_state_sensitivities_and_the_structured_product
     s, omega, Fc, fl = _coupled_flow()
     z0 = fl.state(0.0, np.array([0.5, -1.0]), np.array([0.2, 0.1]))
     out = fl.simulate(0.0, z0, jac=True, jac_cols="all", fourier=5)
-    kinds = {e.kind for e in out["events"]}
-    assert any(e.impulse > 0 for e in out["events"]) and any("stick" in k for k in kinds)
-    Phi, n, iy = out["Phi"], fl.n, fl.iy
+    kinds = {e.kind for e in out.events}
+    assert any(e.impulse > 0 for e in out.events) and any("stick" in k for k in kinds)
+    Phi, n, iy = out.monodromy, fl.n, fl.iy
     assert np.all(Phi[2 * n:iy] == 0.0)
     Py = Phi[iy:]
     mask = np.zeros(Py.shape, dtype=bool)
@@ -418,7 +418,7 @@ def test_mode_exponentials_are_shared_between_flows_of_the_same_problem_only():
     assert a.mode(st).E is b.mode(st).E and a.mode(st).E is not c.mode(st).E
     z0 = a.state(0.0, np.array([0.1, 0.2]), np.zeros(2))
     ra, rb = (f.simulate(0.0, z0, jac=True, jac_cols="all", fourier=2) for f in (a, b))
-    assert np.array_equal(ra["q_hat"], rb["q_hat"]) and np.array_equal(ra["dq_hat"], rb["dq_hat"])
+    assert np.array_equal(ra.q_hat, rb.q_hat) and np.array_equal(ra.q_hat_sensitivity, rb.q_hat_sensitivity)
 
 
 def test_mshbm_event_converges_to_the_exact_orbit_with_the_harmonics():
@@ -566,10 +566,10 @@ def test_balanced_grid_finds_the_same_events_as_the_former_fine_grid():
     assert w_max <= fl.substeps <= 2 * w_max and ns_old >= 20 * fl.substeps  # not ~2 T omega_max^2
     fine = EventFlow(s, om, substeps=ns_old, accumulation="close")
     b = fine.simulate(0.0, z0, duration=5 * fl.T, jac=True)
-    assert len(a["events"]) == len(b["events"]) > 100
-    assert [e.kind for e in a["events"]] == [e.kind for e in b["events"]]
-    assert max(abs(x.t - y.t) for x, y in zip(a["events"], b["events"])) <= 1e-9
-    assert np.abs(a["z"][:6] - b["z"][:6]).max() <= 1e-7 * np.abs(b["z"][:6]).max()
+    assert len(a.events) == len(b.events) > 100
+    assert [e.kind for e in a.events] == [e.kind for e in b.events]
+    assert max(abs(x.t - y.t) for x, y in zip(a.events, b.events)) <= 1e-9
+    assert np.abs(a.end_state[:6] - b.end_state[:6]).max() <= 1e-7 * np.abs(b.end_state[:6]).max()
 
 
 def test_mshbm_event_with_zeno_closure_converges_where_the_moreau_fallback_stalls():

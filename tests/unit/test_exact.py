@@ -5,7 +5,7 @@ from scipy.integrate import solve_ivp
 
 import mshbm
 from mshbm import Contact, Friction, InputError, chain
-from mshbm.integrators.exact_flow import ExactFlow
+from mshbm.methods.exact import ExactFlow
 from mshbm.methods.exact import exact_periodic
 
 from paper_systems import NORMAL_FORCE, OMEGA, friction_chain, impact_chain
@@ -95,13 +95,13 @@ def test_saltation_monodromy_matches_finite_differences(fric3, imp5):
         fl = ExactFlow(sys, OMEGA)
         ts, x = ex.info["section_time"], ex.info["state_at_section"]
         z0 = np.concatenate([x, fl.osc(ts)])
-        Phi = fl.simulate(ts, z0, jac=True)["Phi"][:2 * n]
+        Phi = fl.simulate(ts, z0, jac=True).monodromy[:2 * n]
         F = np.empty_like(Phi)
         for i in range(2 * n):
             zp, zm = z0.copy(), z0.copy()
             zp[i] += 1e-6
             zm[i] -= 1e-6
-            F[:, i] = (fl.simulate(ts, zp)["z"][:2 * n] - fl.simulate(ts, zm)["z"][:2 * n]) / 2e-6
+            F[:, i] = (fl.simulate(ts, zp).end_state[:2 * n] - fl.simulate(ts, zm).end_state[:2 * n]) / 2e-6
         assert np.abs(Phi - F).max() <= 1e-6 * np.abs(Phi).max()
 
 

@@ -19,7 +19,7 @@ import scipy.sparse as sp
 import mshbm
 from mshbm import Contact, Friction, Jenkins, chain
 from mshbm.condensation import Banded, Condensation, solve_dynamic
-from mshbm.methods import mixed
+from mshbm.integrators import subsystem
 from mshbm.methods.common import linear_response
 from mshbm.methods.registry import build_problem
 
@@ -58,7 +58,7 @@ def test_chain_2000_masses_20_friction_elements_matches_previous_implementation(
 
 
 def _one_block(monkeypatch):
-    monkeypatch.setattr(mixed, "_blocks", lambda *a, **k: None)
+    monkeypatch.setattr(subsystem, "_blocks", lambda *a, **k: None)
 
 
 def _mixed_chain():
@@ -75,7 +75,7 @@ def test_blockwise_residual_and_jacobian_equal_one_block(method, monkeypatch):
     system = _mixed_chain()
     opts = dict(harmonics=3, steps=512)
     blocked, _ = build_problem(system, OMEGA, method, **opts)
-    assert blocked.td.blocks is not None and len(blocked.td.blocks) == 4
+    assert blocked.integrator.part.blocks is not None and len(blocked.integrator.part.blocks) == 4
     rng = np.random.default_rng(3)
     x = blocked.initial_guess("linear")
     x = x + 0.05 * rng.standard_normal(x.size) * max(1.0, np.abs(x).max())
@@ -83,13 +83,14 @@ def test_blockwise_residual_and_jacobian_equal_one_block(method, monkeypatch):
     with monkeypatch.context() as mp:
         _one_block(mp)
         whole, _ = build_problem(system, OMEGA, method, **opts)
-        assert whole.td.blocks is None
+        assert whole.integrator.part.blocks is None
         R0, J0 = whole.residual(x)
     np.testing.assert_allclose(R1, R0, rtol=0, atol=1e-12 * np.abs(R0).max())
     np.testing.assert_allclose(J1, J0, rtol=0, atol=1e-11 * np.abs(J0).max())
     # the trajectories themselves (all integrated states, impulses, element statuses)
     p, q0, u0 = blocked._split(x)
-    t1, t0 = blocked.td.run(q0, u0, p, sens=False), whole.td.run(q0, u0, p, sens=False)
+    t1 = blocked.integrator.part.run(q0, u0, p, sens=False)
+    t0 = whole.integrator.part.run(q0, u0, p, sens=False)
     np.testing.assert_allclose(t1.q, t0.q, rtol=0, atol=1e-12 * np.abs(t0.q).max())
     np.testing.assert_array_equal(t1.status, t0.status)
 
@@ -109,7 +110,7 @@ def test_adjacent_elements_form_one_block():
     els = [Friction(4, 0.5, 1.0), Friction(5, 0.5, 1.0), Friction(20, 0.5, 1.0)]
     system = chain([1.0] * 30, 1.0, 0.01, elements=els, forcing=[{"dof": 29, "amplitude": 1.0}])
     problem, _ = build_problem(system, OMEGA, "mshbm", harmonics=2, steps=256)
-    blocks = sorted(tuple(int(d) for d in b.dofs) for b in problem.td.blocks)
+    blocks = sorted(tuple(int(d) for d in b.dofs) for b in problem.integrator.part.blocks)
     assert blocks == [(0, 1), (2,)]  # subsystem numbering: DOFs 4, 5 coupled by their spring; DOF 20 alone
 
 

@@ -20,7 +20,7 @@ import mshbm
 from mshbm import Contact, Friction, chain, stability
 from mshbm.errors import InputError
 from mshbm.result import PeriodicSolution
-from mshbm.integrators.exact_flow import ExactFlow
+from mshbm.methods.exact import ExactFlow
 from mshbm.methods.exact import exact_periodic
 from mshbm.integrators.moreau_jean import MoreauJean
 
@@ -160,7 +160,7 @@ def test_friction_slip_reversal_contracts_without_damping():
     fl = ExactFlow(s, omega)
     z0 = fl.state(ts, x[:1] + 1e-4, x[1:])
     out = fl.simulate(ts, z0, duration=6 * fl.T, sample_times=ts + fl.T * np.arange(1, 7) - 1e-12)
-    dist = np.max(np.abs(out["samples"][:2].T - x), axis=1)
+    dist = np.max(np.abs(out.samples[:2].T - x), axis=1)
     rate = (dist[-1] / dist[0]) ** (1.0 / 5.0)
     assert rate == pytest.approx(rho, rel=0.05)
 
@@ -180,7 +180,7 @@ def test_impact_chain_flip_instability(impact5):
     fl = ExactFlow(impact5, OMEGA)
     z0 = np.concatenate([x + 1e-6 * vec / np.max(np.abs(vec)), fl.osc(ts)])
     out = fl.simulate(ts, z0, duration=8 * fl.T, sample_times=ts + fl.T * np.arange(1, 9) - 1e-12)
-    d = (out["samples"][:2 * impact5.n].T - x) @ vec
+    d = (out.samples[:2 * impact5.n].T - x) @ vec
     assert np.all(d[1:] * d[:-1] < 0)  # flip: the sign alternates
     rate = (abs(d[-1]) / abs(d[0])) ** (1.0 / 7.0)
     assert rate == pytest.approx(abs(mu), rel=0.01)
@@ -251,7 +251,7 @@ def test_several_elements_get_the_exact_flow_verdict():
         fl = ExactFlow(hit, OMEGA)
         z0 = np.concatenate([x + 1e-6 * vec / np.max(np.abs(vec)), fl.osc(ts)])
         out = fl.simulate(ts, z0, duration=8 * fl.T, sample_times=ts + fl.T * np.arange(1, 9) - 1e-12)
-        dist = np.max(np.abs(out["samples"][:4].T - x), axis=1)
+        dist = np.max(np.abs(out.samples[:4].T - x), axis=1)
         assert (dist[-1] / dist[0]) ** (1.0 / 7.0) == pytest.approx(rho, rel=rel)
 
 

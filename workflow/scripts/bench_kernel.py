@@ -61,7 +61,7 @@ def _mixed(system, n_steps, sol, partition=None):
     prob = MixedProblem(system, bl.OMEGA, 5, n_steps, partition=partition)
     x = prob.initial_guess(sol)
     p, q0, u0 = prob._split(x)
-    td = prob.td
+    td = prob.integrator.part
     B = np.ascontiguousarray(td.B0 + np.einsum("kip,p->ki", td.dB, p))
     return td.stepper, q0, u0, B, np.ascontiguousarray(td.dB)
 
@@ -163,10 +163,10 @@ def _event_cases():
         prob = MixedProblem(system, bl.OMEGA, n_h, 256, integrator="event")
         x = prob.initial_guess(sol)
         p, q0, u0 = prob._split(x)
-        fl = prob.flow
-        fl.set_forcing((prob._c0 + prob._Tr @ p).reshape(prob.nc, prob._time.size))
+        fl = prob.integrator.flow
+        fl.set_forcing((prob.integrator.c0 + prob.integrator.Tr @ p).reshape(prob.nc, prob._time.size))
         z0 = fl.state(0.0, q0, u0)
-        n_ev = len(fl.simulate(0.0, z0)["events"])
+        n_ev = len(fl.simulate(0.0, z0).events)
         for kind, kw, what in (("plain", {}, "one period, flow only"),
                                ("jac_fourier", dict(jac=True, jac_cols="all", fourier=n_h),
                                 "one period with monodromy (q0, u0, coupling) and exact Fourier coefficients "
@@ -178,9 +178,9 @@ def _event_cases():
         states[f"{name}_shooting_event"] = {"success": bool(sol.success)}
         sp_ = ShootingProblem(system, bl.OMEGA, 256, integrator="event")
         x = sp_.initial_guess(sol)
-        fl = sp_.flow
+        fl = sp_.integrator.flow
         z0 = fl.state(0.0, x[:system.n], x[system.n:])
-        n_ev = len(fl.simulate(0.0, z0)["events"])
+        n_ev = len(fl.simulate(0.0, z0).events)
         for kind, kw, what in (("plain", {}, "one period, flow only"),
                                ("jac", dict(jac=True), "one period with the saltation-corrected monodromy "
                                                       "(one shooting residual + Jacobian)")):

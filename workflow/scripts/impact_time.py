@@ -93,8 +93,8 @@ def from_rest(system, om, periods, tail, log):
     for _ in range(periods):
         out = fl.simulate(t, z, duration=fl.T)
         imps.append([{"t": float(np.mod(e.t, fl.T)), "u_before": float(-e.velocity)}
-                     for e in out["events"] if e.impulse > 0])
-        z = out["z"]
+                     for e in out.events if e.impulse > 0])
+        z = out.end_state
         t += fl.T
         ends.append(z[:2 * n].copy())
     X = np.array(ends)
@@ -120,7 +120,7 @@ def coexisting(system, om, steps, periods_transient, log, seed=0):
     t = 0.0
     marks = {1, 2, 3, 5, 8, 12, 20, 30, 50, 80, periods_transient}
     for k in range(1, periods_transient + 1):
-        z = fl.simulate(t, z, duration=fl.T)["z"]
+        z = fl.simulate(t, z, duration=fl.T).end_state
         t += fl.T
         if k in marks:
             starts.append((f"transient, period {k}", z[:2 * n].copy()))

@@ -31,7 +31,8 @@ import numpy as np  # noqa: E402
 
 import mshbm  # noqa: E402
 from mshbm import System  # noqa: E402
-from mshbm.methods.exact import ExactFlow, _extrema, exact_periodic  # noqa: E402
+from mshbm.methods.exact import ExactFlow, exact_periodic  # noqa: E402
+from mshbm.integrators.event import extrema  # noqa: E402
 from mshbm.integrators.moreau_jean import MoreauJean  # noqa: E402
 from wfcore import build_system, omega as config_omega, write_json, run_case_script  # noqa: E402
 
@@ -106,22 +107,22 @@ def run(config, case, stem, log=print):
     for k in range(P):
         ts = t + T * np.arange(S) / S
         out = flow.simulate(t, z, duration=T, sample_times=ts, record=True)
-        qmax, qmin, _ = _extrema(flow, out["nodes"])
+        qmax, qmin, _ = extrema(flow, out.nodes)
         qmax1.append(float(qmax[0]))
         qmin1.append(float(qmin[0]))
         amp.append(0.5 * float(qmax[0] - qmin[0]))
         imps = []
-        for e in out["events"]:
+        for e in out.events:
             if e.impulse > 0.0:
                 u_before = float(el.sign * e.velocity)  # gamma = w^T u, w = sign e_dof
                 imps.append({"t_mod_T": float(np.mod(e.t, T)), "u_before": u_before,
                              "u_after": u_before + float(e.impulse * flow.mw[el.dof])})
         impacts.append(imps)
-        z = out["z"]
+        z = out.end_state
         t += T
         ends.append(z[:2 * n].copy())
         if k >= P - keep:
-            traces.append((ts, out["samples"][0].copy(), out["samples"][n].copy()))
+            traces.append((ts, out.samples[0].copy(), out.samples[n].copy()))
         if (k + 1) % max(1, P // 10) == 0:
             log(f"  period {k + 1}: amplitude of mass 1 {amp[-1]:.6f}, {len(imps)} impact(s)")
     wall = time.perf_counter() - t0w

@@ -110,7 +110,7 @@ def energy_checks(problem, sol, system, omega, h, N, stepper, els, ue_max, cert,
                                  note="work of the friction forces over a period (must not be positive)"))
     ct = [j for j, e in enumerate(els) if e.unilateral]
     if ct:
-        if not is_hbm and problem.time_stepper() is not None:
+        if not is_hbm and problem.integrator is not None and problem.integrator.stepper is not None:
             # Moreau-Jean: gamma_N+ = -e gamma_N- makes P gamma_N,theta vanish (e = 1) exactly
             bound = ENERGY_TOL * E
         worst, ok = -np.inf, True

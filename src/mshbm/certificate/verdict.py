@@ -54,7 +54,7 @@ def certify(problem, sol, tol, step_accuracy=None, step_size_gating=True):
 def _certify(problem, sol, tol, cert, step_accuracy=None, step_size_gating=True):
     """The checks of :func:`certify`, appended to ``cert`` in their fixed order."""
     system, omega = problem.system, float(sol.omega)
-    stepper = problem.time_stepper()  # None without time stepping (HBM, DLFT, the event-driven flow)
+    stepper = None if problem.integrator is None else problem.integrator.stepper  # None: HBM, DLFT, event flow
     T = 2.0 * np.pi / omega
     t = np.asarray(sol.t)
     N = t.size - 1

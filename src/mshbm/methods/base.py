@@ -42,9 +42,10 @@ Contract (every subclass)
     The Moreau-Jean step ``h = T / N`` of the time-stepped DOFs (``None``: no time stepping).
 ``steps`` : int
     Samples per period: Moreau-Jean steps ``N``, or the AFT samples of HBM/DLFT.
-``time_stepper() -> MoreauJean or None``
-    The stepper of the time-stepped DOFs (``None``: no time stepping); the certificate's energy
-    balance and the step-accuracy bound use it.
+``integrator`` : PeriodIntegrator or None
+    The integrator of the time-stepped DOFs (:mod:`mshbm.integrators.interface`; ``None``: no time
+    integration); its ``stepper`` (the Moreau-Jean stepper, ``None`` for the event-driven flow) serves
+    the certificate's energy balance and the step-accuracy bound.
 
 Optional capabilities (declared here with their "not available" default, overridden where a method
 has them)
@@ -182,6 +183,8 @@ class PeriodicProblem:
     #: sentences on how the problem was set up differently from what was asked (e.g. resonant DOFs kept
     #: instead of condensed); the driver puts them in ``info["notes"]`` and the message
     notes: tuple = ()
+    #: the integrator of the time-stepped DOFs (:mod:`mshbm.integrators.interface`), None: no time integration
+    integrator = None
 
     # ------------------------------------------------------------------ declared representation (contract)
     fourier_all_dofs = False
@@ -249,8 +252,6 @@ class PeriodicProblem:
     def time_step(self):
         return None
 
-    def time_stepper(self):
-        return None
 
     def omega_derivative(self, x, rel_step=1e-6):
         """``dR/domega`` at fixed ``x``, shape ``(n_x,)``: central differences of the residuals of

@@ -3,8 +3,8 @@
 The flow between events is exact (closed-form modal flows of the linear structure with
 constant or constraint element forces, events located to ~1e-15 s, active sets of simultaneous
 events, Newton impacts and saltation matrices): :mod:`mshbm.integrators.event` (the one
-event-driven engine; :class:`~mshbm.integrators.exact_flow.ExactFlow` is it with the exact Zeno
-closure of accumulations).  This module finds the periodic solution on that flow.
+event-driven engine; :class:`ExactFlow` is it with the exact Zeno closure of accumulations by
+default).  This module finds the periodic solution on that flow.
 
 The periodic solution is found by shooting on this exact map with Newton's
 method from a section time chosen far from the events of the guess; the
@@ -25,12 +25,66 @@ from .. import fourier
 from .base import central_difference_jacobian
 from .common import linear_response
 from ..errors import InputError
-# ExactFlow, ExactTrajectory, Event, EventError and _extrema are re-exported (their former home)
-from ..integrators.event import CLOSED, MODE_NAMES, MOREAU, STICK, mode_tuple
-from ..integrators.exact_flow import Event, EventError, ExactFlow, ExactTrajectory, _extrema
+from ..integrators.event import (CLOSED, MODE_NAMES, MOREAU, STICK, Event, EventError, EventFlow, EventTrajectory,
+                                 extrema, mode_tuple)
 from ..result import PeriodicSolution
 
 __all__ = ["exact_periodic", "ExactFlow", "ExactTrajectory", "Event", "EventError"]
+
+
+class ExactFlow(EventFlow):
+    """:class:`~mshbm.integrators.event.EventFlow` with the exact Zeno closure of accumulations of impacts
+    by default (``accumulation="close"``: the contact closes with ``e = 0`` once the next bounce would rise
+    less than ``1e-10`` of the displacement scale); the reference solutions of :func:`exact_periodic` rely
+    on it.
+
+    For systems with one acting element: ``element``, ``kind``, ``unilateral``, ``w`` (shape (n,)),
+    ``mw = M^-1 w`` and ``sw = w^T M^-1 w``.
+    """
+
+    def __init__(self, system, omega, substeps=128, max_events=10000, accumulation="close", moreau_steps=4096):
+        super().__init__(system, omega, substeps=substeps, max_events=max_events, accumulation=accumulation,
+                         moreau_steps=moreau_steps)
+
+    def _one(self, what):
+        if self.m != 1:
+            raise AttributeError(f"ExactFlow.{what} is defined for one acting element, the system has {self.m}")
+        return 0
+
+    @property
+    def element(self):
+        return self.elements[self._one("element")] if self.m else None
+
+    @property
+    def kind(self):
+        return None if self.m == 0 else self.element.kind
+
+    @property
+    def unilateral(self):
+        return bool(self.m == 1 and self.is_contact[0])
+
+    @property
+    def w(self):
+        return self.W[:, self._one("w")]
+
+    @property
+    def mw(self):
+        return self.MW[:, self._one("mw")]
+
+    @property
+    def sw(self):
+        return float(self.sw_all[self._one("sw")])
+
+
+class ExactTrajectory(EventTrajectory):
+    """:class:`~mshbm.integrators.event.EventTrajectory`; with one element ``evaluate`` gives ``lam`` of shape
+    (k,), with several (k, m)."""
+
+    def evaluate(self, t):
+        q, u, lam = super().evaluate(t)
+        if lam.shape[1] == 1:
+            lam = lam[:, 0]
+        return q, u, lam
 
 
 def _section_index(flow, q, u):
@@ -213,11 +267,11 @@ def _exact_periodic(system, omega, guess, samples, tol, max_iter, harmonics, jac
         except (EventError, ValueError) as exc:  # ValueError: event bracketing lost to rounding
             err["msg"] = f"{type(exc).__name__}: {exc}"
             return np.full(2 * n, np.nan), None
-        R = out["z"][:2 * n] - x
+        R = out.end_state[:2 * n] - x
         if not jac:
             return R, None
         if jacobian == "saltation":
-            return R, out["Phi"][:2 * n] - np.eye(2 * n)
+            return R, out.monodromy[:2 * n] - np.eye(2 * n)
         return R, central_difference_jacobian(lambda xp: residual(xp, False)[0], x)
 
     x = np.concatenate([q_s, u_s])
@@ -280,9 +334,9 @@ def _exact_periodic(system, omega, guess, samples, tol, max_iter, harmonics, jac
         success, message = False, f"{message}; final flow failed: {exc}"
     if out is not None:
         Zs = np.empty((D, N))
-        Zs[:, order] = out["samples"]
+        Zs[:, order] = out.samples
         modes = np.empty(N, dtype=np.int64)
-        modes[order] = out["sample_modes"]
+        modes[order] = out.sample_modes
         q_time[:N], u_time[:N] = Zs[:n].T, Zs[n:2 * n].T
         q_time[N], u_time[N] = q_time[0], u_time[0]
         if m_el:
@@ -292,27 +346,27 @@ def _exact_periodic(system, omega, guess, samples, tol, max_iter, harmonics, jac
                 sel = modes == md
                 lam_t[:N][sel] = flow.full_force(int(md), Zs[:, sel]).T
             lam_t[N] = lam_t[0]
-        qmax, qmin, n_roots = _extrema(flow, out["nodes"])
-        evs = [Event(float(np.mod(e.t, T)), e.kind, e.impulse, e.velocity, e.element) for e in out["events"]]
+        qmax, qmin, n_roots = extrema(flow, out.nodes)
+        evs = [Event(float(np.mod(e.t, T)), e.kind, e.impulse, e.velocity, e.element) for e in out.events]
         evs.sort(key=lambda e: e.t)
-        Phi = out["Phi"][:2 * n]
+        Phi = out.monodromy[:2 * n]
         mult = np.linalg.eigvals(Phi)
-        x_end = out["z"][:2 * n]
+        x_end = out.end_state[:2 * n]
         info.update(
             amplitude_exact=0.5 * (qmax - qmin), q_max=qmax, q_min=qmin, velocity_zeros=n_roots,
             events=evs, n_events=len(evs),
             n_impacts=sum(1 for e in evs if e.impulse != 0.0),
             impulses=np.array([[e.t, e.impulse] for e in evs if e.impulse != 0.0]).reshape(-1, 2),
-            stick_fraction=_stick_fraction(flow, out["mode_time"], None) / T,
-            element_stick_fraction=[_stick_fraction(flow, out["mode_time"], j) / T for j in range(flow.m)],
-            mode_fractions={_mode_name(flow, m): v / T for m, v in out["mode_time"].items()},
-            moreau=out["moreau"], jacobian_exact=out["jacobian_exact"],
+            stick_fraction=_stick_fraction(flow, out.mode_time, None) / T,
+            element_stick_fraction=[_stick_fraction(flow, out.mode_time, j) / T for j in range(flow.m)],
+            mode_fractions={_mode_name(flow, m): v / T for m, v in out.mode_time.items()},
+            moreau=out.moreau_segments, jacobian_exact=out.monodromy_exact,
             floquet_multipliers=mult, max_floquet_modulus=float(np.max(np.abs(mult))),
             monodromy=Phi, state_at_section=x.copy(),
             periodicity_error=float(np.max(np.abs(x_end - x))),
-            trajectory=ExactTrajectory(flow, out["nodes"], t_s))
-    if out is not None and out["moreau"]:
-        message = f"{message}; {out['message']}"
+            trajectory=ExactTrajectory(flow, out.nodes, t_s))
+    if out is not None and out.moreau_segments:
+        message = f"{message}; {out.message}"
     n_h = min(int(harmonics), (N - 1) // 2)
     q_hat = fourier.fft(q_time[:N], n_h) if out is not None else np.full((2 * n_h + 1, n), np.nan)
     residual_norm = hist[-1] if hist else np.inf

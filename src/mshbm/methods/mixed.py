@@ -23,32 +23,18 @@ residual (39)::
 
 with ``q_1(t)`` integrated under eq. (37).
 
-In both variants the time-domain forcing of the integrated subsystem is affine
-in the harmonic unknowns, so the exact Jacobian follows from the sensitivities
-of the Moreau-Jean steps (``jacobian="exact"``); forward differences are
-available (``jacobian="fd"``, the paper's choice).
-
-``integrator="event"`` (both variants): the subsystem is integrated by the exact event-driven flow
-(:class:`mshbm.integrators.event.EventFlow`).  Between events it is linear and forced by a
-trigonometric polynomial (its external force plus the harmonic coupling force
-``V(t)^T c``, ``c = c0 + Tr p``); the coupling coefficients are *forcing states* of the augmented
-state (``coupling_harmonics=n_h``), so the mode matrices do not depend on ``p`` and the
-sensitivities to ``p`` are columns of the same saltation-corrected monodromy.  The Fourier
-coefficients ``FFT(q_1)`` of the residual are the exact ones of the flow (Gauss-Legendre quadrature
-on every smooth piece, exact to rounding, with their exact sensitivities), so the only error left is
-the harmonic truncation of the coupling.  ``steps`` is then the output grid (and the Moreau-Jean
-steps per period of the fallback at accumulations, reported in ``info["event_integrator"]``).
-``accumulation="close"`` replaces that fallback by the Zeno closure of the contact (exact up to the
-dropped tail, ``< 1e-10`` of the scale): the monodromy stays exact through accumulating impacts, which
-is what lets Newton converge on stiff bodies that bounce to rest every period (the finite-element
-example's pad, 20 ``omega_1`` on its spring; with the fallback Newton stalls there).
-
-Many nonlinear DOFs: the integrated subsystem couples to the rest only through the harmonic force
-coefficients ``c`` (the condensed compliance).  Where its own ``M, C, K`` and elements split it into
-independent blocks (elements spread along a structure), each block is integrated alone with
-sensitivities only with respect to its states and its own ``(2 n_h + 1) n_b`` coefficients of ``c``;
-``d/dp`` follows by the chain rule through ``dc/dp`` (:class:`_TimeDomainPart`).  The cost of a
-Jacobian is then linear in the number of blocks instead of cubic in ``n_N``.
+In both variants the time-domain forcing of the integrated subsystem is affine in the harmonic
+unknowns, ``f(t) = f_ex(t) + V(t)^T c`` with ``c = c0 + Tr p``: one period of the integrator
+(:mod:`mshbm.integrators.interface`, ``integrator="moreau"`` or ``"event"``) gives ``q_1(T), u_1(T)``,
+``FFT(q_1)`` and, for the exact Jacobian (``jacobian="exact"``), their sensitivities with respect to
+``(q_1(0), u_1(0), p)``; forward differences are available (``jacobian="fd"``, the paper's choice).
+Moreau-Jean: forward sensitivities of the steps, blockwise where the subsystem falls apart into
+independent blocks (:class:`mshbm.integrators.subsystem.SubsystemStepper`).  The event-driven flow: the
+coupling coefficients are forcing states of the flow, the sensitivities to ``p`` columns of its
+saltation-corrected monodromy and ``FFT(q_1)`` the exact Fourier coefficients of the flow, so the only
+error left is the harmonic truncation of the coupling (:mod:`mshbm.integrators.event.period`); its
+``accumulation="close"`` keeps the monodromy exact through accumulating impacts, which lets Newton
+converge on stiff bodies that bounce to rest every period.
 """
 from __future__ import annotations
 
@@ -59,24 +45,20 @@ from .. import fourier
 from .base import Partition, PeriodicProblem, forward_difference_jacobian
 from .common import complement, failed_parts, guess_parts
 from ..errors import InputError
+from ..extrema import fourier_extrema
+from ..scaling import displacement_floor, force_scale, velocity_scale
 from ..condensation import Condensation, condense_around_resonances, resonance_note
-from ..integrators.moreau_jean import MoreauJean, Trajectory
-from ..system import System
+from ..integrators.registry import make_integrator
+from ..integrators.subsystem import submatrix
 
 __all__ = ["MixedProblem", "IntermediateProblem", "StandardAsIntermediate", "auto_intermediate_partition",
            "intermediate_problem"]
 
 
-def _sub(A, r, c):
-    if sp.issparse(A):
-        return A.tocsr()[r][:, c]
-    return np.asarray(A)[np.ix_(r, c)]
-
-
 def _coupling(system, r, c, n_h, omega):
     """Complex per-harmonic blocks ``H_rc,k``, shape (n_h+1, len(r), len(c))."""
     out = np.zeros((n_h + 1, len(r), len(c)), dtype=complex)
-    Ms, Cs, Ks = (_sub(getattr(system, a), r, c) for a in "MCK")
+    Ms, Cs, Ks = (submatrix(getattr(system, a), r, c) for a in "MCK")
     dense = lambda A: A.toarray() if sp.issparse(A) else A
     Ms, Cs, Ks = dense(Ms), dense(Cs), dense(Ks)
     for k in range(n_h + 1):
@@ -84,196 +66,12 @@ def _coupling(system, r, c, n_h, omega):
     return out
 
 
-def _local_elements(system, dofs):
-    pos = {int(d): i for i, d in enumerate(dofs)}
-    out = []
-    for el in system.elements:
-        for d in el.dofs:
-            if int(d) not in pos:
-                raise InputError("partition", f"{el.kind} element on DOF {d} is not in the nonlinear subsystem")
-        out.append(el.renumbered(pos))
-    return out
-
-
-def _blocks(M, C, K, elements):
-    """Independent blocks of an integrated subsystem: connected components of the graph of the nonzeros
-    of ``M, C, K`` (dense, subsystem numbering) joined by the DOFs of each element.
-
-    Returns a list of ``(dofs, element indices)`` (both sorted int arrays), or ``None`` when the subsystem
-    is one block or carries an element whose coupling this function does not know (then it is integrated
-    as one block).
-    """
-    from scipy.sparse.csgraph import connected_components
-
-    from ..elements import Contact, Friction, Jenkins
-
-    n = M.shape[0]
-    if n < 2 or any(type(el) not in (Friction, Contact, Jenkins) for el in elements):
-        return None
-    if any(getattr(el, "normal_contact", None) is not None for el in elements):
-        return None  # a friction loaded by a contact couples the two elements' DOFs: one block
-    A = (np.abs(M) + np.abs(C) + np.abs(K)) > 0
-    rows, cols = np.nonzero(A)
-    for el in elements:
-        d = [int(x) for x in el.dofs]
-        rows = np.concatenate([rows, d[:-1]])
-        cols = np.concatenate([cols, d[1:]])
-    graph = sp.coo_matrix((np.ones(rows.size), (rows, cols)), shape=(n, n))
-    n_comp, label = connected_components(graph, directed=False)
-    if n_comp < 2:
-        return None
-    el_label = np.array([label[int(el.dofs[0])] for el in elements], dtype=np.int64)
-    return [(np.flatnonzero(label == b), np.flatnonzero(el_label == b)) for b in range(n_comp)]
-
-
-class _Block:
-    """One independent block of the integrated subsystem (see :class:`_TimeDomainPart`): its own
-    Moreau-Jean stepper and the increments of the unit harmonic forces on its DOFs."""
-
-    def __init__(self, dofs, el_idx, M, C, K, elements, h, theta, project, V, n1, slider_row):
-        self.dofs = dofs  # structure DOFs, subsystem numbering
-        pos = {int(d): i for i, d in enumerate(dofs)}
-        els = [elements[j].renumbered(pos) for j in el_idx]
-        ix = np.ix_(dofs, dofs)
-        self.stepper = MoreauJean(M[ix], C[ix], K[ix], els, h, theta, project)
-        # integrated states of the block in the subsystem's integrated numbering: its structure DOFs, then
-        # the sliders of its Jenkins elements (in element order, as MoreauJean appends them)
-        sliders = [slider_row[int(el_idx[j])] for j, _ in self.stepper.sliders]
-        self.rows = np.concatenate([dofs, np.asarray(sliders, dtype=np.int64)]).astype(np.int64)
-        self.el_idx = el_idx
-        nc, nb = V.shape[1], dofs.size
-        # coefficient c_(k, i) of the force on subsystem DOF i (harmonic-major): the block's columns
-        self.cidx = (np.arange(nc)[:, None] * n1 + dofs[None, :]).reshape(-1)
-        # where the block's sensitivities go in the subsystem's (rows; columns [q0 (n_A), u0 (n_A), p])
-        nA = n1 + len(slider_row)
-        r = self.rows
-        self.at_q0, self.at_u0 = np.ix_(r, r), np.ix_(r, nA + r)
-        self.at_hat_q0, self.at_hat_u0 = np.ix_(self.cidx, r), np.ix_(self.cidx, nA + r)
-        # d f / d c_(k, a) = V_k(t) e_a  ->  increments, shape (N, n_block, nc * nb)
-        dF = np.zeros((V.shape[0], nb, nc, nb))
-        for a in range(nb):
-            dF[:, a, :, a] = V
-        self.dB = self.stepper.increments(dF.reshape(V.shape[0], nb, nc * nb))
-
-
-class _TimeDomainPart:
-    """Moreau-Jean integration of a subsystem driven by a harmonic forcing affine in parameters.
-
-    The force on the subsystem is ``f(t) = f0(t) + V(t)^T c`` with the real coefficient
-    vector ``c = c0 + Tr p`` (``c`` flattened harmonic-major, shape ``((2n_h+1) n_1,)``).
-
-    When the subsystem falls apart into independent blocks (:func:`_blocks`: no mass, damping or
-    stiffness entry and no element joins them, e.g. friction elements spread along a chain, coupled only
-    through the condensed linear part, i.e. through ``c``), each block is integrated on its own, with
-    sensitivities with respect to its own states and its own ``(2 n_h + 1) n_b`` coefficients of ``c``
-    only; ``d/dp`` follows by the chain rule through ``Tr``.  The cost of the sensitivities is then
-    ``sum_b N n_b^2 (2 + 2 n_h + 1) n_b`` instead of ``N n_1^2 (2 n_1 + n_p)``, and nothing of size
-    ``N n_1 n_p`` is stored.  Otherwise (one block) the whole subsystem is integrated with sensitivities
-    with respect to ``(q0, u0, p)`` directly.
-    """
-
-    def __init__(self, system, dofs, omega, n_h, steps, theta, project, c0, Tr):
-        self.dofs = np.asarray(dofs, dtype=np.int64)
-        self.n1 = self.dofs.size
-        self.N = int(steps)
-        self.T = 2 * np.pi / omega
-        self.h = self.T / self.N
-        self.t = np.linspace(0.0, self.T, self.N + 1)
-        self.n_h = n_h
-        M, C, K = (_sub(getattr(system, a), self.dofs, self.dofs) for a in "MCK")
-        els = _local_elements(system, self.dofs)
-        self.stepper = MoreauJean(M, C, K, els, self.h, theta, project)
-        V = fourier.basis(self.t, omega, n_h)
-        nc = 2 * n_h + 1
-        self.nc = nc
-        self.Tr = np.asarray(Tr, dtype=float)
-        n_p = self.Tr.shape[1]
-        self.n_p = n_p
-        f0 = system.forcing(self.t, omega, self.dofs) + V @ c0.reshape(nc, self.n1)
-        dense = lambda A: A.toarray() if sp.issparse(A) else np.asarray(A, dtype=float)
-        parts = _blocks(dense(M), dense(C), dense(K), els)
-        if parts is None:
-            self.blocks = None
-            self.B0 = self.stepper.increments(f0)
-            dF = np.einsum("kj,jlp->klp", V, self.Tr.reshape(nc, self.n1, n_p))
-            self.dB = self.stepper.increments(dF)
-        else:
-            self.f0, self.V = f0, V
-            slider_row = {j: z for j, z in self.stepper.sliders}
-            self.blocks = [_Block(d, e, dense(M), dense(C), dense(K), els, self.h, theta, project, V, self.n1,
-                                  slider_row) for d, e in parts]
-
-        # Fourier projection of sampled signals: a DFT matrix is cheaper than an FFT of all N
-        # frequencies when only 2 n_h + 1 coefficients are needed (kept below ~100 MB)
-        self.E = fourier.dft_matrix(self.N, n_h) if nc * self.N <= 12_000_000 else None
-
-    def project(self, x):
-        """Coefficients (eq. 28) of samples ``x`` of shape (N, ...) -> (2 n_h + 1, ...)."""
-        if self.E is None:
-            return fourier.fft(x, self.n_h)
-        return (self.E @ x.reshape(self.N, -1)).reshape((self.E.shape[0],) + x.shape[1:])
-
-    def run(self, q0, u0, p, sens=True):
-        """Trajectory from ``(q0, u0)`` (integrated states, shape ``(n_A,)``) under parameters ``p``.
-
-        With ``sens``: ``Sq, Su`` (shape ``(n_A, 2 n_A + n_p)``, columns ``[q0, u0, p]``) and
-        ``q_hat_sensitivity`` (shape ``((2 n_h + 1) n_1, 2 n_A + n_p)``: the Fourier coefficients (eq. 28) of
-        ``dq_k/d(q0, u0, p)`` over ``k = 0 .. N-1``, harmonic-major); ``Sq_traj`` is not kept.
-        """
-        if self.blocks is None:
-            B = self.B0 + np.einsum("kip,p->ki", self.dB, p)
-            tr = self.stepper.run(q0, u0, B, self.dB, sensitivities=sens, store_q_sensitivities=sens)
-            if sens:
-                n1 = self.n1
-                tr.q_hat_sensitivity = self.project(tr.Sq_traj[:-1, :n1]).reshape(self.nc * n1, -1)
-                tr.Sq_traj = None
-            return tr
-        return self._run_blocks(q0, u0, p, sens)
-
-    def _run_blocks(self, q0, u0, p, sens):
-        q0, u0 = self.stepper.with_slider_state(q0, u0)
-        nA, n1, nc, N = self.stepper.n, self.n1, self.nc, self.N
-        c = (self.Tr @ p).reshape(nc, n1)
-        F = self.f0 + self.V @ c
-        q = np.empty((N + 1, nA))
-        u = np.empty((N + 1, nA))
-        m = self.stepper.m
-        P = np.zeros((N, m))
-        status = np.zeros((N, m), dtype=np.int8)
-        n_s = 2 * nA + self.n_p
-        Sq = np.zeros((nA, n_s)) if sens else np.zeros((nA, 0))
-        Su = np.zeros((nA, n_s)) if sens else np.zeros((nA, 0))
-        dqh = np.zeros((nc * n1, n_s)) if sens else None
-        pgs = 0
-        for b in self.blocks:
-            r, nb, nsb = b.rows, b.rows.size, b.dofs.size
-            B = b.stepper.increments(F[:, b.dofs])
-            tr = b.stepper.run(q0[r], u0[r], B, b.dB, sensitivities=sens, store_q_sensitivities=sens)
-            q[:, r], u[:, r] = tr.q, tr.u
-            P[:, b.el_idx], status[:, b.el_idx] = tr.P, tr.status
-            pgs = max(pgs, int(tr.pgs_iterations))
-            if not sens:
-                continue
-            # kernel columns of the block: [q0_b (nb), u0_b (nb), c_b (nc nsb)]; d/dp = d/dc_b Tr[c_b]
-            Trb = self.Tr[b.cidx]
-            for S_out, S_b in ((Sq, tr.Sq), (Su, tr.Su)):
-                S_out[b.at_q0] = S_b[:, :nb]
-                S_out[b.at_u0] = S_b[:, nb:2 * nb]
-                S_out[r, 2 * nA:] = S_b[:, 2 * nb:] @ Trb
-            D = self.project(tr.Sq_traj[:-1, :nsb]).reshape(nc * nsb, -1)  # rows (k, a) -> row k n1 + dofs[a]
-            dqh[b.at_hat_q0] = D[:, :nb]
-            dqh[b.at_hat_u0] = D[:, nb:2 * nb]
-            dqh[b.cidx, 2 * nA:] = D[:, 2 * nb:] @ Trb
-        out = Trajectory(q, u, P, status, Sq, Su, None, pgs)
-        out.q_hat_sensitivity = dqh
-        return out
-
-
 class _MixedBase(PeriodicProblem):
     """What both MS-HBM variants share: unknowns ``x = (p, q_1(0), u_1(0))`` with the harmonic
     unknowns ``p`` (coefficients of the DOFs ``_harm``) and the states of the time-stepped DOFs
     ``_time``; residual ``(balance(FFT(q_1), p), q_1(T) - q_1(0), u_1(T) - u_1(0))``.  Subclasses set
-    ``_time``, ``_harm``, ``_cond_dofs``, ``td``, ``cond``, ``nc`` and the balance hooks."""
+    ``_time``, ``_harm``, ``_cond_dofs``, ``cond``, ``nc``, the balance hooks and (:meth:`_setup_integrator`)
+    the ``integrator`` of the time-stepped DOFs."""
 
     # -- declared representation (mshbm.methods.base contract), read by the certificate
     harmonic_truncation = True
@@ -288,133 +86,31 @@ class _MixedBase(PeriodicProblem):
 
     @property
     def steps(self):
-        return self.td.N
+        return self.integrator.steps
 
     @property
     def time_step(self):
-        return None if self.integrator == "event" else self.td.h
+        return self.integrator.time_step
 
     @property
     def cheap_jacobian(self):
-        """Event-driven flow with the exact Jacobian: Newton evaluates the full step with its Jacobian
-        (:func:`mshbm.solvers.newton.newton`; the iterates do not change).  Its full steps are nearly always
-        taken, and when one is not, the watchdog evaluates the same point with its Jacobian anyway (found in
-        the run cache), so this saves the separate residual-only flow of every iteration."""
-        return self.integrator == "event" and self.jacobian == "exact"
+        """The integrator's run with sensitivities costs little more than without (the event-driven flow)
+        and the Jacobian is exact: Newton evaluates the full step with its Jacobian
+        (:func:`mshbm.solvers.newton.newton`; the iterates do not change)."""
+        return self.integrator.cheap_sensitivities and self.jacobian == "exact"
 
-    def time_stepper(self):
-        return None if self.integrator == "event" else self.td.stepper
-
-    def _setup_integrator(self, integrator, system, dofs, c0, Tr, accumulation="moreau"):
-        """``integrator="event"``: the event-driven flow of the time-domain subsystem with the coupling force
-        as forcing states (module docstring); ``accumulation`` its treatment of accumulating impacts."""
-        self.integrator = integrator
-        if integrator != "event":
-            return
-        from ..integrators.event import EventFlow
-
-        dense = lambda A: A.toarray() if sp.issparse(A) else np.asarray(A, dtype=float)
-        M, C, K = (dense(_sub(getattr(system, a), dofs, dofs)) for a in "MCK")
-        sub = System(M, C, K, system.f_hat[:, dofs], _local_elements(system, dofs), name=f"{system.name}-sub")
-        self.flow = EventFlow(sub, self.omega, accumulation=accumulation, moreau_steps=self.td.N,
-                              coupling_harmonics=self.n_h)
-        self._c0 = np.asarray(c0, dtype=float).reshape(-1)
-        self._Tr = dense(Tr)
-        self._ev_cache = None
-
-    def _event_run(self, x, sens, record=False):
-        from ..integrators.event import EventError
-
-        # the last few runs: a run with sensitivities also answers a residual-only request at the same
-        # x (the flow, its events and Fourier coefficients do not depend on them: the same numbers)
-        xb = np.asarray(x).tobytes()
-        cache = self._ev_cache if self._ev_cache is not None else []
-        for kx, ks, kr, kout in cache:
-            if kx == xb and kr == record and (ks == sens or (ks and not sens)):
-                return kout
-        p, q0, u0 = self._split(x)
-        n1 = self._time.size
-        fl = self.flow
-        fl.set_forcing((self._c0 + self._Tr @ p).reshape(self.nc, n1))
-        try:
-            out = fl.simulate(0.0, fl.state(0.0, q0, u0), jac=sens, jac_cols="all", fourier=self.n_h,
-                              sample_times=self.td.t if record else None, record=record)
-        except (EventError, ValueError) as exc:  # ValueError: event bracketing lost to rounding
-            self.last_error = f"{type(exc).__name__}: {exc}"
-            out = None
-        self._ev_cache = ([(xb, sens, record, out)] + cache)[:3]
-        return out
+    def _setup_integrator(self, integrator, system, dofs, c0, Tr, steps, theta, project, accumulation="moreau"):
+        """The integrator of the time-domain subsystem ``dofs`` driven by the coupling force
+        ``c = c0 + Tr p`` (:mod:`mshbm.integrators.interface`)."""
+        self.integrator = make_integrator(integrator, system, self.omega, steps, dofs=dofs, coupling=(c0, Tr),
+                                          harmonics=self.n_h, theta=theta, project=project,
+                                          accumulation=accumulation)
+        self.nA = self.integrator.n  # integrated: the time-stepped DOFs, then one slider per Jenkins element
 
     def event_signature(self, x):
-        """``((element, kind), ...)`` of the events of the period from ``x`` (event integrator), else ``None``."""
-        if getattr(self, "integrator", "moreau") != "event":
-            return None
-        out = self._event_run(np.asarray(x, dtype=float), False)
-        return None if out is None else tuple((int(e.element), e.kind) for e in out["events"])
-
-    def _event_residual(self, x, jac):
-        n1, a = self._time.size, self.nc * self._harm.size
-        p, q0, u0 = self._split(x)
-        out = self._event_run(x, jac and self.jacobian == "exact")
-        if out is None:
-            return np.full(x.size, np.nan), (np.full((x.size, x.size), np.nan) if jac else None)
-        R = np.concatenate([self._balance(out["q_hat"].reshape(-1), p), out["z"][:n1] - q0,
-                            out["z"][n1:2 * n1] - u0])
-        if not jac:
-            return R, None
-        if self.jacobian == "fd":
-            return R, forward_difference_jacobian(lambda xp: self._event_residual(xp, False)[0], x, R)
-        # Phi columns: [q0, u0, forcing states = d/dc]; x = [p, q0, u0], dc/dp = Tr
-        dq = out["dq_hat"].reshape(self.nc * n1, -1)
-        Dq = np.hstack([dq[:, 2 * n1:] @ self._Tr, dq[:, :2 * n1]])
-        Pz = out["Phi"][:2 * n1]
-        Dz = np.hstack([Pz[:, 2 * n1:] @ self._Tr, Pz[:, :2 * n1]])
-        J = np.zeros((x.size, x.size))
-        J[:a] = self._balance_dq(Dq)
-        J[:a, :a] += self._balance_dp()
-        J[a:] = Dz
-        J[a:, a:] -= np.eye(2 * n1)
-        return R, J
-
-    def _event_solution_parts(self, x):
-        from ..extrema import fourier_extrema
-        from ..integrators.event import MOREAU, contact_margins, extrema, run_summary
-
-        p, q0, u0 = self._split(x)
-        out = self._event_run(x, False, record=True)
-        if out is None:  # no flow to report: non-finite parts, which the driver reports as a failure, with why
-            return failed_parts(self.td.t, self.td.N, (self.nc, self.system.n), self._time,
-                                len(self.system.elements), self.n_h, "the event-driven flow failed at the "
-                                f"solution: {getattr(self, 'last_error', 'unknown error')}")
-        fl, n1, N = self.flow, self._time.size, self.td.N
-        Z = out["samples"]
-        q_t, u_t = Z[:n1].T.copy(), Z[n1:2 * n1].T.copy()
-        X = p.reshape(self.nc, self._harm.size)
-        q_hat = np.zeros((self.nc, self.system.n))
-        q_hat[:, self._time] = out["q_hat"]
-        if not self._harmonic_dofs_are_time_dofs:
-            q_hat[:, self._harm] = X
-        if self._cond_dofs.size:
-            q_hat[:, self._cond_dofs] = fourier.from_complex(self.cond.recover(fourier.to_complex(X)))
-        lam = np.full((N + 1, len(self.system.elements)), np.nan)
-        modes = out["sample_modes"]
-        for code in np.unique(modes):
-            sel = modes == code
-            lam[sel] = (fl.moreau_force(out["moreau"], self.td.t[sel]) if code == MOREAU
-                        else fl.full_force(int(code), Z[:, sel]).T)
-        P = np.nan_to_num(lam[:-1]) * self.td.h
-        for ev in out["events"]:
-            if ev.impulse != 0.0:
-                P[min(int(ev.t / self.td.h), N - 1), ev.element] += ev.impulse
-        hi, lo = fourier_extrema(q_hat)
-        qmax, qmin, _ = extrema(fl, out["nodes"])  # time DOFs: the true extrema of the flow
-        hi[self._time], lo[self._time] = qmax, qmin
-        info = {**self._info(p, q_hat),
-                "amplitude_exact": 0.5 * (hi - lo),
-                "event_integrator": run_summary(out),
-                "event_list": out["events"], "contact_margins": contact_margins(fl, out)}
-        return dict(t=self.td.t, q_hat=q_hat, time_dofs=self._time, q_time=q_t, u_time=u_t,
-                    lam=lam, impulses=P, harmonics=self.n_h, info=info)
+        """``((element, kind), ...)`` of the events of the period from ``x`` (event-driven flow), else ``None``."""
+        p, q0, u0 = self._split(np.asarray(x, dtype=float))
+        return self.integrator.event_signature(q0, u0, p)
 
     def partition(self):
         return Partition(time=self._time.copy(), harmonic=self._harm.copy(), condensed=self._cond_dofs.copy())
@@ -439,7 +135,7 @@ class _MixedBase(PeriodicProblem):
         if parts is None:
             q_hat, q0, u0 = guess_parts(guess, self.system, self.omega, self.n_h)
             parts = q_hat[:, self._harm], q0[self._time], u0[self._time]
-        q0, u0 = self.td.stepper.with_slider_state(parts[1], parts[2])
+        q0, u0 = self.integrator.initial_state(parts[1], parts[2])
         x = np.concatenate([parts[0].reshape(-1), q0, u0])
         if linear:
             self._linear_guess = x.copy()
@@ -459,57 +155,51 @@ class _MixedBase(PeriodicProblem):
         a, nt = self.nc * self._harm.size, self.nA
         return x[:a], x[a:a + nt], x[a + nt:]
 
-    def _eval(self, x, sens):
-        p, q0, u0 = self._split(x)
-        tr = self.td.run(q0, u0, p, sens)
-        qh = self.td.project(tr.q[:-1, :self._time.size]).reshape(-1)
-        R = np.concatenate([self._balance(qh, p), tr.q[-1] - q0, tr.u[-1] - u0])
-        return R, tr
-
     def residual(self, x, jac=True):
         """``(R, J)``, shapes ``(n_x,)`` and ``(n_x, n_x)``."""
-        if self.integrator == "event":
-            return self._event_residual(np.asarray(x, dtype=float), jac)
-        if not jac:
-            return self._eval(x, False)[0], None
-        if self.jacobian == "fd":
-            R, _ = self._eval(x, False)
-            return R, forward_difference_jacobian(lambda xp: self._eval(xp, False)[0], x, R)
-        R, tr = self._eval(x, True)
+        x = np.asarray(x, dtype=float)
+        p, q0, u0 = self._split(x)
+        run = self.integrator.run(q0, u0, p, sensitivities=jac and self.jacobian == "exact")
+        if run.failed:
+            return np.full(x.size, np.nan), (np.full((x.size, x.size), np.nan) if jac else None)
         nt, a = self.nA, self.nc * self._harm.size
-        # kernel columns: [q0 (nA), u0 (nA), p (a)] -> reorder to x = [p, q0, u0]; nA: the time-stepped
-        # DOFs, then one slider per Jenkins element (mshbm.integrators.moreau_jean)
+        R = np.concatenate([self._balance(run.q_hat, p), run.end[:nt] - q0, run.end[nt:] - u0])
+        if not jac:
+            return R, None
+        if self.jacobian == "fd":
+            return R, forward_difference_jacobian(lambda xp: self.residual(xp, False)[0], x, R)
+        # integrator columns: [q0 (nA), u0 (nA), p (a)] -> reorder to x = [p, q0, u0]
         perm = np.concatenate([np.arange(2 * nt, 2 * nt + a), np.arange(2 * nt)])
-        n1 = self._time.size
-        dqh = tr.q_hat_sensitivity[:, perm]
         J = np.zeros((x.size, x.size))
-        J[:a] = self._balance_dq(dqh)
+        J[:a] = self._balance_dq(run.q_hat_jacobian[:, perm])
         J[:a, :a] += self._balance_dp()
-        J[a:a + nt] = tr.Sq[:, perm]
-        J[a + nt:] = tr.Su[:, perm]
-        J[a:a + nt, a:a + nt] -= np.eye(nt)
-        J[a + nt:, a + nt:] -= np.eye(nt)
+        J[a:] = run.jacobian[:, perm]
+        J[a:, a:] -= np.eye(2 * nt)
         return R, J
 
     def solution_parts(self, x):
-        if self.integrator == "event":
-            return self._event_solution_parts(np.asarray(x, dtype=float))
+        x = np.asarray(x, dtype=float)
         p, q0, u0 = self._split(x)
-        tr = self.td.run(q0, u0, p, sens=False)
+        ig, n1 = self.integrator, self._time.size
+        run = ig.run(q0, u0, p, record=True)
+        if run.failed:  # no flow to report: non-finite parts, which the driver reports as a failure, with why
+            return failed_parts(ig.t, ig.steps, (self.nc, self.system.n), self._time, len(self.system.elements),
+                                self.n_h, f"the event-driven flow failed at the solution: {run.error}")
         X = p.reshape(self.nc, self._harm.size)
         q_hat = np.zeros((self.nc, self.system.n))
-        n1 = self._time.size
-        q_hat[:, self._time] = fourier.fft(tr.q[:-1, :n1], self.n_h)
+        q_hat[:, self._time] = ig.coefficients(run, self.n_h)
         if not self._harmonic_dofs_are_time_dofs:
             q_hat[:, self._harm] = X
         if self._cond_dofs.size:
             q_hat[:, self._cond_dofs] = fourier.from_complex(self.cond.recover(fourier.to_complex(X)))
-        lam = np.vstack([tr.P, tr.P[:1]]) / self.td.h
-        info = {**self._info(p, q_hat),
-                "stick_or_closed_fraction": [float(np.mean((tr.status[:, j] & 3) >= 2))
-                                             for j in range(tr.status.shape[1])]}
-        return dict(t=self.td.t, q_hat=q_hat, time_dofs=self._time, q_time=tr.q[:, :n1], u_time=tr.u[:, :n1],
-                    lam=lam, impulses=tr.P, harmonics=self.n_h, info=info)
+        info = self._info(p, q_hat)
+        if run.extrema is not None:  # the time DOFs' true extrema from the integrator
+            hi, lo = fourier_extrema(q_hat)
+            hi[self._time], lo[self._time] = run.extrema
+            info["amplitude_exact"] = 0.5 * (hi - lo)
+        info.update(ig.solution_info(run))
+        return dict(t=ig.t, q_hat=q_hat, time_dofs=self._time, q_time=run.q[:, :n1], u_time=run.u[:, :n1],
+                    lam=run.forces, impulses=run.impulses, harmonics=self.n_h, info=info)
 
 
 class MixedProblem(_MixedBase):
@@ -574,12 +264,10 @@ class MixedProblem(_MixedBase):
         # coupling force coefficients on N:  c = -H_NL q_hat_L = -g + T q_hat_N
         c0 = fourier.from_complex(-self.cond.g).reshape(-1)
         Tr = self.cond.real_matrix(self.cond.T)
-        self.td = _TimeDomainPart(system, self.Nd, omega, self.n_h, steps, theta, project, c0, Tr)
+        self._setup_integrator(integrator, system, self.Nd, c0, Tr, steps, theta, project, accumulation)
         self.nN = self.Nd.size
         self.nc = 2 * self.n_h + 1
         self._time, self._harm, self._cond_dofs = self.Nd, self.Nd, self.Ld
-        self.nA = self.td.stepper.n  # integrated: N, then one slider per Jenkins element
-        self._setup_integrator(integrator, system, self.Nd, c0, Tr, accumulation)
 
     # the mixed residual (27): harmonic-balance rows of N are the connectivity q_hat_N - FFT(q_N)
     _force_rows = False
@@ -635,8 +323,6 @@ class MixedProblem(_MixedBase):
 
 def _mixed_scale(problem, x, a, n1, force_rows):
     """Row scales ``(coefficient rows (a), q rows (n1), u rows (n1))`` of the mixed residuals."""
-    from ..scaling import displacement_floor, force_scale, velocity_scale
-
     if "_FD0" not in problem.__dict__:
         F = force_scale(problem.system)
         problem._FD0 = (F, displacement_floor(problem.system, problem.omega, F))
@@ -707,7 +393,7 @@ class IntermediateProblem(_MixedBase):
             raise InputError("partition", "subsystems 1 and 2 must be disjoint DOF sets within range")
         I3 = np.setdiff1d(np.arange(n), np.concatenate([I1, I2]))
         for a in "MCK":
-            blk = _sub(getattr(system, a), I1, I3)
+            blk = submatrix(getattr(system, a), I1, I3)
             nz = blk.nnz if sp.issparse(blk) else np.count_nonzero(blk)
             if I3.size and nz:
                 raise InputError("partition", f"{a}_13 must vanish for Section 3.3 (subsystem 1 couples to 3)")
@@ -727,15 +413,14 @@ class IntermediateProblem(_MixedBase):
         H22 = _coupling(system, I2, I2, self.n_h, omega)
         # force on subsystem 1: f_ex,1 - V^T H_12 q_hat_2   -> c = -H12r p
         Tr = -self.cond.real_matrix(H12)
-        self.td = _TimeDomainPart(system, I1, omega, self.n_h, steps, theta, project, np.zeros(nc * I1.size), Tr)
+        self._setup_integrator(integrator, system, I1, np.zeros(nc * I1.size), Tr, steps, theta, project,
+                               accumulation)
         self.H21r = self.cond.real_matrix(H21)
         self.Sr = self.cond.real_matrix(H22 - self.cond.T)
         F = fourier.to_complex(system.forcing_hat(self.n_h))
         self.rhs = fourier.from_complex(F[:, I2] - self.cond.g).reshape(-1)
         self.nc, self.n1, self.n2 = nc, I1.size, I2.size
         self._time, self._harm, self._cond_dofs = I1, I2, I3
-        self.nA = self.td.stepper.n  # integrated: subsystem 1, then one slider per Jenkins element
-        self._setup_integrator(integrator, system, I1, np.zeros(nc * I1.size), Tr, accumulation)
 
     # residual (39): harmonic-balance rows of subsystem 2 are forces
     _force_rows = True

@@ -1,0 +1,95 @@
+"""Moreau-Jean fallback of the event-driven flow at accumulations of impacts and chattering.
+
+The flow switches to the Moreau-Jean step map (:class:`mshbm.integrators.moreau_jean.MoreauJean`,
+``moreau_steps`` steps per period) for the rest of a contact phase, until no element has an impulse or a
+status change over :data:`~.modes.RELEASE_STEPS` steps; the step Jacobians of those segments hold no
+saltation terms.
+"""
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from ..moreau_jean import MoreauJean
+from .modes import MOREAU, RELEASE_STEPS, EventError
+
+__all__ = ["MoreauFallback"]
+
+
+class MoreauFallback:
+    """Moreau-Jean segments of an :class:`~mshbm.integrators.event.flow.EventFlow` (mixin)."""
+
+    # ------------------------------------------------------------------ Moreau-Jean fallback
+    def _stepper(self, h):
+        key = float(h)
+        if key not in self._mj:
+            s = self.system
+            self._mj[key] = MoreauJean(s.M, s.C, s.K, self.elements, h, 0.5, True)
+        return self._mj[key]
+
+    def _moreau(self, a, z, T_end, Phi, sample, nodes, reason, fourier=None):
+        """Moreau-Jean steps from ``(a, z)`` until the phase ends (or ``T_end``).  Returns ``(a, z, Phi,
+        segment)``."""
+        n = self.n
+        h0 = self.T / self.moreau_steps
+        q, u = z[:n].copy(), z[n:2 * n].copy()
+        t_start, steps, quiet = a, 0, 0
+        forces = []
+        chunk = 4 * RELEASE_STEPS
+        last = None
+        while a < T_end * (1 - 1e-15) and quiet < RELEASE_STEPS:
+            if self.deadline is not None and time.perf_counter() > self.deadline:
+                raise EventError("time limit of the event-driven simulation reached")
+            rem = T_end - a
+            k = chunk
+            h = h0
+            if rem < chunk * h0 * (1 + 1e-12):
+                k = max(1, int(math.ceil(rem / h0 - 1e-9)))
+                h = rem / k
+            mj = self._stepper(h)
+            tt = a + h * np.arange(k + 1)
+            tr = mj.run(q, u, mj.increments(self.forcing_at(tt)))
+            if Phi is not None:  # d(q, u) through the segment; the forcing states' influence is neglected
+                J = mj.monodromy(tr.status)
+                Phi = np.vstack([J @ Phi[:2 * n], Phi[2 * n:]])
+            Zs = np.vstack([tr.q.T, tr.u.T, np.array([self.exo(x) for x in tt]).T])
+            if fourier is not None:  # trapezoidal quadrature of the Fourier integrals on the steps
+                Bq = self._fourier_basis(tt, fourier[0])[:, :, None] * tr.q[:, None, :n]
+                fourier[1] += 0.5 * h * (Bq[:-1] + Bq[1:]).sum(axis=0)
+            sample(tt, Zs)
+            if nodes is not None:
+                for i in range(1, k + 1):
+                    nodes.append((tt[i], Zs[:, i].copy(), Zs[:, i].copy(), MOREAU))
+            # quiet steps: no contact impulse and no status change
+            for i in range(k):
+                row = tuple(int(s) & 3 for s in tr.status[i])
+                imp = bool(np.any(tr.P[i][self.is_contact] != 0.0)) if self.m else False
+                quiet = 0 if (imp or (last is not None and row != last)) else quiet + 1
+                last = row
+            forces.append((tt[:-1] + 0.5 * h, tr.P / h))
+            q, u = tr.q[-1].copy(), tr.u[-1].copy()
+            a = float(tt[-1])
+            steps += k
+        z = np.concatenate([q, u, self.exo(a)])
+        tm = np.concatenate([f[0] for f in forces])
+        lm = np.vstack([f[1] for f in forces])
+        return a, z, Phi, {"t_start": t_start, "t_end": a, "steps": steps, "reason": reason,
+                           "force_times": tm, "forces": lm}
+
+    def moreau_force(self, segments, t):
+        """Element forces (all ``system.elements``) at times ``t`` inside Moreau-Jean segments: the impulse of
+        the step containing ``t`` divided by the step, shape (k, m_all) (NaN outside the segments)."""
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        out = np.full((t.size, len(self.system.elements)), np.nan)
+        for seg in segments:
+            tm, lm = seg["force_times"], seg["forces"]
+            if tm.size == 0:
+                continue
+            sel = (t >= seg["t_start"]) & (t <= seg["t_end"])
+            if np.any(sel):
+                i = np.clip(np.searchsorted(tm, t[sel]), 0, tm.size - 1)
+                i = np.where((i > 0) & (np.abs(tm[np.maximum(i - 1, 0)] - t[sel]) < np.abs(tm[i] - t[sel])), i - 1, i)
+                out[np.ix_(np.nonzero(sel)[0], self.index)] = lm[i]
+        return out

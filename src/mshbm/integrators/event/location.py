@@ -1,0 +1,74 @@
+"""Event location on one sub-step of the event-driven flow.
+
+The events of a mode are linear functions ``c^T z`` of the state that must stay ``> 0`` (rows of the mode's
+``C``).  On a sub-step of length ``h`` from ``z`` (end state ``zb``) an event is found from the sign of
+``c^T z`` at both ends, from an extremum inside (a sign change of ``c^T A z``), and, right after the mode
+was entered (the event function starts at ~0), on the careful grid :data:`_FIRST`; its time is refined by
+Brent's method on the Taylor polynomial of the flow to ~1e-15 s.
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import brentq
+
+from .modes import EventError, _poly
+
+__all__ = ["locate"]
+
+#: points (fractions of the sub-step) of the careful event search on the first sub-step of a mode,
+#: where the event function starts at 0: geometric towards 0, then uniform
+_FIRST = np.concatenate([2.0 ** -np.arange(40, 6, -1), np.arange(1, 65) / 64.0])
+
+
+def locate(flow, md, z, zb, W, h, thr, est, a):
+    """The first event of mode ``md`` on the sub-step ``[a, a + h]`` from ``z`` (end state ``zb``).
+
+    ``thr``: per event function the threshold above which it counts as entered (shape (k,)); ``est``: which
+    are entered (bool, shape (k,), updated in place); ``W``: the Taylor powers of the flow from ``z``
+    (:meth:`~.modes.ModeCatalogue.powers`) or None (formed when needed).  Returns ``(s, i, W)``: the time
+    ``s`` into the sub-step of the event and its row ``i`` (``(None, -1)``: none), and ``W``.
+    """
+    s_ev, i_ev = None, -1
+    C_ev, CA_ev = md.C, md.CA
+    if C_ev.shape[0]:
+        pa, pb = C_ev @ z, C_ev @ zb
+        da, db = CA_ev @ z, CA_ev @ zb
+        for i in range(C_ev.shape[0]):
+            s_i = None
+            if not est[i]:
+                if W is None:
+                    W = flow.powers(md, z)
+                coef = C_ev[i] @ W
+                ss = _FIRST * h
+                ph = _poly(coef, ss)
+                above = np.nonzero(ph > thr[i])[0]
+                if above.size:
+                    est[i] = True
+                    p = above[0]
+                    below = np.nonzero(ph[p:] <= 0.0)[0]
+                    if below.size:
+                        q_ = p + below[0]
+                        s_i = brentq(lambda s: _poly(coef, s), ss[q_ - 1], ss[q_], xtol=1e-15,
+                                     rtol=8.9e-16)
+                elif pb[i] < -thr[i]:
+                    if md.ev[i][1] != "gap":
+                        s_i = 0.0  # the mode cannot be entered: leave it at once
+                    elif pb[i] < -1e3 * thr[i]:
+                        raise EventError(f"penetration of the contact at t = {a:.9g} without a "
+                                         "resolvable impact (start in penetration or unresolved bounce)")
+            elif pb[i] <= 0.0:
+                if W is None:
+                    W = flow.powers(md, z)
+                coef = C_ev[i] @ W
+                s_i = brentq(lambda s: _poly(coef, s), 0.0, h, xtol=1e-15, rtol=8.9e-16)
+            elif da[i] < 0.0 < db[i]:
+                if W is None:
+                    W = flow.powers(md, z)
+                dcoef = CA_ev[i] @ W
+                s_star = brentq(lambda s: _poly(dcoef, s), 0.0, h, xtol=1e-15, rtol=8.9e-16)
+                coef = C_ev[i] @ W
+                if _poly(coef, s_star) <= 0.0:
+                    s_i = brentq(lambda s: _poly(coef, s), 0.0, s_star, xtol=1e-15, rtol=8.9e-16)
+            if s_i is not None and (s_ev is None or s_i < s_ev):
+                s_ev, i_ev = s_i, i
+    return s_ev, i_ev, W
