@@ -1,4 +1,4 @@
-"""Unit scaling and positive homogeneity, for all four methods (issue 10, part 1).
+"""Unit scaling and positive homogeneity, for all four methods.
 
 * Units: the same system in another force unit (``M, C, K, f``, the friction bound ``mu F_N``
   and the penalty law ``k_c, d_c`` all times ``s``, ``s`` from 1e-12 to 1e6) has the same
@@ -71,6 +71,15 @@ def reference(name, method):
     return mshbm.solve(SYSTEMS[name](), OMEGA, method, **OPTS)
 
 
+@lru_cache(maxsize=None)
+def rounding_spread(name, method):
+    """Largest change of the Newton iteration count when the unit changes by a few ulps only (``s = 1 + k 2^-50``,
+    ``k = 1..6``): how much rounding alone moves Newton's path on this problem."""
+    ref = reference(name, method)
+    return max(abs(mshbm.solve(in_units(SYSTEMS[name](), 1.0 + k * 2.0 ** -50), OMEGA, method, **OPTS).iterations
+                   - ref.iterations) for k in range(1, 7))
+
+
 def assert_same_outcome(ref, sol, factor):
     """Same success; if successful, displacements ``factor`` times the reference to 1e-9."""
     assert sol.success == ref.success, (ref.message, sol.message)
@@ -107,7 +116,11 @@ def test_units_do_not_change_the_answer(method, name, s):
     ref = reference(name, method)
     sol = mshbm.solve(in_units(SYSTEMS[name](), s), OMEGA, method, **OPTS)
     assert_same_outcome(ref, sol, 1.0)
-    assert abs(sol.iterations - ref.iterations) <= 2  # rounding may move the last iterate across tol
+    # rounding may move the last iterate across tol (2), and where Newton's path itself is sensitive to rounding
+    # (HBM with the regularised friction law: 13 to 18 iterations under unit changes of a few ulps), a change of
+    # units may move it as much as a change of the last bits does, and no more
+    d = abs(sol.iterations - ref.iterations)
+    assert d <= 2 or d <= 2 + rounding_spread(name, method), (sol.iterations, ref.iterations)
 
 
 @pytest.mark.parametrize("s", [1e-6, 1e-2, 1e2, 1e5])
