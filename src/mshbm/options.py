@@ -16,11 +16,11 @@ solve: no Newton iteration, start of the ladder or event-driven simulation begin
 then fails with a message that says so (the set-up and the last iteration under way are not interrupted).
 
 ``continuation`` (default True) switches on the fallbacks of the driver's strategy chain
-(:mod:`mshbm.solvers.driver`) when Newton from the first start fails: with no guess, the start ladder
-(:mod:`mshbm.solvers.starts`) for every method; with a guess, the method's own exact path follower
+(:mod:`mshbm.route.driver`) when Newton from the first start fails: with no guess, the start ladder
+(:mod:`mshbm.route.starts`) for every method; with a guess, the method's own exact path follower
 (HBM/DLFT penalty contact) and regularisation homotopy (HBM); for the mixed methods with a guess,
 ``continuation=True`` given *explicitly* also opts in to the restarts and continuation fallbacks of
-:mod:`mshbm.solvers.continuation`.  ``continuation=False``: Newton from the one start only.
+:mod:`mshbm.route.continuation`.  ``continuation=False``: Newton from the one start only.
 
 Per method (:data:`METHODS`): ``harmonics`` (n_h), ``steps`` (time steps or AFT samples per period,
 :func:`default_steps`), ``theta`` (Moreau-Jean), ``jacobian`` (``"exact"`` or ``"fd"``), ``project``
@@ -38,7 +38,7 @@ friction and contact between a DOF and the ground only (no relative or Jenkins e
 matrices (small systems) and its cost grows with the number of events; Moreau-Jean handles every
 element, any accumulation, and large subsystems.  Without ``integrator`` given, a solve whose start ladder found
 no certified Moreau-Jean solution of a system with contacts ends by trying the event-driven flow
-(:func:`mshbm.solvers.driver._event_fallback`; the result then says so in its message and
+(:meth:`mshbm.route.driver.Route._event_fallback`; the result then says so in its message and
 ``info["integrator"] == "event"``); ``integrator="moreau"`` given explicitly keeps Moreau-Jean only.
 """
 from __future__ import annotations

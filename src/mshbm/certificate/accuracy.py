@@ -10,7 +10,7 @@
     ``tol``.
 ``step_accuracy_size`` (gating in :func:`mshbm.solve`; reported on branch points)
     Only for an orbit that the start ladder accepted as periodic to one time step's accuracy
-    (:func:`mshbm.solvers.starts.residual_accept`: a stalled Newton on an impacting orbit, whose residual and
+    (:func:`mshbm.route.ladder.residual_accept`: a stalled Newton on an impacting orbit, whose residual and
     periodicity are then judged against the jump of the residual when an impact moves by one step).  The
     displacement change of one step at an impact, ``h J`` (``J`` the largest velocity jump), relative to the
     displacement scale ``D`` of the solution; bound :data:`STEP_ACCURACY_SIZE_BOUND`.  A stalled Newton
@@ -34,7 +34,7 @@ __all__ = ["STEP_ACCURACY_NOTE", "STEP_ACCURACY_SIZE_BOUND", "STEP_ACCURACY_SIZE
 #: note of the residual and periodicity checks of an orbit accepted as periodic to one step's accuracy
 STEP_ACCURACY_NOTE = ("periodic to one time step's accuracy: the Moreau-Jean map moves impacts by whole steps and "
                       "has no exact periodic point here; bound per entry: the jump of the residual when an impact "
-                      "moves by one step (mshbm.solvers.starts.residual_accept)")
+                      "moves by one step (mshbm.route.ladder.residual_accept)")
 
 
 #: gating bound of ``step_accuracy_size``

@@ -26,7 +26,7 @@ def certify(problem, sol, tol, step_accuracy=None, step_size_gating=True):
     tol : float
         Newton tolerance of the solve (bound of the ``residual`` check).
     step_accuracy : dict, optional
-        Set when the start ladder (:func:`mshbm.solvers.starts.residual_accept`) accepted a stalled Newton on
+        Set when the start ladder (:func:`mshbm.route.ladder.residual_accept`) accepted a stalled Newton on
         an impacting orbit of a time-stepping method as periodic to one time step's accuracy:
         ``{"bound": ndarray (n_x,), "step_change": float}``, per residual entry the change of the periodicity
         residual when an impact moves by one step (``g h J``, ``g h omega J``), and ``h J`` (m).  The ``residual`` and
