@@ -68,7 +68,7 @@ if config.get("fe_example"):
                                            "--harmonics", str(FE["harmonics"]), "--steps", str(FE["steps"]),
                                            "--max-points", str(FE["max_points"]), "--ds-max", str(FE["ds_max"]),
                                            *[a for k, v in FE.get("sweep_options", {}).get(w.fmethod, {}).items()
-                                             for a in (f"--{k}", str(v))]],
+                                             for a in (f"--{k.replace('_', '-')}", str(v))]],
             solver=SOLVER_DIGEST,
         log:
             f"{R}/logs/fe/fe_sweep_{{fmethod}}.log",

@@ -13,7 +13,7 @@ Usage::
 
     python workflow/scripts/fe_sweep.py CASE.yaml OUT.json --method mshbm --omega-ratio 0.9 1.1 \
         [--harmonics 5] [--steps 4096] [--max-points 60] [--ds-max 0.5] [--stability off|auto|on] \
-        [--integrator moreau|event] [--accumulation moreau|close]
+        [--integrator moreau|event] [--accumulation moreau|close] [--penalty-quadrature samples|linear]
 
 MS-HBM's curve uses the exact event-driven flow (``--integrator event --accumulation close``, config
 ``fe_example.sweep_options``): with Moreau-Jean steps its residual is a staircase in ``omega`` where the pad
@@ -55,7 +55,7 @@ def named_dofs(modes):
 
 
 def run(case_path, out, method, omega_ratio, harmonics=5, steps=None, max_points=60, ds_max=None, stability=False,
-        log=print, integrator=None, accumulation=None):
+        log=print, integrator=None, accumulation=None, penalty_quadrature=None):
     if method not in METHODS:
         raise InputError("method", f"{method!r} is not one of {', '.join(METHODS)}")
     r0, r1 = (float(r) for r in omega_ratio)
@@ -74,6 +74,8 @@ def run(case_path, out, method, omega_ratio, harmonics=5, steps=None, max_points
         opts["integrator"] = str(integrator)
         if accumulation is not None:
             opts["accumulation"] = str(accumulation)
+    if method == "hbm" and penalty_quadrature is not None:
+        opts["penalty_quadrature"] = str(penalty_quadrature)
     dofs = named_dofs(modes)
     log(f"{case_path}: {s}; sweep {method} over [{r0:g}, {r1:g}] w_1 = [{r0 * w1:.6g}, {r1 * w1:.6g}] rad/s, {opts}")
     t0 = time.perf_counter()
@@ -116,12 +118,15 @@ def main(argv=None):
                     help="MS-HBM / shooting time integration (default: the method's, Moreau-Jean)")
     ap.add_argument("--accumulation", choices=("moreau", "close"), default=None,
                     help="with --integrator event: accumulating impacts by Moreau-Jean steps or closed (Zeno)")
+    ap.add_argument("--penalty-quadrature", choices=("samples", "linear"), default=None,
+                    help="HBM: the penalty contact law at the AFT samples or integrated on the gap's linear "
+                         "interpolant (default: mshbm.sweep's, linear with contacts)")
     ap.add_argument("--stability", choices=("off", "auto", "on"), default="off",
                     help="stability of every point (mshbm.stability; off by default: ~20 s per point at 162 DOFs)")
     a = ap.parse_args(argv)
     st = {"off": False, "auto": "auto", "on": True}[a.stability]
     run(a.case, a.out, a.method, a.omega_ratio, a.harmonics, a.steps, a.max_points, a.ds_max, st,
-        integrator=a.integrator, accumulation=a.accumulation)
+        integrator=a.integrator, accumulation=a.accumulation, penalty_quadrature=a.penalty_quadrature)
     return 0
 
 
