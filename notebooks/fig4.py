@@ -33,10 +33,8 @@ out_png = "results/figures/fig4.png"
 out_pdf = "results/figures/fig4.pdf"
 
 # %%
-import os, sys
-sys.path.insert(0, "notebooks") if os.path.isdir("notebooks") else None
-import nbcommon as nc
-import wpcommon as wp
+from mshbm_workflow import nbcommon as nc
+from mshbm_workflow import wpcommon as wp
 from IPython.display import Markdown, display
 
 nc.setup()

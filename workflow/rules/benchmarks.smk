@@ -21,7 +21,7 @@ if BENCH:
     rule bench_workprecision:
         input:
             config=f"{R}/config.json",
-            script="workflow/scripts/bench_workprecision.py",
+            script="workflow/scripts/bench/bench_workprecision.py",
         output:
             f"{R}/{{bdir}}/workprecision_{{system}}.json",
         log:
@@ -66,8 +66,8 @@ if BENCH:
     rule bench_standalone:
         input:
             unpack(bench_inputs),
-            script="workflow/scripts/bench_{bench}.py",
-            lib="workflow/scripts/benchlib.py",
+            script="workflow/scripts/bench/bench_{bench}.py",
+            lib=f"{WF_LIB}/benchlib.py",
         output:
             json=f"{R}/{{bdir}}/{{bench}}.json",
             png=f"{R}/{{bdir}}/{{bench}}.png",
@@ -89,7 +89,7 @@ if BENCH:
 
     rule bench_report:
         input:
-            script="workflow/scripts/bench_report.py",
+            script="workflow/scripts/bench/bench_report.py",
             wp=lambda w: expand(f"{R}/{w.bdir}/workprecision_{{system}}.json", system=BENCH["systems"]),
             other=lambda w: expand(f"{R}/{w.bdir}/{{bench}}.json", bench=BENCH["standalone"]),
         output:

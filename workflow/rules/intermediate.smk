@@ -10,7 +10,7 @@ if config.get("intermediate_demo"):
     rule intermediate_demo:
         input:
             config=f"{R}/config.json",
-            script="workflow/scripts/intermediate_demo.py",
+            script="workflow/scripts/solves/intermediate_demo.py",
         output:
             json=f"{R}/summary/intermediate.json",
             md=f"{R}/tables/intermediate.md",

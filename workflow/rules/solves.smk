@@ -1,5 +1,5 @@
 # One job per periodic solve, keyed by system (case), method, n_H and steps.
-# Output: <results>/solves/<case>/<method>_nh<n_H>_N<steps>.json (+ .npz), see scripts/solve.py.
+# Output: <results>/solves/<case>/<method>_nh<n_H>_N<steps>.json (+ .npz), see scripts/solves/solve.py.
 
 
 wildcard_constraints:
@@ -27,4 +27,4 @@ rule solve:
         mem_mb=2000,
         runtime=30,
     script:
-        "../scripts/solve.py"
+        "../scripts/solves/solve.py"

@@ -6,7 +6,7 @@
 #
 #   snakemake --cores 2 <results>/stress/summary.md          # full profile (< 5 min on 2 cores)
 #   snakemake --cores 2 <results>/stress-quick/summary.md    # quick profile (< 1 min)
-#   python workflow/scripts/stress.py --config workflow/stress.yaml [--quick] --out results/stress
+#   python workflow/scripts/stress/stress.py --config workflow/stress.yaml [--quick] --out results/stress
 
 with open("workflow/stress.yaml", encoding="utf-8") as _fh:
     STRESS = yaml.safe_load(_fh)
@@ -17,9 +17,8 @@ rule stress:
     input:
         config="workflow/stress.yaml",
         schema="workflow/schemas/stress.schema.yaml",
-        script="workflow/scripts/stress.py",
-        modules=["workflow/scripts/stress_cases.py", "workflow/scripts/stress_judge.py",
-                 "workflow/scripts/stress_report.py", "workflow/scripts/wfcore.py"],
+        script="workflow/scripts/stress/stress.py",
+        modules=[f"{WF_LIB}/{name}.py" for name in ("stress_cases", "stress_judge", "stress_report", "wfcore")],
         cases=sorted(str(p) for p in Path("examples").glob("*.yaml")),
     output:
         json=f"{R}/stress/summary.json",

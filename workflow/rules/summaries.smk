@@ -1,4 +1,4 @@
-# Cheap aggregation: errors against the reference, efforts, impacts, claims (scripts/summarize.py).
+# Cheap aggregation: errors against the reference, efforts, impacts, claims (scripts/summaries/summarize.py).
 # Restyling a figure never reruns a solver; these read JSON only.
 
 
@@ -18,7 +18,7 @@ rule summary:
         mem_mb=500,
         runtime=5,
     script:
-        "../scripts/summarize.py"
+        "../scripts/summaries/summarize.py"
 
 
 rule config_snapshot:
@@ -33,7 +33,7 @@ rule config_snapshot:
         mem_mb=200,
         runtime=5,
     script:
-        "../scripts/config_snapshot.py"
+        "../scripts/summaries/config_snapshot.py"
 
 
 # The exact event-driven periodic solution (mshbm.methods.exact) of a figure's system, seeded by the reference
@@ -54,4 +54,4 @@ rule exact_reference:
         mem_mb=2000,
         runtime=30,
     script:
-        "../scripts/exact_reference.py"
+        "../scripts/solves/exact_reference.py"
