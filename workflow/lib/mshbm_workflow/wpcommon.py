@@ -176,3 +176,34 @@ def reference_table(cfg, S):
     return (nc.md_table(["solution", "converged", "start", "Newton it.", "amp. mass 1", f"amp. mass n",
                                   "stability (max. Floquet modulus)", "stick fraction m1 / impulse",
                                   "median time by start"], rows2))
+
+
+class WorkPrecision:
+    """One work-precision figure (Fig. 4 or 8) from the run's configuration snapshot ``config`` and the
+    figure's summary ``summary`` (JSON paths): what both notebooks show, in the order they show it."""
+
+    def __init__(self, config, summary):
+        nc.setup()
+        self.cfg = nc.load_json(config)
+        self.S = nc.load_json(summary)
+        #: number of masses of the figure's chain
+        self.n = self.cfg["systems"][self.S["system"]]["n"]
+        #: the clock of the efforts (config ``timing.clock``)
+        self.clock = self.S.get("clock", "wall")
+        self.rows, self.fd_rows = [], []
+
+    def claims(self):
+        """Markdown table: the paper's claims next to our numbers."""
+        return nc.claims_table(self.S)
+
+    def plot(self, out_png, out_pdf):
+        """The figure (error and effort against n_H), written to ``out_png`` and ``out_pdf``."""
+        self.rows, self.fd_rows = plot(self.cfg, self.S, out_png, out_pdf)
+
+    def points(self):
+        """Markdown table of every point plotted (after :meth:`plot`)."""
+        return points_table(self.rows + self.fd_rows, self.n, self.clock)
+
+    def references(self):
+        """Markdown table of the reference solutions and their stability."""
+        return reference_table(self.cfg, self.S)
