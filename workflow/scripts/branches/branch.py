@@ -25,9 +25,11 @@ import json
 import os
 import time
 
+import mshbm
+from mshbm_workflow.wfcore import load_case
 
-import mshbm  # noqa: E402
-from mshbm_workflow.wfcore import load_case  # noqa: E402
+#: the sweeps report every accepted point (points, omega, step) on stderr, the job's log
+PROGRESS = "always"
 
 
 def run(config, name, label, out):
@@ -43,14 +45,14 @@ def run(config, name, label, out):
     extra = {}
     if "switch" in bcfg:
         # the period-k sweep over omega locates the period doubling; the branch is the period-2k one born there
-        parent = mshbm.sweep(system, w0, w1, method, period=period, **opts)
+        parent = mshbm.sweep(system, w0, w1, method, period=period, progress=PROGRESS, **opts)
         w_end = float(bcfg["switch"]["omega_end"])
         b = mshbm.switch_period_doubling(system, parent, w_end, **opts)
         extra = {"parent": {"omega": [w0, w1], "period": period, "success": parent.success,
                             "points": len(parent), "message": parent.message,
                             "bifurcations": parent.bifurcations}, "omega_end": w_end}
     else:
-        b = mshbm.sweep(system, w0, w1, method, period=period, **opts)
+        b = mshbm.sweep(system, w0, w1, method, period=period, progress=PROGRESS, **opts)
     wall = time.perf_counter() - t0
     d = b.to_dict()
     d.pop("points", None)

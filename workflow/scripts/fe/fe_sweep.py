@@ -79,7 +79,7 @@ def run(case_path, out, method, omega_ratio, harmonics=5, steps=None, max_points
     dofs = named_dofs(modes)
     log(f"{case_path}: {s}; sweep {method} over [{r0:g}, {r1:g}] w_1 = [{r0 * w1:.6g}, {r1 * w1:.6g}] rad/s, {opts}")
     t0 = time.perf_counter()
-    b = mshbm.sweep(s, r0 * w1, r1 * w1, method, **opts)
+    b = mshbm.sweep(s, r0 * w1, r1 * w1, method, progress="always", **opts)  # every accepted point to the log
     wall = time.perf_counter() - t0
     A = b.amplitude if len(b) else np.zeros((0, s.n))
     res = {
