@@ -28,8 +28,8 @@ at omega), friction (mu 0.8, F_N 2) on the corner DOF and 5 cos(omega t) on node
 with ``mshbm.System``; solved by mshbm and hbm through the same sparse condensation
 (symmetric-mode SuperLU, which keeps the fill-reducing ordering of the 2-D grid).
 
-Profiles: ``quick`` (n <= 10^4, tests), ``default`` (10 ... 10^5 in decades, FE to 4*10^4 DOFs;
-part of ``snakemake``), ``full`` (half decades, FE to 9*10^4; ``snakemake benchmarks_full``).
+Profiles: ``quick`` (n <= 10^4, tests), ``default`` (10 ... 10^5 in decades, the ``*-local`` series to
+10^4, FE to 4*10^4 DOFs; part of ``snakemake``), ``full`` (half decades, FE to 9*10^4; ``snakemake benchmarks_full``).
 
 Usage::
 
@@ -126,7 +126,9 @@ def _predict(points, n_next, single_exponent=1.5):
     return t1 * (n_next / n1) ** slope
 
 
-def run_chain(ns, repeats_for, limit_s, log):
+def run_chain(ns, repeats_for, limit_s, log, local_max_n=None):
+    """Every method of ``METHODS`` at every n of ``ns`` (until it is dropped); the ``*-local`` series up to
+    ``local_max_n`` (None: all of ``ns``)."""
     results = {m: {"points": [], "stopped": None} for m in METHODS}
     history = {m: [] for m in METHODS}
     # warm-up (numba compilation, imports)
@@ -142,6 +144,10 @@ def run_chain(ns, repeats_for, limit_s, log):
         for m in METHODS:
             st = results[m]["stopped"]
             if st is not None:
+                continue
+            if m.endswith("-local") and local_max_n is not None and n > local_max_n:
+                results[m]["stopped"] = (f"n={n}: above {local_max_n} in this profile (at 10^5 DOFs evaluating the "
+                                         f"amplitude of every DOF of the local-forcing series takes minutes)")
                 continue
             if m == "shooting" and n > 6000:
                 results[m]["stopped"] = f"n={n}: time-stepping needs dense n x n step matrices (limit 6000 DOFs)"
@@ -270,17 +276,20 @@ def main(argv=None):
         limit = 5.0
         repeats_for = lambda n: 1  # noqa: E731
         fe_sizes, fe_limit = [30, 60], 5.0
+        local_max_n = None
     elif profile == "default":
         ns = [10, 100, 1000, 10_000, 100_000]
         limit = 30.0
         repeats_for = lambda n: 3 if n <= 1000 else (2 if n <= 10_000 else 1)  # noqa: E731
         fe_sizes, fe_limit = [30, 100, 200], 30.0
+        local_max_n = 10_000  # the *-local series to 10^4 (full: to 10^5)
     else:
         ns = [10, 30, 100, 300, 1000, 3000, 10_000, 30_000, 100_000]
         limit = 60.0
         repeats_for = lambda n: 3 if n <= 10_000 else 2  # noqa: E731
         fe_sizes, fe_limit = [30, 50, 100, 200, 300], 60.0
-    chain = run_chain(ns, repeats_for, limit, log)
+        local_max_n = None
+    chain = run_chain(ns, repeats_for, limit, log, local_max_n)
     fe = run_fe(fe_sizes, fe_limit, log)
     pts = chain["mshbm"]["points"]
     big = [(p["n"], p["solve"]["median_s"]) for p in pts if p["n"] >= 1000]
