@@ -26,6 +26,8 @@ if BENCH:
             f"{R}/{{bdir}}/workprecision_{{system}}.json",
         log:
             f"{R}/logs/{{bdir}}/workprecision_{{system}}.log",
+        benchmark:
+            f"{R}/logs/times/{{bdir}}/workprecision_{{system}}.tsv",
         wildcard_constraints:
             bdir=_BDIRS,
         params:
@@ -50,6 +52,8 @@ if BENCH:
             f"{PYHARM_ENV}/installed.txt",
         log:
             f"{R}/logs/pyharm_env.log",
+        benchmark:
+            f"{R}/logs/times/pyharm_env.tsv",
         params:
             python=BENCH_PY,
             venv=lambda w, output: os.path.dirname(output[0]),
@@ -73,6 +77,8 @@ if BENCH:
             png=f"{R}/{{bdir}}/{{bench}}.png",
         log:
             f"{R}/logs/{{bdir}}/{{bench}}.log",
+        benchmark:
+            f"{R}/logs/times/{{bdir}}/{{bench}}.tsv",
         wildcard_constraints:
             bench="kernel|scaling|scipy|pyharm|pyharm_sweep|nlscaling",
             bdir=_BDIRS,
@@ -98,6 +104,8 @@ if BENCH:
             json=f"{R}/{{bdir}}/summary.json",
         log:
             f"{R}/logs/{{bdir}}/report.log",
+        benchmark:
+            f"{R}/logs/times/{{bdir}}/report.tsv",
         wildcard_constraints:
             bdir=_BDIRS,
         params:

@@ -15,6 +15,8 @@ if BRANCHES:
             f"{R}/branches/{{name}}/{{bmethod}}.json",
         log:
             f"{R}/logs/branches/{{name}}/{{bmethod}}.log",
+        benchmark:
+            f"{R}/logs/times/branches/{{name}}/{{bmethod}}.tsv",
         wildcard_constraints:
             name="|".join(BRANCHES),
             bmethod=r"[a-z][a-z0-9-]*",  # the curve's label (config branches.<name>.methods)
@@ -39,6 +41,8 @@ if BRANCHES:
             f"{R}/summary/branches.json",
         log:
             f"{R}/logs/branch_summary.log",
+        benchmark:
+            f"{R}/logs/times/branch_summary.tsv",
         params:
             argv=lambda w, input, output: ["--out", output[0], *input.branches],
         threads: 1

@@ -41,6 +41,8 @@ if config.get("fe_example"):
             argv=lambda w, output: fe_model_argv(w, output),
         log:
             f"{R}/logs/fe/fe_model_{{mesh}}.log",
+        benchmark:
+            f"{R}/logs/times/fe/fe_model_{{mesh}}.tsv",
         threads: 1
         resources:
             mem_mb=1000,
@@ -72,6 +74,8 @@ if config.get("fe_example"):
             solver=SOLVER_DIGEST,
         log:
             f"{R}/logs/fe/fe_sweep_{{fmethod}}.log",
+        benchmark:
+            f"{R}/logs/times/fe/fe_sweep_{{fmethod}}.tsv",
         threads: 1
         resources:
             mem_mb=3000,
@@ -99,6 +103,8 @@ if config.get("fe_example"):
             solver=SOLVER_DIGEST,
         log:
             f"{R}/logs/fe/fe_example.log",
+        benchmark:
+            f"{R}/logs/times/fe/fe_example.tsv",
         threads: 1
         resources:
             mem_mb=2000,
@@ -122,6 +128,8 @@ if config.get("fe_example"):
                                            "--solves", input.solves, "--out", output[0], *input.sweeps],
         log:
             f"{R}/logs/fe/fe_summary.log",
+        benchmark:
+            f"{R}/logs/times/fe/fe_summary.tsv",
         threads: 1
         resources:
             mem_mb=500,

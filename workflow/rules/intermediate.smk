@@ -16,6 +16,8 @@ if config.get("intermediate_demo"):
             md=f"{R}/tables/intermediate.md",
         log:
             f"{R}/logs/intermediate_demo.log",
+        benchmark:
+            f"{R}/logs/times/intermediate_demo.tsv",
         params:
             argv=lambda w, input, output: ["--config", input.config, "--out", output.json, "--table", output.md],
             solver=SOLVER_DIGEST,

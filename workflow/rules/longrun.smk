@@ -13,6 +13,8 @@ rule longrun:
         solver=SOLVER_DIGEST,
     log:
         f"{R}/logs/longrun/{{case}}.log",
+    benchmark:
+        f"{R}/logs/times/longrun/{{case}}.tsv",
     threads: 1
     resources:
         mem_mb=1000,
@@ -30,6 +32,8 @@ rule impact_time:
         solver=SOLVER_DIGEST,
     log:
         f"{R}/logs/longrun/impact_time_{{case}}.log",
+    benchmark:
+        f"{R}/logs/times/longrun/impact_time_{{case}}.tsv",
     threads: 1
     resources:
         mem_mb=1000,

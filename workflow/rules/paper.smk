@@ -23,6 +23,8 @@ rule paper:
         md=f"{R}/paper/paper.filled.md",
     log:
         f"{R}/logs/paper.log",
+    benchmark:
+        f"{R}/logs/times/paper.tsv",
     threads: 1
     priority: 10
     resources:

@@ -29,6 +29,8 @@ rule stress:
         solver=SOLVER_DIGEST,
     log:
         f"{R}/logs/stress.log",
+    benchmark:
+        f"{R}/logs/times/stress.tsv",
     threads: 2
     resources:
         runtime=15,
@@ -48,6 +50,8 @@ use rule stress as stress_quick with:
         solver=SOLVER_DIGEST,
     log:
         f"{R}/logs/stress-quick.log",
+    benchmark:
+        f"{R}/logs/times/stress-quick.tsv",
 
 
 # part of `rule all` (common.smk collects EXTRA_TARGETS): the profile the paper embeds (config `stress_profile`);

@@ -13,6 +13,8 @@ rule summary:
         system=lambda w: config["systems"][config["figures"][w.fig]["system"]],
     log:
         f"{R}/logs/summary/{{fig}}.log",
+    benchmark:
+        f"{R}/logs/times/summary/{{fig}}.tsv",
     threads: 1
     resources:
         mem_mb=500,
@@ -28,6 +30,8 @@ rule config_snapshot:
         config={k: v for k, v in config.items() if k != "results_dir"},
     log:
         f"{R}/logs/config_snapshot.log",
+    benchmark:
+        f"{R}/logs/times/config_snapshot.tsv",
     threads: 1
     resources:
         mem_mb=200,
@@ -49,6 +53,8 @@ rule exact_reference:
         solver=SOLVER_DIGEST,
     log:
         f"{R}/logs/solves/{{case}}/exact.log",
+    benchmark:
+        f"{R}/logs/times/solves/{{case}}/exact.tsv",
     threads: 1
     resources:
         mem_mb=2000,
