@@ -70,8 +70,10 @@ GAP = 0.1
 TARGET_AGREE = 1e-6
 #: speed-up target, end to end and Newton only, at every size (issue 16)
 TARGET_SPEEDUP = 10.0
-#: rounds of the block-interleaved timing (module docstring), by profile
-ROUNDS = {"quick": 3, "default": 21}
+#: rounds of the block-interleaved timing (module docstring): quick profile, and by number of masses; at 50
+#: masses one pyHarm call takes ~1 s against our ~1 ms, and 7 rounds of 5 calls measure that ratio
+ROUNDS_QUICK = 3
+ROUNDS = {5: 21, 50: 7}
 #: consecutive calls of each contender per round, by number of masses (quick: 3); at 50 masses one pyHarm
 #: call takes ~0.1 s and 5 calls a block keep the run short
 BLOCK = {5: 10, 50: 5}
@@ -167,7 +169,7 @@ def run_case(n, quick, log):
     # system matrices to the solution (our solve() builds the condensed problem; pyHarm builds its Maestro
     # model).  Newton only: both problems built beforehand, only the Newton solve from the start is timed.
     from mshbm.solvers.newton import solve_problem
-    rounds = ROUNDS["quick" if quick else "default"]
+    rounds = ROUNDS_QUICK if quick else ROUNDS.get(n, min(ROUNDS.values()))
     block = BLOCK_QUICK if quick else BLOCK.get(n, min(BLOCK.values()))
     outs = {}
     prob, _ = build_problem(system, omega, "hbm", **hbm_opts)
@@ -310,7 +312,7 @@ def run_here(args):
                       "over all calls (ratio of the minima reported too).  Both codes get the same treatment; "
                       "one call of each in turn (the earlier method) let pyHarm's and jax's calls evict our short "
                       "solve's code and data from the caches (cases.*.interleaving_check)",
-            "rounds": ROUNDS["quick" if args.quick else "default"],
+            "rounds": ({k: ROUNDS_QUICK for k in cases} if args.quick else {k: ROUNDS.get(int(k)) for k in cases}),
             "block": ({k: BLOCK_QUICK for k in cases} if args.quick else {k: BLOCK.get(int(k)) for k in cases}),
             "blas_threads": 1,
             "load_average_1_5_15_before": load_before,
