@@ -16,9 +16,7 @@ out_png = "results/figures/fig1.png"
 out_pdf = "results/figures/fig1.pdf"
 
 # %%
-import sys, os
-sys.path.insert(0, "notebooks") if os.path.isdir("notebooks") else None
-import nbcommon as nc
+from mshbm_workflow import nbcommon as nc
 import numpy as np
 import matplotlib.pyplot as plt
 from matplotlib.patches import Rectangle, FancyArrowPatch

@@ -3,7 +3,7 @@
 #
 # **Not in the paper.** The paper's method is meant for "large linear structures with few local
 # nonlinearities" and shows only chains.  Here the linear part comes from a finite-element model
-# written to Matrix Market files (`workflow/scripts/build_fe_model.py`, rule `fe_model`): a cantilever
+# written to Matrix Market files (`workflow/scripts/fe/build_fe_model.py`, rule `fe_model`): a cantilever
 # Kirchhoff plate of bicubic Hermite (Bogner–Fox–Schmit) elements with Rayleigh damping.  A friction
 # joint acts at mid-length and an impact stop at the free edge, each on a small lumped body (the shoe
 # of the joint, the pad of the stop) tied to its node by a spring.  The frequency-response curve
@@ -18,9 +18,7 @@ out_png = "results/figures/fig10.png"
 out_pdf = "results/figures/fig10.pdf"
 
 # %%
-import os, sys
-sys.path.insert(0, "notebooks") if os.path.isdir("notebooks") else None
-import nbcommon as nc
+from mshbm_workflow import nbcommon as nc
 import numpy as np
 import matplotlib.pyplot as plt
 from IPython.display import Markdown, display

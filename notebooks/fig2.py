@@ -17,9 +17,7 @@ out_png = "results/figures/fig2.png"
 out_pdf = "results/figures/fig2.pdf"
 
 # %%
-import sys, os
-sys.path.insert(0, "notebooks") if os.path.isdir("notebooks") else None
-import nbcommon as nc
+from mshbm_workflow import nbcommon as nc
 import matplotlib.pyplot as plt
 from matplotlib.patches import FancyBboxPatch, FancyArrowPatch
 

@@ -21,9 +21,7 @@ out_png = "results/figures/fig5.png"
 out_pdf = "results/figures/fig5.pdf"
 
 # %%
-import os, sys
-sys.path.insert(0, "notebooks") if os.path.isdir("notebooks") else None
-import nbcommon as nc
+from mshbm_workflow import nbcommon as nc
 import numpy as np
 import matplotlib.pyplot as plt
 from IPython.display import Markdown, display

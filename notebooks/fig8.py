@@ -32,27 +32,19 @@ out_png = "results/figures/fig8.png"
 out_pdf = "results/figures/fig8.pdf"
 
 # %%
-import os, sys
-sys.path.insert(0, "notebooks") if os.path.isdir("notebooks") else None
-import nbcommon as nc
-import wpcommon as wp
+from mshbm_workflow.wpcommon import WorkPrecision
 from IPython.display import Markdown, display
 
-nc.setup()
-cfg = nc.load_json(config)
-S = nc.load_json(summary)
-scfg = cfg["systems"][S["system"]]
-n = scfg["n"]
-CLOCK = S.get("clock", "wall")
+fig = WorkPrecision(config, summary)
 
 # %% [markdown]
 # ## The paper's claims and our numbers
 
 # %%
-display(Markdown(nc.claims_table(S)))
+display(Markdown(fig.claims()))
 
 # %%
-rows, fd_rows = wp.plot(cfg, S, out_png, out_pdf)
+fig.plot(out_png, out_pdf)
 
 # %% [markdown]
 # ## All points
@@ -63,7 +55,7 @@ rows, fd_rows = wp.plot(cfg, S, out_png, out_pdf)
 # (`nearby`: the paper's protocol).
 
 # %%
-display(Markdown(wp.points_table(rows + fd_rows, n, CLOCK)))
+display(Markdown(fig.points()))
 
 # %% [markdown]
 # ## Reference solutions
@@ -75,4 +67,4 @@ display(Markdown(wp.points_table(rows + fd_rows, n, CLOCK)))
 # what the chain does from rest next to this orbit.
 
 # %%
-display(Markdown(wp.reference_table(cfg, S)))
+display(Markdown(fig.references()))

@@ -22,9 +22,7 @@ out_png = "results/figures/fig9.png"
 out_pdf = "results/figures/fig9.pdf"
 
 # %%
-import os, sys
-sys.path.insert(0, "notebooks") if os.path.isdir("notebooks") else None
-import nbcommon as nc
+from mshbm_workflow import nbcommon as nc
 import numpy as np
 import matplotlib.pyplot as plt
 from matplotlib.lines import Line2D

@@ -15,9 +15,7 @@ out_csv = "results/tables/table2.csv"
 TABLE = 2
 
 # %%
-import os, sys
-sys.path.insert(0, "notebooks") if os.path.isdir("notebooks") else None
-import tables
+from mshbm_workflow import tables
 from IPython.display import Markdown, display
 
 # %%

@@ -1,16 +1,13 @@
 """The paper's systems for the tests: the case files of ``examples/`` (one definition, read with
-:func:`mshbm.load_case` through ``workflow/scripts/wfcore.py``, as the workflow, the stress suite and
+:func:`mshbm.load_case` through ``workflow/lib/mshbm_workflow/wfcore.py``, as the workflow, the stress suite and
 the benchmarks read them).
 
 ``system("impact50")`` is a paper system as the figures use it; :func:`friction_chain` and
 :func:`impact_chain` are the parameterised families (the 3-DOF friction and 5-DOF impact systems with
 ``n`` masses and, optionally, another element parameter) for scaling and robustness tests.
 """
-import sys
-from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "workflow" / "scripts"))
-import wfcore  # noqa: E402
+from mshbm_workflow import wfcore  # noqa: E402
 
 EXAMPLES = wfcore.EXAMPLES
 

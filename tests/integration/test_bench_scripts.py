@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
-SCRIPTS = ROOT / "workflow" / "scripts"
+SCRIPTS = ROOT / "workflow" / "scripts" / "bench"
 
 pytestmark = pytest.mark.slow
 
@@ -32,7 +32,7 @@ def _finite_positive(x):
 
 
 def _check_machine(data):
-    assert isinstance(data.get("summary"), dict)  # read by workflow/scripts/bench_report.py
+    assert isinstance(data.get("summary"), dict)  # read by workflow/scripts/bench/bench_report.py
     m = data["machine"]
     for key in ("date", "cpu_count", "numpy_version", "scipy_version", "numba_version"):
         assert m.get(key) is not None, key
@@ -85,8 +85,9 @@ def _wp_row(method, error, time_s, harmonics=None, steps=256, success=True):
 def test_workprecision_event_goal_and_grid():
     """The event-driven points of the work-precision grid, and issue 14's goal check: the cheapest
     MS-HBM (event) point at 1e-6 against the cheapest Moreau-Jean shooting point at 1e-3."""
-    sys.path.insert(0, str(SCRIPTS))
-    import bench_workprecision as bw
+    from mshbm_workflow import script_module
+
+    bw = script_module("bench", "bench_workprecision")
 
     grid = {"shooting_steps": [128], "mixed_harmonics": [3], "mixed_steps": [512], "hbm_harmonics": [3],
             "hbm_regularisation_factors": [1.0], "event_shooting": True, "event_mixed_harmonics": [9, 27],

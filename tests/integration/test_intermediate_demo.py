@@ -1,17 +1,16 @@
-"""Section 3.3 demonstration (workflow/scripts/intermediate_demo.py) at toy size.
+"""Section 3.3 demonstration (workflow/scripts/solves/intermediate_demo.py) at toy size.
 
 Both MS-HBM variants solve the same equations on the chain with n_1 friction masses coupled to the
 rest through mass n_1 + 1, so they must give the same solution with the same Newton iterations; the
 intermediate variant carries 2 n_H + 1 harmonic unknowns instead of n_1 (2 n_H + 1), which fixes the
 ratio of the propagated sensitivity work exactly.
 """
-import sys
-from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "workflow" / "scripts"))
-import intermediate_demo as demo  # noqa: E402
+from mshbm_workflow import script_module  # noqa: E402
+
+demo = script_module("solves", "intermediate_demo")
 
 CONFIG = {
     "omega_over_pi": 0.2,

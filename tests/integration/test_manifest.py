@@ -2,13 +2,13 @@
 shown in README.md.  (The workflow itself reads it: tests/integration/test_workflow.py runs the notebooks it lists.)"""
 import importlib.util
 import re
-import sys
 
 import pytest
 from workflow_run import ROOT
 
-sys.path.insert(0, str(ROOT / "workflow" / "scripts"))
-import manifest_table  # noqa: E402
+from mshbm_workflow import script_module  # noqa: E402
+
+manifest_table = script_module("paper", "manifest_table")
 
 MANIFEST = manifest_table.load()
 
@@ -21,7 +21,7 @@ def test_manifest_matches_its_schema():
 
 def test_readme_shows_the_manifest():
     shown = manifest_table.readme_table((ROOT / "README.md").read_text(encoding="utf-8"))
-    assert shown == manifest_table.table(MANIFEST), "python workflow/scripts/manifest_table.py --write"
+    assert shown == manifest_table.table(MANIFEST), "python workflow/scripts/paper/manifest_table.py --write"
     assert "## Where each figure comes from" in (ROOT / "README.md").read_text(encoding="utf-8")
 
 

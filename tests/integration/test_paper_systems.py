@@ -1,6 +1,5 @@
 """The paper's systems are defined once, by the case files of examples/: the workflow config, the stress
-suite, the benchmarks and the tests load them (tests/paper_systems.py, workflow/scripts/wfcore.py)."""
-import sys
+suite, the benchmarks and the tests load them (tests/paper_systems.py, workflow/lib/mshbm_workflow/wfcore.py)."""
 from pathlib import Path
 
 import numpy as np
@@ -10,8 +9,7 @@ import yaml
 import paper_systems as ps
 
 ROOT = Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(ROOT / "workflow" / "scripts"))
-import wfcore  # noqa: E402
+from mshbm_workflow import wfcore  # noqa: E402
 
 
 def _same(a, b):

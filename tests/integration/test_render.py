@@ -2,24 +2,22 @@
 
 The pages come from the session's one run of the quick workflow (fixture ``quick_run``,
 tests/conftest.py).  Each page is parsed with an HTML parser and its visible text checked by
-workflow/scripts/check_render.py: no unparsed markdown (headings, pipe tables, ``**``), no
+workflow/scripts/paper/check_render.py: no unparsed markdown (headings, pipe tables, ``**``), no
 ``{{...}}``, ``n/a``, ``None``, ``nan``, no machine paths, no raw TeX or ASCII symbol names in prose,
 nothing loaded from the network.  Headless Chromium (Debian package ``chromium``; skipped when
 absent) then draws the paper and one notebook offline, and the screenshots must show a page.
 
 The checker itself is tested on small pages with each defect (fast, no workflow).
 """
-import sys
 from pathlib import Path
 
 import nbformat
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(ROOT / "workflow" / "scripts"))
-import check_render  # noqa: E402
-import mdrender  # noqa: E402
-import nbexport  # noqa: E402
+from mshbm_workflow import mdrender, nbexport, script_module  # noqa: E402
+
+check_render = script_module("paper", "check_render")
 
 NOTEBOOKS = [f"fig{i}" for i in range(1, 9)] + ["table1", "table2"]
 

@@ -1,4 +1,4 @@
-"""The quick profile of the stress suite (workflow/scripts/stress.py, GitHub issue 5) and the
+"""The quick profile of the stress suite (workflow/scripts/stress/stress.py, GitHub issue 5) and the
 continuation fallback it measures (mshbm.solvers.continuation).
 
 The quick profile must finish in < 90 s, report no WRONG outcome and no NaN in any number.
@@ -21,7 +21,7 @@ from mshbm.api import solve_with_continuation
 from mshbm.route.continuation import scaled_system
 
 ROOT = Path(__file__).resolve().parents[2]
-SCRIPT = ROOT / "workflow" / "scripts" / "stress.py"
+SCRIPT = ROOT / "workflow" / "scripts" / "stress" / "stress.py"
 CONFIG = ROOT / "workflow" / "stress.yaml"
 
 

@@ -116,7 +116,7 @@ def test_quick_workflow_outputs(quick_run):
 def test_quick_workflow_matches_references(quick_run):
     failures = reference_failures(quick_run / "summary")
     assert not failures, "\n".join(failures) + (
-        "\n(if the change is intended, regenerate: python workflow/scripts/update_references.py)")
+        "\n(if the change is intended, regenerate: python workflow/scripts/paper/update_references.py)")
 
 
 @pytest.mark.slow

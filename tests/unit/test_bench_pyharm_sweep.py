@@ -1,4 +1,4 @@
-"""Pure helpers of the branch benchmark against pyHarm (workflow/scripts/bench_pyharm_sweep.py): the
+"""Pure helpers of the branch benchmark against pyHarm (workflow/scripts/bench/bench_pyharm_sweep.py): the
 monotone pieces of a branch, the branch-to-branch amplitude difference (closed-form branches), and the
 benchmark's systems read from the workflow config.  pyHarm itself is not needed (its environment is
 not part of the test run; the benchmark's JSON is produced by the workflow)."""
@@ -10,7 +10,7 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
 _spec = importlib.util.spec_from_file_location("bench_pyharm_sweep",
-                                               ROOT / "workflow" / "scripts" / "bench_pyharm_sweep.py")
+                                               ROOT / "workflow" / "scripts" / "bench" / "bench_pyharm_sweep.py")
 bps = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(bps)
 

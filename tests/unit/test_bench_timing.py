@@ -1,33 +1,15 @@
-"""Timing helpers of the benchmarks (workflow/scripts/benchlib.py) and the pyHarm models shared by the two
-pyHarm benchmarks (workflow/scripts/pyharmlib.py), without pyHarm.
+"""Timing helpers of the benchmarks (workflow/lib/mshbm_workflow/benchlib.py) and the pyHarm models shared by the two
+pyHarm benchmarks (workflow/lib/mshbm_workflow/pyharmlib.py), without pyHarm.
 
 * ``interleaved_blocks``: the call order (rounds of ``block`` consecutive calls of each case, alternating),
   the warm-up, and the shape of the result; ``block_stats``: median/min over all calls and of the first
   and the other calls of each block, on given times;
 * ``pyharmlib.model_input`` / ``connector``: our M, C, K, forcing and element parameters in pyHarm's input.
 """
-import importlib.util
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
 
-ROOT = Path(__file__).resolve().parents[2]
-SCRIPTS = ROOT / "workflow" / "scripts"
-if str(SCRIPTS) not in sys.path:
-    sys.path.insert(0, str(SCRIPTS))
-
-
-def _load(name):
-    spec = importlib.util.spec_from_file_location(name, SCRIPTS / f"{name}.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
-bl = _load("benchlib")
-phl = _load("pyharmlib")
+from mshbm_workflow import benchlib as bl, pyharmlib as phl
 
 
 def test_interleaved_blocks_call_order_and_shape():

@@ -1,4 +1,4 @@
-"""workflow/scripts/branch_summary.py: the paper's numbers of the frequency-response curves (Fig. 9)."""
+"""workflow/scripts/branches/branch_summary.py: the paper's numbers of the frequency-response curves (Fig. 9)."""
 import importlib.util
 from pathlib import Path
 
@@ -8,7 +8,7 @@ ROOT = Path(__file__).resolve().parents[2]
 
 
 def _module():
-    spec = importlib.util.spec_from_file_location("branch_summary", ROOT / "workflow" / "scripts" / "branch_summary.py")
+    spec = importlib.util.spec_from_file_location("branch_summary", ROOT / "workflow" / "scripts" / "branches" / "branch_summary.py")
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     return mod

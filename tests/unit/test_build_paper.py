@@ -1,15 +1,14 @@
-"""The manuscript's conditionals (workflow/scripts/build_paper.py): one pass, no nesting.  A nested
+"""The manuscript's conditionals (workflow/scripts/paper/build_paper.py): one pass, no nesting.  A nested
 ``<!-- if -->`` used to leave its markers in the rendered paper; the build now fails and says why."""
 import json
-import sys
 from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(ROOT / "workflow" / "scripts"))
+from mshbm_workflow import script_module
 
-import build_paper  # noqa: E402
+ROOT = Path(__file__).resolve().parents[2]
+build_paper = script_module("paper", "build_paper")
 
 
 def _build(tmp_path, body):

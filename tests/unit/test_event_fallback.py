@@ -4,7 +4,7 @@ The system is the stress suite's ``start-random10`` (seed 7, a 7-mass chain with
 DOF 1, forced at 0.6206 rad/s): its exact orbit has a near-grazing impact, and the Moreau-Jean map with 2048
 steps has no periodic point there (Newton stalls at ``||R||_inf ~ 2e-3`` from every start of the ladder, 13 times
 the one-step bound).  The exact event-driven flow has the orbit.  Parameters as drawn by
-``workflow/scripts/stress_cases.random_system`` (spring ``i`` joins mass ``i-1`` to mass ``i``).
+``mshbm_workflow.stress_cases.random_system`` (spring ``i`` joins mass ``i-1`` to mass ``i``).
 """
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The finite-element beam of the FE example (workflow/scripts/build_fe_model.py): element matrices,
+"""The finite-element beam of the FE example (workflow/scripts/fe/build_fe_model.py): element matrices,
 natural frequencies against the closed-form Euler-Bernoulli cantilever, and the case file it writes."""
 import importlib.util
 import json
@@ -14,7 +14,7 @@ from dataclasses import replace
 import mshbm
 
 ROOT = Path(__file__).resolve().parents[2]
-_spec = importlib.util.spec_from_file_location("build_fe_model", ROOT / "workflow" / "scripts" / "build_fe_model.py")
+_spec = importlib.util.spec_from_file_location("build_fe_model", ROOT / "workflow" / "scripts" / "fe" / "build_fe_model.py")
 fe = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(fe)
 

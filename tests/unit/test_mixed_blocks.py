@@ -28,7 +28,7 @@ OMEGA = np.pi / 5
 
 def spread_chain(n, m, damping=0.01):
     """``m`` friction elements (mu 0.8, F_N 5) spread along ``n`` masses, each element's mass forced by
-    5 cos(omega t) (workflow/scripts/bench_nlscaling.py): every element sticks and slips."""
+    5 cos(omega t) (workflow/scripts/bench/bench_nlscaling.py): every element sticks and slips."""
     dofs = [int(round((i + 0.5) * n / m)) for i in range(m)]
     return chain([1.0] * n, 1.0, damping, forcing=[{"dof": d, "amplitude": 5.0} for d in dofs],
                  elements=[Friction(d, 0.8, 5.0, 800.0) for d in dofs])

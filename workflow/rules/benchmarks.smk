@@ -21,11 +21,13 @@ if BENCH:
     rule bench_workprecision:
         input:
             config=f"{R}/config.json",
-            script="workflow/scripts/bench_workprecision.py",
+            script="workflow/scripts/bench/bench_workprecision.py",
         output:
             f"{R}/{{bdir}}/workprecision_{{system}}.json",
         log:
             f"{R}/logs/{{bdir}}/workprecision_{{system}}.log",
+        benchmark:
+            f"{R}/logs/times/{{bdir}}/workprecision_{{system}}.tsv",
         wildcard_constraints:
             bdir=_BDIRS,
         params:
@@ -50,6 +52,8 @@ if BENCH:
             f"{PYHARM_ENV}/installed.txt",
         log:
             f"{R}/logs/pyharm_env.log",
+        benchmark:
+            f"{R}/logs/times/pyharm_env.tsv",
         params:
             python=BENCH_PY,
             venv=lambda w, output: os.path.dirname(output[0]),
@@ -66,13 +70,15 @@ if BENCH:
     rule bench_standalone:
         input:
             unpack(bench_inputs),
-            script="workflow/scripts/bench_{bench}.py",
-            lib="workflow/scripts/benchlib.py",
+            script="workflow/scripts/bench/bench_{bench}.py",
+            lib=f"{WF_LIB}/benchlib.py",
         output:
             json=f"{R}/{{bdir}}/{{bench}}.json",
             png=f"{R}/{{bdir}}/{{bench}}.png",
         log:
             f"{R}/logs/{{bdir}}/{{bench}}.log",
+        benchmark:
+            f"{R}/logs/times/{{bdir}}/{{bench}}.tsv",
         wildcard_constraints:
             bench="kernel|scaling|scipy|pyharm|pyharm_sweep|nlscaling",
             bdir=_BDIRS,
@@ -89,7 +95,7 @@ if BENCH:
 
     rule bench_report:
         input:
-            script="workflow/scripts/bench_report.py",
+            script="workflow/scripts/bench/bench_report.py",
             wp=lambda w: expand(f"{R}/{w.bdir}/workprecision_{{system}}.json", system=BENCH["systems"]),
             other=lambda w: expand(f"{R}/{w.bdir}/{{bench}}.json", bench=BENCH["standalone"]),
         output:
@@ -98,6 +104,8 @@ if BENCH:
             json=f"{R}/{{bdir}}/summary.json",
         log:
             f"{R}/logs/{{bdir}}/report.log",
+        benchmark:
+            f"{R}/logs/times/{{bdir}}/report.tsv",
         wildcard_constraints:
             bdir=_BDIRS,
         params:

@@ -2,19 +2,21 @@
 # (config `branches`), mshbm.sweep over the branch's frequency range, then one summary for the notebook
 # and the paper ({{branches.<key>}}).
 #
-#   <results>/branches/<name>/<method>.json   the branch (scripts/branch.py)
-#   <results>/summary/branches.json           all branches and the paper's numbers (scripts/branch_summary.py)
+#   <results>/branches/<name>/<method>.json   the branch (scripts/branches/branch.py)
+#   <results>/summary/branches.json           all branches and the paper's numbers (scripts/branches/branch_summary.py)
 
 if BRANCHES:
 
     rule branch:
         input:
             config=f"{R}/config.json",
-            script="workflow/scripts/branch.py",
+            script="workflow/scripts/branches/branch.py",
         output:
             f"{R}/branches/{{name}}/{{bmethod}}.json",
         log:
             f"{R}/logs/branches/{{name}}/{{bmethod}}.log",
+        benchmark:
+            f"{R}/logs/times/branches/{{name}}/{{bmethod}}.tsv",
         wildcard_constraints:
             name="|".join(BRANCHES),
             bmethod=r"[a-z][a-z0-9-]*",  # the curve's label (config branches.<name>.methods)
@@ -34,11 +36,13 @@ if BRANCHES:
     rule branch_summary:
         input:
             branches=branch_files(),
-            script="workflow/scripts/branch_summary.py",
+            script="workflow/scripts/branches/branch_summary.py",
         output:
             f"{R}/summary/branches.json",
         log:
             f"{R}/logs/branch_summary.log",
+        benchmark:
+            f"{R}/logs/times/branch_summary.tsv",
         params:
             argv=lambda w, input, output: ["--out", output[0], *input.branches],
         threads: 1

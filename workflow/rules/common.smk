@@ -7,8 +7,10 @@ import sys
 
 import yaml
 
-sys.path.insert(0, str(Path(workflow.basedir, "scripts")))
-import wfcore  # noqa: E402
+from mshbm_workflow import wfcore
+
+#: the workflow's libraries (the package mshbm_workflow); rules name the modules they use as inputs
+WF_LIB = "workflow/lib/mshbm_workflow"
 
 # the systems are defined by their case files (examples/*.yaml); fill in their parameters once
 wfcore.resolve_systems(config)
@@ -175,16 +177,16 @@ BENCH_PY = sys.executable
 #: later runs; $PYHARM_PYTHON (an interpreter that imports pyHarm) overrides it and skips the rule
 PYHARM_ENV = "envs/pyharm"
 PYHARM_PYTHON = os.environ.get("PYHARM_PYTHON")
-#: the stand-alone benchmarks that run in pyHarm's environment (scripts/bench_<name>.py re-run themselves there)
+#: the stand-alone benchmarks that run in pyHarm's environment (scripts/bench/bench_<name>.py re-run themselves there)
 PYHARM_BENCHES = ("pyharm", "pyharm_sweep")
 
 
 def bench_inputs(w):
-    """Extra inputs of a stand-alone benchmark: pyHarm's environment and scripts/pyharmlib.py for `pyharm` and
+    """Extra inputs of a stand-alone benchmark: pyHarm's environment and the library pyharmlib for `pyharm` and
     `pyharm_sweep`."""
     inputs = {}
     if w.bench in PYHARM_BENCHES:
-        inputs["pyharmlib"] = "workflow/scripts/pyharmlib.py"  # their shared pyHarm plumbing
+        inputs["pyharmlib"] = f"{WF_LIB}/pyharmlib.py"  # their shared pyHarm plumbing
     if w.bench in PYHARM_BENCHES and not PYHARM_PYTHON:
         inputs["pyharm_env"] = f"{PYHARM_ENV}/installed.txt"
     if w.bench == "pyharm_sweep":  # its branches are the config's (`branches` friction3, impact5)
@@ -258,9 +260,9 @@ def solve_params(w):
 
 # ----------------------------------------------------------------------------- notebooks
 #: code the notebooks import (a change reruns the notebooks); not passed as a parameter
-NB_HELPERS = ["notebooks/nbcommon.py", "notebooks/tables.py", "notebooks/wpcommon.py", "workflow/scripts/wfcore.py",
-              # the HTML rendering (markdown, math, offline template)
-              "workflow/scripts/mdrender.py", "workflow/scripts/nbexport.py", "workflow/templates/offline/index.html.j2"]
+NB_HELPERS = [f"{WF_LIB}/{name}.py" for name in ("nbcommon", "tables", "wpcommon", "wfcore",
+                                                   # the HTML rendering (markdown, math, offline template)
+                                                   "mdrender", "nbexport")] + ["workflow/templates/offline/index.html.j2"]
 
 
 def npz_inputs(fig):

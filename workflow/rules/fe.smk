@@ -1,9 +1,9 @@
 # Finite-element example (issue 15, Fig. 10, paper Sec. 5.8): a cantilever structure built into Matrix
-# Market files and a case file with a friction joint and an impact stop (scripts/build_fe_model.py), its
-# frequency-response curve with each method of config `fe_example.methods` (scripts/fe_sweep.py, one job
-# per method), single solves at the case's frequency (scripts/fe_example.py: full shooting where the dense
+# Market files and a case file with a friction joint and an impact stop (scripts/fe/build_fe_model.py), its
+# frequency-response curve with each method of config `fe_example.methods` (scripts/fe/fe_sweep.py, one job
+# per method), single solves at the case's frequency (scripts/fe/fe_example.py: full shooting where the dense
 # time stepper allows it, else its refusal) and one summary for the notebook and the paper
-# ({{fe.<key>}}, scripts/fe_summary.py).  Parameters: config `fe_example`.
+# ({{fe.<key>}}, scripts/fe/fe_summary.py).  Parameters: config `fe_example`.
 #
 #   <results>/fe/<mesh>/{M,K}.mtx, fe.yaml, modes.json   the model on mesh `sweep`, `solve` or `shooting` (rule fe_model)
 #   <results>/fe/sweep/sweep_<method>.json              the frequency-response curve (rule fe_sweep)
@@ -29,7 +29,7 @@ if config.get("fe_example"):
             # the config snapshot: its mesh sizes enter only through the callable params below, and Snakemake
             # records no callable params, so without this input a changed mesh did not rebuild the model
             config=f"{R}/config.json",
-            script="workflow/scripts/build_fe_model.py",
+            script="workflow/scripts/fe/build_fe_model.py",
         output:
             case=f"{FE_DIR}/{{mesh}}/fe.yaml",
             M=f"{FE_DIR}/{{mesh}}/M.mtx",
@@ -41,6 +41,8 @@ if config.get("fe_example"):
             argv=lambda w, output: fe_model_argv(w, output),
         log:
             f"{R}/logs/fe/fe_model_{{mesh}}.log",
+        benchmark:
+            f"{R}/logs/times/fe/fe_model_{{mesh}}.tsv",
         threads: 1
         resources:
             mem_mb=1000,
@@ -57,7 +59,7 @@ if config.get("fe_example"):
             M=f"{FE_DIR}/sweep/M.mtx",
             K=f"{FE_DIR}/sweep/K.mtx",
             modes=f"{FE_DIR}/sweep/modes.json",
-            script="workflow/scripts/fe_sweep.py",
+            script="workflow/scripts/fe/fe_sweep.py",
         output:
             f"{FE_DIR}/sweep/sweep_{{fmethod}}.json",
         wildcard_constraints:
@@ -68,10 +70,12 @@ if config.get("fe_example"):
                                            "--harmonics", str(FE["harmonics"]), "--steps", str(FE["steps"]),
                                            "--max-points", str(FE["max_points"]), "--ds-max", str(FE["ds_max"]),
                                            *[a for k, v in FE.get("sweep_options", {}).get(w.fmethod, {}).items()
-                                             for a in (f"--{k}", str(v))]],
+                                             for a in (f"--{k.replace('_', '-')}", str(v))]],
             solver=SOLVER_DIGEST,
         log:
             f"{R}/logs/fe/fe_sweep_{{fmethod}}.log",
+        benchmark:
+            f"{R}/logs/times/fe/fe_sweep_{{fmethod}}.tsv",
         threads: 1
         resources:
             mem_mb=3000,
@@ -88,7 +92,7 @@ if config.get("fe_example"):
             M=f"{FE_DIR}/solve/M.mtx",
             K=f"{FE_DIR}/solve/K.mtx",
             shooting_case=f"{FE_DIR}/{'shooting' if 'shooting' in FE['meshes'] else 'sweep'}/fe.yaml",
-            script="workflow/scripts/fe_example.py",
+            script="workflow/scripts/fe/fe_example.py",
         output:
             json=f"{FE_DIR}/solve/solves.json",
         params:
@@ -99,6 +103,8 @@ if config.get("fe_example"):
             solver=SOLVER_DIGEST,
         log:
             f"{R}/logs/fe/fe_example.log",
+        benchmark:
+            f"{R}/logs/times/fe/fe_example.tsv",
         threads: 1
         resources:
             mem_mb=2000,
@@ -114,7 +120,7 @@ if config.get("fe_example"):
             solve_modes=f"{FE_DIR}/solve/modes.json",
             solves=rules.fe_example.output.json,
             sweeps=expand(f"{FE_DIR}/sweep/sweep_{{fmethod}}.json", fmethod=FE["methods"]),
-            script="workflow/scripts/fe_summary.py",
+            script="workflow/scripts/fe/fe_summary.py",
         output:
             f"{R}/summary/fe.json",
         params:
@@ -122,6 +128,8 @@ if config.get("fe_example"):
                                            "--solves", input.solves, "--out", output[0], *input.sweeps],
         log:
             f"{R}/logs/fe/fe_summary.log",
+        benchmark:
+            f"{R}/logs/times/fe/fe_summary.tsv",
         threads: 1
         resources:
             mem_mb=500,

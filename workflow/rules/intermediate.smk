@@ -10,12 +10,14 @@ if config.get("intermediate_demo"):
     rule intermediate_demo:
         input:
             config=f"{R}/config.json",
-            script="workflow/scripts/intermediate_demo.py",
+            script="workflow/scripts/solves/intermediate_demo.py",
         output:
             json=f"{R}/summary/intermediate.json",
             md=f"{R}/tables/intermediate.md",
         log:
             f"{R}/logs/intermediate_demo.log",
+        benchmark:
+            f"{R}/logs/times/intermediate_demo.tsv",
         params:
             argv=lambda w, input, output: ["--config", input.config, "--out", output.json, "--table", output.md],
             solver=SOLVER_DIGEST,

@@ -1,6 +1,6 @@
 # What the impact chains do next to their (unstable) T-periodic orbits: the exact event-driven flow
-# from rest over config `longrun.periods` periods, with a Moreau-Jean cross-check (scripts/longrun.py),
-# and the candidates for the impact time of Fig. 6 (scripts/impact_time.py).
+# from rest over config `longrun.periods` periods, with a Moreau-Jean cross-check (scripts/solves/longrun.py),
+# and the candidates for the impact time of Fig. 6 (scripts/solves/impact_time.py).
 
 
 rule longrun:
@@ -13,12 +13,14 @@ rule longrun:
         solver=SOLVER_DIGEST,
     log:
         f"{R}/logs/longrun/{{case}}.log",
+    benchmark:
+        f"{R}/logs/times/longrun/{{case}}.tsv",
     threads: 1
     resources:
         mem_mb=1000,
         runtime=30,
     script:
-        "../scripts/longrun.py"
+        "../scripts/solves/longrun.py"
 
 
 rule impact_time:
@@ -30,9 +32,11 @@ rule impact_time:
         solver=SOLVER_DIGEST,
     log:
         f"{R}/logs/longrun/impact_time_{{case}}.log",
+    benchmark:
+        f"{R}/logs/times/longrun/impact_time_{{case}}.tsv",
     threads: 1
     resources:
         mem_mb=1000,
         runtime=30,
     script:
-        "../scripts/impact_time.py"
+        "../scripts/solves/impact_time.py"

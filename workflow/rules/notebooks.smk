@@ -1,7 +1,7 @@
 # One notebook per figure/table, one rule for all of them: notebooks/<name>.py (jupytext percent
 # format, the only source) -> job of rule `notebook` with name=<name> -> results/figures/<name>.png/.pdf.
 # The tables' jobs (rule `notebook_table`, the same rule with the table's outputs
-# results/tables/<name>.md/.csv instead of a PNG and a PDF) work alike.  scripts/run_notebook.py converts
+# results/tables/<name>.md/.csv instead of a PNG and a PDF) work alike.  scripts/paper/run_notebook.py converts
 # the source with jupytext, executes it with papermill and renders it; the executed notebook and its
 # HTML are kept under results/notebooks/.  Editing notebooks/fig3.py reruns the fig3 job and the paper.
 #
@@ -24,6 +24,8 @@ rule notebook:
         pdf=f"{R}/figures/{{name}}.pdf",
     log:
         f"{R}/logs/notebooks/{{name}}.log",
+    benchmark:
+        f"{R}/logs/times/notebooks/{{name}}.tsv",
     wildcard_constraints:
         name="|".join(FIGURES),
     threads: 1
@@ -31,7 +33,7 @@ rule notebook:
         mem_mb=1000,
         runtime=10,
     script:
-        "../scripts/run_notebook.py"
+        "../scripts/paper/run_notebook.py"
 
 
 use rule notebook as notebook_table with:

@@ -1,13 +1,13 @@
 # The literate manuscript paper/paper.md -> one self-contained HTML file (figures embedded).
 # Numbers in the text are placeholders {{fig8.<key>}} / {{config.<dotted key>}} filled from
-# results/summary/*.json and results/config.json by scripts/build_paper.py.
+# results/summary/*.json and results/config.json by scripts/paper/build_paper.py.
 
 
 rule paper:
     input:
         md="paper/paper.md",
         # the markdown renderer (build_paper.py itself is tracked as the rule's script)
-        renderer="workflow/scripts/mdrender.py",
+        renderer=f"{WF_LIB}/mdrender.py",
         config=f"{R}/config.json",
         figures=expand(f"{R}/figures/{{name}}.png", name=FIGURES),
         tables=expand(f"{R}/tables/{{name}}.md", name=TABLES),
@@ -23,10 +23,12 @@ rule paper:
         md=f"{R}/paper/paper.filled.md",
     log:
         f"{R}/logs/paper.log",
+    benchmark:
+        f"{R}/logs/times/paper.tsv",
     threads: 1
     priority: 10
     resources:
         mem_mb=500,
         runtime=5,
     script:
-        "../scripts/build_paper.py"
+        "../scripts/paper/build_paper.py"

@@ -1,5 +1,5 @@
 # One job per periodic solve, keyed by system (case), method, n_H and steps.
-# Output: <results>/solves/<case>/<method>_nh<n_H>_N<steps>.json (+ .npz), see scripts/solve.py.
+# Output: <results>/solves/<case>/<method>_nh<n_H>_N<steps>.json (+ .npz), see scripts/solves/solve.py.
 
 
 wildcard_constraints:
@@ -22,9 +22,11 @@ rule solve:
         solver=SOLVER_DIGEST,
     log:
         f"{R}/logs/solves/{{case}}/{{method}}_nh{{nh}}_N{{steps}}.log",
+    benchmark:
+        f"{R}/logs/times/solves/{{case}}/{{method}}_nh{{nh}}_N{{steps}}.tsv",
     threads: 1
     resources:
         mem_mb=2000,
         runtime=30,
     script:
-        "../scripts/solve.py"
+        "../scripts/solves/solve.py"

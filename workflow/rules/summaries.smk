@@ -1,4 +1,4 @@
-# Cheap aggregation: errors against the reference, efforts, impacts, claims (scripts/summarize.py).
+# Cheap aggregation: errors against the reference, efforts, impacts, claims (scripts/summaries/summarize.py).
 # Restyling a figure never reruns a solver; these read JSON only.
 
 
@@ -13,12 +13,14 @@ rule summary:
         system=lambda w: config["systems"][config["figures"][w.fig]["system"]],
     log:
         f"{R}/logs/summary/{{fig}}.log",
+    benchmark:
+        f"{R}/logs/times/summary/{{fig}}.tsv",
     threads: 1
     resources:
         mem_mb=500,
         runtime=5,
     script:
-        "../scripts/summarize.py"
+        "../scripts/summaries/summarize.py"
 
 
 rule config_snapshot:
@@ -28,12 +30,14 @@ rule config_snapshot:
         config={k: v for k, v in config.items() if k != "results_dir"},
     log:
         f"{R}/logs/config_snapshot.log",
+    benchmark:
+        f"{R}/logs/times/config_snapshot.tsv",
     threads: 1
     resources:
         mem_mb=200,
         runtime=5,
     script:
-        "../scripts/config_snapshot.py"
+        "../scripts/summaries/config_snapshot.py"
 
 
 # The exact event-driven periodic solution (mshbm.methods.exact) of a figure's system, seeded by the reference
@@ -49,9 +53,11 @@ rule exact_reference:
         solver=SOLVER_DIGEST,
     log:
         f"{R}/logs/solves/{{case}}/exact.log",
+    benchmark:
+        f"{R}/logs/times/solves/{{case}}/exact.tsv",
     threads: 1
     resources:
         mem_mb=2000,
         runtime=30,
     script:
-        "../scripts/exact_reference.py"
+        "../scripts/solves/exact_reference.py"

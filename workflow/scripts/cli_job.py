@@ -1,13 +1,14 @@
 """Run a workflow script that has a command line as the `script:` of a rule (rules stress, bench_*,
 intermediate_demo).
 
-These scripts are also run by hand (``python workflow/scripts/stress.py --quick ...``), so their
+These scripts are also run by hand (``python workflow/scripts/stress/stress.py --quick ...``), so their
 interface is ``main(argv)``, which returns an exit code (stress.py) or the data it wrote (the
 benchmarks).  Under Snakemake the rule names the script as
 ``input.script`` (a change of it reruns the job) and its command line as ``params.argv``; this file
 imports the script as a module and calls ``main(params.argv)`` in the job's own interpreter (the one
 running Snakemake, with mshbm installed: no ``{python}`` parameter, no shell).  Everything the script
-and its child processes print goes to the rule's log; an exception or an integer return value other
+and its child processes print goes to the rule's log (the scripts import their helpers from the package
+``mshbm_workflow``, workflow/lib); an exception or an integer return value other
 than 0 fails the job.  The rules' ``message`` is the equivalent command line (shown by ``snakemake -n``).
 """
 import importlib.util
@@ -18,8 +19,6 @@ from pathlib import Path
 
 def run(script, argv, log):
     script = Path(script).resolve()
-    # as `python SCRIPT`: the script's directory first on the path (its helper modules: benchlib, wfcore)
-    sys.path.insert(0, str(script.parent))
     sys.argv = [str(script), *argv]
     with open(log, "w", encoding="utf-8") as logf:
         # file descriptors, not sys.stdout: child processes (worker pools, other interpreters) log too
