@@ -131,6 +131,7 @@ def _check_clean_failure(sol):
     assert sol.residual == min(r["residual"] for r in sol.info["starts"])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("gap,e,omega", OSC_CASES)
 def test_impact_oscillator_shooting_default_start(gap, e, omega):
     sol = _osc_solve(gap, e, omega)
