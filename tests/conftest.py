@@ -12,9 +12,9 @@ marked tests, which pytest 9 no longer takes into account):
 * every other test is a unit of its own.
 
 Units holding a test marked ``slow`` start before the others, so that no worker is left with a long unit
-at the end.  Before the workers start, one process compiles the numba kernels into their on-disk cache
-when the cache is empty (:func:`pytest_configure`), so that the workers and the workflow's jobs load them
-instead of compiling them each.
+at the end.  While the workers collect, one process compiles the numba kernels into their on-disk cache when
+the cache is empty (:func:`pytest_configure`), and the workers wait for it before their first test, so that
+they and the workflow's jobs load the kernels instead of compiling them each.
 """
 import importlib.util
 import json
@@ -23,6 +23,8 @@ import shutil
 import subprocess
 import sys
 import tempfile
+import threading
+import time
 from pathlib import Path
 
 import pytest
@@ -65,11 +67,34 @@ def _numba_cache_is_cold():
 def pytest_configure(config):
     if not _xdist_controller(config):
         return
-    config.stash[UNITS_DIR] = tempfile.mkdtemp(prefix="pytest-units-")
-    if _numba_cache_is_cold():
-        tests = Path(__file__).resolve().parent
-        env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(tests), os.environ.get("PYTHONPATH")])))
-        subprocess.run([sys.executable, "-c", WARM_UP], env=env, cwd=tests, capture_output=True, timeout=600)
+    units = config.stash[UNITS_DIR] = tempfile.mkdtemp(prefix="pytest-units-")
+    done = Path(units) / "warm-up.done"
+    if not _numba_cache_is_cold():
+        done.touch()
+        return
+    tests = Path(__file__).resolve().parent
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(tests), os.environ.get("PYTHONPATH")])))
+    proc = subprocess.Popen([sys.executable, "-c", WARM_UP], env=env, cwd=tests,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+
+    def finish():  # the workers collect meanwhile and wait for this file before their first test
+        try:
+            proc.wait(timeout=600)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+        done.touch()
+
+    threading.Thread(target=finish, daemon=True).start()
+
+
+def pytest_collection_finish(session):
+    """(in an xdist worker) Wait for the compilation of the numba kernels (:func:`pytest_configure`)."""
+    units_dir = getattr(session.config, "workerinput", {}).get("units_dir")
+    if units_dir is None:
+        return
+    deadline = time.monotonic() + 660
+    while not (Path(units_dir) / "warm-up.done").exists() and time.monotonic() < deadline:
+        time.sleep(0.2)
 
 
 def pytest_unconfigure(config):
