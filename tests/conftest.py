@@ -35,14 +35,15 @@ from workflow_run import QUICK, TARGET, copy_workflow, run
 QUICK_GROUP = "quick-workflow"
 #: (controller) the folder where the xdist workers write the work units of their collection
 UNITS_DIR = pytest.StashKey[str]()
-#: solves that compile every numba kernel of the package (run once before the workers start)
+#: solves that compile the numba kernels of the package (run once, while the xdist workers collect)
 WARM_UP = """
 import mshbm
 from paper_systems import OMEGA, friction_chain, impact_chain
 for system in (friction_chain(3), impact_chain(5)):
     for method, options in (("shooting", dict(steps=256)), ("mshbm", dict(harmonics=3, steps=256)),
                             ("mshbm-intermediate", dict(harmonics=3, steps=256)), ("hbm", dict(harmonics=5)),
-                            ("dlft", dict(harmonics=5)), ("shooting", dict(steps=256, integrator="event")),
+                            ("dlft", dict(harmonics=5)), ("dlft", dict(harmonics=5, dlft_predictor="displacement")),
+                            ("shooting", dict(steps=256, integrator="event")),
                             ("mshbm", dict(harmonics=3, steps=256, integrator="event"))):
         try:
             mshbm.solve(system, OMEGA, method, **options)
