@@ -127,6 +127,7 @@ def test_fe_example_starts_mshbm_from_hbm_and_measures_shooting(tmp_path):
     assert json.loads((tmp_path / "solves.json").read_text())["n_dofs"] == 162
 
 
+@pytest.mark.slow
 def test_event_sweep_passes_the_impact_onset_that_moreau_steps_zigzag_at(model, tmp_path):
     """fe_sweep.py with MS-HBM and the exact event-driven flow (``--integrator event --accumulation close``, the
     config's choice) over [0.97, 1.0] w_1, where the pad starts to hit the stop (with Moreau-Jean steps the

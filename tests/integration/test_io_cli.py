@@ -170,6 +170,7 @@ def test_max_iter_zero_exits_1_and_json_says_failure(tmp_path, capsys):
     assert re.search(r"^success\s+no$", out, re.M)
 
 
+@pytest.mark.slow
 def test_genuine_failure_exits_1(tmp_path, capsys):
     # MS-HBM on the impact chain needs many Newton iterations from the linear start: one is not enough
     case = yaml.safe_load((EXAMPLES / "impact5.yaml").read_text())

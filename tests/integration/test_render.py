@@ -146,6 +146,7 @@ def test_quick_pages_in_headless_chromium(pages, tmp_path):
 
 
 # ----------------------------------------------------------------------------- pyHarm in the default run
+@pytest.mark.slow
 @pytest.mark.parametrize("bench", ["pyharm", "pyharm_sweep"])
 def test_default_run_builds_pyharm_environment(workdir, bench):
     """The full configuration's pyHarm benchmarks (single solves; branches with pyHarm's continuation)

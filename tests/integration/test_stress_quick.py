@@ -44,6 +44,7 @@ def quick(tmp_path_factory):
     return summary, (out / "summary.md").read_text(), wall, proc.stderr
 
 
+@pytest.mark.slow
 def test_quick_profile_is_quick(quick):
     summary, _, wall, _ = quick
     assert wall < 90, f"quick stress profile took {wall:.0f} s"
@@ -152,6 +153,7 @@ def test_continuation_from_far_frequency(strategy):
     assert np.max(np.abs(sol.amplitude - ref.amplitude)) < 0.03 * np.max(ref.amplitude)
 
 
+@pytest.mark.slow
 def test_continuation_never_claims_success_it_did_not_get():
     system = impact_chain(5)
     sol = solve_with_continuation(system, 1.0, "mshbm", guess="zero", strategies=("linear", "forcing"),

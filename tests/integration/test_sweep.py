@@ -88,6 +88,7 @@ def test_arclength_records_why_its_corrector_failed():
 
 
 # ----------------------------------------------------------------------------- closed forms
+@pytest.mark.slow
 def test_linear_branch_matches_exact_frf():
     s = chain([1.0, 2.0], [1.0, 0.5], 0.05, forcing=[{"dof": 1, "amplitude": 1.0}])
     b = mshbm.sweep(s, 0.3, 1.6, "shooting", steps=8192)
@@ -117,6 +118,7 @@ def _den_hartog(w, zeta, F, R):
     return X
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method,kw", [("shooting", dict(steps=4096)), ("mshbm", dict(harmonics=20, steps=4096))])
 def test_den_hartog_branch_above_resonance(method, kw):
     zeta, F, R = 0.05, 1.0, 0.3
@@ -178,6 +180,7 @@ def test_dlft_branch_of_the_friction_chain_against_mshbm():
 
 
 # ----------------------------------------------------------------------------- a fold of an impact oscillator
+@pytest.mark.slow
 def test_impact_oscillator_branch_passes_its_fold():
     """x'' + 0.1 x' + x = cos(omega t), stop at 0.5, e = 0.8: the impacting (1,1) branch bends to the right
     and turns back (fold near omega = 1.89); every point is certified and the branch is continuous."""
@@ -230,6 +233,7 @@ def test_period_2_response_of_the_impact_chain_against_a_transient(impact5):
     np.testing.assert_allclose(sol.amplitude, amp, rtol=5e-3)
 
 
+@pytest.mark.slow
 def test_switch_at_the_period_doubling_of_the_impact_oscillator():
     """Budd & Dux's impact oscillator (tests/closed_forms.py): the (1,1) branch by shooting has its period
     doubling at the closed-form omega_PD (measured 2.4567142 against 2.4567154); switching there gives a
@@ -287,6 +291,7 @@ def _grazing_reference(system, sols, key):
     return -b / a
 
 
+@pytest.mark.slow
 def test_event_period_2_branch_of_the_impact_chain_passes_its_grazing(impact5):
     """The period-2 branch of the impact chain from pi/5 (issue 13): its second impact per 2T loses its velocity
     at omega_g = 0.63935 (a grazing), and the branch goes on with one impact per 2T (a near miss there) to 0.7.
@@ -325,6 +330,7 @@ def test_event_period_2_branch_of_the_impact_chain_passes_its_grazing(impact5):
     assert r.amplitude[-1, 0] == pytest.approx(b.amplitude[0, 0], rel=1e-6)
 
 
+@pytest.mark.slow
 def test_period_option_of_sweep_reports_forcing_frequency(impact5):
     b = mshbm.sweep(impact5, np.pi / 5, 0.64, "mshbm", period=2, harmonics=5, max_points=6)
     assert b.period == 2 and len(b) >= 2

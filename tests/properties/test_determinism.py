@@ -83,6 +83,7 @@ def _compare(a, b, env_threads=False):
     return diff
 
 
+@pytest.mark.slow
 def test_bit_identical_across_runs(runs):
     assert not _compare(runs["t1a"], runs["t1b"])
 
@@ -102,6 +103,7 @@ def test_threaded_lapack_paths(runs):
     assert not diff, "results with blas_threads=None depend on the thread count:\n" + "\n".join(diff)
 
 
+@pytest.mark.slow
 def test_lapack_thread_dependence_root_cause():
     """The root cause in isolation: inv/solve of a 240x240 SPD matrix with 1 and 2 BLAS threads."""
     from threadpoolctl import threadpool_limits

@@ -139,6 +139,7 @@ def test_discrete_energy_identity_random_friction(case):
 
 
 # ----------------------------------------------------------------------------- contact
+@pytest.mark.slow
 @SETTINGS
 @given(case=random_chain("contact"))
 def test_non_penetration_random_systems(case):

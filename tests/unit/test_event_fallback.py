@@ -75,6 +75,7 @@ def test_fallback_respects_max_time(grazing):
     assert "time budget" in sol.message
 
 
+@pytest.mark.slow
 def test_no_fallback_without_impacts():
     # the same chain with a friction element at the same DOF, no Newton iteration allowed, so that every start
     # of the ladder fails: a system without contacts never switches integrator

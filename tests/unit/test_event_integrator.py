@@ -46,6 +46,7 @@ def _impacts(events, element):
 
 
 # ----------------------------------------------------------------------------- Budd & Dux
+@pytest.mark.slow
 def test_budd_dux_11_orbit_shooting_and_exact():
     t0, v = cf.stable_orbit(OMEGA_BD)
     mu_cf = cf.multipliers(OMEGA_BD, t0, v)
@@ -223,6 +224,7 @@ def test_ball_accumulation_in_moreau_mode_and_event_cap():
 
 
 # ----------------------------------------------------------------------------- monodromy
+@pytest.mark.slow
 @pytest.mark.parametrize("case", ["friction+contact", "two stops"])
 def test_monodromy_of_two_element_flow_against_finite_differences(case, two_stops):
     if case == "two stops":
@@ -572,6 +574,7 @@ def test_balanced_grid_finds_the_same_events_as_the_former_fine_grid():
     assert np.abs(a.end_state[:6] - b.end_state[:6]).max() <= 1e-7 * np.abs(b.end_state[:6]).max()
 
 
+@pytest.mark.slow
 def test_mshbm_event_with_zeno_closure_converges_where_the_moreau_fallback_stalls():
     """``accumulation="close"`` (MS-HBM and shooting with ``integrator="event"``): accumulating impacts are
     closed (exact up to the dropped tail), so the flow and its monodromy stay exact and Newton converges;

@@ -165,6 +165,7 @@ def test_plate_dof_index():
     assert fe.plate_w_dof(0.0, 0.0, nx, ny) == 0
 
 
+@pytest.mark.slow
 def test_plate_example_is_current(tmp_path):
     """The committed 10^4-DOF plate case file is the one the script writes (:func:`assert_example_is_current`)."""
     fe.build_fe_model(tmp_path, n_el=50, case_name="plate.yaml", model="plate", ny=49)
@@ -189,6 +190,7 @@ def plate_mu0(tmp_path_factory):
     return s0, w, fr[0].dof, float(np.abs(X[fr[0].dof]))
 
 
+@pytest.mark.slow
 def test_mshbm_on_a_stiff_fe_dof_is_never_certified_wrong(plate_mu0):
     """MS-HBM time-steps the friction DOF of a plate node: sqrt(K_dd / M_dd) / omega ~ 3e4 with Rayleigh
     damping beta K_dd, the condensed compliance amplifying the scheme's frequency warping ~1e7 times.

@@ -103,6 +103,7 @@ def event_branch(impact5):
     return b
 
 
+@pytest.mark.slow
 def test_hbm_sweep_traces_the_impact_chain_branch(impact5, event_branch):
     """``mshbm.sweep`` with HBM from the default start over [0.5, 0.75] rad/s (examples/impact5.yaml,
     k_c = 8000).  Measured (n_H = 20, 156 points, ~12 s): monotone in omega (no spurious fold), mass 1

@@ -79,6 +79,7 @@ def _regularised_monodromy(system, omega, x0):
     return np.linalg.eigvals(Phi)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("case", ["1dof", "2dof"])
 def test_regularised_friction_against_ode_monodromy(case):
     omega = 0.9
@@ -133,6 +134,7 @@ def test_double_negative_multiplier():
         assert _match(mu, [-np.exp(-zeta * np.pi / wd)] * 2) < 1e-9
 
 
+@pytest.mark.slow
 def test_stiff_regularisation_no_spurious_multipliers(friction3):
     """The paper's 3-DOF friction chain (kappa = 800, stick-slip): the stiff 'stick' damping puts spurious
     real eigenvalues into the truncated Hill spectrum (real eigenvectors: centroid 0); they once gave six

@@ -66,6 +66,7 @@ def test_solve_with_continuation_ends_with_the_ladder(impact5, reference):
     assert _rel(sol.amplitude, reference.amplitude) < 0.03
 
 
+@pytest.mark.slow
 def test_force_rows_not_relaxed_where_the_step_does_not_resolve_the_structure():
     """The stress suite's start-random5 (23 undamped masses, omega = 0.037 rad/s, fastest mode 36 rad/s,
     omega_max h = 3): the one-step argument does not hold, and the MS-HBM 3.3 solution from the solution at

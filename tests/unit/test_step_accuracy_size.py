@@ -80,6 +80,7 @@ def test_check_gates_only_in_solve_and_scales_with_the_bound(impact5_at_1):
     assert "step_accuracy_size" not in certify(prob, sol, 1e-10)
 
 
+@pytest.mark.slow
 def test_random21_large_one_step_bound_not_certified():
     system, omega = _random(21)
     sol = mshbm.solve(system, omega, "mshbm", **OPTS)

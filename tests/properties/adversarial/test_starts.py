@@ -131,6 +131,8 @@ def _check_clean_failure(sol):
     assert sol.residual == min(r["residual"] for r in sol.info["starts"])
 
 
+@pytest.mark.xdist_group("impact-oscillator")  # one worker: they share the solves of _osc_solve
+@pytest.mark.slow
 @pytest.mark.parametrize("gap,e,omega", OSC_CASES)
 def test_impact_oscillator_shooting_default_start(gap, e, omega):
     sol = _osc_solve(gap, e, omega)
@@ -140,6 +142,7 @@ def test_impact_oscillator_shooting_default_start(gap, e, omega):
         _check_clean_failure(sol)
 
 
+@pytest.mark.xdist_group("impact-oscillator")  # one worker: they share the solves of _osc_solve
 def test_impact_oscillator_share_converged():
     """Before the start strategy 16 of these 60 cases converged (10 of 30 at gap 0, 6 of 30 at gap
     0.1); with the ladder up to the "friction" start 49 (26 + 23); with the "frequency" start (the exact
@@ -150,6 +153,7 @@ def test_impact_oscillator_share_converged():
     assert ok >= 54, ok
 
 
+@pytest.mark.xdist_group("impact-oscillator")  # one worker: they share the solves of _osc_solve
 @pytest.mark.parametrize("omega", [1.4, 1.6])
 def test_elastic_impacts_at_the_section_closed_form(omega):
     """Gap 0, e = 1, omega in (1, 2): the (1,1) orbit x = c (cos omega t - cos t - tan(pi/omega) sin t),
@@ -179,6 +183,7 @@ def test_elastic_impacts_at_the_section_closed_form(omega):
         assert u[0] < 0.0 < u[-2] and abs(abs(u[0]) - abs(u[-2])) <= 0.02 * abs(u[0])
 
 
+@pytest.mark.xdist_group("impact-oscillator")  # one worker: they share the solves of _osc_solve
 def test_no_orbit_at_omega_2_gap_0():
     """Gap 0, e = 1: a (1,1) orbit needs free flight from x = 0 to x = 0 over T = pi = half the natural period,
     which forces cos(phi) = 0 and sin(phi) = 0 at once (no solution): a clean failure, not a wrong orbit."""
@@ -213,6 +218,7 @@ def test_no_exact_periodic_point_of_the_discrete_map():
     assert levels[1] < levels[0] / 3
 
 
+@pytest.mark.xdist_group("impact-oscillator")  # one worker: they share the solves of _osc_solve
 @pytest.mark.parametrize("gap,e,omega", [(0.1, 0.5, 1.2), (0.1, 0.5, 2.6), (0.1, 0.8, 1.6),
                                          (0.1, 0.8, 2.4), (0.0, 0.5, 2.6), (0.0, 0.8, 3.0)])
 def test_impact_oscillator_mshbm_default_start(gap, e, omega):
@@ -221,6 +227,7 @@ def test_impact_oscillator_mshbm_default_start(gap, e, omega):
     _check_against_exact(sol, gap, e, omega)
 
 
+@pytest.mark.xdist_group("impact-oscillator")  # one worker: they share the solves of _osc_solve
 def test_impact_oscillator_garbage_orbit_is_not_success():
     """e = 1, omega = 2: the transient runs away to an 'orbit' of amplitude 1e13 whose residual is
     small relative to its own size; relative to the physical scale it is not a solution."""

@@ -25,6 +25,9 @@ OMEGA = np.pi / 5
 METHODS = ["shooting", "hbm", "mshbm", "mshbm-intermediate"]
 OPTS = dict(harmonics=5, steps=1024)
 
+#: one xdist worker: the tests share the solves of reference()
+pytestmark = pytest.mark.xdist_group("units")
+
 
 def friction3():
     return paper_system("friction3")
