@@ -140,3 +140,8 @@ if config.get("fe_example"):
             "../scripts/cli_job.py"
 
     EXTRA_SUMMARIES.append(f"{R}/summary/fe.json")
+
+    # the curves too long for the main run (config fe_example.long_methods): `snakemake --cores 2 fe_curves`
+    rule fe_curves:
+        input:
+            expand(f"{FE_DIR}/sweep/sweep_{{fmethod}}.json", fmethod=FE.get("long_methods", []) + FE["methods"]),
