@@ -3,8 +3,8 @@
 :func:`mshbm.solve` turns a starting guess into a periodic solution (with its own ladder of starts
 when no guess is given, :mod:`mshbm.route.ladder`).  The strategies here choose that guess one
 level up, from *other solves*, as the paper does for its sweeps and as the workflow does for every
-figure (``workflow/scripts/solve.py``) and the work-precision benchmark
-(``workflow/scripts/bench_workprecision.py``):
+figure (``workflow/scripts/solves/solve.py``) and the work-precision benchmark
+(``workflow/scripts/bench/bench_workprecision.py``):
 
 ``"linear"`` (:func:`linear_start`)
     no guess: :func:`mshbm.solve` starts from the linear response at ``omega`` (the elements removed);

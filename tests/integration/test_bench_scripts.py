@@ -60,7 +60,7 @@ def test_bench_kernel_quick(tmp_path):
     assert _finite_positive(data["numpy_twin_over_compiled_ratio"])
     assert data["numpy_twin_max_abs_difference_q"] < 1e-9
     assert set(data["target"]) >= {"met_plain", "met_with_sensitivities", "ns_per_step_1dof"}
-    # issue 14: the event-driven flow, one period on the converged orbits
+    # the exact event-driven flow, one period on the converged orbits
     ev = data["event_measurements"]
     assert set(ev) == {f"event_{case}_{kind}" for case, kinds in (("1dof_friction", ("plain", "jac_fourier")),
                                                                    ("1dof_contact", ("plain", "jac_fourier")),
@@ -83,7 +83,7 @@ def _wp_row(method, error, time_s, harmonics=None, steps=256, success=True):
 
 
 def test_workprecision_event_goal_and_grid():
-    """The event-driven points of the work-precision grid, and issue 14's goal check: the cheapest
+    """The event-driven points of the work-precision grid, and the event-driven goal check: the cheapest
     MS-HBM (event) point at 1e-6 against the cheapest Moreau-Jean shooting point at 1e-3."""
     from mshbm_workflow import script_module
 

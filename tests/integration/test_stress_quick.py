@@ -1,5 +1,5 @@
-"""The quick profile of the stress suite (workflow/scripts/stress/stress.py, GitHub issue 5) and the
-continuation fallback it measures (mshbm.solvers.continuation).
+"""The quick profile of the stress suite (workflow/scripts/stress/stress.py) and the
+continuation fallback it measures (mshbm.route.continuation).
 
 The quick profile must finish in < 90 s, report no WRONG outcome and no NaN in any number.
 """

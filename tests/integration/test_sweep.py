@@ -293,7 +293,7 @@ def _grazing_reference(system, sols, key):
 
 @pytest.mark.slow
 def test_event_period_2_branch_of_the_impact_chain_passes_its_grazing(impact5):
-    """The period-2 branch of the impact chain from pi/5 (issue 13): its second impact per 2T loses its velocity
+    """The period-2 branch of the impact chain from pi/5: its second impact per 2T loses its velocity
     at omega_g = 0.63935 (a grazing), and the branch goes on with one impact per 2T (a near miss there) to 0.7.
     The event-driven sweep used to stop at 0.63935 (the corrector cycled between the two impact sequences,
     the tangent pointed back after the corner, and a central dR/domega straddled the grazing: spurious

@@ -190,7 +190,7 @@ def test_quick_benchmarks(quick_run):
 
 
 def _check_event_rows(bench):
-    """Issue 14: the event-driven variants of the quick benchmarks.  Shooting (event) is exact up to
+    """The event-driven variants of the quick benchmarks.  Shooting (event) is exact up to
     Newton's tolerance (measured 2.2e-12 friction3, 4.4e-11 impact5); MS-HBM (event) has only the
     harmonic truncation, so 9 harmonics are > 10x more accurate than 3 (measured 420x, 27x) and within
     2e-6 on friction3 (measured 5.2e-7); the goal check is recorded consistently."""

@@ -1,4 +1,4 @@
-"""Determinism (GitHub issue 5): the same case and options give bit-identical results across runs and
+"""Determinism: the same case and options give bit-identical results across runs and
 do not depend on the number of threads.
 
 Each solve runs in a fresh subprocess with OMP/OPENBLAS/MKL/NUMBA_NUM_THREADS = 1 or = 2 and saves

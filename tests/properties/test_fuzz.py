@@ -1,4 +1,4 @@
-"""Fuzzing the case-file loader and the CLI with hypothesis (GitHub issue 5).
+"""Fuzzing the case-file loader and the CLI with hypothesis.
 
 Every input ends in exit code 2 with one line ``error: <key>: <problem>`` naming a key, or -- when the
 random case happens to be valid -- in exit code 0 (converged) or 1 (not converged).  Never a traceback,

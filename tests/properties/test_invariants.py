@@ -1,4 +1,4 @@
-"""Physical and numerical invariants of the solutions (GitHub issue 5).
+"""Physical and numerical invariants of the solutions.
 
 * energy balance per period: work of the external force = damper dissipation + friction work
   (+ impact losses for e_N < 1), from the trajectory of shooting and MS-HBM solutions;

@@ -1,4 +1,4 @@
-"""Elements between two DOFs (``relative_to``), issue 15.
+"""Elements between two DOFs (``relative_to``).
 
 Independent checks:
 

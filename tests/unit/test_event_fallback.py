@@ -1,4 +1,4 @@
-"""The event-driven fallback of the start ladder (issue 13, item 6; :func:`mshbm.solvers.driver._event_fallback`).
+"""The event-driven fallback of the start ladder (:meth:`mshbm.route.driver.Route._event_fallback`).
 
 The system is the stress suite's ``start-random10`` (seed 7, a 7-mass chain with a stop of restitution 0.9 on
 DOF 1, forced at 0.6206 rad/s): its exact orbit has a near-grazing impact, and the Moreau-Jean map with 2048

@@ -1,4 +1,4 @@
-"""The stress suite's impact5 at omega = 1 rad/s (issue 13): the Moreau-Jean map has no exact periodic point
+"""The stress suite's impact5 at omega = 1 rad/s: the Moreau-Jean map has no exact periodic point
 (an impact moves by whole steps) and Newton stalls at the one-step level from every start.
 
 * MS-HBM Section 3.3: its harmonic-balance rows are forces ``H_21 FFT(q_1) + ...``; the one-step accuracy

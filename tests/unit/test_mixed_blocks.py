@@ -1,4 +1,4 @@
-"""MS-HBM with many nonlinear DOFs (issue 15, scale goals): the block-wise time integration of the
+"""MS-HBM with many nonlinear DOFs: the block-wise time integration of the
 nonlinear subsystem, the banded condensation and the linear start from the condensation give the same
 numbers as the dense implementation they replace.
 

@@ -1,4 +1,4 @@
-"""Friction whose normal load comes from a contact (issue 15, item 1): ``Friction(..., normal_contact=c)``.
+"""Friction whose normal load comes from a contact: ``Friction(..., normal_contact=c)``.
 
 The model (``examples/damper2d.yaml``): a blade DOF ``q0`` (forced), the damper's tangential DOF ``q1``
 carrying the friction and its normal DOF ``q2`` pressed by a constant force ``F0`` onto a stop at

@@ -1,4 +1,4 @@
-"""Shortcuts of the small HBM solve's set-up and certificate (issue 16), each against what it replaces.
+"""Shortcuts of the small HBM solve's set-up and certificate, each against what it replaces.
 
 * :func:`mshbm.scaling.stiffness_scale` remembered per system and omega: the same number as the formula,
   recomputed when a matrix is replaced, bounded in size;

@@ -1,4 +1,4 @@
-"""Resonances of the condensed subsystem and the degenerate intermediate partition (issue 13, stress suite).
+"""Resonances of the condensed subsystem and the degenerate intermediate partition (cases of the stress suite).
 
 * ``H_LL(k omega)`` singular (``k omega`` an eigenfrequency of the linear subsystem with the nonlinear DOFs
   clamped) although the full problem is well posed: HBM keeps the resonant DOFs as harmonic unknowns, MS-HBM

@@ -1,4 +1,4 @@
-"""The fast paths of the HBM solve (issue 16): each against the plain computation it replaces.
+"""The fast paths of the HBM solve: each against the plain computation it replaces.
 
 * :meth:`mshbm.System.derived` -- per-system cache of derived invariants: hit while the dependencies are
   the same immutable objects, recomputed when one is replaced, never cached for writeable or sparse ones;
@@ -145,7 +145,8 @@ def test_harmonic_power_and_force_tail_match_numpy():
 
 
 def _old_solve(J, R, s):
-    """The Newton step as computed through SciPy's wrappers (mshbm.solvers.newton._solve before issue 16)."""
+    """The Newton step through SciPy's LAPACK wrappers, as mshbm.solvers.newton._solve computes it without
+    its compiled kernel."""
     J, R = J / s[:, None], R / s
     if np.all(np.isfinite(J)):
         lu, piv, info = sla.lapack.dgetrf(J)

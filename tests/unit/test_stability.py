@@ -222,7 +222,7 @@ def test_unconverged_solution_has_no_verdict(impact5):
 
 
 def test_several_elements_get_the_exact_flow_verdict():
-    """Several elements (issue 14): the exact event-driven flow decides, as for one element."""
+    """Several elements: the exact event-driven flow decides, as for one element."""
     # contact far away (never touched) and friction with bound 0 on another DOF: the linear flow
     far = chain([1.0, 1.0], 1.0, 0.2, forcing=[{"dof": 1, "amplitude": 1.0}],
                 elements=[Contact(0, 100.0, 1.0), Friction(1, 0.0, 1.0)])

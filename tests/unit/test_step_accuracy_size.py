@@ -1,6 +1,6 @@
-"""The ``step_accuracy_size`` check of the certificate (issue 13): an orbit accepted as periodic to one time
+"""The ``step_accuracy_size`` check of the certificate: an orbit accepted as periodic to one time
 step's accuracy (a stalled Newton on an impacting orbit of Moreau-Jean shooting / MS-HBM,
-:func:`mshbm.solvers.starts.residual_accept`) is certified by :func:`mshbm.solve` only if the displacement
+:func:`mshbm.route.ladder.residual_accept`) is certified by :func:`mshbm.solve` only if the displacement
 change of one step at the impact, ``h J``, is at most 2e-3 of the orbit's displacement scale ``D``.
 
 * impact5 at omega = 1 rad/s (``tests/unit/test_ladder_fallbacks.py``): 2.3e-4, still accepted;

@@ -1,4 +1,4 @@
-"""Wall-time budget of a solve (``max_time``, issue 13 stress suite: a solve fails with a message instead of
+"""Wall-time budget of a solve (``max_time``: a solve fails with a message instead of
 running on): Newton's time box, the option check, and a solve stopped by its budget."""
 from __future__ import annotations
 

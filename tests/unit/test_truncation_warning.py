@@ -1,4 +1,4 @@
-"""The certificate's truncation estimates warn in the message of a certified solution (issue 13, item 6).
+"""The certificate's truncation estimates warn in the message of a certified solution.
 
 The 3-DOF friction oscillator (``examples/friction3.yaml``, undamped) one part in 10^6 above omega_1 / 3, with
 omega_1 = sqrt((3 - sqrt 5) / 2) the first eigenfrequency of the linear subsystem (masses 1 and 2, the friction

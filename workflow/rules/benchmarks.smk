@@ -1,7 +1,7 @@
-# Performance benchmarks (issue 4): work-precision against the exact reference, kernel speed,
+# Performance benchmarks: work-precision against the exact reference, kernel speed,
 # scaling to 1e5 DOFs, the SciPy baseline and pyHarm (single solves: `pyharm`; branch tracing with
-# pyHarm's own continuation, issue 13: `pyharm_sweep`); nlscaling: MS-HBM against the number of friction
-# elements and the 10^4/50, 10^6/1 chains (issue 15).  Parameters: `benchmarks` of the config.
+# pyHarm's own continuation: `pyharm_sweep`); nlscaling: MS-HBM against the number of friction
+# elements and the 10^4/50, 10^6/1 chains.  Parameters: `benchmarks` of the config.
 #
 #   <results>/benchmarks/       profile `benchmarks.profile` (default): part of `snakemake`, since
 #                               the paper's Performance section embeds its summary

@@ -1,4 +1,4 @@
-# Frequency-response curves (Fig. 9; issue 13, beyond the paper): one job per branch and method
+# Frequency-response curves (Fig. 9, beyond the paper): one job per branch and method
 # (config `branches`), mshbm.sweep over the branch's frequency range, then one summary for the notebook
 # and the paper ({{branches.<key>}}).
 #

@@ -1,4 +1,4 @@
-# Finite-element example (issue 15, Fig. 10, paper Sec. 5.8): a cantilever structure built into Matrix
+# Finite-element example (Fig. 10, paper Sec. 5.8): a cantilever structure built into Matrix
 # Market files and a case file with a friction joint and an impact stop (scripts/fe/build_fe_model.py), its
 # frequency-response curve with each method of config `fe_example.methods` (scripts/fe/fe_sweep.py, one job
 # per method), single solves at the case's frequency (scripts/fe/fe_example.py: full shooting where the dense
@@ -11,7 +11,7 @@
 #   <results>/summary/fe.json                           numbers of Fig. 10 and the paper (rule fe_summary)
 #
 # Meshes of the same structure (config `fe_example.meshes`): the curves on `sweep`, the single solves on `solve`
-# (both 10^4 DOFs, the size issue 15 asks for), and full shooting's single solve on `shooting` (optional, a coarse
+# (both 10^4 DOFs, the target size), and full shooting's single solve on `shooting` (optional, a coarse
 # mesh: its dense step matrices refuse 10^4 DOFs; default the sweep's mesh).  A sweep on 10^4 DOFs is feasible
 # because the condensation keeps its sparse LUs across nearby frequencies (mshbm.condensation.FactorReuse).
 #

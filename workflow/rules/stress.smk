@@ -1,6 +1,6 @@
-# Stress suite (GitHub issue 5): numerical stability near resonances, stiff regularisations, many
+# Stress suite: numerical stability near resonances, stiff regularisations, many
 # harmonics, tiny steps, poor starts (with and without the continuation fallback of
-# mshbm.solvers.continuation) and random chains.  Its own configuration is workflow/stress.yaml,
+# mshbm.route.continuation) and random chains.  Its own configuration is workflow/stress.yaml,
 # validated here against workflow/schemas/stress.schema.yaml (and again by the script, which also runs
 # by hand), so it never touches the main config.
 #

@@ -97,7 +97,8 @@ M_dd``, the impedance there), which scales the tolerance with the wiggles of the
 The velocity predictor depends less on ``eps`` than the displacement predictor, whose error is
 erratic in both ``eps`` and ``n_h``; against Den Hartog's closed form and the exact orbit of the friction
 chain the velocity predictor is the more accurate at every ``n_h`` tested, its error falling like
-``1 / n_h`` (the workflow's DLFT benchmark, ``bench_dlft.py``, and ``tests/unit/test_dlft.py`` measure both).
+``1 / n_h`` (the workflow's DLFT benchmark, ``workflow/scripts/bench/bench_dlft.py``, and
+``tests/unit/test_dlft.py`` measure both).
 
 What DLFT represents for a gap (restitution)
 -------------------------------------------

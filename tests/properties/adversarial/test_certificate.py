@@ -1,4 +1,4 @@
-"""Certified answers only (issue 10, parts 1-3): the convergence test cannot be fooled, every result
+"""Certified answers only: the convergence test cannot be fooled, every result
 carries a certificate, undamped exact resonance is not a solution.
 
 Every test asserts either a clean failure (``success=False`` naming the cause, or an InputError) or a
@@ -50,7 +50,7 @@ def impact5():
     return paper_system("impact5")
 
 
-# ------------------------------------------------------------------------- the issue's example
+# ------------------------------------------------------------------------- the stick example
 def _stick_tolerance(method):
     # HBM: arctan law (kappa = 800) creeps at ~mu F_N / kappa; shooting: O((omega h)^2) of Moreau-Jean
     return {"hbm": 2e-3, "shooting": 1e-4}.get(method, 1e-8)

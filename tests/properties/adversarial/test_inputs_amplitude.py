@@ -1,4 +1,4 @@
-"""Exact amplitudes (issue 10, part 3): the amplitude of a DOF given by Fourier coefficients is
+"""Exact amplitudes: the amplitude of a DOF given by Fourier coefficients is
 (max - min)/2 of the Fourier series, not of a sample grid.  References: closed-form extrema of
 linear responses, and the roots of the derivative polynomial (an independent method)."""
 import numpy as np

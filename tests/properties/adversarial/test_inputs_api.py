@@ -1,4 +1,4 @@
-"""Adversarial input through the Python API (issue 10, part 3): forcing the method cannot represent,
+"""Adversarial input through the Python API: forcing the method cannot represent,
 bad partitions, bad guesses, free-free structures, the float range, and no RuntimeWarnings.
 
 Each case asserts an InputError naming the key, or a correct answer against an exact value

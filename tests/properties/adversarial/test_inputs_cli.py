@@ -1,4 +1,4 @@
-"""The command line on adversarial case files (issue 10, part 3): forcing the method cannot represent,
+"""The command line on adversarial case files: forcing the method cannot represent,
 bad partitions, free-free structures, overflow.  Each: exit code 2 and one line ``error: <key>: ...``
 without traceback or RuntimeWarning, or exit 0 with the exact answer."""
 import json

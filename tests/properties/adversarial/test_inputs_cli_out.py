@@ -1,4 +1,4 @@
-"""``mshbm solve ... --out PATH`` (issue 10, part 3): writes into the path given, keeps permissions
+"""``mshbm solve ... --out PATH``: writes into the path given, keeps permissions
 (or the umask), writes through symlinks, FIFOs and character devices instead of replacing them,
 and never overwrites the case file.  Refusals: exit code 2 and one line ``error: --out: ...``."""
 import json

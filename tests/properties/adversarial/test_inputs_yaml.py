@@ -1,4 +1,4 @@
-"""YAML 1.1 traps in case files (issue 10, part 3).  Chosen rule (mshbm.io docstring): sexagesimal
+"""YAML 1.1 traps in case files.  Chosen rule (mshbm.io docstring): sexagesimal
 (``1:30``), leading-zero (``010``) and ``0o`` octal numbers are errors naming the key; booleans
 (yes/no/on/off) are not numbers; ``1e3`` is a float; hexadecimal and ``1_000`` are read as written.
 CLI: exit code 2 and one line ``error: <key>: ...``."""

@@ -1,4 +1,4 @@
-"""Adversarial cases of the default start strategy (issue 10, item 4; :mod:`mshbm.route.ladder`).
+"""Adversarial cases of the default start strategy (:mod:`mshbm.route.ladder`).
 
 Every case asserts a correct answer against an exact value (closed form, the exact event-driven
 orbit of :func:`mshbm.exact_periodic`, or the same discrete problem solved from a known-good
@@ -29,7 +29,7 @@ needs_starts = pytest.mark.skipif(starts is None, reason="tests a piece of mshbm
 METHODS = ("shooting", "hbm", "mshbm", "mshbm-intermediate")
 
 # ------------------------------------------------------------------------------------------------
-# (a) the stick case of issue 10: friction sticks for the whole period, exact = chain clamped at DOF 0
+# (a) the stick case: friction sticks for the whole period, exact = chain clamped at DOF 0
 
 W1 = 0.4450418679126287  # first linear eigenfrequency of the free chain
 
@@ -45,7 +45,7 @@ def clamped_amplitudes(omega):
     return np.array([0.0, abs(q[0]), abs(q[1])])
 
 
-def test_clamped_amplitudes_of_the_issue():
+def test_clamped_amplitudes_of_the_stick_case():
     assert np.allclose(clamped_amplitudes(W1), [0.0, 11.23, 20.24], atol=0.01)
 
 
@@ -191,7 +191,7 @@ def test_no_orbit_at_omega_2_gap_0():
 
 
 @pytest.mark.parametrize("method", ["shooting", "mshbm"])
-def test_impact_oscillator_stable_orbit_of_the_issue(method):
+def test_impact_oscillator_stable_orbit_at_omega_1_5(method):
     """omega = 1.5, gap 0.1, e = 0.7: the (1,1) orbit is stable (multipliers of modulus e = 0.7), yet
     both methods stalled at iteration 1; the Moreau-Jean map has no exact periodic point there
     (impact time quantised to the grid), so the answer is periodic to one step's accuracy."""

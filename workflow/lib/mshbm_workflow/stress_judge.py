@@ -45,7 +45,7 @@ def solution_finite(sol):
 def recheck_residual(system, omega, method, opts, sol, factor):
     """Re-evaluate the residual at the returned unknowns; ``(ok, value, bound)``.  With the integrator that
     produced the answer: the one asked for, or the exact event-driven flow when the solve says it fell back to it
-    (``info["integrator"] == "event"``, :func:`mshbm.solvers.driver._event_fallback`)."""
+    (``info["integrator"] == "event"``, :meth:`mshbm.route.driver.Route._event_fallback`)."""
     o = {k: v for k, v in opts.items() if k in ("harmonics", "steps", "theta", "partition", "project", "condense",
                                                 "integrator", "accumulation")}
     if sol.info.get("integrator") == "event":
@@ -59,7 +59,7 @@ def recheck_residual(system, omega, method, opts, sol, factor):
     # scale of the problem, displacements by the size of the solution; mshbm.scaling)
     step = sol.info.get("step_accuracy")
     if step is not None:
-        # accepted as periodic to one time step's accuracy (impacts move by whole steps; mshbm.solvers.starts): the
+        # accepted as periodic to one time step's accuracy (impacts move by whole steps; mshbm.route.ladder): the
         # residual entries against the jump of the residual when an impact moves by one step
         r = float(np.max(np.abs(R) / np.asarray(step["bound"], dtype=float)))
         bound = 1.0  # the certificate's own bound: re-evaluation must reproduce it, no factor

@@ -1,5 +1,5 @@
 #!/usr/bin/env python
-"""Benchmark of the compiled Moreau-Jean kernel: nanoseconds per step (GitHub issue 4, target 1).
+"""Benchmark of the compiled Moreau-Jean kernel: nanoseconds per step.
 
 Target: >= 10^7 Moreau-Jean steps per second (<= 100 ns/step) for a 1-DOF nonlinear
 subsystem with its harmonic coupling forces.
@@ -19,7 +19,7 @@ Cases (all on converged periodic states of the paper's systems, omega = pi/5):
 * ``numpy_twin_1dof_friction`` vs ``compiled_1dof_friction_small`` on 2^12 steps: the plain
   NumPy twin ``kernels.moreau_jean_numpy`` against the compiled kernel.
 
-Event-driven flow (issue 14; ``event_measurements``, next to the steps per second above): one period
+Event-driven flow (``event_measurements``, next to the steps per second above): one period
 of :class:`mshbm.integrators.event.EventFlow` on the same converged orbits (MS-HBM with
 ``integrator="event"``, n_H = 5, and shooting with it), timed as the solvers call it:
 

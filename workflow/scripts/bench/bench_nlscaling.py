@@ -1,7 +1,7 @@
 #!/usr/bin/env python
-"""Benchmark: MS-HBM cost against the number of nonlinear DOFs (GitHub issue 15, "Scale goals").
+"""Benchmark: MS-HBM cost against the number of nonlinear DOFs.
 
-Targets (issue 15): MS-HBM (n_H = 5) on a chain of 10^4 masses with 50 friction elements spread along
+Targets: MS-HBM (n_H = 5) on a chain of 10^4 masses with 50 friction elements spread along
 it in <= 30 s; a chain of 10^6 masses with one friction element in <= 5 s; the exponent of the cost in
 the number of nonlinear DOFs n_N = 1 ... 100, and where the time goes.
 
@@ -187,7 +187,7 @@ def plot(data, png):
             ax.plot([i - 0.4, i + 0.4], [large[k]["target_s"]] * 2, "r--", lw=1)
     ax.set_xticks(range(len(keys)), keys, fontsize=8)
     ax.set_ylabel("wall time of mshbm.solve (s)")
-    ax.set_title("large chains (red: the issue's targets)", fontsize=9)
+    ax.set_title("large chains (red: the targets)", fontsize=9)
     fig.tight_layout()
     fig.savefig(png, dpi=120)
     plt.close(fig)

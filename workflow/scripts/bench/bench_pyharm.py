@@ -1,5 +1,5 @@
 #!/usr/bin/env python
-"""Benchmark against pyHarm (``pyHarm-os``, Safran) on the penalty-contact chains (GitHub issues 4 and 16).
+"""Benchmark against pyHarm (``pyHarm-os``, Safran) on the penalty-contact chains.
 
 Target: on the same 5- and 50-mass penalty-contact systems at equal n_H and sampling, our HBM
 agrees with pyHarm in the harmonic coefficients to <= 1e-6 (relative) and is >= 10x faster at every
@@ -68,7 +68,7 @@ NTI = 512
 KC = 8000.0
 GAP = 0.1
 TARGET_AGREE = 1e-6
-#: speed-up target, end to end and Newton only, at every size (issue 16)
+#: speed-up target, end to end and Newton only, at every size
 TARGET_SPEEDUP = 10.0
 #: rounds of the block-interleaved timing (module docstring): quick profile, and by number of masses; at 50
 #: masses one pyHarm call takes ~1 s against our ~1 ms, and 7 rounds of 5 calls measure that ratio
@@ -238,7 +238,7 @@ def run_case(n, quick, log):
         "what": "the same four contenders timed three ways in this run: each alone in a loop "
                 f"({rounds * block} consecutive calls of ours, {rounds} of pyHarm), one call of each contender in "
                 f"turn ({rounds} rounds: the "
-                "method before issue 16), and the blocks of from_perturbed_start (first call of a block: after "
+                "former way of measuring), and the blocks of from_perturbed_start (first call of a block: after "
                 "another contender's block)",
         "alone": {k: {"median_s": v["median_s"], "min_s": v["min_s"], "repeats": v["repeats"]}
                   for k, v in alone.items()},

@@ -1,5 +1,5 @@
 #!/usr/bin/env python
-"""Branch-tracing benchmark against pyHarm's own continuation (``pyHarm-os``, Safran; GitHub issue 13).
+"""Branch-tracing benchmark against pyHarm's own continuation (``pyHarm-os``, Safran).
 
 The time to trace the same frequency-response branch (same omega range, same discretisation) with
 each of our methods (``mshbm.sweep``: shooting, MS-HBM, HBM, DLFT) and with pyHarm's FRF analysis

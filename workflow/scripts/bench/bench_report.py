@@ -29,7 +29,7 @@ from mshbm_workflow.wfcore import md_table  # noqa: E402
 STYLE = {"shooting": ("k", "o", "full shooting"), "mshbm": ("tab:red", "s", "MS-HBM"),
          "mshbm-intermediate": ("tab:orange", "D", "MS-HBM (intermediate)"), "hbm": ("tab:blue", "^", "HBM"),
          "dlft": ("tab:green", "v", "DLFT"),
-         # issue 14: the exact event-driven flow as the integrator (integrator="event")
+         # the exact event-driven flow as the integrator (integrator="event")
          "shooting-event": ("k", "*", "full shooting (event)"), "mshbm-event": ("tab:purple", "P", "MS-HBM (event)")}
 #: the methods compared with full shooting (Moreau-Jean) at equal error
 COMPARED = ("mshbm", "mshbm-intermediate", "hbm", "dlft", "shooting-event", "mshbm-event")
@@ -148,7 +148,7 @@ def section_workprecision(wp, sub):
 
 
 def section_event_goal(wp):
-    """Issue 14's goal per system: MS-HBM (event) at 1e-6 against Moreau-Jean full shooting at 1e-3."""
+    """The event-driven goal per system: MS-HBM (event) at 1e-6 against Moreau-Jean full shooting at 1e-3."""
     goals = [(d["system"], d["targets"].get("event_goal")) for d in wp]
     goals = [(name, g) for name, g in goals if g and g.get("why") != "MS-HBM (event) not in this sweep"]
     if not goals:
@@ -161,7 +161,7 @@ def section_event_goal(wp):
                      "–" if sh is None else f"{sh['time_s'] * 1e3:.3g} ms (N={sh['steps']}, error {sh['error']:.1e})",
                      fmt(g.get("ratio"), ".3g"), "yes" if g.get("met") else f"no{'' if 'why' not in g else ': ' + g['why']}"))
     g0 = goals[0][1]
-    return [f"**Event-driven integrator (issue 14).** Time of MS-HBM with the exact event-driven flow to reach "
+    return [f"**Event-driven integrator.** Time of MS-HBM with the exact event-driven flow to reach "
             f"{g0['mshbm_event_error']:g} relative error against the time of Moreau–Jean full shooting to reach "
             f"{g0['shooting_error']:g}, cheapest converged point of each, same run; ratio = shooting / MS-HBM (event).",
             "", md_table(["system", f"MS-HBM (event) at {g0['mshbm_event_error']:g}",
@@ -188,13 +188,13 @@ def section_kernel(k):
 
 
 def section_event_kernel(k):
-    """Events per second of the event-driven flow (issue 14), next to the steps per second above."""
+    """Events per second of the event-driven flow, next to the steps per second above."""
     ev = k.get("event_measurements")
     if not ev:
         return []
     rows = [(name, m["system"], m["n_dof"], m["events_per_period"], f"{m['us_per_period_median'] / 1e3:.3g}",
              fmt(m.get("events_per_second_median"), ".3g"), m["what"]) for name, m in ev.items()]
-    return ["Event-driven flow (`mshbm.integrators.event`, issue 14): one period on the converged orbit "
+    return ["Event-driven flow (`mshbm.integrators.event`): one period on the converged orbit "
             "(n_H = 5 for the MS-HBM subsystems), median wall time; its cost is per period (the event search "
             "on the sub-step grid) more than per event, so events per second is the period's events over its "
             "time.", "",
@@ -308,7 +308,7 @@ def numbers(wp, other, digest):
         conv = (d["reference"].get("convergence") or {}) if d else {}
         num[f"reference_variants_{name}"] = conv.get("max_relative_difference")
         num[f"reference_events_{name}"] = d["reference"].get("n_events") if d else None
-        # issue 14: the event-driven variants and the goal (MS-HBM (event) at 1e-6 vs shooting at 1e-3)
+        # the event-driven variants and the goal (MS-HBM (event) at 1e-6 vs shooting at 1e-3)
         g = (d["targets"].get("event_goal") or {}) if d else {}
         num[f"event_goal_ratio_{name}"] = g.get("ratio")
         num[f"event_goal_met_{name}"] = g.get("met")
@@ -345,7 +345,7 @@ def numbers(wp, other, digest):
     num["kernel_friction_sens_store_2p16_ns"] = at16[0] if at16 else None
     big = [m["steps"] for name, m in meas.items() if name == "1dof_friction_sens_store"]
     num["kernel_long_run_steps"] = big[0] if big else None
-    ev = (other.get("kernel") or {}).get("event_measurements", {})  # issue 14: events per second
+    ev = (other.get("kernel") or {}).get("event_measurements", {})  # the event-driven flow: events per second
     for key in ("event_1dof_friction_plain", "event_1dof_contact_plain", "event_1dof_friction_jac_fourier",
                 "event_1dof_contact_jac_fourier", "event_full3_friction_jac", "event_full5_contact_jac"):
         m = ev.get(key) or {}
@@ -368,7 +368,7 @@ def numbers(wp, other, digest):
                pyharm_speedup_min=min(ps["speedups_same_start"]) if ps.get("speedups_same_start") else None,
                pyharm_speedup_max=max(ps["speedups_same_start"]) if ps.get("speedups_same_start") else None,
                pyharm_newton_speedup_min=min(ps["speedups_newton_only"]) if ps.get("speedups_newton_only") else None)
-    sw = other.get("pyharm_sweep") or {}  # branch tracing against pyHarm's continuation (issue 13)
+    sw = other.get("pyharm_sweep") or {}  # branch tracing against pyHarm's continuation
     num["pyharm_sweep_available"] = sw.get("status") in ("ok", "partial")
     for system, s in ((sw.get("summary") or {}).get("per_system") or {}).items():
         for name, r in (s.get("branches") or {}).items():

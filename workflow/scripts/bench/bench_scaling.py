@@ -1,5 +1,5 @@
 #!/usr/bin/env python
-"""Benchmark: cost of the methods against the number of linear DOFs (GitHub issue 4, target 2).
+"""Benchmark: cost of the methods against the number of linear DOFs.
 
 Target: MS-HBM cost grows at most linearly in the number of linear DOFs; a chain of 100 000
 masses with one friction contact is solved by MS-HBM (n_H = 5) in <= 30 s; general sparse

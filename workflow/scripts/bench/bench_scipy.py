@@ -1,5 +1,5 @@
 #!/usr/bin/env python
-"""Benchmark against the SciPy baseline a user would write (GitHub issue 4, target 3).
+"""Benchmark against the SciPy baseline a user would write.
 
 Target: at equal amplitude error, our Moreau shooting and MS-HBM are >= 100x faster than
 shooting with ``scipy.integrate.solve_ivp`` on a regularised law and ``scipy.optimize.root``.

@@ -1,8 +1,8 @@
-"""Benchmark (issue 13, item 6): how many 1-DOF impact-oscillator frequencies ``mshbm.solve`` reaches from
+"""Benchmark: how many 1-DOF impact-oscillator frequencies ``mshbm.solve`` reaches from
 its default start, and how many ``mshbm.sweep`` reaches by continuing from a frequency where it converges.
 
 System: ``x'' + x = cos(omega t)``, a stop at gap 0 (``x <= 0``), restitution ``e_N``; omega at 10 values in
-[1.2, 3.0], ``e_N`` in {0.5, 0.8, 1.0}; shooting with 2000 steps per period (the issue's setting).
+[1.2, 3.0], ``e_N`` in {0.5, 0.8, 1.0}; shooting with 2000 steps per period.
 
 For every ``e_N``: ``solve`` at each omega (default options); then, for every omega where ``solve`` failed,
 ``sweep`` from the nearest omega where ``solve`` converged to that omega (the branch's end point is solved

@@ -8,10 +8,10 @@ relative amplitude error of masses 1 and n against ``mshbm.methods.exact.exact_p
 own convergence is checked by independent re-solves (``reference_convergence``).  The grids
 are ``benchmarks`` of the config (``--profile full``: with the overrides of ``benchmarks.full``).
 
-Event-driven variants (issue 14): ``shooting-event`` (full shooting with ``integrator="event"``: one
+Event-driven variants: ``shooting-event`` (full shooting with ``integrator="event"``: one
 point, exact up to Newton's tolerance; ``event_shooting``) and ``mshbm-event`` (MS-HBM with
 ``integrator="event"`` over ``event_mixed_harmonics``: its only error is the harmonic truncation);
-``event_steps`` is only their output grid.  The goal of issue 14 is recorded in ``targets.event_goal``:
+``event_steps`` is only their output grid.  The event-driven goal is recorded in ``targets.event_goal``:
 the time of the cheapest MS-HBM (event) point with error <= ``event_goal.mshbm_event_error`` (1e-6)
 against the time of the cheapest Moreau-Jean full-shooting point with error <= ``event_goal.
 shooting_error`` (1e-3), both from this run; ``ratio`` = shooting time / MS-HBM (event) time.
@@ -242,7 +242,7 @@ def equal_error_ratios(rows, levels):
 
 
 def event_goal(rows, gcfg):
-    """Issue 14's goal: MS-HBM (event) at ``mshbm_event_error`` faster than Moreau-Jean full shooting at
+    """The event-driven goal: MS-HBM (event) at ``mshbm_event_error`` faster than Moreau-Jean full shooting at
     ``shooting_error`` (cheapest converged point of each reaching its level, same run).
 
     ``ratio`` = time(shooting) / time(MS-HBM event); ``met`` = ratio > 1; None where a method does not

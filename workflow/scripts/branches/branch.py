@@ -1,5 +1,5 @@
 #!/usr/bin/env python
-"""One frequency-response curve of the workflow (Fig. 9, issue 13): ``mshbm.sweep`` of one system with one
+"""One frequency-response curve of the workflow (Fig. 9): ``mshbm.sweep`` of one system with one
 method over the config's frequency range (config ``branches.<name>``), timed, written as JSON.
 
 ``--method`` is the curve's label in ``branches.<name>.methods``: the method itself, or a label whose options

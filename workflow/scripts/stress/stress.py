@@ -1,4 +1,4 @@
-"""Stress suite of mshbm (GitHub issue 5): numerical stability, stiff settings, poor starts, random systems.
+"""Stress suite of mshbm: numerical stability, stiff settings, poor starts, random systems.
 
 Run by the Snakemake rule ``stress`` (workflow/rules/stress.smk) or directly::
 

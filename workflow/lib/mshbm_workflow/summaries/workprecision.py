@@ -69,7 +69,7 @@ def error_reference(res):
 
 def sweep_methods(res, nhs):
     """The harmonic methods of a work-precision sweep present in ``res``: HBM and MS-HBM, and DLFT
-    (issue 16) when the workflow solved it (``SWEEP_METHODS`` of workflow/rules/common.smk)."""
+    when the workflow solved it (``SWEEP_METHODS`` of workflow/rules/common.smk)."""
     return [m for m in ("hbm", "mshbm", "dlft") if m in ("hbm", "mshbm") or f"{m}_nh{nhs[0]}" in res]
 
 
@@ -186,7 +186,7 @@ def summarize_sweep(fig, fcfg, res, clock="wall"):
         num[f"{method}_nearby_fail_residual_min"] = min(nres) if nres else None
         num[f"{method}_nearby_fail_residual_max"] = max(nres) if nres else None
         num[f"{method}_linear"] = sum(r["start"] == "linear" for r in mrows)
-    if "dlft" in methods:  # DLFT (issue 16) against HBM and MS-HBM at equal n_H, where both converged
+    if "dlft" in methods:  # DLFT against HBM and MS-HBM at equal n_H, where both converged
         emax = lambda r: max(r["err_first"], r["err_last"])
         by = {(r["method"], r["harmonics"]): r for r in rows}
         for other in ("hbm", "mshbm"):
