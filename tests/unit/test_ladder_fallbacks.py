@@ -72,7 +72,7 @@ def test_force_rows_not_relaxed_where_the_step_does_not_resolve_the_structure():
     omega_max h = 3): the one-step argument does not hold, and the MS-HBM 3.3 solution from the solution at
     omega / 2 (33 % off full shooting) is not accepted to one step's accuracy (before the guard it was)."""
     import scipy.linalg as sla
-    from stress_cases import random_system
+    from mshbm_workflow.stress_cases import random_system
     from mshbm.route.ladder import residual_accept, Attempt
     from mshbm.solvers.newton import solve_problem
 

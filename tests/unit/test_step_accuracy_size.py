@@ -23,7 +23,7 @@ OPTS = dict(harmonics=5, steps=2048, stability=False)
 
 
 def _random(index):
-    from stress_cases import random_system
+    from mshbm_workflow.stress_cases import random_system
 
     system, omega, _ = random_system(np.random.default_rng([20160501, index]), index, 200)
     return system, omega
