@@ -239,9 +239,7 @@ def test_switch_at_the_period_doubling_of_the_impact_oscillator():
     doubling at the closed-form omega_PD (measured 2.4567142 against 2.4567154); switching there gives a
     2T-periodic branch beyond it that is stable (supercritical), with 2T content (harmonics of omega/2
     that are not harmonics of omega; measured 0.48-0.52 of the largest)."""
-    import sys
-    sys.path.insert(0, str(ROOT / "tests"))
-    import closed_forms as cf
+    import closed_forms as cf  # tests/ is on the path (its conftest.py)
     from mshbm.period import subharmonic_content
 
     s = cf.system()
