@@ -124,6 +124,18 @@ def element_matrices(l, EI, rhoA):
     return Ke, Me
 
 
+def _symmetric(M, K):
+    """``(M, K)`` made exactly symmetric (the element matrices are, the sums in another order may not be), as
+    CSR with sorted indices and no duplicates."""
+    out = []
+    for A_ in (M, K):
+        A_ = sp.csr_matrix(0.5 * (A_ + A_.T))
+        A_.sum_duplicates()
+        A_.sort_indices()
+        out.append(A_)
+    return tuple(out)
+
+
 def beam_matrices(n_el, length=1.0, young=210e9, density=7850.0, width=0.04, height=0.01, clamped=True):
     """Assembled ``(M, K)`` (CSR) of the beam; ``clamped``: node 0 removed (cantilever), else free-free."""
     if int(n_el) < 1:
@@ -139,13 +151,7 @@ def beam_matrices(n_el, length=1.0, young=210e9, density=7850.0, width=0.04, hei
     M = sp.coo_matrix((np.tile(Me.ravel(), n_el), (rows, cols)), shape=(n_all, n_all)).tocsr()
     if clamped:
         K, M = K[2:, 2:], M[2:, 2:]
-    # exactly symmetric (the element matrices are, the sums in another order may not be)
-    K = sp.csr_matrix(0.5 * (K + K.T))
-    M = sp.csr_matrix(0.5 * (M + M.T))
-    for A_ in (K, M):
-        A_.sum_duplicates()
-        A_.sort_indices()
-    return M, K
+    return _symmetric(M, K)
 
 
 #: integrals of products of the 1-D Hermite shape functions on ``[0, 1]`` (DOFs ``(w, l w')`` per node),
@@ -200,12 +206,7 @@ def plate_matrices(nx, ny, lx=1.0, ly=0.2, thickness=0.01, young=210e9, poisson=
     M = density * thickness * sp.kron(Mx, My, format="csr")
     K = D * (sp.kron(Kx, My) + sp.kron(Mx, Ky) + poisson * (sp.kron(Bx, By.T) + sp.kron(Bx.T, By))
              + 2.0 * (1.0 - poisson) * sp.kron(Gx, Gy))
-    K = sp.csr_matrix(0.5 * (K + K.T))
-    M = sp.csr_matrix(0.5 * (M + M.T))
-    for A_ in (K, M):
-        A_.sum_duplicates()
-        A_.sort_indices()
-    return M, K
+    return _symmetric(M, K)
 
 
 def plate_w_dof(x_over_L, y_over_L, nx, ny):
