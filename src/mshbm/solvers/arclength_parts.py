@@ -108,28 +108,20 @@ def tangent(J, g, s, w, lam_scale, previous=None):
     oriented along ``previous`` (a scaled tangent) or, without one, towards increasing ``lam``."""
     A = np.hstack([(J * w[None, :]) / s[:, None], (g * lam_scale / s)[:, None]])
     n = A.shape[1]
-    if previous is None:
-        # the row that fixes the gauge: the column of A least in its range (lam, unless at a fold)
-        row = np.zeros(n)
-        row[-1] = 1.0
-        B = np.vstack([A, row])
-        try:
-            z = np.linalg.solve(B, np.eye(n)[-1])
-            if not np.all(np.isfinite(z)):
-                raise np.linalg.LinAlgError
-        except np.linalg.LinAlgError:
-            z = np.linalg.svd(A)[2][-1]
+    if previous is None:  # the row that fixes the gauge: the column of A least in its range (lam, unless at a fold)
+        gauge = np.zeros(n)
+        gauge[-1] = 1.0
     else:
-        B = np.vstack([A, previous])
-        try:
-            z = np.linalg.solve(B, np.eye(n)[-1])
-            if not np.all(np.isfinite(z)):
-                raise np.linalg.LinAlgError
-        except np.linalg.LinAlgError:
-            z = np.linalg.svd(A)[2][-1]
+        gauge = previous
+    B = np.vstack([A, gauge])
+    try:
+        z = np.linalg.solve(B, np.eye(n)[-1])
+        if not np.all(np.isfinite(z)):
+            raise np.linalg.LinAlgError
+    except np.linalg.LinAlgError:
+        z = np.linalg.svd(A)[2][-1]
     z = z / np.linalg.norm(z)
-    ref = previous if previous is not None else np.eye(n)[-1]
-    if float(z @ ref) < 0:
+    if float(z @ gauge) < 0:
         z = -z
     return z
 
