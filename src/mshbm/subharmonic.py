@@ -22,8 +22,7 @@ import numpy as np
 from . import fourier
 from .errors import InputError
 from .integrators.moreau_jean import MAX_DENSE_DOFS, MoreauJean
-from .options import default_steps
-from .route.options import capabilities
+from .options import default_harmonics, default_steps
 from .system import System
 
 __all__ = ["subharmonic_system", "check_period", "period_options", "subharmonic_content", "transient_guess",
@@ -77,7 +76,7 @@ def period_options(method, k, options):
     opts = dict(options)
     if k == 1:
         return opts
-    n_h = opts.get("harmonics", capabilities(method).default_harmonics)
+    n_h = opts.get("harmonics", default_harmonics(method))
     if isinstance(n_h, (int, np.integer)) and not isinstance(n_h, bool):
         opts["harmonics"] = int(n_h) * k
     steps = opts.get("steps")

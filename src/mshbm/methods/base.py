@@ -197,8 +197,6 @@ class PeriodicProblem:
     # ------------------------------------------------------------------ capabilities read by the solve route
     # (mshbm.route, mshbm.branch, mshbm.period): what differs between the methods, declared by each problem
     # class so that the route never tests a method's name
-    #: default number of harmonics ``n_h`` of the option ``harmonics`` (full shooting: of the reported ``q_hat``)
-    default_harmonics = 5
     #: the unknowns are the full state at ``t = 0`` of a time-stepped period (full shooting)
     full_shooting = False
     #: the period can be integrated by the exact event-driven flow instead of Moreau-Jean steps (option

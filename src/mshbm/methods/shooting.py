@@ -63,7 +63,7 @@ class ShootingProblem(PeriodicProblem):
     """
 
     method = "shooting"
-    default_harmonics, full_shooting, supports_event_integrator = 10, True, True  # solve-route capabilities
+    full_shooting, supports_event_integrator = True, True  # solve-route capabilities
 
     def __init__(self, system, omega, steps, theta=0.5, jacobian="exact", harmonics=10, project=True,
                  integrator="moreau", accumulation="moreau"):

@@ -52,6 +52,7 @@ from .. import fourier
 from .. import stability as _stability
 from .._blas import blas_threads, check_threads
 from ..errors import ConvergenceError, InputError
+from ..options import default_harmonics
 from ..integrators.moreau_jean import MAX_DENSE_DOFS, MoreauJean
 from ..methods.common import guess_parts, linear_response
 from ..result import PeriodicSolution
@@ -186,7 +187,7 @@ def _transient(solve, system, omega, method, guess, options, periods, budget):
     log = []
     n = system.n
     cap = capabilities(method)
-    n_h = int(options.get("harmonics", cap.default_harmonics))
+    n_h = int(options.get("harmonics", default_harmonics(method)))
     steps = int(options.get("steps", 2048)) if not cap.penalty_laws else 2048  # (HBM's steps are AFT samples)
     steps = max(steps, 2 * n_h + 2)
     total = max(periods)
