@@ -130,3 +130,31 @@ def test_api_bad_family():
     with pytest.raises(InputError) as info:  # the end of the range is inadmissible: the element's own error
         mshbm.continue_parameter(den_hartog_system, 0.1, -0.2, W)
     assert "normal_force" in info.value.key
+
+
+def test_cli_preload_sweep_against_cli_solves(tmp_path, capsys):
+    """``mshbm sweep --parameter friction.0.normal_force`` against ``mshbm solve --set friction.0.normal_force=R``
+    at a point of the branch, and both against Den Hartog's closed form (event-driven shooting)."""
+    case = tmp_path / "dh.yaml"
+    case.write_text(yaml.safe_dump({"masses": [1], "stiffness": 1, "damping": 2 * ZETA, "omega": W,
+                                    "forcing": [{"dof": 0, "amplitude": F}],
+                                    "friction": {"dof": 0, "mu": 1, "normal_force": 0.2},
+                                    "solver": {"method": "shooting", "integrator": "event"}}))
+    out, one = tmp_path / "b.json", tmp_path / "s.json"
+    code = main([str(a) for a in ["sweep", case, "--parameter", "friction.0.normal_force", "--start", 0.05,
+                                  "--end", 0.3, "--out", out, "--quiet"]])
+    assert code == 0, capsys.readouterr().err
+    data = json.loads(out.read_text())
+    R = np.array(data["parameter_values"])
+    amp = np.array(data["amplitude"])[:, 0]
+    np.testing.assert_allclose(amp, [_den_hartog(W, ZETA, F, r) for r in R], rtol=1e-9)
+    i = len(R) // 2
+    code = main([str(a) for a in ["solve", case, "--set", f"friction.0.normal_force={float(R[i])!r}", "--out", one,
+                                  "--quiet"]])
+    assert code == 0, capsys.readouterr().err
+    assert json.loads(one.read_text())["amplitude"][0] == pytest.approx(amp[i], rel=1e-9)
+    # --parameter omega with --start/--end is the frequency sweep
+    code = main([str(a) for a in ["sweep", case, "--parameter", "omega", "--start", 1.8, "--end", 2.2, "--out", out,
+                                  "--quiet"]])
+    data = json.loads(out.read_text())
+    assert code == 0 and data["parameter"] == "omega" and data["omega"][0] == 1.8 and data["omega"][-1] == 2.2
