@@ -21,9 +21,8 @@ and is shortened, the branch stays inside the range.
 
 The result is a :class:`ParameterBranch`: a :class:`mshbm.Branch` with ``parameter = name``, ``values``
 (the parameter at each point) and, in its JSON, ``parameter_values`` and per point ``value``; folds
-carry ``value`` (located by the continuation); period doubling, Neimark-Sacker and grazing carry the
-``value`` of the first point past them (``"value_located": "point"``).  The bifurcation tests of contacts
-use the gaps of ``family(lam_start)``.
+carry ``value`` (located by the continuation); period doubling, Neimark-Sacker and grazing are located by
+interpolating their test functions in the parameter (:func:`mshbm.bifurcations.detect`, no bisection).
 
 A frequency sweep is :func:`mshbm.sweep` (``key="omega"`` is refused here), a load factor on the whole
 forcing :func:`mshbm.continue_forcing`.
@@ -34,6 +33,7 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
+from . import bifurcations
 from .branch import ROUTE, Branch, _check_number, _guarded, _Tracer
 from .errors import InputError
 from .interrupt import SweepInterrupted
@@ -145,18 +145,31 @@ class _Family:
         return t
 
 
-def _as_parameter_branch(branch, name):
+def _as_parameter_branch(branch, name, family, omega):
+    """``branch`` as a :class:`ParameterBranch`: folds carry ``value``; period doubling, Neimark-Sacker and
+    grazing are detected again with the parameter in place of omega (:func:`mshbm.bifurcations.detect` on the
+    points' records, each with its own system's gaps), located by interpolation in the parameter."""
     pb = ParameterBranch(**{f.name: getattr(branch, f.name) for f in fields(Branch)})
     pb.parameter = name
-    values = pb.values if pb.points else np.zeros(0)
+    folds = []
     for b in pb.bifurcations:
-        if b.get("type") == "fold" and "load" in b:
+        if b.get("type") == "fold":
             b["value"] = b.pop("load")
-        else:
-            b.pop("load", None)
-            i = int(np.clip(b.get("index", 0), 0, max(len(values) - 1, 0)))
-            if len(values):
-                b["value"], b["value_located"] = float(values[i]), "point"
+            folds.append(b)
+    records = []
+    for bp in pb.points:
+        r = bifurcations.point_from_solution(family.system(bp.value), bp.solution, x=bp)
+        r.omega = float(bp.value)  # detect interpolates in its records' "omega": here the parameter
+        records.append(r)
+    found = bifurcations.detect(records, rel_tol=1e-4, types=("period-doubling", "neimark-sacker", "grazing")) \
+        if records else []
+    others = []
+    for b in found:
+        rec = b.as_dict()
+        rec["value"], rec["omega"], rec["located"] = rec.pop("omega"), float(omega), b.located
+        rec["bracket"] = [float(v) for v in b.bracket]
+        others.append(rec)
+    pb.bifurcations = sorted(folds + others, key=lambda b: b.get("index", 0))
     return pb
 
 
@@ -202,8 +215,8 @@ def continue_parameter(family, lam_start, lam_end, omega, method="mshbm", period
     try:
         br = _guarded(ROUTE, s0, a, b, method, period, name, w, options, family=fam)
     except SweepInterrupted as exc:
-        raise SweepInterrupted(_as_parameter_branch(exc.branch, name), exc.cause) from None
-    return _as_parameter_branch(br, name)
+        raise SweepInterrupted(_as_parameter_branch(exc.branch, name, fam, w), exc.cause) from None
+    return _as_parameter_branch(br, name, fam, w)
 
 
 def sweep_case(case, key, start, end, omega=None, method=None, **options):

@@ -158,3 +158,38 @@ def test_cli_preload_sweep_against_cli_solves(tmp_path, capsys):
                                   "--quiet"]])
     data = json.loads(out.read_text())
     assert code == 0 and data["parameter"] == "omega" and data["omega"][0] == 1.8 and data["omega"][-1] == 2.2
+
+
+def test_forcing_amplitude_branch_of_the_impact_oscillator_against_closed_forms():
+    """x'' + 0.1 x' + x = a cos(1.5 t), stop at 1 (e = 0.8), a from a_g / 2 to 1.5 a_g (a_g = 1 / |G|, the
+    grazing): with x = a y this is the (1,1) orbit family of tests/closed_forms.py with the stop at 1 / a.
+    Every point (non-impacting: a |G|; impacting: a (1,1) orbit) within 1e-9 of the closed forms (event-driven
+    shooting), and the fold of the impacting branch in a where the two (1,1) orbits merge (|gamma| = rho,
+    gamma linear in the stop) within 1e-8."""
+    import closed_forms as cf  # tests/ is on the path (its conftest.py)
+
+    w, zeta, r = 1.5, 0.05, 0.8
+
+    def family(a):
+        return chain([1.0], 1.0, 2 * zeta, forcing=[{"dof": 0, "amplitude": a}],
+                     elements=[mshbm.Contact(0, 1.0, r)])
+
+    G = abs(cf._G(w, zeta))
+    (p11, p12), (p21, p22) = cf.phi_h(2 * np.pi / w, zeta)
+    k = 1.0 + p22 * r
+    alpha = -p21 * G + k * (p11 - 1.0) * G / (r * p12)
+    beta = -k * G * w / r - (1.0 - p22) * G * w
+    a_fold = abs(p21 - k * (p11 - 1.0) / (r * p12)) / np.hypot(alpha, beta)  # 1 / sigma at |gamma| = rho
+    b = mshbm.continue_parameter(family, 0.5 / G, 1.5 / G, w, "shooting", name="a", integrator="event")
+    assert b.success and b.values[-1] == pytest.approx(1.5 / G, rel=1e-12)
+    kinds = []
+    for p in b.points:
+        a = p.value
+        cands = [(a * G, "linear")] + [(a * cf.amplitude(w, t0, v, zeta, 1 / a, r), "(1,1)")
+                                       for t0, v in cf.orbit_11(w, zeta, 1 / a, r) if v > 0]
+        exact, kind = min(cands, key=lambda c: abs(c[0] - p.amplitude[0]))
+        assert p.amplitude[0] == pytest.approx(exact, rel=1e-9), (a, kind)
+        kinds.append(kind)
+    assert kinds.count("linear") >= 5 and kinds.count("(1,1)") >= 10
+    located = [f for f in b.bifurcations if f["type"] == "fold" and f["located"] is True]
+    assert any(abs(f["value"] / a_fold - 1) < 1e-8 for f in located), (a_fold, b.bifurcations)
