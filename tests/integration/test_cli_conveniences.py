@@ -13,7 +13,6 @@ import pytest
 import yaml
 
 import mshbm
-from mshbm import InputError
 from mshbm.cli import main
 from mshbm.io import load_case
 
