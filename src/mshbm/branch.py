@@ -28,7 +28,9 @@ go through the route it is given (:func:`trace`), and :data:`ROUTE`, the route o
 traces the ``"frequency"`` start's branches with :func:`trace`.
 
 ``continue_forcing(system, omega, load_start, load_end, ...)`` continues instead in a load factor
-on the forcing (``f_hat`` times ``load``) at fixed ``omega``.
+on the forcing (``f_hat`` times ``load``) at fixed ``omega``; :func:`mshbm.parameter.continue_parameter` in
+any parameter that rebuilds the system (``family`` of ``_run``).  An interrupt keeps the points so far
+(:mod:`mshbm.interrupt`).
 
 Notation: ``n`` DOFs, ``x`` the unknowns of the method, ``omega`` the forcing frequency (rad/s).
 """
@@ -50,6 +52,7 @@ from .certificate import certify
 from .condensation import reuse_factors
 from .errors import InputError
 from .hill import assess_hbm
+from .interrupt import Collector, SweepInterrupted, interrupted_result
 from .methods.hbm import linear_quadrature_unsupported
 from .methods.registry import build_problem
 from .options import METHODS
@@ -426,7 +429,7 @@ def _grazing_locator(tracer, system, tol):
     return locate
 
 
-def _run(route, system, lam_start, lam_end, method, period, parameter, omega_fixed, options):
+def _run(route, system, lam_start, lam_end, method, period, parameter, omega_fixed, options, family=None):
     t0 = time.perf_counter()
     if not isinstance(system, System):
         raise InputError("system", f"must be an mshbm.System, got {type(system).__name__}")
@@ -462,10 +465,13 @@ def _run(route, system, lam_start, lam_end, method, period, parameter, omega_fix
     # 1. the start point: mshbm.solve from its default start (or the given guess)
     if parameter == "omega":
         sol0 = route.solve_period(system, lam_start, method, period=k, stability=False, **rest)
+    elif family is not None:  # any parameter that rebuilds the system (mshbm.parameter)
+        sol0 = route.solve_period(family.system(lam_start), omega_fixed, method, period=k, stability=False, **rest)
     else:
         sol0 = route.solve_period(scaled_forcing(system, lam_start), omega_fixed, method, period=k, stability=False,
                                   **rest)
-    tracer = _Tracer(sys_k, method, dict(prob_k), parameter, omega_fixed, k, tol, stab)
+    tracer = (_Tracer if family is None else family.tracer)(sys_k, method, dict(prob_k), parameter, omega_fixed, k,
+                                                              tol, stab)
     branch = Branch(success=False, message="", method=method, period=k, parameter=parameter)
     if not sol0.success:
         branch.message = f"no certified solution at the start {parameter} = {lam_start:g}: {sol0.message}"
@@ -484,6 +490,7 @@ def _run(route, system, lam_start, lam_end, method, period, parameter, omega_fix
     lam_scale = abs(lam_start) if parameter == "omega" else max(abs(lam_start), abs(lam_end))
     # one kept LU per harmonic of the condensed part, reused by the nearby frequencies of a corrector and of
     # dR/domega: faster, and R smooth in omega (mshbm.condensation.FactorReuse)
+    seen, reuse = Collector(progress), None  # the accepted points, kept for an interrupt (mshbm.interrupt)
     try:
         with reuse_factors() as reuse:
             res = continuation(
@@ -491,8 +498,12 @@ def _run(route, system, lam_start, lam_end, method, period, parameter, omega_fix
                 residual_scale=tracer.residual_scale, unknown_scale=tracer.unknown_scale, lam_scale=lam_scale,
                 ds0=ds, ds_min=ds_min, ds_max=ds_max, max_points=int(max_points), tol=tol,
                 max_corrector_iter=min(12, int(rest.get("max_iter", 12))),
-                predictor=predictor, accept=accept, callback=progress, max_time=max_time,
+                predictor=predictor, accept=accept, callback=seen, max_time=max_time,
                 stall_accept=tracer.stall_accept, segment=tracer.segment)
+    except KeyboardInterrupt as exc:
+        interrupted, res = exc, interrupted_result(seen.points)
+    else:
+        interrupted = None
     finally:
         progress.close()
     branch.points = []
@@ -514,13 +525,15 @@ def _run(route, system, lam_start, lam_end, method, period, parameter, omega_fix
             rec["bracket"] = f["bracket"]
         folds.append(rec)
     others, note = ([], "") if not branch.points else _detect_other(
-        branch, system, _grazing_locator(tracer, system, tol) if parameter == "omega" else None)
+        branch, system, _grazing_locator(tracer, system, tol) if parameter == "omega" and not interrupted else None)
     branch.bifurcations = sorted(folds + [dict(b) for b in others], key=lambda b: b.get("index", 0))
     branch.success = bool(res.success)
     branch.message = res.message + (f"; {note}" if note else "")
     branch.counters = dict(res.counters, start_iterations=int(sol0.iterations), points=len(branch.points),
-                           condensation={k: int(v) for k, v in reuse.counters.items()})
+                           condensation={k: int(v) for k, v in (reuse.counters if reuse is not None else {}).items()})
     branch.wall_time = time.perf_counter() - t0
+    if interrupted is not None:
+        raise SweepInterrupted(branch, interrupted)
     return branch
 
 
@@ -552,6 +565,7 @@ def sweep(system, omega_start, omega_end, method="mshbm", period=1, **options):
     Returns
     -------
     Branch
+        On Ctrl-C :class:`mshbm.interrupt.SweepInterrupted` (a KeyboardInterrupt) carries the points so far.
     """
     w0 = _check_number("omega_start", omega_start)
     w1 = _check_number("omega_end", omega_end)
@@ -575,11 +589,11 @@ def trace(route, system, omega_start, omega_end, method="mshbm", period=1, **opt
 ROUTE = Route(sweep=trace)
 
 
-def _guarded(route, system, a, b, method, period, parameter, omega, options):
+def _guarded(route, system, a, b, method, period, parameter, omega, options, family=None):
     """``_run`` with one BLAS thread (option ``blas_threads``, as :func:`mshbm.solve`) and quiet floats."""
     options = dict(options)
     with blas_threads(check_threads(options.pop("blas_threads", 1))), validate.quiet_floats():
-        return _run(route, system, a, b, method, period, parameter, omega, options)
+        return _run(route, system, a, b, method, period, parameter, omega, options, family)
 
 
 def continue_forcing(system, omega, load_start, load_end=1.0, method="mshbm", period=1, **options):

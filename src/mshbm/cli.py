@@ -1,19 +1,28 @@
-"""Command line: ``mshbm solve CASE.yaml [--method M] [--harmonics N] [--steps N] [--out FILE] [--quiet]``
-and ``mshbm sweep CASE.yaml ...`` (frequency-response curves, :mod:`mshbm.cli_sweep`).
+"""Command line: ``mshbm solve CASE.yaml [--method M] [--harmonics N] [--steps N] [--omega W] [--set KEY=VALUE ...]
+[--out FILE] [--quiet]`` and ``mshbm sweep CASE.yaml ...`` (branches in omega or any parameter,
+:mod:`mshbm.cli_sweep`).
+
+``--set KEY=VALUE`` (repeatable) sets a dotted key of the case file before it is checked
+(:mod:`mshbm.io.overrides`: ``--set friction.0.normal_force=2.5 --set solver.harmonics=9``; the value is
+read as YAML; an unknown key is an input error naming it); ``--omega W`` is ``--set omega=W``.
 
 Exit codes: 0 converged, 1 not converged, 2 invalid input (one line
-``error: <key>: <problem>``), 3 internal error, 130 interrupted.  No traceback
-ever reaches the user.
+``error: <key>: <problem>``), 3 internal error, 130 interrupted (Ctrl-C, SIGINT), 143 terminated
+(SIGTERM).  No traceback ever reaches the user.  The first use of a numba kernel whose on-disk cache is
+missing compiles it (seconds to a minute): one line ``mshbm: compiling ...`` on stderr says so (not with
+``--quiet``).
 """
 from __future__ import annotations
 
 import argparse
 import json
+import signal
 import sys
 
 from . import __version__
 from . import cli_sweep
 from .errors import ConvergenceError, InputError
+from .interrupt import terminate_as_interrupt
 from . import io as _io
 from .options import METHODS
 from .outfile import check_out, jsonable, write_text
@@ -22,6 +31,8 @@ from .validate import quiet_floats
 __all__ = ["main"]
 
 EXIT_OK, EXIT_NOT_CONVERGED, EXIT_INPUT, EXIT_INTERNAL, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
+#: exit code after SIGTERM (128 + 15, as a shell reports a process killed by it)
+EXIT_TERMINATED = 128 + signal.SIGTERM
 METHOD_CHOICES = tuple(METHODS)
 
 
@@ -50,12 +61,60 @@ def _parser():
                    "exact event-driven flow (mshbm.integrators.event: friction and contact on single DOFs)")
     s.add_argument("--period", type=int, default=None, metavar="K",
                    help="look for a K T-periodic solution (default 1; see mshbm.period)")
+    s.add_argument("--omega", type=float, default=None, metavar="W",
+                   help="forcing frequency in rad/s (instead of the case's omega; same as --set omega=W)")
+    add_set_option(s)
     s.add_argument("--out", default=None, metavar="FILE.json",
                    help="write the result summary as JSON (keeps the permissions of an existing file, writes "
                    "through symlinks, FIFOs and character devices; never the case file itself)")
     s.add_argument("--quiet", action="store_true", help="print no table (errors still go to stderr)")
     cli_sweep.add_parser(sub, METHOD_CHOICES)  # mshbm sweep: mshbm.cli_sweep
     return p
+
+
+def add_set_option(parser):
+    """``--set KEY=VALUE`` (repeatable) of every subcommand that reads a case file."""
+    parser.add_argument("--set", action="append", default=None, metavar="KEY=VALUE", dest="set",
+                        help="set a dotted key of the case file, e.g. friction.0.normal_force=2.5 or "
+                        "solver.harmonics=9 (value read as YAML; repeatable)")
+
+
+def case_sets(args):
+    """The ``--set`` assignments of ``args`` (and ``--omega`` of ``solve``) for :func:`mshbm.io.load_case`."""
+    sets = list(args.set or [])
+    if getattr(args, "command", None) == "solve" and args.omega is not None:
+        sets.append(("omega", args.omega))
+    return sets
+
+
+class _CompileNotice:
+    """One line on stderr when numba compiles a kernel (its ``numba:compile`` event fires only on a cache
+    miss: loading a kernel cached on disk is silent), once per process."""
+
+    def __init__(self):
+        self.shown = False
+
+    def install(self):
+        try:
+            from numba.core import event
+        except ImportError:  # pragma: no cover - numba is a dependency
+            return None
+
+        notice = self
+
+        class Listener(event.Listener):
+            def on_start(self, ev):
+                if not notice.shown:
+                    notice.shown = True
+                    print("mshbm: compiling numba kernels on first use (cached on disk for later runs; this takes "
+                          "a while once)", file=sys.stderr, flush=True)
+
+            def on_end(self, ev):
+                pass
+
+        listener = Listener()
+        event.register("numba:compile", listener)
+        return lambda: event.unregister("numba:compile", listener)
 
 
 def _fmt_float(x):
@@ -99,7 +158,7 @@ def _write_json(path, payload, case=None):
 def _solve(args):
     if args.out is not None:
         check_out(args.out, args.case)  # --out rules: mshbm.outfile
-    case = _io.load_case(args.case)
+    case = _io.load_case(args.case, sets=case_sets(args))
     cli_opts = {k: getattr(args, k) for k in ("harmonics", "steps", "period", "integrator")
                 if getattr(args, k) is not None}
     try:
@@ -140,18 +199,24 @@ def main(argv=None):
             parser.print_usage(sys.stderr)
             _error("a command is required (e.g. 'mshbm solve CASE.yaml')")
             return EXIT_INPUT
+        uninstall = None if args.quiet else _CompileNotice().install()
         try:
-            with quiet_floats():  # no RuntimeWarnings on the terminal: non-finite numbers are reported
+            with quiet_floats(), terminate_as_interrupt():  # no RuntimeWarnings on the terminal; SIGTERM as Ctrl-C
                 if args.command == "sweep":
                     return cli_sweep.run(args, (EXIT_OK, EXIT_NOT_CONVERGED), _write_json, _error)
                 return _solve(args)
         except InputError as exc:
+            if exc.key == "omega" and getattr(args, "omega", None) is not None:
+                exc = InputError("--omega", exc.problem)
             _error(f"{exc.key}: {exc.problem}")
             return EXIT_INPUT
-    except KeyboardInterrupt:
+        finally:
+            if uninstall is not None:
+                uninstall()
+    except KeyboardInterrupt as exc:
         print(file=sys.stderr)
-        _error("interrupted")
-        return EXIT_INTERRUPTED
+        _error("terminated (SIGTERM)" if getattr(exc, "signum", None) == signal.SIGTERM else "interrupted")
+        return EXIT_TERMINATED if getattr(exc, "signum", None) == signal.SIGTERM else EXIT_INTERRUPTED
     except Exception as exc:  # noqa: BLE001 -- the last line of defence: never show a traceback
         _error(f"internal: {type(exc).__name__}: {exc}")
         return EXIT_INTERNAL

@@ -1,20 +1,32 @@
-"""Command line ``mshbm sweep``: a frequency-response curve of a case file (:func:`mshbm.sweep`).
+"""Command line ``mshbm sweep``: a frequency-response curve of a case file (:func:`mshbm.sweep`), or a branch in
+any numeric key of it (:func:`mshbm.parameter.sweep_case`).
 
 ``mshbm sweep CASE.yaml --method M --omega-start A --omega-end B [--harmonics N] [--steps N] [--period K]
-[--integrator moreau|event] [--out branch.json] [--plot branch.png] [--dofs D [D ...]] [--max-points N] [--quiet]``
+[--integrator moreau|event] [--set KEY=VALUE ...] [--out branch.json] [--plot branch.png] [--dofs D [D ...]]
+[--max-points N] [--quiet]``
 
-Exit codes as for ``mshbm solve`` (:mod:`mshbm.cli`): 0 the branch reached ``--omega-end`` with every
-point certified, 1 it stopped before (the points so far are still written), 2 invalid input (one line
-``error: <key>: <problem>``), 3 internal error, 130 interrupted.
+``mshbm sweep CASE.yaml --parameter KEY --start A --end B [--omega W] ...`` continues in the case-file entry
+``KEY`` (a dotted key, :mod:`mshbm.io.overrides`: ``friction.0.normal_force``, ``forcing.0.amplitude``,
+``masses.1``, ...) at the fixed frequency ``W`` (default: the case's ``omega``); ``--parameter omega --start A
+--end B`` is the frequency sweep.
 
-Progress (points done, omega, step size) goes to stderr unless ``--quiet``.  The JSON holds
-``success``, ``message``, arrays ``omega``, ``amplitude`` (per point, per DOF), ``stable`` and
-``bifurcations`` (``[{type, omega}]``), plus per-point details.  The plot shows the amplitude of the
-chosen DOFs against omega: solid where stable, dashed where unstable, dotted where undecided (each DOF in its own colour), and
-markers at bifurcations.
+Exit codes as for ``mshbm solve`` (:mod:`mshbm.cli`): 0 the branch reached the end of the range with every
+point certified, 1 it stopped before -- at ``--max-points``, at ``ds_min``, out of range -- (the points so
+far are written: JSON and plot), 2 invalid input (one line ``error: <key>: <problem>``), 3 internal error,
+130 interrupted by Ctrl-C (SIGINT) and 143 by SIGTERM: the points accepted so far are written too (JSON
+with ``"success": false``, ``counters.interrupted``, and the plot), unless the interrupt came before the
+first point.
+
+Progress (points done, the parameter, step size) goes to stderr unless ``--quiet``.  The JSON holds
+``success``, ``message``, ``parameter`` (``"omega"`` or the key), arrays ``omega``, ``amplitude`` (per
+point, per DOF), ``stable`` and ``bifurcations`` (``[{type, omega}]``; with ``value`` in a parameter
+sweep), ``parameter_values`` in a parameter sweep, plus per-point details.  The plot shows the amplitude
+of the chosen DOFs against omega (or the parameter): solid where stable, dashed where unstable, dotted where
+undecided (each DOF in its own colour), and markers at bifurcations.
 """
 from __future__ import annotations
 
+import signal
 from io import BytesIO
 
 import numpy as np
@@ -22,22 +34,36 @@ import numpy as np
 from . import __version__
 from .branch import sweep
 from .errors import InputError
+from .interrupt import SweepInterrupted
 from . import io as _io
 from .options import COMMON as _COMMON, METHODS
-from .outfile import check_out
+from .outfile import check_out, write_text
+from .parameter import sweep_case
 
 __all__ = ["add_parser", "run"]
 
 
 def add_parser(sub, method_choices):
-    s = sub.add_parser("sweep", help="trace a frequency-response curve", description="Trace the branch of "
-                       "periodic solutions of a case file from --omega-start to --omega-end by pseudo-arclength "
-                       "continuation. Exit codes: 0 end reached, 1 stopped early, 2 invalid input, 3 internal error.")
+    s = sub.add_parser("sweep", help="trace a frequency-response curve (or a branch in another parameter)",
+                       description="Trace the branch of periodic solutions of a case file from --omega-start to "
+                       "--omega-end (or in --parameter KEY from --start to --end at fixed omega) by pseudo-arclength "
+                       "continuation. Exit codes: 0 end reached, 1 stopped early (max points, step size; the points "
+                       "so far are written), 2 invalid input, 3 internal error, 130 interrupted (Ctrl-C), 143 "
+                       "terminated (SIGTERM): the points so far are written.")
     s.add_argument("case", metavar="CASE.yaml", help="case file (see examples/)")
     s.add_argument("--method", choices=method_choices, default=None,
                    help="solution method (default: the case's solver.method, else mshbm)")
-    s.add_argument("--omega-start", type=float, required=True, metavar="A", help="start frequency (rad/s)")
-    s.add_argument("--omega-end", type=float, required=True, metavar="B", help="end frequency (rad/s)")
+    s.add_argument("--omega-start", type=float, default=None, metavar="A", help="start frequency (rad/s)")
+    s.add_argument("--omega-end", type=float, default=None, metavar="B", help="end frequency (rad/s)")
+    s.add_argument("--parameter", default="omega", metavar="KEY",
+                   help="continuation parameter: omega (default) or a numeric dotted key of the case file, e.g. "
+                   "friction.0.normal_force or forcing.0.amplitude (dR/dKEY by finite differences)")
+    s.add_argument("--start", type=float, default=None, metavar="A", help="start value of --parameter")
+    s.add_argument("--end", type=float, default=None, metavar="B", help="end value of --parameter")
+    s.add_argument("--omega", type=float, default=None, metavar="W",
+                   help="fixed forcing frequency (rad/s) of a sweep in another --parameter (default: the case's)")
+    from .cli import add_set_option
+    add_set_option(s)
     s.add_argument("--harmonics", type=int, default=None, metavar="N", help="number of harmonics n_h (per period T)")
     s.add_argument("--steps", type=int, default=None, metavar="N", help="time steps (samples) per period T")
     s.add_argument("--period", type=int, default=1, metavar="K", help="trace K T-periodic solutions (default 1)")
@@ -62,16 +88,16 @@ def _check_dofs(dofs, n):
     return list(dict.fromkeys(dofs))
 
 
-def plot(branch, path, dofs, title=""):
-    """Write the figure of :func:`figure` as a PNG to ``path``."""
+def plot(branch, path, dofs, title="", case=None):
+    """Write the figure of :func:`figure` as a PNG to ``path`` (the rules of ``--out``, :mod:`mshbm.outfile`;
+    errors name ``--plot``)."""
     import matplotlib.pyplot as plt
 
     fig = figure(branch, dofs, title)
     buf = BytesIO()
     fig.savefig(buf, format="png", dpi=120)
     plt.close(fig)
-    with open(path, "wb") as f:
-        f.write(buf.getvalue())
+    write_text(path, buf.getvalue(), case, key="--plot")
 
 
 def figure(branch, dofs, title=""):
@@ -86,7 +112,9 @@ def figure(branch, dofs, title=""):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    w, A, st = branch.omega, branch.amplitude, branch.stable
+    param = getattr(branch, "parameter", "omega")
+    w = branch.omega if param == "omega" else branch.values
+    A, st = branch.amplitude, branch.stable
     fig, ax = plt.subplots(figsize=(8.5, 4.5))
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     styles = {True: "-", False: "--", None: ":"}
@@ -105,7 +133,7 @@ def figure(branch, dofs, title=""):
     markers = {"fold": "o", "period-doubling": "s", "neimark-sacker": "D", "grazing": "^"}
     seen = set()
     for b in branch.bifurcations:
-        wb = b.get("omega")
+        wb = b.get("omega") if param == "omega" else b.get("value")
         if wb is None or not len(w):
             continue
         i = int(np.clip(b.get("index", int(np.argmin(np.abs(w - wb)))), 0, len(w) - 1))
@@ -116,7 +144,7 @@ def figure(branch, dofs, title=""):
     ax.plot([], [], color="k", ls="-", label="stable")
     ax.plot([], [], color="k", ls="--", label="unstable")
     ax.plot([], [], color="k", ls=":", lw=1.2, label="stability unknown")
-    ax.set_xlabel(r"$\omega$ (rad/s)")
+    ax.set_xlabel(r"$\omega$ (rad/s)" if param == "omega" else param)
     ax.set_ylabel("amplitude (max - min)/2")
     ax.set_title(title)
     ax.grid(alpha=0.3)
@@ -125,13 +153,45 @@ def figure(branch, dofs, title=""):
     return fig
 
 
+def _range(args):
+    """``(parameter, start, end)`` from ``--parameter/--start/--end`` or ``--omega-start/--omega-end``."""
+    param = args.parameter
+    if param == "omega":
+        if args.omega is not None:
+            raise InputError("--omega", "fixes the frequency of a sweep in another --parameter; this sweep is in "
+                                        "omega (give --omega-start/--omega-end)")
+        start = args.omega_start if args.omega_start is not None else args.start
+        end = args.omega_end if args.omega_end is not None else args.end
+        for flag, given, alt in (("--omega-start", start, "--start"), ("--omega-end", end, "--end")):
+            if given is None:
+                raise InputError(flag, f"missing (required: the range of the sweep, {flag} or {alt})")
+        return param, start, end
+    for flag, given in (("--omega-start", args.omega_start), ("--omega-end", args.omega_end)):
+        if given is not None:
+            raise InputError(flag, f"is for sweeps in omega; a sweep in --parameter {param} takes --start/--end "
+                                   "(and --omega for its fixed frequency)")
+    for flag, given in (("--start", args.start), ("--end", args.end)):
+        if given is None:
+            raise InputError(flag, f"missing (required with --parameter {param})")
+    return param, args.start, args.end
+
+
+_NAMES = {"omega_start": "--omega-start", "omega_end": "--omega-end", "period": "--period",
+          "max_points": "--max-points", "harmonics": "--harmonics", "steps": "--steps", "integrator": "--integrator",
+          "lam_start": "--start", "lam_end": "--end", "start": "--start", "end": "--end", "omega": "--omega",
+          "parameter": "--parameter"}
+
+
 def run(args, exit_codes, write_json, error):
     """Run ``mshbm sweep`` (``args`` from :func:`add_parser`); returns the exit code."""
+    from .cli import case_sets
+
     ok, not_conv = exit_codes
     for key, path in (("--out", args.out), ("--plot", args.plot)):
         if path is not None:
-            check_out(path, args.case)
-    case = _io.load_case(args.case)
+            check_out(path, args.case, key)
+    param, start, end = _range(args)
+    case = _io.load_case(args.case, sets=case_sets(args))
     method = args.method or case.method
     dofs = _check_dofs(args.dofs, case.system.n)
     defaults = {k: v for k, v in case.solver.items() if k != "method" and k in (METHODS.get(method, set()) | _COMMON)}
@@ -139,33 +199,44 @@ def run(args, exit_codes, write_json, error):
     if args.max_points is not None:
         cli["max_points"] = args.max_points
     progress = False if args.quiet else "always"
+    interrupted = None
     try:
-        br = sweep(case.system, args.omega_start, args.omega_end, method, period=args.period,
-                   progress=progress, **{**defaults, **cli})
+        if param == "omega":
+            br = sweep(case.system, start, end, method, period=args.period, progress=progress, **{**defaults, **cli})
+        else:
+            br = sweep_case(case, param, start, end, args.omega, method, period=args.period, progress=progress, **cli)
+    except SweepInterrupted as exc:
+        br, interrupted = exc.branch, exc
     except InputError as exc:
-        names = {"omega_start": "--omega-start", "omega_end": "--omega-end", "period": "--period",
-                 "max_points": "--max-points", "harmonics": "--harmonics", "steps": "--steps",
-                 "integrator": "--integrator"}
-        if exc.key in names and (exc.key in cli or exc.key in ("omega_start", "omega_end", "period")):
-            raise InputError(names[exc.key], exc.problem) from None
+        given = set(cli) | {"omega_start", "omega_end", "period", "lam_start", "lam_end", "start", "end", "parameter"}
+        given |= {"omega"} if args.omega is not None else set()
+        if exc.key in _NAMES and exc.key in given:
+            raise InputError(_NAMES[exc.key], exc.problem) from None
         raise
+    what = "omega" if param == "omega" else f"{param} at omega = {args.omega or case.omega:g}"
     if args.out is not None:
         payload = {"case": case.name, **br.to_dict(), "n_dofs": int(case.system.n), "source": case.source,
                    "version": __version__}
         write_json(args.out, payload, args.case)
     if args.plot is not None and len(br):
         plot(br, args.plot, dofs, title=f"{case.name}: {method}" + (f", period {args.period}" if args.period > 1
-                                                                     else ""))
+                                                                     else "") + ("" if param == "omega" else
+                                                                                 f", {what}"), case=args.case)
     if not args.quiet:
-        w = br.omega
-        bifs = ", ".join(f"{b['type']} at {b['omega']:.6g}" for b in br.bifurcations) or "none"
-        print(f"case        {case.name}\nmethod      {method}\nperiod      {args.period}\n"
-              f"points      {len(br)}" + (f" (omega {w.min():.6g} .. {w.max():.6g})" if len(br) else "") +
+        x = br.omega if param == "omega" else br.values
+        bifs = ", ".join(f"{b['type']} at {b.get('omega' if param == 'omega' else 'value', float('nan')):.6g}"
+                         for b in br.bifurcations) or "none"
+        print(f"case        {case.name}\nmethod      {method}\nparameter   {what}\nperiod      {args.period}\n"
+              f"points      {len(br)}" + (f" ({param} {x.min():.6g} .. {x.max():.6g})" if len(br) else "") +
               f"\nsuccess     {'yes' if br.success else 'no'}\nwall time   {br.wall_time:.2f} s\n"
               f"bifurcations {bifs}")
         for path in (args.out, args.plot):
-            if path is not None:
+            if path is not None and (path == args.out or len(br)):
                 print(f"wrote {path}")
+    if interrupted is not None:
+        name = "SIGTERM" if interrupted.signum == signal.SIGTERM else "SIGINT"
+        error(f"{br.message} ({name})" + ("; the points so far are written" if args.out or args.plot else ""))
+        return 128 + int(interrupted.signum)
     if not br.success:
         error(f"sweep stopped early: {br.message}")
         return not_conv

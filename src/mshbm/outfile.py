@@ -18,7 +18,8 @@ Rules (``mshbm solve CASE --out PATH``):
   symlink or hard link: compared by device and inode).
 
 Every refusal is an :class:`mshbm.InputError` with key ``--out`` (exit code 2), raised before the
-solve when it can be foreseen.
+solve when it can be foreseen; the same rules hold for ``mshbm sweep --plot FILE.png`` (key ``--plot``,
+``key=`` of :func:`check_out` and :func:`write_text`; ``text`` may then be ``bytes``).
 
 :func:`jsonable` is the one conversion of results to JSON values, used by the CLI and by every
 script of the workflow (solves, benchmarks, stress suite).
@@ -76,19 +77,20 @@ def _umask():
     return mask
 
 
-def _plan(path, case=None):
-    """``(target, kind, st)``: the path to write, ``"new" | "file" | "stream"`` and its stat (or None)."""
+def _plan(path, case=None, key=KEY):
+    """``(target, kind, st)``: the path to write, ``"new" | "file" | "stream"`` and its stat (or None);
+    refusals are :class:`InputError` s naming ``key`` (the option that gave the path)."""
     path = os.fspath(path)
     if not path:
-        raise InputError(KEY, "is empty")
+        raise InputError(key, "is empty")
     if "\x00" in path:
-        raise InputError(KEY, "contains a NUL byte")
+        raise InputError(key, "contains a NUL byte")
     try:
         st = os.stat(path)  # follows symlinks in the kernel (also /proc/self/fd/N of pipes)
     except FileNotFoundError:
         st = None
     except OSError as exc:
-        raise InputError(KEY, f"cannot use {path!r}: {exc.strerror or exc}") from None
+        raise InputError(key, f"cannot use {path!r}: {exc.strerror or exc}") from None
     stream = st is not None and (stat.S_ISFIFO(st.st_mode) or stat.S_ISCHR(st.st_mode))
     # a regular file (or a new one) behind symlinks is replaced where it lives, keeping the links
     target = os.path.realpath(path) if not stream and os.path.islink(path) else path
@@ -98,51 +100,51 @@ def _plan(path, case=None):
         except OSError:
             cst = None
         if cst is not None and (cst.st_dev, cst.st_ino) == (st.st_dev, st.st_ino):
-            raise InputError(KEY, f"{path!r} is the case file itself; refusing to overwrite it")
+            raise InputError(key, f"{path!r} is the case file itself; refusing to overwrite it")
     if st is None:
         if path.endswith(os.sep):
-            raise InputError(KEY, f"{path!r} names a directory")
+            raise InputError(key, f"{path!r} names a directory")
         parent = os.path.dirname(os.path.abspath(target))
         if not os.path.isdir(parent):
-            raise InputError(KEY, f"directory {parent!r} does not exist")
+            raise InputError(key, f"directory {parent!r} does not exist")
         if not os.access(parent, os.W_OK | os.X_OK):
-            raise InputError(KEY, f"directory {parent!r} is not writable")
+            raise InputError(key, f"directory {parent!r} is not writable")
         return target, "new", None
     mode = st.st_mode
     if stat.S_ISDIR(mode):
-        raise InputError(KEY, f"{path!r} is a directory")
+        raise InputError(key, f"{path!r} is a directory")
     if stat.S_ISFIFO(mode) or stat.S_ISCHR(mode):
         if not os.access(target, os.W_OK):
-            raise InputError(KEY, f"{path!r} is not writable")
+            raise InputError(key, f"{path!r} is not writable")
         return target, "stream", st
     if not stat.S_ISREG(mode):
         what = "a block device" if stat.S_ISBLK(mode) else "a socket" if stat.S_ISSOCK(mode) else "not a file"
-        raise InputError(KEY, f"{path!r} is {what}; refusing to write JSON there")
+        raise InputError(key, f"{path!r} is {what}; refusing to write there")
     if not os.access(target, os.W_OK):
-        raise InputError(KEY, f"{path!r} is not writable (permissions {stat.filemode(mode)})")
+        raise InputError(key, f"{path!r} is not writable (permissions {stat.filemode(mode)})")
     parent = os.path.dirname(os.path.abspath(target))
     if st.st_nlink == 1 and not os.access(parent, os.W_OK | os.X_OK):
         return target, "inplace", st  # cannot create a temporary file next to it: rewrite in place
     return target, ("inplace" if st.st_nlink > 1 else "file"), st
 
 
-def check_out(path, case=None):
-    """Fail early (before solving) when ``path`` cannot or must not be written."""
-    _plan(path, case)
+def check_out(path, case=None, key=KEY):
+    """Fail early (before solving) when ``path`` cannot or must not be written (errors name ``key``)."""
+    _plan(path, case, key)
 
 
-def _write_stream(target, text, st):
+def _write_stream(target, text, st, key=KEY):
     flags = os.O_WRONLY | (os.O_NONBLOCK if stat.S_ISFIFO(st.st_mode) else 0)
     try:
         fd = os.open(target, flags)
     except OSError as exc:
         if exc.errno == errno.ENXIO:
-            raise InputError(KEY, f"{target!r} is a FIFO without a reader") from None
+            raise InputError(key, f"{target!r} is a FIFO without a reader") from None
         raise
     try:
         if flags & os.O_NONBLOCK:
             os.set_blocking(fd, True)
-        with os.fdopen(fd, "w", encoding="utf-8", closefd=False) as fh:
+        with _fdopen(fd, text, closefd=False) as fh:
             fh.write(text)
     finally:
         os.close(fd)
@@ -152,7 +154,7 @@ def _write_atomic(target, text, st):
     parent = os.path.dirname(os.path.abspath(target))
     fd, tmp = tempfile.mkstemp(prefix=".mshbm-", suffix=".json", dir=parent)
     try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+        with _fdopen(fd, text) as fh:
             fh.write(text)
             fh.flush()
             if st is None:
@@ -172,17 +174,26 @@ def _write_atomic(target, text, st):
         raise
 
 
-def write_text(path, text, case=None):
-    """Write ``text`` to ``path`` by the rules of the module docstring."""
-    target, kind, st = _plan(path, case)
+def _fdopen(fd, data, **kw):
+    """``fd`` as a file for ``data``: binary for ``bytes``, else UTF-8 text."""
+    if isinstance(data, (bytes, bytearray)):
+        return os.fdopen(fd, "wb", **kw)
+    return os.fdopen(fd, "w", encoding="utf-8", **kw)
+
+
+def write_text(path, text, case=None, key=KEY):
+    """Write ``text`` (``str``, or ``bytes`` for a figure) to ``path`` by the rules of the module docstring;
+    errors name ``key``."""
+    target, kind, st = _plan(path, case, key)
     try:
         if kind == "stream":
-            _write_stream(target, text, st)
+            _write_stream(target, text, st, key)
         elif kind == "inplace":
-            with open(target, "r+", encoding="utf-8") as fh:
+            binary = isinstance(text, (bytes, bytearray))
+            with open(target, "r+b" if binary else "r+", **({} if binary else {"encoding": "utf-8"})) as fh:
                 fh.truncate(0)
                 fh.write(text)
         else:
             _write_atomic(target, text, st)
     except OSError as exc:
-        raise InputError(KEY, f"cannot write {os.fspath(path)!r}: {exc.strerror or exc}") from None
+        raise InputError(key, f"cannot write {os.fspath(path)!r}: {exc.strerror or exc}") from None

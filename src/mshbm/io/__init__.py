@@ -45,6 +45,9 @@ YAML 1.2 octal (``0o10``); ``yes``/``no``/``on``/``off`` (booleans in YAML 1.1) 
 where a number is expected.  Hexadecimal (``0x1A``) and digit separators (``1_000``) are read
 as the numbers they denote.
 
+Entries can be overridden without editing the file by their dotted keys (:mod:`mshbm.io.overrides`;
+``load_case(path, sets={"friction.0.normal_force": 2.5})``, ``mshbm solve CASE --set KEY=VALUE``).
+
 Every problem is reported as :class:`mshbm.InputError` whose ``key`` is the
 dotted name of the offending entry (``friction.mu``, ``forcing[0].dof``,
 ``solver.harmonics``, ...).  Reading is defensive: files over 10 MB, nesting

@@ -15,6 +15,7 @@ from .. import options as options_
 from ..errors import InputError
 from ..elements import Jenkins
 from ..system import Contact, Friction, System, chain
+from .overrides import apply_sets as _apply_sets
 from .matrices import matrix_storage as _matrix_storage, rayleigh as _rayleigh, \
     rayleigh_damping as _rayleigh_damping, read_matrix_file as _read_matrix_file
 from .yaml import _REPR, MAX_FILE_BYTES, describe as _describe, load_yaml as _load_yaml, read_text as _read_text
@@ -131,10 +132,16 @@ def _per_spring(key, value):
     return value
 
 
-def _matrix(key, value, n=None, base_dir=None):
-    """A matrix given as a list of rows (dense array) or as a file path (CSR, :mod:`mshbm.io.matrices`)."""
+def _matrix(key, value, n=None, base_dir=None, cache=None):
+    """A matrix given as a list of rows (dense array) or as a file path (CSR, :mod:`mshbm.io.matrices`);
+    ``cache``: a dict of the files already read (by key, path and directory), or None."""
     if isinstance(value, str):
-        A = _read_matrix_file(key, value, base_dir)
+        tag = (key, value, str(base_dir))
+        A = cache.get(tag) if cache is not None else None
+        if A is None:
+            A = _read_matrix_file(key, value, base_dir)
+            if cache is not None:
+                cache[tag] = A
         if n is not None and A.shape[0] != n:
             raise InputError(key, f"must be {n}x{n} like M, got {A.shape[0]}x{A.shape[1]} from {value!r}")
         return A
@@ -330,6 +337,10 @@ class Case:
     solver: dict = field(default_factory=dict)
     name: str = "case"
     source: str | None = None
+    #: the parsed case file and the directory of its matrix files (for :meth:`with_sets`)
+    data: dict | None = field(default=None, repr=False)
+    base_dir: object = field(default=None, repr=False)
+    _matrices: dict = field(default_factory=dict, repr=False)
 
     @property
     def method(self):
@@ -358,16 +369,29 @@ class Case:
                 raise InputError(f"solver.{exc.key}", exc.problem) from None
             raise
 
+    def with_sets(self, sets):
+        """This case with the dotted-key assignments ``sets`` applied (:func:`mshbm.io.overrides.apply_sets`:
+        ``{"friction.0.normal_force": 2.5}``, ``["solver.harmonics=9"]``); matrix files are read once."""
+        if self.data is None:
+            raise InputError("case", "was not read from a case file (no data to override)")
+        data = _apply_sets(self.data, sets)
+        case = parse_case(data, name=self.name, source=self.source, base_dir=self.base_dir,
+                          matrix_cache=self._matrices)
+        case.name = self.name
+        return case
+
     def __repr__(self):
         return f"Case({self.name!r}, {self.system!r}, omega={self.omega:g}, solver={self.solver!r})"
 
 
-def parse_case(data, name=None, source=None, base_dir=None):
+def parse_case(data, name=None, source=None, base_dir=None, matrix_cache=None):
     """Build a :class:`Case` from an already parsed mapping (the content of a case file).
 
     ``base_dir``: directory against which relative matrix file paths (``M: K.mtx``) are resolved;
     default: the working directory (:func:`load_case` passes the case file's directory).
+    ``matrix_cache``: a dict kept between calls, so that matrix files are read once (default: none).
     """
+    matrix_cache = {} if matrix_cache is None else matrix_cache
     if not isinstance(data, dict):
         got = "an empty document" if data is None else f"a {type(data).__name__}"
         raise InputError("yaml", f"the top level must be a mapping of keys ({', '.join(TOP_KEYS)}), got {got}")
@@ -395,13 +419,13 @@ def parse_case(data, name=None, source=None, base_dir=None):
             raise InputError("M", "missing (required with C/K)")
         if "K" not in data:
             raise InputError("K", "missing (required with M)")
-        M = _matrix("M", data["M"], base_dir=base_dir)
+        M = _matrix("M", data["M"], base_dir=base_dir, cache=matrix_cache)
         n = M.shape[0]
-        K = _matrix("K", data["K"], n, base_dir)
+        K = _matrix("K", data["K"], n, base_dir, matrix_cache)
         if rayleigh and "C" in data:
             raise InputError("damping", "cannot be combined with C: give either C or Rayleigh damping "
                                         "{alpha, beta} (C = alpha M + beta K)")
-        C = _matrix("C", data["C"], n, base_dir) if "C" in data else None
+        C = _matrix("C", data["C"], n, base_dir, matrix_cache) if "C" in data else None
         mats = _matrix_storage({k: A for k, A in (("M", M), ("C", C), ("K", K)) if A is not None})
         M, K = mats["M"], mats["K"]
         if rayleigh:
@@ -433,7 +457,8 @@ def parse_case(data, name=None, source=None, base_dir=None):
             system = System(system.M, _rayleigh_damping(system.M, system.K, *alpha_beta), system.K,
                             system.f_hat, system.elements, name=name)
     solver = _solver(data.get("solver"), n)
-    return Case(system=system, omega=omega, solver=solver, name=name, source=source)
+    return Case(system=system, omega=omega, solver=solver, name=name, source=source, data=data, base_dir=base_dir,
+                _matrices=matrix_cache)
 
 
 def _apply_overrides(data, overrides):
@@ -465,12 +490,16 @@ def _apply_overrides(data, overrides):
     return data
 
 
-def load_case(path, **overrides):
+def load_case(path, sets=None, **overrides):
     """Read a YAML case file (see the module docstring for its keys).
 
     Parameters
     ----------
     path : str or path-like
+    sets : mapping or list, optional
+        Dotted-key assignments applied after ``overrides`` (:mod:`mshbm.io.overrides`:
+        ``{"friction.0.normal_force": 2.5}`` or ``["solver.harmonics=9"]``, values read as YAML);
+        an unknown key is an :class:`InputError` naming it.
     **overrides
         Replace top-level keys (``omega=0.5``, ``friction={...}``; ``None`` removes
         a key) or set solver options (``harmonics=3``, ``method="hbm"``) before
@@ -489,5 +518,6 @@ def load_case(path, **overrides):
     text = _read_text(path)
     data = _load_yaml(text)
     data = _apply_overrides(data, overrides)
+    data = _apply_sets(data, sets)
     return parse_case(data, name=Path(os.fspath(path)).stem, source=str(os.fspath(path)),
                       base_dir=Path(os.fspath(path)).parent)
