@@ -1,0 +1,112 @@
+"""Backbones by EPMC (mshbm.backbone): closed forms for a linear chain and a Jenkins oscillator at n_h = 1,
+and the peaks of forced responses."""
+import numpy as np
+import pytest
+import scipy.linalg as sla
+from scipy.optimize import brentq
+
+import mshbm
+from mshbm.backbone import backbone
+
+M3 = np.diag([1.0, 2.0, 1.5])
+K3 = np.array([[3.0, -1.0, 0.0], [-1.0, 2.0, -1.0], [0.0, -1.0, 1.0]])
+
+
+@pytest.mark.parametrize("mode", [0, 1, 2])
+def test_linear_rayleigh_modal_frequency_and_damping(mode):
+    """Rayleigh damping C = alpha M + beta K: EPMC gives the undamped omega_k and zeta_k = alpha/(2 omega_k) +
+    beta omega_k / 2 at every amplitude."""
+    alpha, beta = 0.02, 0.003
+    s = mshbm.System(M3, alpha * M3 + beta * K3, K3, np.zeros(3))
+    wk = np.sqrt(sla.eigh(K3, M3, eigvals_only=True)[mode])
+    b = backbone(s, 1e-3, 1e-1, mode=mode, harmonics=3, points=5)
+    assert b.success, b.message
+    assert len(b) >= 5
+    assert np.max(np.abs(b.omega / wk - 1)) < 1e-9
+    assert np.max(np.abs(b.damping_ratio / (alpha / (2 * wk) + beta * wk / 2) - 1)) < 1e-9
+    assert np.allclose(b.modal_amplitude[[0, -1]], [1e-3, 1e-1], rtol=1e-12)
+    assert b.to_dict()["stable"] == [None] * len(b)
+
+
+def _epmc_linear_reference(M, C, K, mode):
+    """(omega, xi) with i omega an eigenvalue of lambda^2 M + lambda (C - xi M) + K, for the mode whose
+    undamped frequency is the mode-th: the real part of that eigenvalue of the state matrix as a function of
+    xi, zero by Brent's method."""
+    n = M.shape[0]
+    Minv = np.linalg.inv(M)
+    w0 = np.sqrt(sla.eigh(K, M, eigvals_only=True)[mode])
+
+    def eig(xi):
+        A = np.block([[np.zeros((n, n)), np.eye(n)], [-Minv @ K, -Minv @ (C - xi * M)]])
+        lam = np.linalg.eigvals(A)
+        lam = lam[lam.imag > 0]
+        return lam[np.argmin(np.abs(lam.imag - w0))]
+
+    xi = brentq(lambda x: eig(x).real, 0.0, 1.0, xtol=1e-15, rtol=1e-15)
+    return eig(xi).imag, xi
+
+
+def test_linear_nonproportional_damping():
+    """A damper on the first mass only (non-proportional): EPMC's (omega, D = xi / (2 omega)) are those of the
+    pencil with the shifted damping C - xi M having the eigenvalue i omega (reference by the state matrix);
+    the complex eigenvalue of the original system agrees only to second order in the damping."""
+    C = np.zeros((3, 3))
+    C[0, 0] = 0.05
+    s = mshbm.System(M3, C, K3, np.zeros(3))
+    n = 3
+    A = np.block([[np.zeros((n, n)), np.eye(n)], [-np.linalg.solve(M3, K3), -np.linalg.solve(M3, C)]])
+    for mode in range(3):
+        w_ref, xi_ref = _epmc_linear_reference(M3, C, K3, mode)
+        b = backbone(s, 1e-2, 1.0, mode=mode, harmonics=2, points=3)
+        assert b.success, b.message
+        assert np.max(np.abs(b.omega / w_ref - 1)) < 1e-9
+        assert np.max(np.abs(b.damping_ratio / (xi_ref / (2 * w_ref)) - 1)) < 1e-9
+        lam = np.linalg.eigvals(A)
+        lam = lam[np.argmin(np.abs(lam - 1j * w_ref))]
+        zeta = -lam.real / abs(lam)
+        assert abs(b.damping_ratio[0] / zeta - 1) < 10 * zeta  # second order in the damping
+
+
+def jenkins_describing_function(A, m, k, c, kt, muN):
+    """Single-harmonic (n_h = 1) nonlinear mode of m q'' + c q' + k q + f_J = 0, q = A cos(omega t), with the
+    Jenkins element (Masing loop): for A > A_s = muN / kt and cos(theta*) = 1 - 2 A_s / A,
+    k_eq = kt / pi (theta* - sin(2 theta*) / 2), the first sine coefficient of f_J is -(4 muN / pi)(1 - A_s / A);
+    omega^2 = (k + k_eq) / m and xi m = c + 4 muN (A - A_s) / (pi A^2 omega)."""
+    As = muN / kt
+    th = np.arccos(np.clip(1 - 2 * As / A, -1, 1))
+    keq = np.where(A > As, kt / np.pi * (th - 0.5 * np.sin(2 * th)), kt)
+    w = np.sqrt((k + keq) / m)
+    xi = (c + np.where(A > As, 4 * muN / np.pi * (A - As) / (A ** 2 * w), 0.0)) / m
+    return w, xi / (2 * w)
+
+
+def test_jenkins_single_harmonic_closed_form():
+    """HBM's Jenkins law is the exact (set-valued, return-mapping) elastic-perfectly-plastic law at the AFT
+    samples; at n_h = 1 with N_s = 4096 samples its only error against the describing function is the sampled
+    quadrature of the loop (O(N_s^-2): 1e-5 at 256, 6e-7 at 1024 in D), below 1e-6 here."""
+    m, k, c, kt, muN = 2.0, 1.0, 0.01, 3.0, 0.3
+    s = mshbm.System([[m]], [[c]], [[k]], [0.0], elements=[mshbm.Jenkins(0, 1.0, muN, tangential_stiffness=kt)])
+    b = backbone(s, 0.1, 2.0, harmonics=1, steps=4096, points=3)
+    assert b.success, b.message
+    A = b.modal_amplitude / np.sqrt(m)  # phi = 1 / sqrt(m)
+    assert A.min() < muN / kt < A.max()  # from stick into macro-slip
+    w, D = jenkins_describing_function(A, m, k, c, kt, muN)
+    assert np.max(np.abs(b.omega / w - 1)) < 1e-6
+    assert np.max(np.abs(b.damping_ratio / D - 1)) < 1e-6
+    assert np.allclose(b.amplitude[:, 0], A, rtol=1e-12)  # one harmonic: (max - min)/2 = A
+
+
+@pytest.mark.parametrize("kw,key", [(dict(amplitude_start=-1.0), "amplitude_start"),
+                                    (dict(amplitude_end=1e-3), "amplitude_end"),
+                                    (dict(mode=3), "mode"), (dict(method="shooting"), "method"),
+                                    (dict(harmonics=0), "harmonics"), (dict(dofs=[7]), "dofs"),
+                                    (dict(points=1), "points")])
+def test_bad_input(kw, key):
+    s = mshbm.System(M3, 0.01 * M3, K3, np.zeros(3))
+    args = dict(amplitude_start=1e-3, amplitude_end=1e-2)
+    args.update(kw)
+    if "amplitude_end" in kw and kw["amplitude_end"] == 1e-3:
+        args["amplitude_start"] = 1e-3
+    with pytest.raises(mshbm.InputError) as e:
+        backbone(s, **args)
+    assert e.value.key == key
