@@ -118,7 +118,7 @@ def _positive(key, value):
 
 
 def backbone(system, amplitude_start, amplitude_end, mode=0, method="hbm", harmonics=5, steps=None, dofs=None,
-             points=50, max_points=None, tol=1e-10, progress=False, max_time=None):
+             points=50, max_points=None, tol=1e-8, progress=False, max_time=None):
     """Backbone of mode ``mode``: frequency and damping ratio against modal amplitude (EPMC).
 
     Parameters
@@ -142,7 +142,9 @@ def backbone(system, amplitude_start, amplitude_end, mode=0, method="hbm", harmo
     max_points : int, optional
         Most points (default ``4 points + 10``).
     tol : float
-        Corrector tolerance on the scaled residual.
+        Corrector tolerance on the scaled residual (default 1e-8: the condensed residual of a stiff
+        finite-element model carries the rounding of the condensation, about ``cond(H_LL) eps`` of the
+        elastic forces, and moves with it when omega changes; 1e-10 stalls the corrector on the 100-DOF beam).
     progress : bool or "always"
         Progress on stderr (a terminal only, or always).
     max_time : float, optional

@@ -1,5 +1,6 @@
 """Command line: ``mshbm solve CASE.yaml [--method M] [--harmonics N] [--steps N] [--out FILE] [--quiet]``
-and ``mshbm sweep CASE.yaml ...`` (frequency-response curves, :mod:`mshbm.cli_sweep`).
+and ``mshbm sweep CASE.yaml ...`` (frequency-response curves, :mod:`mshbm.cli_sweep`), ``mshbm backbone
+CASE.yaml ...`` (nonlinear modes, :mod:`mshbm.cli_backbone`).
 
 Exit codes: 0 converged, 1 not converged, 2 invalid input (one line
 ``error: <key>: <problem>``), 3 internal error, 130 interrupted.  No traceback
@@ -12,7 +13,7 @@ import json
 import sys
 
 from . import __version__
-from . import cli_sweep
+from . import cli_backbone, cli_sweep
 from .errors import ConvergenceError, InputError
 from . import io as _io
 from .options import METHODS
@@ -55,6 +56,7 @@ def _parser():
                    "through symlinks, FIFOs and character devices; never the case file itself)")
     s.add_argument("--quiet", action="store_true", help="print no table (errors still go to stderr)")
     cli_sweep.add_parser(sub, METHOD_CHOICES)  # mshbm sweep: mshbm.cli_sweep
+    cli_backbone.add_parser(sub)  # mshbm backbone: mshbm.cli_backbone
     return p
 
 
@@ -144,6 +146,8 @@ def main(argv=None):
             with quiet_floats():  # no RuntimeWarnings on the terminal: non-finite numbers are reported
                 if args.command == "sweep":
                     return cli_sweep.run(args, (EXIT_OK, EXIT_NOT_CONVERGED), _write_json, _error)
+                if args.command == "backbone":
+                    return cli_backbone.run(args, (EXIT_OK, EXIT_NOT_CONVERGED), _write_json, _error)
                 return _solve(args)
         except InputError as exc:
             _error(f"{exc.key}: {exc.problem}")

@@ -28,7 +28,8 @@ ratio ``zeta_k`` exactly.  With non-proportional damping it differs from the com
 
 The Jacobian in ``q_hat`` is the HBM one (analytic); ``dR/domega`` and ``dR/dxi`` are central differences
 of problems rebuilt at ``omega (1 +- 1e-6)`` and ``xi +- 1e-6 omega`` (they steer Newton and the
-continuation's tangent only; the solution is the root of ``R``).
+continuation's tangent only; the solution is the root of ``R``); they difference the linear part ``A x`` of the
+HBM residual only, and the element forces too where a law depends on the velocity (friction, penalty damping).
 """
 from __future__ import annotations
 
@@ -132,6 +133,10 @@ class EPMCProblem:
         self.n_unknowns = self.n_x + 2
         self.xi0 = float(self.phi @ (system.C @ self.phi))
         self._cache = {}
+        # laws whose force depends on the velocity samples (hence on omega at fixed coefficients): not Jenkins,
+        # not a contact without penalty damping
+        self._velocity_laws = any(not (el.history or (el.unilateral and not getattr(el, "penalty_damping", 1.0)))
+                                  for el in system.elements)
         # force scale: the largest modal inertia (or linear stiffness) force per unit modal amplitude, N/(kg^1/2 m)
         self._force_per_a = float(np.max(np.abs(self.v))) * self.omega0 ** 2
         self._bound = max([float(el.force_scale(0.0)) for el in system.elements if el.bounded] + [0.0])
@@ -181,11 +186,18 @@ class EPMCProblem:
         J[n, nR:2 * nR], J[n, 2 * nR:3 * nR] = w.real, w.imag  # d Re(w^T (c - i s)) / d (c, s)
         J[n + 1, nR:2 * nR], J[n + 1, 2 * nR:3 * nR] = w.imag, -w.real
         omega, xi = float(y[-2]), float(y[-1])
-        for col, (dy, d) in ((n, (np.r_[np.zeros(n), 1.0, 0.0], _FD_OMEGA * omega)),
-                             (n + 1, (np.r_[np.zeros(n), 0.0, 1.0], _FD_XI * omega))):
-            Rp = self._rows(y + d * dy, lam, False)[0]
-            Rm = self._rows(y - d * dy, lam, False)[0]
-            J[:, col] = (Rp - Rm) / (2 * d)
+        x = y[:n]
+        for col, (om, xx, d) in ((n, (omega * (1 + _FD_OMEGA), xi, omega * _FD_OMEGA)),
+                                 (n + 1, (omega, xi + _FD_XI * omega, _FD_XI * omega))):
+            pp = self.hbm(om, xx)
+            pm = self.hbm(2 * omega - om, 2 * xi - xx)
+            # the linear part A x (the forces do not depend on xi; on omega only through velocity laws)
+            if col == n and self._velocity_laws:
+                dR = pp.residual(x, jac=False)[0] - pm.residual(x, jac=False)[0]
+            else:
+                dR = pp.A @ x - pm.A @ x
+            J[:n, col] = dR / (2 * d)
+            J[n:, col] = (self._amp_rows(pp, x, 0.0) - self._amp_rows(pm, x, 0.0)) / (2 * d)
         return R, J
 
     def d_lam(self, y, lam):
