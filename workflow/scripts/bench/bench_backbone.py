@@ -6,11 +6,10 @@ Rayleigh damping ``zeta = ZETA`` at the first two bending frequencies; the joint
 ``K_T``, slip force ``MU_N``) from the transverse DOF at mid-span to the ground.  Timing: the process CPU time
 of one 50-point backbone (``points=50``, modal amplitude ``A_START .. A_END``, ``n_h = 5``), a goal of 20 s.
 
-Consistency (``--peaks``): forced responses ``F cos(omega t)`` at the tip at several forcing levels, each
-solved pointwise by :func:`mshbm.solve` (HBM, same ``n_h``) on a frequency grid around the backbone and its
-peak located by a parabola through the three largest tip amplitudes, refined by golden section on
-``omega``; the backbone's frequency at the peak's modal amplitude (interpolated in ``ln a``) is compared.
-Not wired into Snakemake (stand-alone: ``python workflow/scripts/bench/bench_backbone.py [--peaks] [--out F]``).
+The peaks of forced responses against the backbone are tested on a 3-DOF chain
+(``tests/unit/test_backbone.py::test_backbone_passes_through_forced_peaks``).  Not wired into Snakemake
+(stand-alone: ``python workflow/scripts/bench/bench_backbone.py [--out F]``; measure with
+``OPENBLAS_NUM_THREADS=1`` on a shared machine).
 """
 from __future__ import annotations
 
