@@ -35,7 +35,7 @@ __all__ = ["backbone", "Backbone"]
 
 #: gate of the energy balance (relative): the harmonic balance satisfies it to the residual's accuracy
 ENERGY_TOL = 1e-6
-_METHODS = ("hbm",)
+_METHODS = ("hbm", "dlft")
 
 
 @dataclass
@@ -129,7 +129,9 @@ def backbone(system, amplitude_start, amplitude_end, mode=0, method="hbm", harmo
         order.
     mode : int
         0-based mode of the linear system with the Jenkins joints stuck.
-    method : {"hbm"}
+    method : {"hbm", "dlft"}
+        HBM-AFT (regularised Coulomb friction, the set-valued Jenkins law, penalty contacts) or DLFT (set-valued
+        Coulomb friction on the ground and unilateral contact).
     harmonics : int
         ``n_h`` (default 5).
     steps : int, optional
@@ -168,7 +170,7 @@ def backbone(system, amplitude_start, amplitude_end, mode=0, method="hbm", harmo
         raise InputError("max_points", f"must be an integer >= 2, got {max_points!r}")
     if steps is None:
         steps = aft_steps(harmonics) if isinstance(harmonics, (int, np.integer)) else 0
-    prob = EPMCProblem(system, mode, harmonics, steps)
+    prob = EPMCProblem(system, mode, harmonics, steps, method)
     if dofs is None:
         dofs = [prob.ref_dof]
     dofs = [int(d) for d in dofs]

@@ -1,6 +1,6 @@
 """Command line ``mshbm backbone``: the backbone (nonlinear mode) of a case file by EPMC (:func:`mshbm.backbone`).
 
-``mshbm backbone CASE.yaml --method hbm --mode K --amplitude-start A --amplitude-end B [--harmonics N]
+``mshbm backbone CASE.yaml --method hbm|dlft --mode K --amplitude-start A --amplitude-end B [--harmonics N]
 [--steps N] [--points N] [--dofs D [D ...]] [--out b.json] [--plot b.png] [--quiet]``
 
 The case's forcing and frequency are ignored (the mode is an autonomous motion).  Exit codes as for
@@ -29,7 +29,8 @@ def add_parser(sub):
                        "extended periodic motion concept. Exit codes: 0 end reached, 1 stopped early, "
                        "2 invalid input, 3 internal error.")
     s.add_argument("case", metavar="CASE.yaml", help="case file (see examples/)")
-    s.add_argument("--method", choices=("hbm",), default="hbm", help="solution method (hbm)")
+    s.add_argument("--method", choices=("hbm", "dlft"), default="hbm",
+                   help="harmonic balance: hbm (HBM-AFT, default) or dlft (set-valued friction and contact)")
     s.add_argument("--mode", type=int, default=0, metavar="K", help="0-based mode of the linear system with "
                    "the Jenkins joints stuck (default 0)")
     s.add_argument("--amplitude-start", type=float, required=True, metavar="A",

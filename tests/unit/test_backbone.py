@@ -163,3 +163,35 @@ def test_backbone_passes_through_forced_peaks():
         errors.append(wp / omega_bb(np.log(a)) - 1)
     assert np.all(np.diff(amplitudes) > 0)
     assert np.max(np.abs(errors)) < 5e-3, errors
+
+
+def test_dlft_coulomb_single_harmonic():
+    """Rigid Coulomb friction on a 1-DOF oscillator by DLFT (set-valued law) at n_h = 1: the friction force's
+    first harmonic is -(4 mu N / pi) in phase with the velocity (no cosine part), so omega = sqrt(k / m) and
+    xi m = c + 4 mu N / (pi A omega) (the describing function; also the free decay's energy loss 4 mu N A per
+    cycle).  omega is exact; D deviates by DLFT's Lagrangian correction near the velocity reversals, which
+    decays with the amplitude (1.2e-3 at A = 10 mu N / k, 4e-6 at A = 100 mu N / k): below 1e-5 from
+    A = 100 mu N / k."""
+    m, k, c, muN = 1.0, 1.0, 0.01, 0.01
+    s = mshbm.System([[m]], [[c]], [[k]], [0.0], elements=[mshbm.Friction(0, 1.0, muN)])
+    b = backbone(s, 1.0, 10.0, harmonics=1, steps=1024, points=3, method="dlft")
+    assert b.success, b.message
+    A = b.modal_amplitude
+    assert np.max(np.abs(b.omega - 1.0)) < 1e-12
+    D = (c + 4 * muN / (np.pi * A)) / (2 * m)
+    assert np.max(np.abs(b.damping_ratio / D - 1)) < 1e-5
+
+
+@pytest.mark.parametrize("method", ["hbm", "dlft"])
+def test_contact_backbone_linear_below_gap_then_hardening(method):
+    """A stop at gap g = 1 on a 1-DOF oscillator (omega_0 = 1, D_0 = c / 2): below the gap the backbone is the
+    linear mode to 1e-9 (HBM: penalty contact, integrated on the gap's interpolant; DLFT: set-valued); once it
+    impacts it hardens and the relative share of the dashpot's dissipation drops."""
+    s = mshbm.System([[1.0]], [[0.01]], [[1.0]], [0.0], elements=[mshbm.Contact(0, 1.0, 1.0, penalty_stiffness=1e4)])
+    b = backbone(s, 0.1, 3.0, harmonics=10, points=15, method=method)
+    assert b.success, b.message
+    amp = b.amplitude[:, 0]
+    below = amp < 1.0 - 1e-9
+    assert below.sum() >= 5
+    assert np.max(np.abs(b.omega[below] - 1.0)) < 1e-9 and np.max(np.abs(b.damping_ratio[below] / 0.005 - 1)) < 1e-9
+    assert b.omega[-1] > 1.4 and b.damping_ratio[-1] < 0.004

@@ -1,4 +1,4 @@
-"""Nonlinear modes by the extended periodic motion concept (EPMC, Krack 2015) with HBM-AFT.
+"""Nonlinear modes by the extended periodic motion concept (EPMC, Krack 2015) with HBM-AFT or DLFT.
 
 The nonlinear mode ``k`` at modal amplitude ``a`` is the periodic motion of the autonomous system::
 
@@ -10,7 +10,7 @@ the elements.  Unknowns: the Fourier coefficients ``q_hat`` (``n_h`` harmonics, 
 condensed exactly per harmonic as in :class:`mshbm.methods.hbm.HBMProblem`), the angular frequency
 ``omega`` (rad/s) and ``xi``; the parameter is ``lam = ln a``.  The residual (``n_x + 2`` rows)::
 
-    R_hb    = the HBM residual of (M, C - xi M, K, f_nl) at omega, no forcing         (N)
+    R_hb    = the HBM (or DLFT) residual of (M, C - xi M, K, f_nl) at omega, no forcing  (N)
     R_amp   = Re(v^T Q_1) - a,   R_phase = Im(v^T Q_1)                              (kg^1/2 m)
 
 with ``Q_1 = qc_1 - i qs_1`` the complex first harmonic of *all* DOFs (the condensed ones recovered,
@@ -40,7 +40,11 @@ import scipy.sparse as sp
 from ..errors import InputError
 from ..elements import Jenkins
 from ..system import System
+from .dlft import DLFTProblem
 from .hbm import HBMProblem
+
+#: the harmonic-balance problems EPMC builds on (same constructor: system, omega, n_h, steps, condense, partition)
+PROBLEMS = {"hbm": HBMProblem, "dlft": DLFTProblem}
 
 __all__ = ["EPMCProblem", "linear_modes", "shifted_system"]
 
@@ -104,14 +108,17 @@ class EPMCProblem:
         Mode number ``k`` (0: the lowest) of ``(K_0, M)`` (module docstring).
     harmonics, steps : int
         ``n_h`` and the AFT samples per period ``N_s`` (``> 2 n_h``).
+    method : {"hbm", "dlft"}
+        The harmonic balance of the residual's first rows (:data:`PROBLEMS`).
 
     Unknowns ``y = [x, omega, xi]`` with ``x`` the HBM coefficients of the kept DOFs (``n_x``), parameter
     ``lam = ln a`` (module docstring).
     """
 
-    method = "hbm"
-
-    def __init__(self, system, mode, harmonics, steps):
+    def __init__(self, system, mode, harmonics, steps, method="hbm"):
+        if method not in PROBLEMS:
+            raise InputError("method", f"backbone supports {', '.join(PROBLEMS)}, got {method!r}")
+        self.method, self._cls = method, PROBLEMS[method]
         if isinstance(mode, bool) or not isinstance(mode, (int, np.integer)) or not 0 <= mode < system.n:
             raise InputError("mode", f"must be an integer in 0..{system.n - 1}, got {mode!r}")
         if isinstance(harmonics, bool) or not isinstance(harmonics, (int, np.integer)) or harmonics < 1:
@@ -133,9 +140,14 @@ class EPMCProblem:
         self.n_unknowns = self.n_x + 2
         self.xi0 = float(self.phi @ (system.C @ self.phi))
         self._cache = {}
+        # HBM with contacts: the penalty force integrated on the gap's linear interpolant (a C^1 residual, as in
+        # sweep; sampled, the backbone is a chain of kinks where samples enter or leave the contact)
+        contacts = method == "hbm" and any(el.unilateral for el in system.elements)
+        self._options = {"penalty_quadrature": "linear"} if contacts else {}
         # laws whose force depends on the velocity samples (hence on omega at fixed coefficients): not Jenkins,
         # not a contact without penalty damping
-        self._velocity_laws = any(not (el.history or (el.unilateral and not getattr(el, "penalty_damping", 1.0)))
+        # (DLFT: its element forces depend on the linear part, so always)
+        self._velocity_laws = method == "dlft" or any(not (el.history or (el.unilateral and not getattr(el, "penalty_damping", 1.0)))
                                   for el in system.elements)
         # force scale: the largest modal inertia (or linear stiffness) force per unit modal amplitude, N/(kg^1/2 m)
         self._force_per_a = float(np.max(np.abs(self.v))) * self.omega0 ** 2
@@ -149,8 +161,8 @@ class EPMCProblem:
         if p is None:
             if len(self._cache) > 16:
                 self._cache.clear()
-            p = HBMProblem(shifted_system(self.system, xi), omega, self.n_h, self.Ns, condense=True,
-                           partition=self.keep)
+            p = self._cls(shifted_system(self.system, xi), omega, self.n_h, self.Ns, condense=True,
+                          partition=self.keep, **self._options)
             Z1 = p.cond.Z[1] if p.elim.size else np.zeros((0, self.nR), complex)
             p._epmc_w = self.v[p.keep] - Z1.T @ self.v[p.elim]  # v^T Q_1 = w^T Q_R
             self._cache[key] = p
@@ -191,8 +203,8 @@ class EPMCProblem:
                                  (n + 1, (omega, xi + _FD_XI * omega, _FD_XI * omega))):
             pp = self.hbm(om, xx)
             pm = self.hbm(2 * omega - om, 2 * xi - xx)
-            # the linear part A x (the forces do not depend on xi; on omega only through velocity laws)
-            if col == n and self._velocity_laws:
+            # the linear part A x (HBM's forces do not depend on xi; on omega only through velocity laws)
+            if self._velocity_laws and (col == n or self.method == "dlft"):
                 dR = pp.residual(x, jac=False)[0] - pm.residual(x, jac=False)[0]
             else:
                 dR = pp.A @ x - pm.A @ x
