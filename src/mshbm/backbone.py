@@ -19,6 +19,7 @@ A point is certified when ``residual <= 10 tol``, ``amplitude_residual <= 10 tol
 from __future__ import annotations
 
 import math
+import re
 import sys
 import time
 from dataclasses import dataclass, field
@@ -93,14 +94,14 @@ class Backbone:
 
 
 class _Progress:
-    def __init__(self, enabled, label):
+    def __init__(self, enabled, label, a_ref):
         self.enabled = enabled is True and sys.stderr.isatty() or enabled == "always"
-        self.label = label
+        self.label, self.a_ref = label, a_ref
 
     def __call__(self, point, n, ds):
         if self.enabled:
             y = point.x
-            print(f"\r[backbone {self.label}] points {n:4d}  a {math.exp(point.lam):10.4g}  omega {y[-2]:10.6g}  "
+            print(f"\r[backbone {self.label}] points {n:4d}  a {self.a_ref * math.exp(point.lam):10.4g}  omega {y[-2]:10.6g}  "
                   f"D {y[-1] / (2 * y[-2]):9.3e}  step {ds:.3g}   ", end="", file=sys.stderr, flush=True)
 
     def close(self):
@@ -177,7 +178,8 @@ def backbone(system, amplitude_start, amplitude_end, mode=0, method="hbm", harmo
     for d in dofs:
         if not 0 <= d < system.n:
             raise InputError("dofs", f"DOF {d} out of range 0..{system.n - 1}")
-    lam0, lam1 = math.log(a0), math.log(a1)
+    prob.a_ref = math.e * max(a0, a1)  # lam = ln(a / a_ref) < 0 throughout (see mshbm.methods.epmc)
+    lam0, lam1 = math.log(a0 / prob.a_ref), math.log(a1 / prob.a_ref)
     ds_max = math.sqrt(2.0) * abs(lam1 - lam0) / (points - 1)
     t0, c0 = time.perf_counter(), time.process_time()
     pts = []
@@ -188,7 +190,7 @@ def backbone(system, amplitude_start, amplitude_end, mode=0, method="hbm", harmo
                                and pt["energy_balance"] <= ENERGY_TOL)
         return pt["certified"] or pt["residual"] <= 10 * tol, pt
 
-    show = _Progress(progress, f"mode {mode}")
+    show = _Progress(progress, f"mode {mode}", prob.a_ref)
     y0 = prob.start(a0)
     try:
         res = continuation(prob.residual, prob.d_lam, y0, lam0, lam1, residual_scale=prob.residual_scale,
@@ -205,7 +207,10 @@ def backbone(system, amplitude_start, amplitude_end, mode=0, method="hbm", harmo
         pts.append(pt)
     bad = [i for i, p in enumerate(pts) if not p["certified"]]
     success = bool(res.success) and not bad
-    msg = res.message.replace("lam", "ln a")
+    # the driver's messages name the parameter lam = ln(a / a_ref): say a
+    msg = re.sub(r"lam_end = \S+ in", f"a_end = {a1:.6g} in", res.message)
+    msg = re.sub(r"lam(?:_end)? = (-?[0-9.e+-]+)", lambda m: f"a = {prob.a_ref * math.exp(float(m.group(1))):.6g}",
+                 msg).replace("lam", "ln a")
     msg = msg if not bad else f"{msg}; {len(bad)} point(s) not certified (first: {bad[0]})"
     return Backbone(success=success, message=msg, mode=int(mode), method=method, harmonics=int(harmonics),
                     steps=int(steps), dofs=dofs, omega_linear=prob.omega0, points=pts,

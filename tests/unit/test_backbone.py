@@ -28,6 +28,19 @@ def test_linear_rayleigh_modal_frequency_and_damping(mode):
     assert b.to_dict()["stable"] == [None] * len(b)
 
 
+def test_descending_range_through_unit_amplitude():
+    """From a = 10 down to a = 0.01 (through a = 1: the parameter ln(a / a_ref) stays negative), the same
+    linear mode at every point."""
+    alpha, beta = 0.02, 0.003
+    s = mshbm.System(M3, alpha * M3 + beta * K3, K3, np.zeros(3))
+    w1 = np.sqrt(sla.eigh(K3, M3, eigvals_only=True)[0])
+    b = backbone(s, 10.0, 0.01, harmonics=2, points=4)
+    assert b.success, b.message
+    assert "reached a_end = 0.01 in" in b.message
+    assert np.allclose(b.modal_amplitude[[0, -1]], [10.0, 0.01], rtol=1e-12) and np.all(np.diff(b.modal_amplitude) < 0)
+    assert np.max(np.abs(b.omega / w1 - 1)) < 1e-9
+
+
 def _epmc_linear_reference(M, C, K, mode):
     """(omega, xi) with i omega an eigenvalue of lambda^2 M + lambda (C - xi M) + K, for the mode whose
     undamped frequency is the mode-th: the real part of that eigenvalue of the state matrix as a function of

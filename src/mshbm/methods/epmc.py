@@ -8,7 +8,8 @@ The nonlinear mode ``k`` at modal amplitude ``a`` is the periodic motion of the 
 the elements.  Unknowns: the Fourier coefficients ``q_hat`` (``n_h`` harmonics, conventions of
 :mod:`mshbm.fourier`) of the kept DOFs ``R`` (the element DOFs and the reference DOF; the others are
 condensed exactly per harmonic as in :class:`mshbm.methods.hbm.HBMProblem`), the angular frequency
-``omega`` (rad/s) and ``xi``; the parameter is ``lam = ln a``.  The residual (``n_x + 2`` rows)::
+``omega`` (rad/s) and ``xi``; the parameter is ``lam = ln(a / a_ref)`` (``a_ref`` above the range, so that
+``lam < 0`` throughout: the continuation keeps a positive parameter positive).  The residual (``n_x + 2`` rows)::
 
     R_hb    = the HBM (or DLFT) residual of (M, C - xi M, K, f_nl) at omega, no forcing  (N)
     R_amp   = Re(v^T Q_1) - a,   R_phase = Im(v^T Q_1)                              (kg^1/2 m)
@@ -112,7 +113,7 @@ class EPMCProblem:
         The harmonic balance of the residual's first rows (:data:`PROBLEMS`).
 
     Unknowns ``y = [x, omega, xi]`` with ``x`` the HBM coefficients of the kept DOFs (``n_x``), parameter
-    ``lam = ln a`` (module docstring).
+    ``lam = ln(a / a_ref)`` (module docstring).
     """
 
     def __init__(self, system, mode, harmonics, steps, method="hbm"):
@@ -140,6 +141,8 @@ class EPMCProblem:
         self.n_unknowns = self.n_x + 2
         self.xi0 = float(self.phi @ (system.C @ self.phi))
         self._cache = {}
+        #: reference amplitude (kg^1/2 m) of the parameter ``lam = ln(a / a_ref)`` (set by the caller)
+        self.a_ref = 1.0
         # HBM with contacts: the penalty force integrated on the gap's linear interpolant (a C^1 residual, as in
         # sweep; sampled, the backbone is a chain of kinks where samples enter or leave the contact)
         contacts = method == "hbm" and any(el.unilateral for el in system.elements)
@@ -183,7 +186,7 @@ class EPMCProblem:
         x, omega, xi = y[:self.n_x], float(y[-2]), float(y[-1])
         p = self.hbm(omega, xi)
         R, J = p.residual(x, jac=jac)
-        return np.r_[R, self._amp_rows(p, x, np.exp(lam))], J, p
+        return np.r_[R, self._amp_rows(p, x, self.a_ref * np.exp(lam))], J, p
 
     def residual(self, y, lam, jac=True):
         """``(R, J)``: shapes ``(n_x + 2,)`` and ``(n_x + 2, n_x + 2)`` (dense)."""
@@ -213,9 +216,9 @@ class EPMCProblem:
         return R, J
 
     def d_lam(self, y, lam):
-        """``dR / d ln a``: ``-a`` on the amplitude row."""
+        """``dR / dlam``: ``-a`` on the amplitude row."""
         g = np.zeros(self.n_unknowns)
-        g[self.n_x] = -np.exp(lam)
+        g[self.n_x] = -self.a_ref * np.exp(lam)
         return g
 
     def force_scale(self, a):
@@ -225,7 +228,7 @@ class EPMCProblem:
 
     def residual_scale(self, y, lam):
         """Per-row scale: the force scale (N) on the HBM rows, ``a`` (kg^1/2 m) on the two amplitude rows."""
-        a = float(np.exp(lam))
+        a = float(self.a_ref * np.exp(lam))
         s = np.full(self.n_unknowns, self.force_scale(a))
         s[self.n_x:] = a
         return s
@@ -233,7 +236,7 @@ class EPMCProblem:
     def unknown_scale(self, y, lam):
         """Per-unknown scale: the largest coefficient (m), ``omega`` (rad/s) for ``omega`` and ``xi``."""
         x = y[:self.n_x]
-        a = float(np.exp(lam))
+        a = float(self.a_ref * np.exp(lam))
         sx = max(float(np.max(np.abs(x))) if x.size else 0.0, a * float(np.max(np.abs(self.phi))))
         w = np.full(self.n_unknowns, sx)
         w[-2:] = abs(float(y[-2]))
@@ -248,7 +251,7 @@ class EPMCProblem:
         x, omega, xi = y[:self.n_x], float(y[-2]), float(y[-1])
         p = self.hbm(omega, xi)
         R = p.residual(x, jac=False)[0]
-        a = float(np.exp(lam))
+        a = float(self.a_ref * np.exp(lam))
         q_hat = p.full_coefficients(x)
         hi, lo = fourier_extrema(q_hat[:, dofs])
         Fs = self.force_scale(a)
