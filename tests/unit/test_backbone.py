@@ -208,3 +208,42 @@ def test_contact_backbone_linear_below_gap_then_hardening(method):
     assert below.sum() >= 5
     assert np.max(np.abs(b.omega[below] - 1.0)) < 1e-9 and np.max(np.abs(b.damping_ratio[below] / 0.005 - 1)) < 1e-9
     assert b.omega[-1] > 1.4 and b.damping_ratio[-1] < 0.004
+
+
+@pytest.mark.slow
+def test_fe_beam_joint_limits():
+    """The 100-DOF FE cantilever with a Jenkins joint at mid-span (workflow/scripts/bench/bench_backbone.py):
+    at small amplitude the joint sticks and the backbone is the linear EPMC mode of (M, C, K + k_t e e^T) (the
+    Rayleigh C is not proportional to it: reference by the state matrix, to 1e-9); at large amplitude the joint
+    slides with a bounded force and omega tends to the free beam's first bending frequency."""
+    import importlib.util
+    from pathlib import Path
+
+    from mshbm.methods.epmc import stuck_stiffness
+
+    path = Path(__file__).resolve().parents[2] / "workflow" / "scripts" / "bench" / "bench_backbone.py"
+    spec = importlib.util.spec_from_file_location("bench_backbone", path)
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    s = bench.beam()
+    b = backbone(s, 1e-6, 1e-1, harmonics=5, points=15)
+    assert b.success, b.message
+    M, C, K0 = s.M.toarray(), s.C.toarray(), stuck_stiffness(s)
+    # reference: (omega, xi) with H = K0 - omega^2 M + i omega (C - xi M) singular, as the zero of the complex
+    # f = 1 / (v^T H^-1 v) (v = M phi_0), by fsolve on two real unknowns from the undamped mode (the state matrix
+    # M^-1 K of the fine mesh is too ill-conditioned for 1e-9)
+    from scipy.optimize import fsolve
+
+    lam0, Phi = sla.eigh(K0, M, subset_by_index=[0, 0])
+    v = M @ Phi[:, 0]
+
+    def f(p):
+        w, xi = p
+        z = 1.0 / (v @ np.linalg.solve(K0 - w * w * M + 1j * w * (C - xi * M), v))
+        return [z.real, z.imag]
+
+    w_ref, xi_ref = fsolve(f, [np.sqrt(lam0[0]), Phi[:, 0] @ C @ Phi[:, 0]], xtol=1e-14)
+    assert abs(b.omega[0] / w_ref - 1) < 1e-9 and abs(b.damping_ratio[0] / (xi_ref / (2 * w_ref)) - 1) < 1e-9
+    w_free = np.sqrt(sla.eigh(s.K.toarray(), M, eigvals_only=True, subset_by_index=[0, 0])[0])
+    assert abs(b.omega[-1] / w_free - 1) < 1e-3 < abs(b.omega[0] / w_free - 1)
+    assert b.damping_ratio.max() > 10 * b.damping_ratio[0]

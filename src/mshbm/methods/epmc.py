@@ -38,7 +38,9 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 
+from ..condensation import SingularHarmonicError
 from ..errors import InputError
+from ..solvers.arclength_parts import Failed
 from ..elements import Jenkins
 from ..system import System
 from .dlft import DLFTProblem
@@ -164,8 +166,11 @@ class EPMCProblem:
         if p is None:
             if len(self._cache) > 16:
                 self._cache.clear()
-            p = self._cls(shifted_system(self.system, xi), omega, self.n_h, self.Ns, condense=True,
-                          partition=self.keep, **self._options)
+            try:
+                p = self._cls(shifted_system(self.system, xi), omega, self.n_h, self.Ns, condense=True,
+                              partition=self.keep, **self._options)
+            except SingularHarmonicError as exc:  # a harmonic of omega at an undamped resonance of the condensed DOFs
+                raise Failed(f"condensation at omega = {omega:.6g}, xi = {xi:.6g}: {exc}") from None
             Z1 = p.cond.Z[1] if p.elim.size else np.zeros((0, self.nR), complex)
             p._epmc_w = self.v[p.keep] - Z1.T @ self.v[p.elim]  # v^T Q_1 = w^T Q_R
             self._cache[key] = p
