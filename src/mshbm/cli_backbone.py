@@ -1,7 +1,7 @@
 """Command line ``mshbm backbone``: the backbone (nonlinear mode) of a case file by EPMC (:func:`mshbm.backbone`).
 
 ``mshbm backbone CASE.yaml --method hbm|dlft --mode K --amplitude-start A --amplitude-end B [--harmonics N]
-[--steps N] [--points N] [--dofs D [D ...]] [--out b.json] [--plot b.png] [--quiet]``
+[--steps N] [--points N] [--max-points N] [--dofs D [D ...]] [--out b.json] [--plot b.png] [--quiet]``
 
 The case's forcing and frequency are ignored (the mode is an autonomous motion).  Exit codes as for
 ``mshbm sweep``: 0 the backbone reached ``--amplitude-end`` with every point certified, 1 it stopped before
@@ -39,6 +39,7 @@ def add_parser(sub):
     s.add_argument("--harmonics", type=int, default=5, metavar="N", help="number of harmonics n_h (default 5)")
     s.add_argument("--steps", type=int, default=None, metavar="N", help="AFT samples per period")
     s.add_argument("--points", type=int, default=50, metavar="N", help="aimed number of points (default 50)")
+    s.add_argument("--max-points", type=int, default=None, metavar="N", help="most points (default 4 x points + 10)")
     s.add_argument("--dofs", type=int, nargs="+", default=None, metavar="D",
                    help="DOFs whose amplitude is reported (default: the largest entry of the mode)")
     s.add_argument("--out", default=None, metavar="FILE.json", help="write the backbone as JSON")
@@ -85,11 +86,12 @@ def run(args, exit_codes, write_json, error):
             check_out(path, args.case)
     case = _io.load_case(args.case)
     names = {"amplitude_start": "--amplitude-start", "amplitude_end": "--amplitude-end", "mode": "--mode",
-             "harmonics": "--harmonics", "steps": "--steps", "points": "--points", "dofs": "--dofs",
+             "harmonics": "--harmonics", "steps": "--steps", "points": "--points", "dofs": "--dofs", "max_points": "--max-points",
              "method": "--method"}
     try:
         bb = backbone(case.system, args.amplitude_start, args.amplitude_end, mode=args.mode, method=args.method,
                       harmonics=args.harmonics, steps=args.steps, dofs=args.dofs, points=args.points,
+                      max_points=args.max_points,
                       progress=False if args.quiet else "always")
     except InputError as exc:
         if exc.key in names:

@@ -48,3 +48,15 @@ def test_backbone_cli_bad_input(tmp_path, capsys):
                       (["--amplitude-start", "1", "--amplitude-end", "2", "--dofs", "9"], "--dofs")):
         assert main(["backbone", str(case), "--quiet", *args]) == 2
         assert capsys.readouterr().err.startswith(f"error: {key}:")
+
+
+def test_backbone_cli_stopped_early_exits_1_and_writes_points(tmp_path, capsys):
+    case = tmp_path / "j3.yaml"
+    case.write_text(CASE)
+    out = tmp_path / "b.json"
+    code = main(["backbone", str(case), "--amplitude-start", "0.01", "--amplitude-end", "3", "--harmonics", "2",
+                 "--points", "10", "--max-points", "3", "--quiet", "--out", str(out)])
+    assert code == 1
+    d = json.loads(out.read_text())
+    assert not d["success"] and len(d["omega"]) == 3 and "max_points" in d["message"]
+    assert capsys.readouterr().err.startswith("error: backbone stopped early:")
