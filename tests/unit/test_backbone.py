@@ -28,6 +28,14 @@ def test_linear_rayleigh_modal_frequency_and_damping(mode):
     assert b.to_dict()["stable"] == [None] * len(b)
 
 
+def test_undamped_linear_mode_is_certified_with_zero_damping():
+    s = mshbm.System(M3, np.zeros((3, 3)), K3, np.zeros(3))
+    b = backbone(s, 1e-2, 1.0, mode=1, harmonics=2, points=3)
+    assert b.success, b.message
+    assert np.max(np.abs(b.damping_ratio)) < 1e-14
+    assert np.max(np.abs(b.omega / np.sqrt(sla.eigh(K3, M3, eigvals_only=True)[1]) - 1)) < 1e-12
+
+
 def test_descending_range_through_unit_amplitude():
     """From a = 10 down to a = 0.01 (through a = 1: the parameter ln(a / a_ref) stays negative), the same
     linear mode at every point."""

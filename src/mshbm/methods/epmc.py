@@ -268,7 +268,8 @@ class EPMCProblem:
         parts = p.solution_parts(x)
         u_s = fourier.ifft(U, self.Ns)
         P_nl = -sum(float(np.mean(el.local(u_s) * parts["lam"][:-1, j])) for j, el in enumerate(self.system.elements))
-        P_ref = max(abs(xi) * P_M, abs(P_C), abs(P_nl), 1e-300)
+        # dissipated powers; floor: 1e-12 of the reactive power omega <q', M q'> (a conservative mode dissipates 0)
+        P_ref = max(abs(xi) * P_M, abs(P_C), abs(P_nl), 1e-12 * omega * P_M, 1e-300)
         Q = q_hat[1::2] - 1j * q_hat[2::2]  # complex harmonics 1..n_h, (n_h, n)
         r = self.ref_dof
         return dict(modal_amplitude=a, omega=omega, xi=xi, damping_ratio=xi / (2 * omega),
