@@ -10,6 +10,7 @@ method of Schreyer & Leine (2016), behind one call::
 """
 from . import stability  # noqa: F401  (mshbm.stability: Floquet multipliers and verdicts)
 from .api import METHODS, build_problem, residual_omega_derivative, solve
+from .backbone import Backbone, backbone
 from .branch import Branch, continue_forcing, sweep
 from .parameter import continue_parameter
 from .switching import switch_period_doubling
@@ -21,7 +22,8 @@ from .system import System, chain
 
 __all__ = ["solve", "build_problem", "residual_omega_derivative", "METHODS", "System", "Element", "Friction",
            "Jenkins", "Contact", "chain", "PeriodicSolution", "InputError", "ConvergenceError", "load_case",
-           "exact_periodic", "sweep", "Branch", "continue_forcing", "continue_parameter", "switch_period_doubling"]
+           "exact_periodic", "sweep", "Branch", "continue_forcing", "continue_parameter", "switch_period_doubling",
+           "backbone", "Backbone"]
 __version__ = "0.1.0"
 
 

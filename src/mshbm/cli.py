@@ -1,6 +1,7 @@
 """Command line: ``mshbm solve CASE.yaml [--method M] [--harmonics N] [--steps N] [--omega W] [--set KEY=VALUE ...]
 [--out FILE] [--quiet]`` and ``mshbm sweep CASE.yaml ...`` (branches in omega or any parameter,
-:mod:`mshbm.cli_sweep`).
+:mod:`mshbm.cli_sweep`), ``mshbm backbone CASE.yaml ...`` (nonlinear modes,
+:mod:`mshbm.cli_backbone`).
 
 ``--set KEY=VALUE`` (repeatable) sets a dotted key of the case file before it is checked
 (:mod:`mshbm.io.overrides`: ``--set friction.0.normal_force=2.5 --set solver.harmonics=9``; the value is
@@ -20,7 +21,7 @@ import signal
 import sys
 
 from . import __version__
-from . import cli_sweep
+from . import cli_backbone, cli_sweep
 from .errors import ConvergenceError, InputError
 from .interrupt import terminate_as_interrupt
 from . import io as _io
@@ -69,6 +70,7 @@ def _parser():
                    "through symlinks, FIFOs and character devices; never the case file itself)")
     s.add_argument("--quiet", action="store_true", help="print no table (errors still go to stderr)")
     cli_sweep.add_parser(sub, METHOD_CHOICES)  # mshbm sweep: mshbm.cli_sweep
+    cli_backbone.add_parser(sub)  # mshbm backbone: mshbm.cli_backbone
     return p
 
 
@@ -204,6 +206,8 @@ def main(argv=None):
             with quiet_floats(), terminate_as_interrupt():  # no RuntimeWarnings on the terminal; SIGTERM as Ctrl-C
                 if args.command == "sweep":
                     return cli_sweep.run(args, (EXIT_OK, EXIT_NOT_CONVERGED), _write_json, _error)
+                if args.command == "backbone":
+                    return cli_backbone.run(args, (EXIT_OK, EXIT_NOT_CONVERGED), _write_json, _error)
                 return _solve(args)
         except InputError as exc:
             if exc.key == "omega" and getattr(args, "omega", None) is not None:
