@@ -134,13 +134,15 @@ def run(args, exit_codes, write_json, error):
     case = _io.load_case(args.case)
     method = args.method or case.method
     dofs = _check_dofs(args.dofs, case.system.n)
+    if case.reduction is not None:  # the branch holds the reduced model's DOFs: its boundary DOFs are physical
+        dofs = [case.reduction.reduced_dof(d, "--dofs") for d in (args.dofs or case.reduction.boundary[:6])]
     defaults = {k: v for k, v in case.solver.items() if k != "method" and k in (METHODS.get(method, set()) | _COMMON)}
     cli = {k: getattr(args, k) for k in ("harmonics", "steps", "integrator") if getattr(args, k) is not None}
     if args.max_points is not None:
         cli["max_points"] = args.max_points
     progress = False if args.quiet else "always"
     try:
-        br = sweep(case.system, args.omega_start, args.omega_end, method, period=args.period,
+        br = sweep(case.model, args.omega_start, args.omega_end, method, period=args.period,
                    progress=progress, **{**defaults, **cli})
     except InputError as exc:
         names = {"omega_start": "--omega-start", "omega_end": "--omega-end", "period": "--period",
@@ -152,6 +154,8 @@ def run(args, exit_codes, write_json, error):
     if args.out is not None:
         payload = {"case": case.name, **br.to_dict(), "n_dofs": int(case.system.n), "source": case.source,
                    "version": __version__}
+        if case.reduction is not None:  # the amplitudes are those of the reduced DOFs (boundary first)
+            payload["reduction"] = case.reduction.as_dict()
         write_json(args.out, payload, args.case)
     if args.plot is not None and len(br):
         plot(br, args.plot, dofs, title=f"{case.name}: {method}" + (f", period {args.period}" if args.period > 1
