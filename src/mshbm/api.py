@@ -14,6 +14,7 @@ import numpy as np
 
 from . import period as _period
 from .branch import ROUTE
+from .element_outputs import element_outputs
 from .methods.registry import build_problem
 from .options import METHODS, default_steps
 from .route import continuation as _continuation
@@ -75,7 +76,9 @@ def solve(system, omega, method="mshbm", **options):
     PeriodicSolution
         ``success`` is True only when Newton converged and every gating check of the
         certificate (``solution.certificate``, :mod:`mshbm.certificate`) passed.
-        With ``floquet_multipliers``, ``stable``, ``stability_method`` and ``stability_reason``.
+        With ``floquet_multipliers``, ``stable``, ``stability_method`` and ``stability_reason``,
+        and per element its force, relative motion, dissipated energy and stick or contact
+        fraction over the period (``elements``, :mod:`mshbm.element_outputs`).
 
     Raises
     ------
@@ -85,8 +88,11 @@ def solve(system, omega, method="mshbm", **options):
     period = options.pop("period", 1)
     if not (isinstance(period, (int, np.integer)) and not isinstance(period, bool) and int(period) == 1):
         # kT-periodic solutions (subharmonic base frequency omega / k)
-        return _period.solve(system, omega, method, period=period, **options)
-    return ROUTE.solve(system, omega, method, **options)
+        sol = _period.solve(system, omega, method, period=period, **options)
+    else:
+        sol = ROUTE.solve(system, omega, method, **options)
+    sol.elements = element_outputs(sol, system)
+    return sol
 
 
 def residual_omega_derivative(system, omega, method, x, rel_step=1e-6, **options):

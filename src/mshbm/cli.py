@@ -20,6 +20,8 @@ import json
 import signal
 import sys
 
+import numpy as np
+
 from . import __version__
 from . import cli_backbone, cli_sweep
 from .errors import ConvergenceError, InputError
@@ -177,6 +179,9 @@ def _solve(args):
     if args.out is not None:
         payload = {"case": case.name, **summary, "n_dofs": int(case.system.n), "source": case.source,
                    "version": __version__}
+        # the element outputs with their series over the period (the grid of "t")
+        payload["t"] = np.asarray(sol.t).tolist()
+        payload["elements"] = [e.summary(series=True) for e in sol.elements]
         _write_json(args.out, payload, args.case)
     if not args.quiet:
         print(_table(case, summary))

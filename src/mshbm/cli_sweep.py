@@ -194,6 +194,8 @@ def run(args, exit_codes, write_json, error):
     case = _io.load_case(args.case, sets=case_sets(args))
     method = args.method or case.method
     dofs = _check_dofs(args.dofs, case.system.n)
+    if case.reduction is not None:  # the branch holds the reduced model's DOFs: its boundary DOFs are physical
+        dofs = [case.reduction.reduced_dof(d, "--dofs") for d in (args.dofs or case.reduction.boundary[:6])]
     defaults = {k: v for k, v in case.solver.items() if k != "method" and k in (METHODS.get(method, set()) | _COMMON)}
     cli = {k: getattr(args, k) for k in ("harmonics", "steps", "integrator") if getattr(args, k) is not None}
     if args.max_points is not None:
@@ -202,7 +204,7 @@ def run(args, exit_codes, write_json, error):
     interrupted = None
     try:
         if param == "omega":
-            br = sweep(case.system, start, end, method, period=args.period, progress=progress, **{**defaults, **cli})
+            br = sweep(case.model, start, end, method, period=args.period, progress=progress, **{**defaults, **cli})
         else:
             br = sweep_case(case, param, start, end, args.omega, method, period=args.period, progress=progress, **cli)
     except SweepInterrupted as exc:
@@ -217,6 +219,8 @@ def run(args, exit_codes, write_json, error):
     if args.out is not None:
         payload = {"case": case.name, **br.to_dict(), "n_dofs": int(case.system.n), "source": case.source,
                    "version": __version__}
+        if case.reduction is not None:  # the amplitudes are those of the reduced DOFs (boundary first)
+            payload["reduction"] = case.reduction.as_dict()
         write_json(args.out, payload, args.case)
     if args.plot is not None and len(br):
         plot(br, args.plot, dofs, title=f"{case.name}: {method}" + (f", period {args.period}" if args.period > 1

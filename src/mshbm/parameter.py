@@ -236,10 +236,10 @@ def sweep_case(case, key, start, end, omega=None, method=None, **options):
     method = method or case.method
     defaults = {k: v for k, v in case.solver.items() if k != "method" and k in (METHODS.get(method, set()) | _COMMON)}
     omega = case.omega if omega is None else omega
-    n = case.system.n
+    n = case.model.n  # with reduce: the reduced model (rebuilt for every value of the key)
     mid = start + (end - start) / np.pi  # an irrational point of the range: integer keys fail
     try:
-        s = case.with_sets({key: mid}).system
+        s = case.with_sets({key: mid}).model
     except InputError as exc:
         if "integer" not in exc.problem and exc.key != key:
             s = None  # the ends' own checks say what is wrong (e.g. a negative preload)
@@ -250,8 +250,8 @@ def sweep_case(case, key, start, end, omega=None, method=None, **options):
     for v in (start, end):  # the ends of the range: the case's own checks
         case.with_sets({key: v})
     if s is None:
-        s = case.with_sets({key: mid}).system
-    if s.n != n or len(s.elements) != len(case.system.elements):
+        s = case.with_sets({key: mid}).model
+    if s.n != n or len(s.elements) != len(case.model.elements):
         raise InputError(key, "changes the structure of the system (DOFs or elements): not a parameter")
-    return continue_parameter(lambda lam: case.with_sets({key: lam}).system, start, end, omega, method,
+    return continue_parameter(lambda lam: case.with_sets({key: lam}).model, start, end, omega, method,
                               name=key, **{**defaults, **options})

@@ -66,6 +66,9 @@ class PeriodicSolution:
         How the multipliers were obtained, e.g. ``"exact-flow-saltation"``, or ``"none: ..."``.
     stability_reason : str
         Why ``stable`` is ``None`` (empty otherwise).
+    elements : list of mshbm.element_outputs.ElementOutput
+        Per element: force, relative displacement and velocity over the period, dissipated energy per
+        period, stick or contact fraction (:mod:`mshbm.element_outputs`; set by :func:`mshbm.solve`).
     partition : mshbm.methods.base.Partition or None
         The method's DOF sets as index arrays (``time``, ``harmonic``, ``condensed``), the same
         fields for every method.
@@ -105,6 +108,7 @@ class PeriodicSolution:
     stable: bool | None = None
     stability_method: str = "none: not assessed"
     stability_reason: str = "no stability analysis was run"
+    elements: list = field(default_factory=list)
 
     @property
     def period(self):
@@ -201,6 +205,7 @@ class PeriodicSolution:
             else float(np.min(self.conditioning)),
             "certificate": None if self.certificate is None else self.certificate.as_list(),
             **describe_stability(self),
+            "elements": [e.summary() for e in self.elements],
         }
 
 

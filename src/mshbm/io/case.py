@@ -11,6 +11,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .. import api
+from ..reduction import craig_bampton
 from .. import options as options_
 from ..errors import InputError
 from ..elements import Jenkins
@@ -26,7 +27,7 @@ __all__ = ["Case", "load_case", "parse_case", "MAX_FILE_BYTES", "SOLVER_KEYS", "
 MAX_FORCING_HARMONIC = 2000
 
 TOP_KEYS = ("name", "masses", "stiffness", "damping", "M", "C", "K", "omega", "forcing",
-            "friction", "contact", "solver")
+            "friction", "contact", "reduce", "solver")
 CHAIN_KEYS = ("masses", "stiffness", "damping")
 MATRIX_KEYS = ("M", "C", "K")
 FORCING_KEYS = ("dof", "amplitude", "sin", "harmonic", "constant")
@@ -39,6 +40,8 @@ FRICTION_KEYS = {"dof": ..., "mu": ..., "normal_force": ..., "smoothing": 800.0,
                  "tangential_stiffness": None, "normal_contact": None}
 CONTACT_KEYS = {"dof": ..., "gap": ..., "restitution": 1.0, "penalty_stiffness": 8000.0,
                 "penalty_damping": 0.0, "relative_to": None}
+#: ``reduce:`` (a Craig-Bampton reduction onto the element DOFs, :mod:`mshbm.reduction`)
+REDUCE_KEYS = ("method", "modes", "keep")
 SOLVER_KEYS = ("method", "harmonics", "steps", "theta", "jacobian", "tol", "max_iter", "partition",
                "condense", "project", "line_search", "continuation", "stability", "dlft_penalty",
                "dlft_predictor", "integrator")
@@ -330,6 +333,8 @@ class Case:
     name : str
     source : str or None
         File the case was read from.
+    reduction : mshbm.reduction.ReducedModel or None
+        The Craig-Bampton reduction of ``reduce:`` (``system`` stays the full model).
     """
 
     system: System
@@ -337,10 +342,17 @@ class Case:
     solver: dict = field(default_factory=dict)
     name: str = "case"
     source: str | None = None
+    reduction: object = None
     #: the parsed case file and the directory of its matrix files (for :meth:`with_sets`)
     data: dict | None = field(default=None, repr=False)
     base_dir: object = field(default=None, repr=False)
     _matrices: dict = field(default_factory=dict, repr=False)
+
+    @property
+    def model(self):
+        """The system the methods solve: the reduced one with ``reduce:`` (:attr:`reduction`), else
+        :attr:`system`."""
+        return self.system if self.reduction is None else self.reduction.system
 
     @property
     def method(self):
@@ -363,6 +375,8 @@ class Case:
         opts = {**defaults, **options}
         from_file = set(defaults) - set(options)
         try:
+            if self.reduction is not None:
+                return self.reduction.solve(self.omega, method, **opts)
             return api.solve(self.system, self.omega, method, **opts)
         except InputError as exc:
             if exc.key in from_file:
@@ -457,8 +471,26 @@ def parse_case(data, name=None, source=None, base_dir=None, matrix_cache=None):
             system = System(system.M, _rayleigh_damping(system.M, system.K, *alpha_beta), system.K,
                             system.f_hat, system.elements, name=name)
     solver = _solver(data.get("solver"), n)
+    reduction = _reduce(data.get("reduce"), system, n) if "reduce" in data else None
     return Case(system=system, omega=omega, solver=solver, name=name, source=source, data=data, base_dir=base_dir,
-                _matrices=matrix_cache)
+                _matrices=matrix_cache, reduction=reduction)
+
+
+def _reduce(value, system, n):
+    if not isinstance(value, dict):
+        raise InputError("reduce", f"must be a mapping {{method: craig_bampton, modes: n, keep: [dofs]}}, "
+                                   f"got {_describe(value)}")
+    _check_keys("reduce", value, REDUCE_KEYS)
+    if value.get("method", "craig_bampton") != "craig_bampton":
+        raise InputError("reduce.method", f"must be 'craig_bampton', got {_describe(value.get('method'))}")
+    if "modes" not in value:
+        raise InputError("reduce.modes", "missing (required): the number of fixed-interface modes to keep")
+    modes = _integer("reduce.modes", value["modes"], 0)
+    keep = value.get("keep", [])
+    if not isinstance(keep, list):
+        raise InputError("reduce.keep", f"must be a list of DOF indices, got {_describe(keep)}")
+    keep = [_dof(f"reduce.keep[{i}]", d, n) for i, d in enumerate(keep)]
+    return craig_bampton(system, modes, keep)
 
 
 def _apply_overrides(data, overrides):

@@ -30,15 +30,16 @@ __all__ = ["parse_assignment", "apply_sets", "SECTION_KEYS"]
 
 
 def _schema():
-    from .case import CONTACT_KEYS, FORCING_KEYS, FRICTION_KEYS, SOLVER_KEYS, TOP_KEYS
+    from .case import CONTACT_KEYS, FORCING_KEYS, FRICTION_KEYS, REDUCE_KEYS, SOLVER_KEYS, TOP_KEYS
     return {(): tuple(TOP_KEYS), ("solver",): tuple(SOLVER_KEYS), ("friction",): tuple(FRICTION_KEYS),
-            ("contact",): tuple(CONTACT_KEYS), ("forcing",): tuple(FORCING_KEYS), ("damping",): tuple(RAYLEIGH_KEYS)}
+            ("contact",): tuple(CONTACT_KEYS), ("forcing",): tuple(FORCING_KEYS), ("damping",): tuple(RAYLEIGH_KEYS),
+            ("reduce",): tuple(REDUCE_KEYS)}
 
 
 #: the sections whose entries are mappings, given as one mapping or a list of them
 SECTION_KEYS = ("friction", "contact", "forcing")
 #: the mappings an override may create when the case file lacks them
-_CREATABLE = ("solver", "damping")
+_CREATABLE = ("solver", "damping", "reduce")
 
 
 def parse_assignment(text, option="--set"):

@@ -1,0 +1,165 @@
+"""Craig-Bampton reduction (mshbm.reduction) of finite-element models with elements on nodes: exactness
+limits, the reduction's error estimate, a stop on the tip node of a cantilever solved by every time-integrating
+method on the reduced model (converged in the number of modes), and the case file's ``reduce:`` key."""
+import numpy as np
+import pytest
+import scipy.sparse as sp
+import yaml
+
+import mshbm
+from mshbm import Contact, Friction, InputError, System
+from mshbm.io import load_case, parse_case
+from mshbm.reduction import craig_bampton
+
+
+def cantilever(n_el=40, length=0.1, width=0.01, height=0.002, E=210e9, rho=7850.0):
+    """Euler-Bernoulli cantilever of Hermite cubic elements with consistent mass (clamped node removed):
+    DOF 2(i-1) is w, 2(i-1)+1 the rotation of node i; returns sparse (M, K)."""
+    l = length / n_el
+    EI, rhoA = E * width * height ** 3 / 12.0, rho * width * height
+    Ke = EI / l ** 3 * np.array([[12, 6 * l, -12, 6 * l], [6 * l, 4 * l * l, -6 * l, 2 * l * l],
+                                 [-12, -6 * l, 12, -6 * l], [6 * l, 2 * l * l, -6 * l, 4 * l * l]])
+    Me = rhoA * l / 420.0 * np.array([[156, 22 * l, 54, -13 * l], [22 * l, 4 * l * l, 13 * l, -3 * l * l],
+                                      [54, 13 * l, 156, -22 * l], [-13 * l, -3 * l * l, -22 * l, 4 * l * l]])
+    n = 2 * (n_el + 1)
+    K, M = np.zeros((n, n)), np.zeros((n, n))
+    for e in range(n_el):
+        s = slice(2 * e, 2 * e + 4)
+        K[s, s] += Ke
+        M[s, s] += Me
+    return sp.csr_matrix(M[2:, 2:]), sp.csr_matrix(K[2:, 2:])
+
+
+def blade(gap=1e-3, restitution=0.7, zeta=0.01, tip_amplitude=3e-3):
+    """The cantilever with Rayleigh damping (zeta at the first two modes), a stop on its tip node and a tip
+    force whose linear response at w_1 is ``tip_amplitude``; returns (system, w_1, tip DOF)."""
+    M, K = cantilever()
+    w = np.sqrt(np.sort(np.linalg.eigvals(np.linalg.solve(M.toarray(), K.toarray())).real)[:2])
+    a, b = 2 * zeta * w[0] * w[1] / (w[0] + w[1]), 2 * zeta / (w[0] + w[1])
+    C = (a * M + b * K).tocsr()
+    n, tip = M.shape[0], M.shape[0] - 2
+    H = (K - w[0] ** 2 * M + 1j * w[0] * C).toarray()
+    F = tip_amplitude / abs(np.linalg.solve(H, np.eye(n)[tip])[tip])
+    f_hat = np.zeros((3, n))
+    f_hat[1, tip] = F
+    return System(M, C, K, f_hat, [Contact(tip, gap, restitution)], name="blade"), w[0], tip
+
+
+def test_first_frequency_of_the_cantilever():
+    """(beta_1 L)^2 sqrt(EI / (rho A L^4)), beta_1 L = 1.8751: 1049.9 rad/s for 0.1 m x 2 mm steel."""
+    _, w1, _ = blade()
+    EI, rhoA = 210e9 * 0.01 * 0.002 ** 3 / 12, 7850 * 0.01 * 0.002
+    assert w1 == pytest.approx(1.875104068711961 ** 2 * np.sqrt(EI / (rhoA * 0.1 ** 4)), rel=1e-6)
+
+
+def test_all_modes_kept_is_exact_and_guyan_is_exact_statically():
+    s, w1, tip = blade()
+    n_i = s.n - 1
+    full = craig_bampton(s, n_i - 1)  # every interior mode but one
+    assert full.system.n == n_i
+    err, _ = full.error_estimate(mshbm.solve(full.system, w1, "hbm", harmonics=3, stability=False))
+    assert err < 1e-6
+    # Guyan (no modes): the static response of the boundary is exact
+    g = craig_bampton(s, 0)
+    assert g.system.n == 1
+    K = s.K.toarray()
+    static_full = np.linalg.solve(K, np.eye(s.n)[tip])[tip]
+    assert 1.0 / g.system.K[0, 0] == pytest.approx(static_full, rel=1e-12)
+    assert g._receptance_error(1e-3 * w1, 1) < 1e-5  # the dynamic part, ~ (omega / w_fixed,1)^2
+
+
+def test_reduction_error_estimate_falls_with_modes():
+    s, w1, _ = blade()
+    errs = []
+    for m in (0, 2, 4, 8):
+        rm = craig_bampton(s, m)
+        sol = mshbm.solve(rm.system, w1, "hbm", harmonics=5, stability=False)
+        errs.append(rm.error_estimate(sol)[0])
+    assert errs[0] > 1.0  # Guyan misses the resonance
+    assert all(b < a for a, b in zip(errs, errs[1:]))
+    assert errs[-1] < 1e-3
+
+
+def test_stop_on_the_tip_node_every_time_integrating_method():
+    """A stop on the tip node (gap 1 mm, e = 0.7) of the 40-element cantilever at w_1.  Unreduced, the tip
+    node's own frequency is far above w_1: the event flow refuses it and Moreau-Jean MS-HBM finds no periodic
+    orbit.  Reduced to the tip DOF and 8 fixed-interface modes: event shooting is converged in the modes
+    (8 vs 12: 1e-4), MS-HBM with 20 harmonics agrees with it within 0.5 %, and the answers are on the full
+    model's DOFs."""
+    s, w1, tip = blade()
+    with pytest.raises(InputError, match="sub-steps"):
+        mshbm.solve(s, w1, "mshbm", integrator="event")
+    ref = {}
+    for m in (8, 12):
+        rm = craig_bampton(s, m)
+        sol = rm.solve(w1, "shooting", integrator="event", stability=False)
+        assert sol.success, sol.message
+        assert sol.n == s.n and sol.certificate["reduction"].value < 1e-3
+        ref[m] = sol.amplitude[tip]
+    assert ref[12] == pytest.approx(ref[8], rel=1e-4)
+    rm = craig_bampton(s, 8)
+    ms = rm.solve(w1, "mshbm", integrator="event", harmonics=20, stability=False)
+    assert ms.success, ms.message
+    assert ms.amplitude[tip] == pytest.approx(ref[12], rel=5e-3)
+    # the stop holds: the tip never passes the gap by more than rounding
+    assert ms.displacement([tip]).max() <= 1e-3 * (1 + 1e-9)
+    assert ms.info["reduction"]["boundary"] == [tip]
+
+
+def test_friction_and_stop_on_nodes_keep_and_expand():
+    """Elements on two nodes and a kept output DOF: the reduced DOFs are the boundary in order, and the
+    expanded answer reproduces the kept DOF's reduced series."""
+    s, w1, tip = blade()
+    mid = 38  # w of node 20
+    s2 = System(s.M, s.C, s.K, s.f_hat, [Friction(mid, 0.3, 0.05), Contact(tip, 1e-3, 0.7)])
+    rm = craig_bampton(s2, 6, keep=[10])
+    assert rm.boundary.tolist() == [10, mid, tip]
+    assert [e.dof for e in rm.system.elements] == [1, 2]
+    sol = mshbm.solve(rm.system, w1, "mshbm", stability=False)
+    full = rm.expand(sol)
+    assert np.allclose(full.displacement([10, mid, tip]), sol.displacement([0, 1, 2]), rtol=0, atol=1e-15)
+
+
+def test_bad_reductions_name_the_key(tmp_path):
+    s, w1, tip = blade()
+    with pytest.raises(InputError) as e:
+        craig_bampton(s, -1)
+    assert e.value.key == "reduce.modes"
+    with pytest.raises(InputError) as e:
+        craig_bampton(s, 200)
+    assert e.value.key == "reduce.modes"
+    # a free-floating part (DOFs 2, 3 tied only to each other): the boundary does not hold it
+    M = sp.identity(4, format="csr")
+    K = sp.csr_matrix(np.array([[2.0, -1.0, 0, 0], [-1.0, 1.0, 0, 0], [0, 0, 1.0, -1.0], [0, 0, -1.0, 1.0]]))
+    free = System(M, 0.01 * K, K, np.zeros((3, 4)), [Contact(0, 0.1, 1.0)])
+    with pytest.raises(InputError) as e:
+        craig_bampton(free, 1)
+    assert e.value.key == "reduce"
+
+
+def test_case_file_reduce_key(tmp_path):
+    s, w1, tip = blade()
+    sp_io = pytest.importorskip("scipy.io")
+    sp_io.mmwrite(tmp_path / "M.mtx", s.M)
+    sp_io.mmwrite(tmp_path / "K.mtx", s.K)
+    case = {"name": "blade", "M": "M.mtx", "K": "K.mtx", "damping": {"alpha": 0.0, "beta": 1e-6},
+            "omega": float(w1), "forcing": [{"dof": tip, "amplitude": float(s.f_hat[1, tip])}],
+            "contact": {"dof": tip, "gap": 1e-3, "restitution": 0.7},
+            "reduce": {"method": "craig_bampton", "modes": 6},
+            "solver": {"method": "mshbm", "integrator": "event", "harmonics": 10}}
+    path = tmp_path / "blade.yaml"
+    path.write_text(yaml.safe_dump(case))
+    c = load_case(path)
+    assert c.system.n == s.n and c.model.n == 7
+    sol = c.solve()
+    assert sol.success, sol.message
+    assert sol.n == s.n and "reduction" in sol.certificate
+    for bad, key in ((dict(modes="x"), "reduce.modes"), (dict(modes=2, keep=[1000]), "reduce.keep[0]"),
+                     (dict(modes=2, method="guyan"), "reduce.method"), (dict(modes=2, extra=1), "reduce.extra"),
+                     (dict(keep=[1]), "reduce.modes")):
+        with pytest.raises(InputError) as e:
+            parse_case({**case, "reduce": bad}, base_dir=tmp_path)
+        assert e.value.key == key
+    with pytest.raises(InputError) as e:
+        c.reduction.reduced_dof(5, "--dofs")
+    assert e.value.key == "--dofs" and "reduce.keep" in e.value.problem
