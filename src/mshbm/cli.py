@@ -65,7 +65,10 @@ def _fmt_float(x):
 def _stable_text(summary):
     verdict = {True: "yes", False: "no", None: "undecided"}[summary.get("stable")]
     rho = summary.get("floquet_max_modulus")
-    return f"{verdict} ({summary.get('stability_method')}" + (f", max |mu| = {rho:.6f})" if rho is not None else ")")
+    other = ", multipliers of the nearby exact orbit, not the reported one" \
+        if summary.get("stability_orbit") == "nearby exact orbit" else ""
+    return f"{verdict} ({summary.get('stability_method')}{other}" + (f", max |mu| = {rho:.6f})" if rho is not None
+                                                                     else ")")
 
 
 def _table(case, summary):

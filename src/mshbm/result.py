@@ -65,7 +65,12 @@ class PeriodicSolution:
     stability_method : str
         How the multipliers were obtained, e.g. ``"exact-flow-saltation"``, or ``"none: ..."``.
     stability_reason : str
-        Why ``stable`` is ``None`` (empty otherwise).
+        Why ``stable`` is ``None``, and whether the multipliers belong to another orbit than the reported one
+        (empty otherwise).
+    stability_orbit : str
+        Which orbit the multipliers belong to: ``"reported"`` (the returned solution's own monodromy),
+        ``"nearby exact orbit"`` (the exact periodic orbit of the nonsmooth flow found from it, when the
+        returned orbit is too far from any orbit of the flow to have multipliers of its own), ``""`` (none).
     partition : mshbm.methods.base.Partition or None
         The method's DOF sets as index arrays (``time``, ``harmonic``, ``condensed``), the same
         fields for every method.
@@ -105,6 +110,7 @@ class PeriodicSolution:
     stable: bool | None = None
     stability_method: str = "none: not assessed"
     stability_reason: str = "no stability analysis was run"
+    stability_orbit: str = ""
 
     @property
     def period(self):
@@ -218,4 +224,5 @@ def describe_stability(sol):
             "floquet_max_modulus": float(np.max(np.abs(mult))) if mult.size else None,
             "stable": getattr(sol, "stable", None),
             "stability_method": getattr(sol, "stability_method", "none: not assessed"),
-            "stability_reason": getattr(sol, "stability_reason", "")}
+            "stability_reason": getattr(sol, "stability_reason", ""),
+            "stability_orbit": getattr(sol, "stability_orbit", "")}

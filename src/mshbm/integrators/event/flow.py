@@ -28,6 +28,23 @@ from .transitions import Transitions
 __all__ = ["EventFlow", "FlowRun"]
 
 
+def _power_apply(E, P, k):
+    """``E^k P`` (``k >= 1``) by binary powering of ``E`` when that takes fewer matrix products than ``k`` times
+    ``E @``: ``P`` has as many columns as ``E`` (nearly), so each product costs about the same."""
+    if k <= 3:
+        for _ in range(k):
+            P = E @ P
+        return P
+    B = E
+    while True:
+        if k & 1:
+            P = B @ P
+        k >>= 1
+        if not k:
+            return P
+        B = B @ B
+
+
 @dataclass
 class FlowRun:
     """One run of :meth:`EventFlow.simulate` from ``t0`` over its duration.
@@ -352,6 +369,10 @@ class EventFlow(ModeCatalogue, Transitions, FourierQuadrature, MoreauFallback):
             return md, thr, (md.C @ z) > thr
 
         md, thr, est = enter(st, z)
+        # without forcing states and Fourier sums, the sensitivities of a run of full sub-steps in one mode are
+        # E^k Phi, formed by squaring when Phi is next needed (log2 k products of D x D matrices instead of k)
+        lazy = bool(jac and not self.ncx and four is None)
+        pend = 0
         while a < T_end:
             if self.deadline is not None and time.perf_counter() > self.deadline:
                 raise EventError("time limit of the event-driven simulation reached")
@@ -376,12 +397,19 @@ class EventFlow(ModeCatalogue, Transitions, FourierQuadrature, MoreauFallback):
                 self._fourier_piece(md, z, W, Phi, a, s_end, four)
             if s_ev is None:
                 if jac:
-                    Phi = self.emul(md, Phi, sens=True) if h == md.h else self.propagate_matrix(md, Phi, h)
+                    if lazy and h == md.h:
+                        pend += 1  # E^pend applied at once when Phi is next needed (fewer products)
+                    else:
+                        Phi = _power_apply(md.E, Phi, pend) if pend else Phi
+                        pend = 0
+                        Phi = self.emul(md, Phi, sens=True) if h == md.h else self.propagate_matrix(md, Phi, h)
                 a += h
                 z = zb
                 continue
             z = W @ self.spow(s_ev, nt)
             if jac:
+                if pend:
+                    Phi, pend = _power_apply(md.E, Phi, pend), 0
                 Phi = self.propagate_matrix(md, Phi, s_ev)
             a += s_ev
             z[2 * n:] = self.exo(a)
@@ -414,6 +442,8 @@ class EventFlow(ModeCatalogue, Transitions, FourierQuadrature, MoreauFallback):
                                  f"{sorted({e.kind for e in last})})")
             z[2 * n:] = self.exo(a)
             md, thr, est = enter(st, z)
+        if pend:
+            Phi = _power_apply(md.E, Phi, pend)
         if record:
             nodes.append((T_end, z.copy(), z.copy(), md.code))
         samp.at_end(z, md.code)
