@@ -144,16 +144,16 @@ def _assess(system, sol, stability, steps, theta, t0):
         mult = own.pop("mult")
         rho = float(np.max(np.abs(mult)))
         margin = EXACT_TOL
-        step = own.pop("step")
+        step, flow, Phi = own.pop("step"), own.pop("flow"), own.pop("Phi")
         if own["orbit_distance"] > OWN_EXACT_DISTANCE:
             # error of the reported orbit's multipliers: against those one Newton step of the exact shooting away
             # (on the exact periodic orbit to second order in the distance); twice that difference is the margin
-            nxt = _own(system, sol, start=step)
+            nxt = _own(system, sol, start=step, flow=flow, eig=False)
             if not nxt.get("ok"):
                 margin = np.inf
                 own["newton_step_message"] = nxt["message"]
             else:
-                rho1 = float(np.max(np.abs(nxt["mult"])))
+                rho1 = _perturbed_max_modulus(Phi, mult, nxt["Phi"])
                 margin = max(EXACT_TOL, 2.0 * abs(rho - rho1))
                 own["newton_step_max_modulus"] = rho1
         stable, reason = _verdict(rho, margin)
@@ -191,29 +191,29 @@ def _assess(system, sol, stability, steps, theta, t0):
     return _step_map(system, sol, steps, theta, reason_exact, t0)
 
 
-def _own(system, sol, start=None):
+def _own(system, sol, start=None, flow=None, eig=True):
     """The reported orbit's own monodromy: one period of the exact event-driven flow (closed-form mode flows and
     saltation matrices, :mod:`mshbm.integrators.event`) from the solution's state at a section time far from
-    its events, with the sensitivities.  ``start``: ``(t_s, x)`` to start from instead (a Newton step).
+    its events, with the sensitivities.  ``start``: ``(t_s, x, scale)`` to start from instead (a Newton step),
+    ``flow`` the flow of the first call.
 
     Returns a dict: ``ok``; ``mult`` (eigenvalues of the ``2n``-square monodromy ``Phi``), ``orbit_distance``
     (the Newton step ``(I - Phi)^-1 (x(t_s + T) - x)`` of the exact shooting from the state, relative to the
     displacement and velocity sizes of the solution: the distance of the reported state from the exact periodic
-    orbit to first order), ``defect`` (``x(t_s + T) - x``, same scaling), ``step`` (``(t_s, x + step)``), event
-    counts, or ``message`` when the flow failed."""
+    orbit to first order), ``defect`` (``x(t_s + T) - x``, same scaling), ``step`` (the start of that Newton
+    step's call), event counts, or ``message`` when the flow failed."""
     from .integrators.event import EventError
     from .methods.exact import ExactFlow, _section_index, _stick_fraction
 
     n = system.n
     try:
-        flow = ExactFlow(system, sol.omega)
+        if flow is None:
+            flow = ExactFlow(system, sol.omega)
         flow.deadline = time.perf_counter() + EXACT_TIME_LIMIT
-        q, u = sol.q[:-1], sol.u[:-1]
         if start is None:
-            k = _section_index(flow, q, u)
-            t_s, x = float(sol.t[k]), np.concatenate([q[k], u[k]]).astype(float)
+            t_s, x, scale = _section_state(flow, sol, _section_index)
         else:
-            t_s, x = start
+            t_s, x, scale = start
         out = flow.simulate(t_s, np.concatenate([x, flow.osc(t_s)]), jac=True)
     except (EventError, ValueError, np.linalg.LinAlgError, InputError) as exc:
         return {"ok": False, "message": f"{type(exc).__name__}: {exc}"}
@@ -223,14 +223,86 @@ def _own(system, sol, start=None):
     if not np.all(np.isfinite(Phi)):
         return {"ok": False, "message": "non-finite monodromy matrix"}
     R = out.end_state[:2 * n] - x
-    scale = np.concatenate([np.full(n, max(float(np.max(np.abs(q))), 1e-300)),
-                            np.full(n, max(float(np.max(np.abs(u))), 1e-300))])
-    dx = np.linalg.lstsq(np.eye(2 * n) - Phi, R, rcond=1e-13)[0]
+    try:
+        dx = np.linalg.solve(np.eye(2 * n) - Phi, R)
+    except np.linalg.LinAlgError:  # a multiplier 1: the minimum-norm step
+        dx = np.linalg.lstsq(np.eye(2 * n) - Phi, R, rcond=1e-13)[0]
     evs = out.events
-    return {"ok": True, "mult": np.linalg.eigvals(Phi), "orbit_distance": float(np.max(np.abs(dx) / scale)),
-            "defect": float(np.max(np.abs(R) / scale)), "section_time": float(t_s), "step": (t_s, x + dx),
-            "n_events": len(evs), "n_impacts": sum(1 for e in evs if e.impulse != 0.0),
+    return {"ok": True, "Phi": Phi, "mult": np.linalg.eigvals(Phi) if eig else None,
+            "orbit_distance": float(np.max(np.abs(dx) / scale)),
+            "defect": float(np.max(np.abs(R) / scale)), "section_time": float(t_s), "step": (t_s, x + dx, scale),
+            "flow": flow, "n_events": len(evs), "n_impacts": sum(1 for e in evs if e.impulse != 0.0),
             "stick_fraction": _stick_fraction(flow, out.mode_time, None) / flow.T}
+
+
+def _perturbed_max_modulus(Phi0, mult, Phi1, max_candidates=6):
+    """Largest multiplier modulus of ``Phi1`` near ``Phi0`` (eigenvalues ``mult``), to first order in
+    ``dP = Phi1 - Phi0``: ``mu + l^H dP r / (l^H r)`` for the eigenvalues ``mu`` within ``2 ||dP||_F`` of the
+    largest modulus, ``r``, ``l`` their right and left eigenvectors by inverse iteration (one LU each, no second
+    eigenvalue problem).  The eigenvalues of ``Phi1`` instead when more than ``max_candidates`` are that close
+    (then the eigenvalue problem is cheaper) or an eigenvector is ill-conditioned (a multiple multiplier)."""
+    import scipy.linalg as sla
+
+    a = np.abs(mult)
+    rho = float(np.max(a))
+    dP = Phi1 - Phi0
+    near = np.flatnonzero(a >= rho - 2.0 * float(np.linalg.norm(dP)))
+    if near.size > max_candidates:
+        return float(np.max(np.abs(np.linalg.eigvals(Phi1))))
+    b = np.random.default_rng(0).standard_normal(Phi0.shape[0]) + 0j
+    out = [float(v) for i, v in enumerate(a) if i not in set(near.tolist())]
+    for mu in mult[near]:
+        try:
+            lu = sla.lu_factor(Phi0 - (mu + 1e-10 * max(1.0, abs(mu))) * np.eye(Phi0.shape[0]), check_finite=False)
+        except (np.linalg.LinAlgError, ValueError):
+            return float(np.max(np.abs(np.linalg.eigvals(Phi1))))
+        r, lv = sla.lu_solve(lu, b), sla.lu_solve(lu, b, trans=2)
+        r, lv = sla.lu_solve(lu, r / np.linalg.norm(r)), sla.lu_solve(lu, lv / np.linalg.norm(lv), trans=2)
+        r, lv = r / np.linalg.norm(r), lv / np.linalg.norm(lv)
+        c = np.vdot(lv, r)
+        if not abs(c) >= 1e-8:  # ill-conditioned eigenvalue: no first-order formula
+            return float(np.max(np.abs(np.linalg.eigvals(Phi1))))
+        out.append(abs(mu + np.vdot(lv, dP @ r) / c))
+    return max(out)
+
+
+def _section_state(flow, sol, section_index):
+    """``(t_s, x, scale)``: a section time of the solution's grid far from its events (the element DOFs' series
+    only), the state ``x = (q, u)(t_s)`` of all DOFs, shape ``(2n,)``, and per entry the solution's displacement or
+    velocity size (bounds from the harmonic magnitudes; the time series' maxima for time-stepped DOFs), without
+    assembling the whole grid of every DOF."""
+    n = sol.n
+    dofs = np.unique(flow.dof) if flow.m else np.zeros(0, dtype=np.int64)
+    k = section_index(_FlowView(flow, dofs), sol.displacement(dofs)[:-1], sol.velocity(dofs)[:-1]) \
+        if dofs.size else 0
+    t_s = float(sol.t[k])
+    qh = np.asarray(sol.q_hat, dtype=float)
+    n_h = (qh.shape[0] - 1) // 2
+    kw = np.arange(1, n_h + 1)[:, None] * sol.omega
+    c, s_ = np.cos(kw * t_s), np.sin(kw * t_s)
+    q = qh[0] + np.sum(qh[1::2] * c + qh[2::2] * s_, axis=0)
+    u = np.sum(kw * (qh[2::2] * c - qh[1::2] * s_), axis=0)
+    mag = np.hypot(qh[1::2], qh[2::2])
+    qmax = np.abs(qh[0]) + mag.sum(axis=0)
+    umax = (kw * mag).sum(axis=0)
+    td = np.asarray(sol.time_dofs, dtype=np.int64)
+    if td.size:
+        q[td], u[td] = sol.q_time[k], sol.u_time[k]
+        qmax[td] = np.max(np.abs(sol.q_time), axis=0)
+        umax[td] = np.max(np.abs(sol.u_time), axis=0)
+    scale = np.concatenate([np.full(n, max(float(qmax.max(initial=0.0)), 1e-300)),
+                            np.full(n, max(float(umax.max(initial=0.0)), 1e-300))])
+    return t_s, np.concatenate([q, u]), scale
+
+
+class _FlowView:
+    """The flow's element table seen on the columns ``dofs`` (for :func:`mshbm.methods.exact._section_index`
+    on the element DOFs' series only)."""
+
+    def __init__(self, flow, dofs):
+        pos = {int(d): i for i, d in enumerate(dofs)}
+        self.m, self.is_contact, self.sign, self.gap = flow.m, flow.is_contact, flow.sign, flow.gap
+        self.dof = np.array([pos[int(d)] for d in flow.dof], dtype=np.int64)
 
 
 def _exact(system, sol):

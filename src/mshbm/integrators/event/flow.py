@@ -28,21 +28,24 @@ from .transitions import Transitions
 __all__ = ["EventFlow", "FlowRun"]
 
 
-def _power_apply(E, P, k):
-    """``E^k P`` (``k >= 1``) by binary powering of ``E`` when that takes fewer matrix products than ``k`` times
-    ``E @``: ``P`` has as many columns as ``E`` (nearly), so each product costs about the same."""
+def _power_apply(md, P, k):
+    """``E^k P`` (``k >= 1``, ``E`` the mode's exponential over one full sub-step): for ``k > 3`` from the binary
+    powers ``E^(2^j)``, kept with the mode's shared exponentials (the next run, and the next flow with the same mode
+    matrix, reuse them), so a run of ``k`` sub-steps costs about ``log2 k`` products instead of ``k``."""
     if k <= 3:
         for _ in range(k):
-            P = E @ P
+            P = md.E @ P
         return P
-    B = E
-    while True:
+    pw = md.shared.setdefault("E_pow", [md.E])
+    j = 0
+    while k:
+        if j == len(pw):
+            pw.append(pw[-1] @ pw[-1])
         if k & 1:
-            P = B @ P
+            P = pw[j] @ P
         k >>= 1
-        if not k:
-            return P
-        B = B @ B
+        j += 1
+    return P
 
 
 @dataclass
@@ -400,7 +403,7 @@ class EventFlow(ModeCatalogue, Transitions, FourierQuadrature, MoreauFallback):
                     if lazy and h == md.h:
                         pend += 1  # E^pend applied at once when Phi is next needed (fewer products)
                     else:
-                        Phi = _power_apply(md.E, Phi, pend) if pend else Phi
+                        Phi = _power_apply(md, Phi, pend) if pend else Phi
                         pend = 0
                         Phi = self.emul(md, Phi, sens=True) if h == md.h else self.propagate_matrix(md, Phi, h)
                 a += h
@@ -409,7 +412,7 @@ class EventFlow(ModeCatalogue, Transitions, FourierQuadrature, MoreauFallback):
             z = W @ self.spow(s_ev, nt)
             if jac:
                 if pend:
-                    Phi, pend = _power_apply(md.E, Phi, pend), 0
+                    Phi, pend = _power_apply(md, Phi, pend), 0
                 Phi = self.propagate_matrix(md, Phi, s_ev)
             a += s_ev
             z[2 * n:] = self.exo(a)
@@ -443,7 +446,7 @@ class EventFlow(ModeCatalogue, Transitions, FourierQuadrature, MoreauFallback):
             z[2 * n:] = self.exo(a)
             md, thr, est = enter(st, z)
         if pend:
-            Phi = _power_apply(md.E, Phi, pend)
+            Phi = _power_apply(md, Phi, pend)
         if record:
             nodes.append((T_end, z.copy(), z.copy(), md.code))
         samp.at_end(z, md.code)
