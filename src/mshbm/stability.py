@@ -148,12 +148,11 @@ def _assess(system, sol, stability, steps, theta, t0):
         if own["orbit_distance"] > OWN_EXACT_DISTANCE:
             # error of the reported orbit's multipliers: against those one Newton step of the exact shooting away
             # (on the exact periodic orbit to second order in the distance); twice that difference is the margin
-            nxt = _own(system, sol, start=step, flow=flow, eig=False)
-            if not nxt.get("ok"):
+            rho1, why = _newton_step_max_modulus(system, sol, flow, step, Phi, mult)
+            if rho1 is None:
                 margin = np.inf
-                own["newton_step_message"] = nxt["message"]
+                own["newton_step_message"] = why
             else:
-                rho1 = _perturbed_max_modulus(Phi, mult, nxt["Phi"])
                 margin = max(EXACT_TOL, 2.0 * abs(rho - rho1))
                 own["newton_step_max_modulus"] = rho1
         stable, reason = _verdict(rho, margin)
@@ -191,7 +190,7 @@ def _assess(system, sol, stability, steps, theta, t0):
     return _step_map(system, sol, steps, theta, reason_exact, t0)
 
 
-def _own(system, sol, start=None, flow=None, eig=True):
+def _own(system, sol, start=None, flow=None):
     """The reported orbit's own monodromy: one period of the exact event-driven flow (closed-form mode flows and
     saltation matrices, :mod:`mshbm.integrators.event`) from the solution's state at a section time far from
     its events, with the sensitivities.  ``start``: ``(t_s, x, scale)`` to start from instead (a Newton step),
@@ -228,42 +227,71 @@ def _own(system, sol, start=None, flow=None, eig=True):
     except np.linalg.LinAlgError:  # a multiplier 1: the minimum-norm step
         dx = np.linalg.lstsq(np.eye(2 * n) - Phi, R, rcond=1e-13)[0]
     evs = out.events
-    return {"ok": True, "Phi": Phi, "mult": np.linalg.eigvals(Phi) if eig else None,
+    return {"ok": True, "Phi": Phi, "mult": np.linalg.eigvals(Phi),
             "orbit_distance": float(np.max(np.abs(dx) / scale)),
             "defect": float(np.max(np.abs(R) / scale)), "section_time": float(t_s), "step": (t_s, x + dx, scale),
             "flow": flow, "n_events": len(evs), "n_impacts": sum(1 for e in evs if e.impulse != 0.0),
             "stick_fraction": _stick_fraction(flow, out.mode_time, None) / flow.T}
 
 
-def _perturbed_max_modulus(Phi0, mult, Phi1, max_candidates=6):
-    """Largest multiplier modulus of ``Phi1`` near ``Phi0`` (eigenvalues ``mult``), to first order in
-    ``dP = Phi1 - Phi0``: ``mu + l^H dP r / (l^H r)`` for the eigenvalues ``mu`` within ``2 ||dP||_F`` of the
-    largest modulus, ``r``, ``l`` their right and left eigenvectors by inverse iteration (one LU each, no second
-    eigenvalue problem).  The eigenvalues of ``Phi1`` instead when more than ``max_candidates`` are that close
-    (then the eigenvalue problem is cheaper) or an eigenvector is ill-conditioned (a multiple multiplier)."""
+def _newton_step_max_modulus(system, sol, flow, step, Phi0, mult, max_candidates=4):
+    """Largest multiplier modulus one Newton step away (at ``step``), to first order in the change ``dPhi`` of the
+    monodromy: ``mu + l^H dPhi r / (l^H r)`` for the ``max_candidates`` eigenvalues ``mu`` of largest modulus (one of
+    each conjugate pair), ``r``, ``l`` their right and left eigenvectors of ``Phi0`` by inverse iteration, and
+    ``dPhi r`` from one flow that carries only the directions ``Re r, Im r`` (not the ``2n`` columns of ``Phi``; no
+    second eigenvalue problem).  The full monodromy and its eigenvalues instead where that is not safe: an
+    ill-conditioned eigenvalue (a multiple multiplier), or an estimated change larger than the modulus gap to the
+    first eigenvalue left out.  Returns ``(rho1, "")`` or ``(None, reason)``."""
     import scipy.linalg as sla
 
-    a = np.abs(mult)
-    rho = float(np.max(a))
-    dP = Phi1 - Phi0
-    near = np.flatnonzero(a >= rho - 2.0 * float(np.linalg.norm(dP)))
-    if near.size > max_candidates:
-        return float(np.max(np.abs(np.linalg.eigvals(Phi1))))
-    b = np.random.default_rng(0).standard_normal(Phi0.shape[0]) + 0j
-    out = [float(v) for i, v in enumerate(a) if i not in set(near.tolist())]
-    for mu in mult[near]:
+    from .integrators.event import EventError
+
+    n, D = system.n, flow.D
+    rep = np.flatnonzero(mult.imag >= 0.0)  # one of each conjugate pair (equal moduli, conjugate changes)
+    rep = rep[np.argsort(-np.abs(mult[rep]), kind="stable")]
+    cand, left = rep[:max_candidates], rep[max_candidates:]
+    gap = float(np.abs(mult[cand[-1]]) - np.abs(mult[left[0]])) if left.size else np.inf
+    b = np.random.default_rng(0).standard_normal(2 * n) + 0j
+    vecs = []
+    for i in cand:
+        mu = mult[i]
         try:
-            lu = sla.lu_factor(Phi0 - (mu + 1e-10 * max(1.0, abs(mu))) * np.eye(Phi0.shape[0]), check_finite=False)
+            lu = sla.lu_factor(Phi0 - (mu + 1e-10 * max(1.0, abs(mu))) * np.eye(2 * n), check_finite=False)
         except (np.linalg.LinAlgError, ValueError):
-            return float(np.max(np.abs(np.linalg.eigvals(Phi1))))
+            return _full_step_max_modulus(system, sol, flow, step)
         r, lv = sla.lu_solve(lu, b), sla.lu_solve(lu, b, trans=2)
         r, lv = sla.lu_solve(lu, r / np.linalg.norm(r)), sla.lu_solve(lu, lv / np.linalg.norm(lv), trans=2)
         r, lv = r / np.linalg.norm(r), lv / np.linalg.norm(lv)
         c = np.vdot(lv, r)
         if not abs(c) >= 1e-8:  # ill-conditioned eigenvalue: no first-order formula
-            return float(np.max(np.abs(np.linalg.eigvals(Phi1))))
-        out.append(abs(mu + np.vdot(lv, dP @ r) / c))
-    return max(out)
+            return _full_step_max_modulus(system, sol, flow, step)
+        vecs.append((mu, r, lv, c))
+    V = np.zeros((D, 2 * len(vecs)))
+    for k, (_, r, _, _) in enumerate(vecs):
+        V[:2 * n, 2 * k], V[:2 * n, 2 * k + 1] = r.real, r.imag
+    t_s, x, _ = step
+    try:
+        out = flow.simulate(t_s, np.concatenate([x, flow.osc(t_s)]), jac=True, jac_init=V)
+    except (EventError, ValueError, np.linalg.LinAlgError, InputError) as exc:
+        return None, f"the flow one Newton step away failed: {type(exc).__name__}: {exc}"
+    if out.moreau_segments or not np.all(np.isfinite(out.monodromy)):
+        return None, "no exact monodromy one Newton step away"
+    PV = out.monodromy[:2 * n]
+    moduli, change = [], 0.0
+    for k, (mu, r, lv, c) in enumerate(vecs):
+        d = np.vdot(lv, PV[:, 2 * k] + 1j * PV[:, 2 * k + 1] - mu * r) / c
+        moduli.append(abs(mu + d))
+        change = max(change, abs(d))
+    if change >= 0.5 * gap:  # the largest modulus may move to an eigenvalue left out
+        return _full_step_max_modulus(system, sol, flow, step)
+    return float(max(moduli)), ""
+
+
+def _full_step_max_modulus(system, sol, flow, step):
+    nxt = _own(system, sol, start=step, flow=flow)
+    if not nxt.get("ok"):
+        return None, nxt["message"]
+    return float(np.max(np.abs(nxt["mult"]))), ""
 
 
 def _section_state(flow, sol, section_index):

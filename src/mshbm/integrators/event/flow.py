@@ -294,7 +294,7 @@ class EventFlow(ModeCatalogue, Transitions, FourierQuadrature, MoreauFallback):
 
     # ------------------------------------------------------------------ simulation
     def simulate(self, t0, z0, duration=None, jac=False, sample_times=None, record=False, mode=None,
-                 jac_cols="state", fourier=None):
+                 jac_cols="state", fourier=None, jac_init=None):
         """Event-driven flow from ``(t0, z0)`` over ``duration`` (default one period).
 
         Parameters
@@ -320,6 +320,10 @@ class EventFlow(ModeCatalogue, Transitions, FourierQuadrature, MoreauFallback):
             Gauss-Legendre quadrature on every smooth piece of the exact flow (exact to rounding), and with
             ``jac`` their sensitivities ``dq_hat`` shape ``(2 n_f + 1, n, n_cols)`` (``q`` is continuous at
             events, so the event-time variations add nothing).  Trapezoidal on Moreau-Jean segments.
+        jac_init : ndarray, optional
+            Shape ``(D, k)``: with ``jac``, ``Phi`` starts from these columns instead of the identity's, so it is
+            the derivative along ``k`` directions of the start state (``Phi @ V`` for the full ``Phi``, at the cost
+            of ``k`` columns); not with forcing states (``coupling_harmonics``) or ``fourier``.
 
         Returns
         -------
@@ -332,6 +336,10 @@ class EventFlow(ModeCatalogue, Transitions, FourierQuadrature, MoreauFallback):
         z[2 * n:] = self.exo(t0)
         cols = self.jac_columns(jac_cols)
         Phi = np.eye(D)[:, cols].copy() if jac else None
+        if jac and jac_init is not None:
+            if self.ncx or fourier is not None:
+                raise ValueError("jac_init needs a flow without forcing states and no Fourier sums")
+            Phi = np.array(jac_init, dtype=float).reshape(D, -1)
         four = None
         if fourier is not None:
             nfr = int(fourier)
