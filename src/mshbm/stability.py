@@ -227,8 +227,9 @@ def _own(system, sol, start=None, flow=None):
     except np.linalg.LinAlgError:  # a multiplier 1: the minimum-norm step
         dx = np.linalg.lstsq(np.eye(2 * n) - Phi, R, rcond=1e-13)[0]
     evs = out.events
-    return {"ok": True, "Phi": Phi, "mult": np.linalg.eigvals(Phi),
-            "orbit_distance": float(np.max(np.abs(dx) / scale)),
+    dist = float(np.max(np.abs(dx) / scale))
+    return {"ok": True, "Phi": Phi, "mult": np.linalg.eigvals(Phi) if dist <= OWN_MAX_DISTANCE else None,
+            "orbit_distance": dist,
             "defect": float(np.max(np.abs(R) / scale)), "section_time": float(t_s), "step": (t_s, x + dx, scale),
             "flow": flow, "n_events": len(evs), "n_impacts": sum(1 for e in evs if e.impulse != 0.0),
             "stick_fraction": _stick_fraction(flow, out.mode_time, None) / flow.T}
@@ -291,7 +292,8 @@ def _full_step_max_modulus(system, sol, flow, step):
     nxt = _own(system, sol, start=step, flow=flow)
     if not nxt.get("ok"):
         return None, nxt["message"]
-    return float(np.max(np.abs(nxt["mult"]))), ""
+    mult = nxt["mult"] if nxt["mult"] is not None else np.linalg.eigvals(nxt["Phi"])
+    return float(np.max(np.abs(mult))), ""
 
 
 def _section_state(flow, sol, section_index):
