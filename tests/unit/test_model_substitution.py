@@ -98,3 +98,15 @@ def test_dlft_stability_names_the_other_orbit():
     assert sol.success and sol.stability_orbit == stability.NEARBY
     assert "different orbit" in sol.stability_reason
     assert sol.summary()["stability_orbit"] == stability.NEARBY
+
+
+def test_cli_names_the_substitution(tmp_path, capsys):
+    from mshbm.cli import main
+
+    case = tmp_path / "osc.yaml"
+    case.write_text("masses: [1]\nstiffness: 1\ndamping: 0.2\nomega: 1.2\nforcing: [{dof: 0, amplitude: 1}]\n"
+                    "contact: {dof: 0, gap: 0.2, restitution: 0.5}\nsolver: {method: dlft}\n")
+    assert main(["solve", str(case)]) == 0
+    out = capsys.readouterr().out
+    row = next(line for line in out.splitlines() if line.startswith("substitution"))
+    assert "contact.restitution = 0.5 replaced by 1" in row and "0.21" in row
