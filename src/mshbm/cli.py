@@ -128,7 +128,10 @@ def _fmt_float(x):
 def _stable_text(summary):
     verdict = {True: "yes", False: "no", None: "undecided"}[summary.get("stable")]
     rho = summary.get("floquet_max_modulus")
-    return f"{verdict} ({summary.get('stability_method')}" + (f", max |mu| = {rho:.6f})" if rho is not None else ")")
+    other = ", multipliers of the nearby exact orbit, not the reported one" \
+        if summary.get("stability_orbit") == "nearby exact orbit" else ""
+    return f"{verdict} ({summary.get('stability_method')}{other}" + (f", max |mu| = {rho:.6f})" if rho is not None
+                                                                     else ")")
 
 
 def _table(case, summary):
@@ -143,6 +146,11 @@ def _table(case, summary):
         rows.append(("certificate", ("failed: " + ", ".join(bad)) if bad else
                      f"passed ({sum(c['gating'] for c in summary['certificate'])} checks)"
                      + (f"; above 1e-2: {', '.join(est)}" if est else "")))
+        sub = [c for c in summary["certificate"] if c["name"] == "model_substitution"]
+        if sub:  # mshbm.certificate.substitution: the law put in place of the user's, and its estimated effect
+            v = sub[0]["value"]
+            rows.append(("substitution", sub[0]["note"].split(": ")[0] + (
+                "; effect not estimated" if v is None else f"; estimated relative amplitude error {v:.2g}")))
     width = max(len(r[0]) for r in rows)
     lines = [f"{k:<{width}}  {v}" for k, v in rows]
     amp = summary["amplitude"]

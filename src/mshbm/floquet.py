@@ -7,7 +7,7 @@ import numpy as np
 
 from .errors import InputError
 
-__all__ = ["check_option", "set_exact", "EXACT", "EXACT_TOL", "STEP_MAP", "STEP_MAP_TOL"]
+__all__ = ["check_option", "set_exact", "EXACT", "EXACT_TOL", "STEP_MAP", "STEP_MAP_TOL", "REPORTED", "NEARBY"]
 
 #: a verdict from the exact monodromy needs ``|max|mu| - 1| >`` this
 EXACT_TOL = 1e-6
@@ -27,12 +27,22 @@ def check_option(value):
     raise InputError("stability", f"must be true, false or 'auto', got {value!r}")
 
 
-def _set(sol, mult, stable, method, reason="", **details):
+#: ``stability_orbit`` of multipliers of the reported orbit itself (its own monodromy, or Hill's / the step map's
+#: linearisation about it)
+REPORTED = "reported"
+#: ``stability_orbit`` of multipliers of another orbit: the exact periodic orbit of the nonsmooth flow found from
+#: the reported one (which is too far from any orbit of the flow to have multipliers of its own)
+NEARBY = "nearby exact orbit"
+
+
+def _set(sol, mult, stable, method, reason="", orbit=None, **details):
     mult = np.asarray(mult if mult is not None else [], dtype=complex).reshape(-1)
     sol.floquet_multipliers = mult
     sol.stable = stable
     sol.stability_method = method
     sol.stability_reason = reason
+    sol.stability_orbit = (REPORTED if mult.size else "") if orbit is None else orbit
+    details["orbit"] = sol.stability_orbit
     if mult.size:
         details.setdefault("max_modulus", float(np.max(np.abs(mult))))
     sol.info["stability"] = details

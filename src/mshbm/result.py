@@ -65,7 +65,12 @@ class PeriodicSolution:
     stability_method : str
         How the multipliers were obtained, e.g. ``"exact-flow-saltation"``, or ``"none: ..."``.
     stability_reason : str
-        Why ``stable`` is ``None`` (empty otherwise).
+        Why ``stable`` is ``None``, and whether the multipliers belong to another orbit than the reported one
+        (empty otherwise).
+    stability_orbit : str
+        Which orbit the multipliers belong to: ``"reported"`` (the returned solution's own monodromy),
+        ``"nearby exact orbit"`` (the exact periodic orbit of the nonsmooth flow found from it, when the
+        returned orbit is too far from any orbit of the flow to have multipliers of its own), ``""`` (none).
     elements : list of mshbm.element_outputs.ElementOutput
         Per element: force, relative displacement and velocity over the period, dissipated energy per
         period, stick or contact fraction (:mod:`mshbm.element_outputs`; set by :func:`mshbm.solve`).
@@ -108,6 +113,7 @@ class PeriodicSolution:
     stable: bool | None = None
     stability_method: str = "none: not assessed"
     stability_reason: str = "no stability analysis was run"
+    stability_orbit: str = ""
     elements: list = field(default_factory=list)
 
     @property
@@ -223,4 +229,5 @@ def describe_stability(sol):
             "floquet_max_modulus": float(np.max(np.abs(mult))) if mult.size else None,
             "stable": getattr(sol, "stable", None),
             "stability_method": getattr(sol, "stability_method", "none: not assessed"),
-            "stability_reason": getattr(sol, "stability_reason", "")}
+            "stability_reason": getattr(sol, "stability_reason", ""),
+            "stability_orbit": getattr(sol, "stability_orbit", "")}

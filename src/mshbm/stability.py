@@ -11,23 +11,32 @@ Every result of :func:`mshbm.solve` carries
 * ``stable`` -- ``True``, ``False``, or ``None`` where the multipliers at hand cannot decide;
 * ``stability_method`` -- how they were obtained (:data:`EXACT`, :data:`STEP_MAP`, or
   ``"none: <reason>"``);
-* ``stability_reason`` -- why ``stable`` is ``None`` (empty otherwise);
-* ``info["stability"]`` -- details (largest modulus, tolerance, distance between the exact
-  orbit and the solution, wall time).
+* ``stability_reason`` -- why ``stable`` is ``None``, and whether the multipliers belong to another orbit;
+* ``stability_orbit`` -- which orbit they belong to: :data:`REPORTED` (the returned solution) or
+  :data:`NEARBY` (the exact periodic orbit found from it), ``""`` when there are none;
+* ``info["stability"]`` -- details (largest modulus, estimated multiplier error, distance between the
+  reported orbit and the exact periodic orbit, wall time).
 
 How (:func:`assess`):
 
 1. **Friction and contact elements on single DOFs (any number), n <= MAX_EXACT_DOFS** (or
-   ``stability=True``): the exact event-driven flow (:mod:`mshbm.integrators.event`, several
-   elements with simultaneous events) is shot to periodicity, started from the
-   converged solution of whichever method (a few Newton iterations), and the multipliers
-   are those of its exact monodromy matrix: the products of the closed-form mode flows and
-   the saltation matrices ``S = R + (f+ - R f-) c^T / (c^T f-)`` at every impact
-   (``R`` the Jacobian of Newton's impact law), slip-stick, stick-slip and slip-reversal
-   event.  Verdict when ``| max|mu| - 1 | > EXACT_TOL``.  The exact orbit must lie within
-   ``MAX_ORBIT_DISTANCE`` (relative) of the solution, else the verdict is ``None``: the exact
-   flow found another orbit.  The multipliers are those of the nonsmooth system (Newton's
-   impact law, set-valued friction), also for HBM solutions of its regularised laws.
+   ``stability=True``): the reported orbit's own monodromy.  One period of the exact event-driven flow
+   (:mod:`mshbm.integrators.event`, several elements with simultaneous events) from the solution's state at
+   a section time far from its events, with the sensitivities: the products of the closed-form mode flows
+   and the saltation matrices ``S = R + (f+ - R f-) c^T / (c^T f-)`` at every impact (``R`` the Jacobian of
+   Newton's impact law), slip-stick, stick-slip and slip-reversal event.  No Newton solve: one flow (two
+   when the orbit is not exact), a fraction of the solve's cost.  These are the multipliers of the nonsmooth
+   system (Newton's impact law, set-valued friction) along the reported orbit, whatever method produced it.
+   The Newton step ``(I - Phi)^-1 (x(t_s + T) - x)`` of the exact shooting from that state measures the
+   distance of the reported orbit from the exact periodic orbit (``orbit_distance``, relative).  Up to
+   :data:`OWN_MAX_DISTANCE` the multipliers are the reported orbit's (``stability_orbit = "reported"``); their
+   error estimate ``multiplier_error`` is twice the change of the largest modulus when the monodromy is taken
+   one Newton step away (on the exact orbit to second order), at least ``EXACT_TOL``, and the verdict needs
+   ``| max|mu| - 1 |`` above it.  Farther away (an HBM or DLFT orbit with large truncation, regularisation or
+   model-substitution error) the reported orbit is no orbit of the nonsmooth flow and has no multipliers of
+   its own: the exact flow is shot to periodicity from it (a few Newton iterations) and the multipliers are
+   that *other* orbit's, ``stability_orbit = "nearby exact orbit"``, said in ``stability_reason``; a verdict
+   only when that orbit lies within ``MAX_ORBIT_DISTANCE`` (relative) of the solution.
 2. **Otherwise** (relative elements, exact flow failed, or too large): the Moreau-Jean step
    map of the whole system over one period from the solution's state at ``t = 0``
    (``steps`` steps).  Its step Jacobians hold no saltation terms, so it is an *estimate*,
@@ -38,6 +47,9 @@ How (:func:`assess`):
    paper even the sign and the side of the unit circle of the largest one).
 3. Above ``MAX_EXACT_DOFS`` by default, or with ``stability=False``, or for a solve that did
    not converge: nothing is computed, ``stable = None``.
+
+Hill's method (:mod:`mshbm.hill`) is not used here: it gives the multipliers of HBM's regularised laws, not
+of the nonsmooth flow (it serves :func:`mshbm.sweep`'s HBM branches with friction only, labelled so).
 
 ``MAX_EXACT_DOFS = 200``: the exact flow works with dense ``(2n+1+2n_f)``-square matrices
 (matrix exponentials, monodromy products), so its cost grows like ``n^3`` (a few seconds at
@@ -51,10 +63,12 @@ import time
 import numpy as np
 
 from .errors import InputError
-from .floquet import EXACT, EXACT_TOL, STEP_MAP, STEP_MAP_TOL, _set, _verdict, check_option, set_exact  # noqa: F401
+from .floquet import (EXACT, EXACT_TOL, NEARBY, REPORTED, STEP_MAP, STEP_MAP_TOL, _set, _verdict,  # noqa: F401
+                      check_option, set_exact)
 from .result import describe_stability as describe, multipliers_json
 
-__all__ = ["assess", "check_option", "describe", "multipliers_json", "set_exact", "MAX_EXACT_DOFS", "EXACT", "STEP_MAP"]
+__all__ = ["assess", "check_option", "describe", "multipliers_json", "set_exact", "MAX_EXACT_DOFS", "EXACT", "STEP_MAP",
+           "REPORTED", "NEARBY"]
 
 #: largest system for which the exact flow is used by default (see the module docstring)
 MAX_EXACT_DOFS = 200
@@ -66,6 +80,11 @@ EXACT_TIME_LIMIT = 20.0
 STEP_MAP_MAX_STEPS = 16384
 #: the exact periodic orbit must be this close (relative, amplitudes and section state) to the solution
 MAX_ORBIT_DISTANCE = 0.25
+#: the reported orbit has multipliers of its own when one Newton step of the exact shooting from its state moves
+#: it by at most this (relative to its displacement and velocity sizes); farther, the exact orbit is solved for
+OWN_MAX_DISTANCE = 0.05
+#: below this distance the reported orbit is the exact one (to rounding): no second monodromy for the error estimate
+OWN_EXACT_DISTANCE = 1e-9
 
 def assess(system, sol, stability="auto", steps=None, theta=0.5):
     """Set the stability fields of ``sol`` (in place) and return it.
@@ -118,23 +137,202 @@ def _assess(system, sol, stability, steps, theta, t0):
                     "Moreau-Jean step map carries: no multipliers")
     if any(el.relative_to is not None for el in system.elements):
         reason_exact = "an element relative to a second DOF (the exact flow handles elements on one DOF); "
+        return _step_map(system, sol, steps, theta, reason_exact, t0)
+    own = _own(system, sol)
+    if own.get("ok") and own["orbit_distance"] <= OWN_MAX_DISTANCE:
+        own.pop("ok")
+        mult = own.pop("mult")
+        rho = float(np.max(np.abs(mult)))
+        margin = EXACT_TOL
+        step, flow, Phi = own.pop("step"), own.pop("flow"), own.pop("Phi")
+        if own["orbit_distance"] > OWN_EXACT_DISTANCE:
+            # error of the reported orbit's multipliers: against those one Newton step of the exact shooting away
+            # (on the exact periodic orbit to second order in the distance); twice that difference is the margin
+            rho1, why = _newton_step_max_modulus(system, sol, flow, step, Phi, mult)
+            if rho1 is None:
+                margin = np.inf
+                own["newton_step_message"] = why
+            else:
+                margin = max(EXACT_TOL, 2.0 * abs(rho - rho1))
+                own["newton_step_max_modulus"] = rho1
+        stable, reason = _verdict(rho, margin)
+        if stable is None:
+            reason = (f"the largest multiplier modulus {rho:.9f} of the reported orbit is within its estimated error "
+                      f"{margin:.2g} of 1 (the reported orbit lies {own['orbit_distance']:.2g} (relative) from the "
+                      f"exact periodic orbit of the nonsmooth flow)")
+        return _set(sol, mult, stable, EXACT, reason, orbit=REPORTED, tolerance=EXACT_TOL, multiplier_error=margin,
+                    time_s=time.perf_counter() - t0, **own)
+    if own.get("ok"):
+        why_other = (f"the reported orbit is {own['orbit_distance']:.2g} (relative; one Newton step of the exact "
+                     f"shooting from its state at t = {own['section_time']:.4g} s) from the nearest periodic orbit of "
+                     f"the nonsmooth flow, more than {OWN_MAX_DISTANCE:g}: it has no multipliers of its own")
     else:
-        res = _exact(system, sol)
-        if res.get("ok"):
-            mult = res.pop("mult")
-            rho = float(np.max(np.abs(mult)))
-            stable, reason = _verdict(rho, EXACT_TOL)
-            if res["orbit_distance"] > MAX_ORBIT_DISTANCE:
-                stable = None
-                reason = (f"the exact periodic orbit reached from this solution differs from it by "
-                          f"{res['orbit_distance']:.2g} (relative, amplitudes or state at t = "
-                          f"{res['section_time']:.4g} s): the solution approximates it poorly or approximates "
-                          f"another orbit, so its multipliers are no verdict for this solution")
-            res.pop("ok")
-            return _set(sol, mult, stable, EXACT, reason, tolerance=EXACT_TOL, time_s=time.perf_counter() - t0,
-                        **res)
-        reason_exact = f"exact flow failed ({res['message']}); "
+        why_other = f"the reported orbit's own monodromy failed ({own['message']})"
+    res = _exact(system, sol)
+    if res.get("ok"):
+        mult = res.pop("mult")
+        res.pop("ok")
+        rho = float(np.max(np.abs(mult)))
+        stable, reason = _verdict(rho, EXACT_TOL)
+        other = (f"multipliers of the exact periodic orbit found from the reported one (a different orbit, "
+                 f"{res['orbit_distance']:.2g} away): {why_other}")
+        if res["orbit_distance"] > MAX_ORBIT_DISTANCE:
+            stable = None
+            reason = (f"{other}; the exact periodic orbit reached from this solution differs from it by "
+                      f"{res['orbit_distance']:.2g} (relative, amplitudes or state at t = "
+                      f"{res['section_time']:.4g} s): the solution approximates it poorly or approximates "
+                      f"another orbit, so its multipliers are no verdict for this solution")
+        else:
+            reason = other + (f"; {reason}" if reason else "")
+        return _set(sol, mult, stable, EXACT, reason, orbit=NEARBY, tolerance=EXACT_TOL,
+                    own_orbit_distance=own.get("orbit_distance"), time_s=time.perf_counter() - t0, **res)
+    reason_exact = f"{why_other}; exact flow failed ({res['message']}); "
     return _step_map(system, sol, steps, theta, reason_exact, t0)
+
+
+def _own(system, sol, start=None, flow=None):
+    """The reported orbit's own monodromy: one period of the exact event-driven flow (closed-form mode flows and
+    saltation matrices, :mod:`mshbm.integrators.event`) from the solution's state at a section time far from
+    its events, with the sensitivities.  ``start``: ``(t_s, x, scale)`` to start from instead (a Newton step),
+    ``flow`` the flow of the first call.
+
+    Returns a dict: ``ok``; ``mult`` (eigenvalues of the ``2n``-square monodromy ``Phi``), ``orbit_distance``
+    (the Newton step ``(I - Phi)^-1 (x(t_s + T) - x)`` of the exact shooting from the state, relative to the
+    displacement and velocity sizes of the solution: the distance of the reported state from the exact periodic
+    orbit to first order), ``defect`` (``x(t_s + T) - x``, same scaling), ``step`` (the start of that Newton
+    step's call), event counts, or ``message`` when the flow failed."""
+    from .integrators.event import EventError
+    from .methods.exact import ExactFlow, _section_index, _stick_fraction
+
+    n = system.n
+    try:
+        if flow is None:
+            flow = ExactFlow(system, sol.omega)
+        flow.deadline = time.perf_counter() + EXACT_TIME_LIMIT
+        if start is None:
+            t_s, x, scale = _section_state(flow, sol, _section_index)
+        else:
+            t_s, x, scale = start
+        out = flow.simulate(t_s, np.concatenate([x, flow.osc(t_s)]), jac=True)
+    except (EventError, ValueError, np.linalg.LinAlgError, InputError) as exc:
+        return {"ok": False, "message": f"{type(exc).__name__}: {exc}"}
+    if out.moreau_segments:
+        return {"ok": False, "message": "the flow switched to Moreau-Jean (accumulation): no exact monodromy"}
+    Phi = out.monodromy[:2 * n]
+    if not np.all(np.isfinite(Phi)):
+        return {"ok": False, "message": "non-finite monodromy matrix"}
+    R = out.end_state[:2 * n] - x
+    try:
+        dx = np.linalg.solve(np.eye(2 * n) - Phi, R)
+    except np.linalg.LinAlgError:  # a multiplier 1: the minimum-norm step
+        dx = np.linalg.lstsq(np.eye(2 * n) - Phi, R, rcond=1e-13)[0]
+    evs = out.events
+    dist = float(np.max(np.abs(dx) / scale))
+    return {"ok": True, "Phi": Phi, "mult": np.linalg.eigvals(Phi) if dist <= OWN_MAX_DISTANCE else None,
+            "orbit_distance": dist,
+            "defect": float(np.max(np.abs(R) / scale)), "section_time": float(t_s), "step": (t_s, x + dx, scale),
+            "flow": flow, "n_events": len(evs), "n_impacts": sum(1 for e in evs if e.impulse != 0.0),
+            "stick_fraction": _stick_fraction(flow, out.mode_time, None) / flow.T}
+
+
+def _newton_step_max_modulus(system, sol, flow, step, Phi0, mult, max_candidates=4):
+    """Largest multiplier modulus one Newton step away (at ``step``), to first order in the change ``dPhi`` of the
+    monodromy: ``mu + l^H dPhi r / (l^H r)`` for the ``max_candidates`` eigenvalues ``mu`` of largest modulus (one of
+    each conjugate pair), ``r``, ``l`` their right and left eigenvectors of ``Phi0`` by inverse iteration, and
+    ``dPhi r`` from one flow that carries only the directions ``Re r, Im r`` (not the ``2n`` columns of ``Phi``; no
+    second eigenvalue problem).  The full monodromy and its eigenvalues instead where that is not safe: an
+    ill-conditioned eigenvalue (a multiple multiplier), or an estimated change larger than the modulus gap to the
+    first eigenvalue left out.  Returns ``(rho1, "")`` or ``(None, reason)``."""
+    import scipy.linalg as sla
+
+    from .integrators.event import EventError
+
+    n, D = system.n, flow.D
+    rep = np.flatnonzero(mult.imag >= 0.0)  # one of each conjugate pair (equal moduli, conjugate changes)
+    rep = rep[np.argsort(-np.abs(mult[rep]), kind="stable")]
+    cand, left = rep[:max_candidates], rep[max_candidates:]
+    gap = float(np.abs(mult[cand[-1]]) - np.abs(mult[left[0]])) if left.size else np.inf
+    b = np.random.default_rng(0).standard_normal(2 * n) + 0j
+    vecs = []
+    for i in cand:
+        mu = mult[i]
+        try:
+            lu = sla.lu_factor(Phi0 - (mu + 1e-10 * max(1.0, abs(mu))) * np.eye(2 * n), check_finite=False)
+        except (np.linalg.LinAlgError, ValueError):
+            return _full_step_max_modulus(system, sol, flow, step)
+        r, lv = sla.lu_solve(lu, b), sla.lu_solve(lu, b, trans=2)
+        r, lv = sla.lu_solve(lu, r / np.linalg.norm(r)), sla.lu_solve(lu, lv / np.linalg.norm(lv), trans=2)
+        r, lv = r / np.linalg.norm(r), lv / np.linalg.norm(lv)
+        c = np.vdot(lv, r)
+        if not abs(c) >= 1e-8:  # ill-conditioned eigenvalue: no first-order formula
+            return _full_step_max_modulus(system, sol, flow, step)
+        vecs.append((mu, r, lv, c))
+    V = np.zeros((D, 2 * len(vecs)))
+    for k, (_, r, _, _) in enumerate(vecs):
+        V[:2 * n, 2 * k], V[:2 * n, 2 * k + 1] = r.real, r.imag
+    t_s, x, _ = step
+    try:
+        out = flow.simulate(t_s, np.concatenate([x, flow.osc(t_s)]), jac=True, jac_init=V)
+    except (EventError, ValueError, np.linalg.LinAlgError, InputError) as exc:
+        return None, f"the flow one Newton step away failed: {type(exc).__name__}: {exc}"
+    if out.moreau_segments or not np.all(np.isfinite(out.monodromy)):
+        return None, "no exact monodromy one Newton step away"
+    PV = out.monodromy[:2 * n]
+    moduli, change = [], 0.0
+    for k, (mu, r, lv, c) in enumerate(vecs):
+        d = np.vdot(lv, PV[:, 2 * k] + 1j * PV[:, 2 * k + 1] - mu * r) / c
+        moduli.append(abs(mu + d))
+        change = max(change, abs(d))
+    if change >= 0.5 * gap:  # the largest modulus may move to an eigenvalue left out
+        return _full_step_max_modulus(system, sol, flow, step)
+    return float(max(moduli)), ""
+
+
+def _full_step_max_modulus(system, sol, flow, step):
+    nxt = _own(system, sol, start=step, flow=flow)
+    if not nxt.get("ok"):
+        return None, nxt["message"]
+    mult = nxt["mult"] if nxt["mult"] is not None else np.linalg.eigvals(nxt["Phi"])
+    return float(np.max(np.abs(mult))), ""
+
+
+def _section_state(flow, sol, section_index):
+    """``(t_s, x, scale)``: a section time of the solution's grid far from its events (the element DOFs' series
+    only), the state ``x = (q, u)(t_s)`` of all DOFs, shape ``(2n,)``, and per entry the solution's displacement or
+    velocity size (bounds from the harmonic magnitudes; the time series' maxima for time-stepped DOFs), without
+    assembling the whole grid of every DOF."""
+    n = sol.n
+    dofs = np.unique(flow.dof) if flow.m else np.zeros(0, dtype=np.int64)
+    k = section_index(_FlowView(flow, dofs), sol.displacement(dofs)[:-1], sol.velocity(dofs)[:-1]) \
+        if dofs.size else 0
+    t_s = float(sol.t[k])
+    qh = np.asarray(sol.q_hat, dtype=float)
+    n_h = (qh.shape[0] - 1) // 2
+    kw = np.arange(1, n_h + 1)[:, None] * sol.omega
+    c, s_ = np.cos(kw * t_s), np.sin(kw * t_s)
+    q = qh[0] + np.sum(qh[1::2] * c + qh[2::2] * s_, axis=0)
+    u = np.sum(kw * (qh[2::2] * c - qh[1::2] * s_), axis=0)
+    mag = np.hypot(qh[1::2], qh[2::2])
+    qmax = np.abs(qh[0]) + mag.sum(axis=0)
+    umax = (kw * mag).sum(axis=0)
+    td = np.asarray(sol.time_dofs, dtype=np.int64)
+    if td.size:
+        q[td], u[td] = sol.q_time[k], sol.u_time[k]
+        qmax[td] = np.max(np.abs(sol.q_time), axis=0)
+        umax[td] = np.max(np.abs(sol.u_time), axis=0)
+    scale = np.concatenate([np.full(n, max(float(qmax.max(initial=0.0)), 1e-300)),
+                            np.full(n, max(float(umax.max(initial=0.0)), 1e-300))])
+    return t_s, np.concatenate([q, u]), scale
+
+
+class _FlowView:
+    """The flow's element table seen on the columns ``dofs`` (for :func:`mshbm.methods.exact._section_index`
+    on the element DOFs' series only)."""
+
+    def __init__(self, flow, dofs):
+        pos = {int(d): i for i, d in enumerate(dofs)}
+        self.m, self.is_contact, self.sign, self.gap = flow.m, flow.is_contact, flow.sign, flow.gap
+        self.dof = np.array([pos[int(d)] for d in flow.dof], dtype=np.int64)
 
 
 def _exact(system, sol):

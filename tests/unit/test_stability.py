@@ -169,9 +169,13 @@ def test_friction_slip_reversal_contracts_without_damping():
 def test_impact_chain_flip_instability(impact5):
     sol = mshbm.solve(impact5, OMEGA, "mshbm", harmonics=3)
     assert sol.success and sol.stable is False and sol.stability_method == stability.EXACT
+    # the multipliers of the reported MS-HBM orbit (its own monodromy), within their estimated error of those of the
+    # exact periodic orbit (-1.10846; measured: -1.10878, error estimate 6.3e-4)
+    assert sol.stability_orbit == stability.REPORTED
     i = int(np.argmax(np.abs(sol.floquet_multipliers)))
     mu = sol.floquet_multipliers[i]
-    assert abs(mu.imag) < 1e-12 and mu.real == pytest.approx(-1.10846, abs=1e-5)
+    err = sol.info["stability"]["multiplier_error"]
+    assert abs(mu.imag) < 1e-12 and abs(mu.real + 1.10846) <= err < 2e-3
     # the perturbation along the flip eigenvector grows by |mu| per period, alternating its sign
     ex = exact_periodic(impact5, OMEGA, guess=sol)
     x, ts = ex.info["state_at_section"], ex.info["section_time"]
@@ -195,10 +199,14 @@ def test_moreau_jean_step_map_is_no_verdict_at_impacts(impact5):
 
 
 def test_hbm_gets_the_flow_verdict(friction3):
+    """The nonsmooth flow's monodromy along the reported HBM orbit (not HBM's regularised law): its largest
+    modulus within the estimated error of the exact orbit's 0.96662 (measured 0.96708, error estimate 9.3e-4)."""
     sol = mshbm.solve(friction3, OMEGA, "hbm", harmonics=20)
     assert sol.success and sol.stability_method == stability.EXACT and sol.stable is True
-    assert np.max(np.abs(sol.floquet_multipliers)) == pytest.approx(0.96662, abs=1e-4)
-    assert sol.info["stability"]["orbit_distance"] < 0.1
+    assert sol.stability_orbit == stability.REPORTED
+    err = sol.info["stability"]["multiplier_error"]
+    assert abs(np.max(np.abs(sol.floquet_multipliers)) - 0.96662) <= err < 2e-3
+    assert sol.info["stability"]["orbit_distance"] < 0.01
 
 
 # ----------------------------------------------------------------------------- options and fallbacks
@@ -246,7 +254,9 @@ def test_several_elements_get_the_exact_flow_verdict():
         x, ts = ex.info["state_at_section"], ex.info["section_time"]
         w, V = np.linalg.eig(ex.info["monodromy"])
         rho = float(np.max(np.abs(w)))
-        assert rho == pytest.approx(float(np.max(np.abs(sol.floquet_multipliers))), rel=1e-6)
+        # the Moreau-Jean orbit's own multipliers (2048 steps) are within their estimated error of the exact orbit's
+        # (measured: 0.5412 against 0.5219, estimate 0.039; 0.3825 against 0.3772, estimate 0.011)
+        assert abs(rho - float(np.max(np.abs(sol.floquet_multipliers)))) <= sol.info["stability"]["multiplier_error"]
         vec = np.real(V[:, np.argmax(np.abs(w))])
         fl = ExactFlow(hit, OMEGA)
         z0 = np.concatenate([x + 1e-6 * vec / np.max(np.abs(vec)), fl.osc(ts)])
@@ -262,7 +272,8 @@ def test_json_fields(impact5, tmp_path):
     assert pairs.shape == (10, 2)
     np.testing.assert_allclose(pairs[:, 0] + 1j * pairs[:, 1], sol.floquet_multipliers)
     assert summ["stable"] is False and summ["stability_method"] == stability.EXACT
-    assert summ["floquet_max_modulus"] == pytest.approx(1.10846, abs=1e-5)
+    assert abs(summ["floquet_max_modulus"] - 1.10846) <= sol.info["stability"]["multiplier_error"]
+    assert summ["stability_orbit"] == stability.REPORTED
     # the CLI writes the same keys
     from mshbm.cli import main
 

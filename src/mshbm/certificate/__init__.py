@@ -21,7 +21,9 @@ The checks, in the order :func:`certify` appends them, and the module that defin
 * ``energy_balance``, ``connectivity_work``, ``friction_dissipation``, ``impact_dissipation`` --
   :mod:`mshbm.certificate.energy`;
 * ``undamped_resonance`` -- :mod:`mshbm.certificate.linear`;
-* ``truncation_solution``, ``truncation_force`` (reported, not gating) -- :mod:`mshbm.certificate.truncation`.
+* ``truncation_solution``, ``truncation_force`` (reported, not gating) -- :mod:`mshbm.certificate.truncation`;
+* ``model_substitution`` (reported, not gating; only where a method substitutes a contact law) --
+  :mod:`mshbm.certificate.substitution`.
 
 :mod:`mshbm.certificate.record` holds the :class:`Check` and :class:`Certificate` records,
 :mod:`mshbm.certificate.kernels` the compiled passes over the grid, :mod:`mshbm.certificate.verdict` the
@@ -33,6 +35,7 @@ from .energy import CONNECTIVITY_WORK_BOUND, ENERGY_TOL, MAX_GRID_VALUES
 from .laws import el_dofs_each, element_tables
 from .linear import MAX_EIG_DOFS, TIME_DISCRETISATION_BOUND
 from .record import Certificate, Check
+from .substitution import MODEL_SUBSTITUTION_BOUND
 from .truncation import TRUNCATION_BOUND
 from .verdict import apply_certificate, certify
 
@@ -45,4 +48,5 @@ _element_tables = element_tables
 
 __all__ = ["Check", "Certificate", "certify", "apply_certificate", "ENERGY_TOL", "CONNECTIVITY_WORK_BOUND",
            "MAX_GRID_VALUES", "MAX_EIG_DOFS", "TIME_DISCRETISATION_BOUND", "TRUNCATION_BOUND",
-           "STEP_ACCURACY_NOTE", "STEP_ACCURACY_SIZE_BOUND", "STEP_ACCURACY_SIZE_NOTE", "el_dofs_each"]
+           "STEP_ACCURACY_NOTE", "STEP_ACCURACY_SIZE_BOUND", "STEP_ACCURACY_SIZE_NOTE", "el_dofs_each",
+           "MODEL_SUBSTITUTION_BOUND"]

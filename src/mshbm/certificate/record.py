@@ -47,8 +47,10 @@ class Certificate:
 
     @property
     def warnings(self):
-        """Names of the non-gating checks above their bound."""
-        return [c.name for c in self.checks if not c.gating and not c.passed and c.value is not None]
+        """Names of the non-gating checks above their bound (``model_substitution`` is named in the message of
+        every solution that makes one, :func:`mshbm.certificate.apply_certificate`)."""
+        return [c.name for c in self.checks if not c.gating and not c.passed and c.value is not None
+                and c.name != "model_substitution"]
 
     def __getitem__(self, name):
         for c in self.checks:
@@ -68,7 +70,7 @@ class Certificate:
         certified solution; ``""`` when there are none."""
         above = [c for c in self.checks if not c.gating and not c.passed and c.value is not None and c.bound is not None]
         parts = [f"{c.name} {c.value:.3g} > {c.bound:.3g}" + (f" ({c.note})" if c.note else "")
-                 for c in above if c.name != "step_accuracy_size"]
+                 for c in above if c.name not in ("step_accuracy_size", "model_substitution")]
         out = []
         if parts:
             out.append("the harmonic truncation error may exceed its bound: " + ", ".join(parts)

@@ -10,6 +10,7 @@ from .energy import energy_checks
 from .laws import element_terms_table, law_checks, max_abs
 from .linear import time_discretisation, undamped_resonance
 from .record import Certificate, Check
+from .substitution import model_substitution_check
 from .truncation import truncation_checks
 
 __all__ = ["certify", "apply_certificate"]
@@ -100,6 +101,9 @@ def _certify(problem, sol, tol, cert, step_accuracy=None, step_size_gating=True)
     if problem.harmonic_truncation:
         truncation_checks(sol, system, omega, mags, lam, N, D, cert)
 
+    # 7. model substitution (a contact law in place of Newton's law with the user's restitution: DLFT, HBM)
+    model_substitution_check(problem, sol, cert)
+
 
 def apply_certificate(problem, sol, tol, step_accuracy=None, cert=None):
     """Attach ``certify(problem, sol, tol)`` to ``sol.certificate`` and gate ``sol.success`` on it.
@@ -121,5 +125,9 @@ def apply_certificate(problem, sol, tol, step_accuracy=None, cert=None):
         sol.message = f"{sol.message}; certificate failed: {cert.describe_failures()}"
     if sol.success and cert.warnings:
         sol.message = f"{sol.message}; warning: {cert.describe_warnings()}"
+    if "model_substitution" in cert:  # named whenever a law is substituted, whatever its estimated effect
+        c = cert["model_substitution"]
+        est = "not estimated" if c.value is None else f"estimated relative amplitude error {c.value:.3g}"
+        sol.message = f"{sol.message}; model substitution: {c.note} ({est})"
     return cert
 

@@ -14,6 +14,11 @@ DOFs ``N``, the linear DOFs ``L`` are eliminated exactly per harmonic
 With penalty contacts only, Newton's failures are taken over by an exact piecewise-linear path follower
 (:mod:`mshbm.methods.hbm_path`); the penalty law is evaluated at the AFT samples or integrated on the
 linear interpolant of the gap (:mod:`mshbm.methods.hbm_quadrature`).
+
+The penalty law (eq. 45) has no restitution coefficient: its own is that of the Kelvin-Voigt contact
+(1 for ``d_c = 0``).  Where it differs from the contact's ``e_N`` the law is a model substitution, which
+the certificate's ``model_substitution`` check (:mod:`mshbm.certificate.substitution`) estimates and the
+message names.
 """
 from __future__ import annotations
 

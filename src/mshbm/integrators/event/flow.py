@@ -28,6 +28,26 @@ from .transitions import Transitions
 __all__ = ["EventFlow", "FlowRun"]
 
 
+def _power_apply(md, P, k):
+    """``E^k P`` (``k >= 1``, ``E`` the mode's exponential over one full sub-step): for ``k > 3`` from the binary
+    powers ``E^(2^j)``, kept with the mode's shared exponentials (the next run, and the next flow with the same mode
+    matrix, reuse them), so a run of ``k`` sub-steps costs about ``log2 k`` products instead of ``k``."""
+    if k <= 3:
+        for _ in range(k):
+            P = md.E @ P
+        return P
+    pw = md.shared.setdefault("E_pow", [md.E])
+    j = 0
+    while k:
+        if j == len(pw):
+            pw.append(pw[-1] @ pw[-1])
+        if k & 1:
+            P = pw[j] @ P
+        k >>= 1
+        j += 1
+    return P
+
+
 @dataclass
 class FlowRun:
     """One run of :meth:`EventFlow.simulate` from ``t0`` over its duration.
@@ -274,7 +294,7 @@ class EventFlow(ModeCatalogue, Transitions, FourierQuadrature, MoreauFallback):
 
     # ------------------------------------------------------------------ simulation
     def simulate(self, t0, z0, duration=None, jac=False, sample_times=None, record=False, mode=None,
-                 jac_cols="state", fourier=None):
+                 jac_cols="state", fourier=None, jac_init=None):
         """Event-driven flow from ``(t0, z0)`` over ``duration`` (default one period).
 
         Parameters
@@ -300,6 +320,10 @@ class EventFlow(ModeCatalogue, Transitions, FourierQuadrature, MoreauFallback):
             Gauss-Legendre quadrature on every smooth piece of the exact flow (exact to rounding), and with
             ``jac`` their sensitivities ``dq_hat`` shape ``(2 n_f + 1, n, n_cols)`` (``q`` is continuous at
             events, so the event-time variations add nothing).  Trapezoidal on Moreau-Jean segments.
+        jac_init : ndarray, optional
+            Shape ``(D, k)``: with ``jac``, ``Phi`` starts from these columns instead of the identity's, so it is
+            the derivative along ``k`` directions of the start state (``Phi @ V`` for the full ``Phi``, at the cost
+            of ``k`` columns); not with forcing states (``coupling_harmonics``) or ``fourier``.
 
         Returns
         -------
@@ -312,6 +336,10 @@ class EventFlow(ModeCatalogue, Transitions, FourierQuadrature, MoreauFallback):
         z[2 * n:] = self.exo(t0)
         cols = self.jac_columns(jac_cols)
         Phi = np.eye(D)[:, cols].copy() if jac else None
+        if jac and jac_init is not None:
+            if self.ncx or fourier is not None:
+                raise ValueError("jac_init needs a flow without forcing states and no Fourier sums")
+            Phi = np.array(jac_init, dtype=float).reshape(D, -1)
         four = None
         if fourier is not None:
             nfr = int(fourier)
@@ -352,6 +380,10 @@ class EventFlow(ModeCatalogue, Transitions, FourierQuadrature, MoreauFallback):
             return md, thr, (md.C @ z) > thr
 
         md, thr, est = enter(st, z)
+        # without forcing states and Fourier sums, the sensitivities of a run of full sub-steps in one mode are
+        # E^k Phi, formed by squaring when Phi is next needed (log2 k products of D x D matrices instead of k)
+        lazy = bool(jac and not self.ncx and four is None)
+        pend = 0
         while a < T_end:
             if self.deadline is not None and time.perf_counter() > self.deadline:
                 raise EventError("time limit of the event-driven simulation reached")
@@ -376,12 +408,19 @@ class EventFlow(ModeCatalogue, Transitions, FourierQuadrature, MoreauFallback):
                 self._fourier_piece(md, z, W, Phi, a, s_end, four)
             if s_ev is None:
                 if jac:
-                    Phi = self.emul(md, Phi, sens=True) if h == md.h else self.propagate_matrix(md, Phi, h)
+                    if lazy and h == md.h:
+                        pend += 1  # E^pend applied at once when Phi is next needed (fewer products)
+                    else:
+                        Phi = _power_apply(md, Phi, pend) if pend else Phi
+                        pend = 0
+                        Phi = self.emul(md, Phi, sens=True) if h == md.h else self.propagate_matrix(md, Phi, h)
                 a += h
                 z = zb
                 continue
             z = W @ self.spow(s_ev, nt)
             if jac:
+                if pend:
+                    Phi, pend = _power_apply(md, Phi, pend), 0
                 Phi = self.propagate_matrix(md, Phi, s_ev)
             a += s_ev
             z[2 * n:] = self.exo(a)
@@ -414,6 +453,8 @@ class EventFlow(ModeCatalogue, Transitions, FourierQuadrature, MoreauFallback):
                                  f"{sorted({e.kind for e in last})})")
             z[2 * n:] = self.exo(a)
             md, thr, est = enter(st, z)
+        if pend:
+            Phi = _power_apply(md, Phi, pend)
         if record:
             nodes.append((T_end, z.copy(), z.copy(), md.code))
         samp.at_end(z, md.code)

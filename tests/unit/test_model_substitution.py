@@ -1,0 +1,112 @@
+"""No silent model substitution (mshbm.certificate.substitution): DLFT and HBM's penalty contact do not represent
+Newton's impact law with restitution ``e_N < 1``; their results carry the check ``model_substitution`` and name
+the substitution in the message.
+
+References nobody in the package computes: the closed-form (1,1) orbits of the damped impact oscillator
+(``tests/closed_forms.py``) for ``e_N = 0.5`` and ``1``, and for ``e_N = 0`` (the mass rests on the stop, no
+closed form here) the exact event-driven shooting.
+"""
+import numpy as np
+import pytest
+
+import mshbm
+from mshbm import Contact, chain, stability
+from mshbm.certificate.substitution import _penalty_restitution, substituted_laws
+from mshbm.methods.registry import build_problem
+
+import closed_forms as cf
+
+ZETA, SIGMA, OMEGA = 0.1, 0.2, 1.2  # x'' + 0.2 x' + x = cos(1.2 t), stop at 0.2
+
+
+def _amplitude(e):
+    """The exact amplitude of the (1,1) orbit (closed form for e > 0, event-driven shooting for e = 0)."""
+    if e > 0:
+        orbit = cf.stable_orbit(OMEGA, ZETA, SIGMA, e)
+        return cf.amplitude(OMEGA, *orbit, zeta=ZETA, sigma=SIGMA, r=e)
+    ex = mshbm.solve(cf.system(ZETA, SIGMA, e), OMEGA, "shooting", integrator="event", stability=False)
+    assert ex.success
+    return float(ex.amplitude[0])
+
+
+def test_references():
+    # the values quoted in the issue: 0.779, 0.645, 0.512
+    assert [round(_amplitude(e), 3) for e in (0.0, 0.5, 1.0)] == [0.779, 0.645, 0.512]
+
+
+@pytest.mark.parametrize("method", ["dlft", "hbm"])
+@pytest.mark.parametrize("e", [0.0, 0.5])
+def test_restitution_substitution_is_estimated_and_named(method, e):
+    s = cf.system(ZETA, SIGMA, e)
+    sol = mshbm.solve(s, OMEGA, method, stability=False)
+    assert sol.success
+    c = sol.certificate["model_substitution"]
+    assert not c.gating and "contact.restitution" in c.note
+    assert "model substitution: contact.restitution" in sol.message
+    a_e, a_1 = _amplitude(e), _amplitude(1.0)
+    # what is measured: the amplitude change of the exact orbit when e_N is replaced by 1 (the law both methods
+    # converge to), relative to the exact amplitude; 0.342 for e = 0, 0.206 for e = 0.5
+    assert c.value == pytest.approx(abs(a_e - a_1) / a_e, rel=1e-6)
+    assert c.value > c.bound and not c.passed
+    # the reported amplitude lies within the estimate (substitution plus the truncation estimate) of the exact one;
+    # measured errors: DLFT 0.188 and 0.020, HBM 0.288 and 0.141
+    err = abs(float(sol.amplitude[0]) - a_e) / a_e
+    assert err <= c.value + sol.certificate["truncation_solution"].value
+    assert sol.certificate.info["model_substitution"]["answer_distance"] == pytest.approx(err, rel=1e-3)
+
+
+@pytest.mark.parametrize("method", ["dlft", "hbm", "mshbm", "shooting"])
+def test_no_substitution_for_elastic_contact_or_newton_law(method):
+    """e_N = 1 (DLFT, HBM with d_c = 0): nothing substituted; the time-stepping methods represent any e_N."""
+    for e in ((1.0,) if method in ("dlft", "hbm") else (1.0, 0.5)):
+        problem, _ = build_problem(cf.system(ZETA, SIGMA, e), OMEGA, method)
+        assert substituted_laws(problem) == []
+
+
+def test_untouched_contact_costs_nothing():
+    """A stop never reached: its restitution plays no part (value 0 without any exact solve)."""
+    s = cf.system(ZETA, 50.0, 0.5)
+    sol = mshbm.solve(s, OMEGA, "dlft", stability=False)
+    c = sol.certificate["model_substitution"]
+    assert sol.success and c.value == 0.0 and c.passed and "no impact" in c.note
+    assert sol.certificate.info["model_substitution"]["value_basis"] == "no impact"
+
+
+def test_penalty_damping_restitution():
+    """HBM's penalty law with damping d_c has the Kelvin-Voigt restitution exp(-pi z / sqrt(1 - z^2)),
+    z = d_c / (2 sqrt(k_c m)); matched to e_N it substitutes nothing, and its free-mass rebound agrees."""
+    k, m, e = 8000.0, 2.0, 0.5
+    z = -np.log(e) / np.sqrt(np.pi ** 2 + np.log(e) ** 2)
+    d = 2.0 * z * np.sqrt(k * m)
+    s = chain([m], 1.0, 0.1, forcing=[{"dof": 0, "amplitude": 1.0}],
+              elements=[Contact(0, 0.2, e, penalty_stiffness=k, penalty_damping=d)])
+    assert _penalty_restitution(s, s.elements[0]) == pytest.approx(e, rel=1e-12)
+    problem, _ = build_problem(s, OMEGA, "hbm")
+    assert substituted_laws(problem) == []
+    # independent check: a free mass hitting the Kelvin-Voigt wall (x'' = -(k x + d x')/m while x > 0)
+    from scipy.integrate import solve_ivp
+
+    out = solve_ivp(lambda t, y: [y[1], -(k * y[0] + d * y[1]) / m], (0, 1.0), [0.0, 1.0], rtol=1e-11, atol=1e-13,
+                    events=lambda t, y: y[0] if t > 0 else 1.0, max_step=1e-3)
+    assert -out.y_events[0][0][1] == pytest.approx(e, rel=1e-6)
+
+
+def test_dlft_stability_names_the_other_orbit():
+    """DLFT's orbit with e_N = 0.5 is no orbit of the nonsmooth flow: the multipliers are those of the exact orbit
+    found from it, and the result says so."""
+    sol = mshbm.solve(cf.system(ZETA, SIGMA, 0.5), OMEGA, "dlft")
+    assert sol.success and sol.stability_orbit == stability.NEARBY
+    assert "different orbit" in sol.stability_reason
+    assert sol.summary()["stability_orbit"] == stability.NEARBY
+
+
+def test_cli_names_the_substitution(tmp_path, capsys):
+    from mshbm.cli import main
+
+    case = tmp_path / "osc.yaml"
+    case.write_text("masses: [1]\nstiffness: 1\ndamping: 0.2\nomega: 1.2\nforcing: [{dof: 0, amplitude: 1}]\n"
+                    "contact: {dof: 0, gap: 0.2, restitution: 0.5}\nsolver: {method: dlft}\n")
+    assert main(["solve", str(case)]) == 0
+    out = capsys.readouterr().out
+    row = next(line for line in out.splitlines() if line.startswith("substitution"))
+    assert "contact.restitution = 0.5 replaced by 1" in row and "0.21" in row
