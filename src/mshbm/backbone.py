@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ._blas import blas_threads
 from .errors import InputError
 from .methods.epmc import EPMCProblem
 from .options import aft_steps
@@ -193,11 +194,14 @@ def backbone(system, amplitude_start, amplitude_end, mode=0, method="hbm", harmo
     show = _Progress(progress, f"mode {mode}", prob.a_ref)
     y0 = prob.start(a0)
     try:
-        res = continuation(prob.residual, prob.d_lam, y0, lam0, lam1, residual_scale=prob.residual_scale,
-                           unknown_scale=prob.unknown_scale, lam_scale=1.0, ds0=ds_max,
-                           ds_min=1e-6 * max(ds_max, 1e-3), ds_max=ds_max, max_points=max_points, tol=tol,
-                           accept=accept, callback=show, max_time=max_time, natural_fallback=False,
-                           kink_crossing=False, lam_limits=(min(lam0, lam1) - 1.0, max(lam0, lam1) + 1.0))
+        # one BLAS thread, as mshbm.solve and mshbm.sweep: the many small LUs of the condensation are
+        # ~10^4 times slower with OpenBLAS's threads on a loaded machine
+        with blas_threads(1):
+            res = continuation(prob.residual, prob.d_lam, y0, lam0, lam1, residual_scale=prob.residual_scale,
+                               unknown_scale=prob.unknown_scale, lam_scale=1.0, ds0=ds_max,
+                               ds_min=1e-6 * max(ds_max, 1e-3), ds_max=ds_max, max_points=max_points, tol=tol,
+                               accept=accept, callback=show, max_time=max_time, natural_fallback=False,
+                               kink_crossing=False, lam_limits=(min(lam0, lam1) - 1.0, max(lam0, lam1) + 1.0))
     finally:
         show.close()
     for p in res.points:
