@@ -27,6 +27,7 @@ from . import hbm_kernels
 from .base import HarmonicProblem
 from .common import guess_parts
 from .hbm_path import PiecewiseLinearPaths
+from .hbm_regularisation import resolve as resolve_regularisation
 from .hbm_quadrature import PENALTY_QUADRATURES, hat_integrals, hat_mass_dft, linear_quadrature_unsupported
 from ..elements import Contact, Friction, regularised_forces
 from ..errors import InputError
@@ -101,6 +102,9 @@ class HBMProblem(PiecewiseLinearPaths, HarmonicProblem):
         if penalty_quadrature not in PENALTY_QUADRATURES:
             raise InputError("penalty_quadrature", f"must be one of {', '.join(PENALTY_QUADRATURES)}, "
                                                    f"got {penalty_quadrature!r}")
+        # the regularisations left to their defaults, from the problem's scales (mshbm.methods.hbm_regularisation)
+        self.given_system = system
+        system, self.regularisation = resolve_regularisation(system, float(omega))
         self._args = (system, omega, harmonics, steps, condense, partition, penalty_quadrature)
         self._setup_harmonic_balance(system, omega, harmonics, steps, condense, partition)
         pos = {int(d): i for i, d in enumerate(self.keep)}
@@ -133,6 +137,16 @@ class HBMProblem(PiecewiseLinearPaths, HarmonicProblem):
         system, omega, n_h, steps, condense, partition, quad = self._args
         return [HBMProblem(scaled_regularisation(system, f), omega, n_h, steps, condense, partition, quad)
                 for f in factors] + [self]
+
+    def stiffened(self, factor):
+        """The same problem with every regularisation ``factor`` times stiffer (the regularisation estimate)."""
+        system, omega, n_h, steps, condense, partition, quad = self._args
+        return HBMProblem(scaled_regularisation(system, factor), omega, n_h, steps, condense, partition, quad)
+
+    def rebuilt(self, omega):
+        """The same problem at another frequency, its default regularisations derived there again (so that
+        ``dR/domega`` is that of the problems a frequency sweep builds)."""
+        return type(self)(self.given_system, float(omega), **self.build_options)
 
     def initial_guess(self, guess=None):
         q_hat, _, _ = guess_parts(guess, self.system, self.omega, self.n_h, states=False)
@@ -316,6 +330,7 @@ class HBMProblem(PiecewiseLinearPaths, HarmonicProblem):
         lam[:-1] = self._element_forces(q, u)
         lam[-1] = lam[0]
         info = {"condensed": self.condense}  # partition, conditioning: typed fields of the solution
+        info["regularisation"] = [dict(r) for r in self.regularisation]
         contacts = self._contacts()
         if contacts:
             # AFT resolution of each contact: samples with g_N <= 0 (a few only: increase ``steps``);

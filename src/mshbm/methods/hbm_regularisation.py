@@ -1,0 +1,205 @@
+"""HBM's regularised laws: their defaults from the problem's own scales, and the estimate of the
+regularisation error (the certificate's ``regularisation`` check).
+
+Notation: element direction ``w`` (:mod:`mshbm.elements`), local velocity ``gamma = w^T u``, friction
+bound ``mu F_N``, arctan smoothing ``kappa`` (s/m, eq. 42), penalty stiffness ``k_c`` (N/m, eq. 45).
+
+Defaults that do not depend on units
+------------------------------------
+An element given without ``smoothing`` (friction) or ``penalty_stiffness`` (contact) gets it here, when
+HBM builds its problem, from scales of the same system (:func:`resolve`); a value given explicitly stays
+as given (absolute, in s/m or N/m).
+
+* Friction: ``kappa = SMOOTHING_FACTOR / V``, ``V = omega sum_k k |w^T q_hat_lin,k|`` the peak slip
+  velocity of the linear response (the structure without its elements) at the element, over the
+  forcing's harmonics.  ``kappa gamma`` is then dimensionless and the same in every unit system.  If the
+  linear response has no velocity at the element (static or no forcing, a harmonic at an undamped
+  resonance), ``V = omega D_0`` with ``D_0 = F / k_0`` (:func:`mshbm.scaling.displacement_floor`).
+* Contact: ``k_c = PENALTY_FACTOR k_w``, ``k_w = |w^T K w| + omega^2 w^T M w + omega |w^T C w|`` the
+  diagonal dynamic stiffness of the structure along the element.  The penetration ``lambda_N / k_c`` is
+  then the same fraction of the structure's own deflection ``lambda_N / k_w`` in every unit system.
+
+Under a change of units (lengths, forces or both: ``M, C, K`` times ``a``, forcing and ``mu F_N`` times
+``b``) ``V`` scales like a velocity and ``k_w`` like a stiffness, so ``kappa gamma`` and ``k_c / k_w`` are
+unchanged and HBM's answer scales exactly (to rounding).
+
+Error of the regularisation
+---------------------------
+:func:`regularisation_check` re-solves the problem once with every law ``STIFFENING`` times stiffer
+(``kappa``, ``k_c`` and ``d_c`` times 4: :meth:`mshbm.elements.Element.scaled`) by Newton from the
+converged answer, and takes the change ``Delta`` of the amplitudes (``max_i |Delta A_i| / max_i A_i``
+over the DOFs).  The regularisation error of a law ``p`` times stiffer falls like ``p^-r``; with
+``r >= 1/2`` (arctan friction: ``r ~ 0.6`` where stick phases form, ``~ 1`` in pure slip; penalty:
+``r = 1``) the error of the answer is at most ``Delta / (1 - 4^-r) <= 2 Delta`` (Richardson), which is
+the check's value.  Both solves use the same harmonics and samples: the estimate is that of the
+regularisation at the chosen discretisation; the truncation error is estimated separately.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..scaling import diagonals, displacement_floor
+
+__all__ = ["SMOOTHING_FACTOR", "PENALTY_FACTOR", "STIFFENING", "ORDER", "REGULARISATION_BOUND", "resolve",
+           "unresolved", "regularised", "regularisation_check"]
+
+#: default ``kappa V`` of the arctan friction law (dimensionless)
+SMOOTHING_FACTOR = 3.0e4
+#: default ``k_c / k_w`` of the penalty contact
+PENALTY_FACTOR = 1.0e4
+#: the stiffer law of the error estimate: every regularisation times this
+STIFFENING = 4.0
+#: the accuracy the estimate is compared with (reported, not gating)
+REGULARISATION_BOUND = 1e-2
+#: assumed lowest order of the regularisation error in ``kappa`` (``k_c``): estimate ``Delta / (1 - 4^-ORDER)``
+ORDER = 0.5
+
+
+def unresolved(system):
+    """True if an element of ``system`` has its regularisation left to the default (``None``)."""
+    return any(getattr(el, "smoothing", 0.0) is None or getattr(el, "penalty_stiffness", 0.0) is None
+               for el in system.elements)
+
+
+def regularised(system):
+    """True if an element of ``system`` has a regularised law (arctan friction or penalty contact; not the
+    elastic Jenkins friction, whose law HBM evaluates without regularisation)."""
+    return any(not el.history and (hasattr(el, "smoothing") or hasattr(el, "penalty_stiffness"))
+               for el in system.elements)
+
+
+def _velocity_scales(system, omega):
+    """Per element: the peak velocity ``omega sum_k k |w^T q_hat_lin,k|`` (m/s) of the linear response."""
+    from .common import linear_response
+
+    nf = max(1, system.n_forcing_harmonics)
+    q_hat = linear_response(system, omega, nf)
+    k = np.arange(1, nf + 1) * omega
+    out = []
+    for el in system.elements:
+        s = sum(wi * q_hat[:, d] for d, wi in el.direction)
+        out.append(float(np.sum(k * np.hypot(s[1::2], s[2::2]))))
+    return out
+
+
+def _stiffness(el, system, omega):
+    """``|w^T K w| + omega^2 w^T M w + omega |w^T C w|`` (N/m) from the diagonals (and, for a relative
+    element, the coupling entries) of ``K, M, C``."""
+    def quad(A):
+        tot = 0.0
+        for a, wa in el.direction:
+            for b, wb in el.direction:
+                tot += wa * wb * float(A[a, b])
+        return tot
+
+    if el.relative_to is None:
+        Kd, Md, Cd = diagonals(system)
+        d = el.dof
+        return abs(float(Kd[d])) + omega ** 2 * float(Md[d]) + omega * abs(float(Cd[d]))
+    return abs(quad(system.K)) + omega ** 2 * quad(system.M) + omega * abs(quad(system.C))
+
+
+def _compute(system, omega):
+    """``(elements, record)`` with the defaults filled in (module docstring)."""
+    V = None
+    els, record = [], []
+    for j, el in enumerate(system.elements):
+        entry = {"element": j, "kind": el.kind}
+        if getattr(el, "smoothing", 0.0) is None and not el.history:
+            if V is None:
+                V = _velocity_scales(system, omega)
+            v = V[j]
+            how = "linear response"
+            if not (np.isfinite(v) and v > 0.0):
+                v, how = omega * displacement_floor(system, omega), "omega D_0"
+            kappa = SMOOTHING_FACTOR / v
+            el = _replace(el, smoothing=kappa)
+            entry.update(smoothing=kappa, velocity_scale=v, rule=f"smoothing = {SMOOTHING_FACTOR:g} / V, V = peak "
+                         f"slip velocity of the {how}", default=True)
+        elif getattr(el, "smoothing", None) is not None and not el.history:
+            entry.update(smoothing=float(el.smoothing), default=False)
+        if getattr(el, "penalty_stiffness", 0.0) is None:
+            kw = _stiffness(el, system, omega)
+            if not (np.isfinite(kw) and kw > 0.0):  # (M is definite: k_w > 0)
+                kw = float(omega ** 2 * diagonals(system)[1][el.dof])
+            kc = PENALTY_FACTOR * kw
+            el = _replace(el, penalty_stiffness=kc)
+            entry.update(penalty_stiffness=kc, stiffness_scale=kw, rule=f"penalty_stiffness = {PENALTY_FACTOR:g} k_w, "
+                         "k_w = |w^T K w| + omega^2 w^T M w + omega |w^T C w|", default=True)
+        elif getattr(el, "penalty_stiffness", None) is not None:
+            entry.update(penalty_stiffness=float(el.penalty_stiffness), default=False)
+        els.append(el)
+        record.append(entry)
+    return els, record
+
+
+def _replace(el, **kw):
+    from dataclasses import replace
+
+    return replace(el, **kw)
+
+
+def resolve(system, omega):
+    """``(system, record)``: ``system`` with every default regularisation filled in (module docstring), the
+    same object when there is none to fill; ``record`` per element the values used (``default``: from the
+    rule, with its scale; else as given).  Cached per system and frequency."""
+    memo = system.derived("hbm_regularisation", ("M", "C", "K", "f_hat", "elements"), dict)
+    w = float(omega)
+    hit = memo.get(w)
+    if hit is None:
+        if not unresolved(system):
+            hit = (system, _compute(system, w)[1])
+        else:
+            els, record = _compute(system, w)
+            hit = (system.with_elements(els), record)
+        if len(memo) >= 64:
+            memo.clear()
+        memo[w] = hit
+    return hit
+
+
+# ------------------------------------------------------------------------------------------------ the estimate
+REGULARISATION_NOTE = ("estimated relative amplitude error of the regularised laws: 2 x the change of the amplitudes "
+                       "(max |dA| / max A over the DOFs) when every law is {f:g} x stiffer (smoothing kappa, penalty "
+                       "k_c, d_c), re-solved from this answer at the same harmonics and samples; Richardson with an "
+                       "error order >= 1/2 in the regularisation")
+
+
+def regularisation_check(problem, sol, nkw, bound):
+    """The certificate entry ``regularisation`` of an HBM solution (module docstring), appended to
+    ``sol.certificate`` (reported, not gating).
+
+    ``problem``: the HBM problem ``sol`` solves; ``nkw``: Newton's options of the solve (``tol``,
+    ``max_iter``, ``line_search``); ``bound``: the stated accuracy the value is compared with.
+    Returns the :class:`mshbm.certificate.Check`."""
+    from ..certificate import Check
+    from ..extrema import fourier_extrema
+    from ..solvers.newton import solve_problem
+
+    f = STIFFENING
+    note = REGULARISATION_NOTE.format(f=f)
+    opts = {k: nkw[k] for k in ("tol", "max_iter", "line_search") if k in nkw}
+    x = np.asarray(sol.x, dtype=float)
+    res = None
+    for path in ((f,), (2.0, f), (1.4, 2.0, 2.8, f)):  # directly, else in stages of the stiffening
+        xs = x
+        for g in path:
+            stiff = problem.stiffened(g)
+            res = solve_problem(stiff, xs, **opts)
+            if not res.success:
+                break
+            xs = res.x
+        if res is not None and res.success:
+            break
+    if res is None or not res.success:
+        check = Check("regularisation", None, bound, False, False,
+                      note + f"; the stiffer law could not be solved from this answer ({res.message if res else ''})")
+    else:
+        hi, lo = fourier_extrema(stiff.full_coefficients(res.x))  # HBM: every DOF a series
+        A, A4 = np.asarray(sol.amplitude, dtype=float), 0.5 * (hi - lo)
+        top = float(np.max(A, initial=0.0))
+        delta = float(np.max(np.abs(A4 - A), initial=0.0)) / top if top > 0 else 0.0
+        value = delta / (1.0 - f ** -ORDER)
+        check = Check("regularisation", value, bound, bool(value <= bound), False, note)
+    sol.certificate.checks.append(check)
+    return check
