@@ -15,9 +15,11 @@ as given (absolute, in s/m or N/m).
   forcing's harmonics.  ``kappa gamma`` is then dimensionless and the same in every unit system.  If the
   linear response has no velocity at the element (static or no forcing, a harmonic at an undamped
   resonance), ``V = omega D_0`` with ``D_0 = F / k_0`` (:func:`mshbm.scaling.displacement_floor`).
-* Contact: ``k_c = PENALTY_FACTOR k_w``, ``k_w = |w^T K w| + omega^2 w^T M w + omega |w^T C w|`` the
-  diagonal dynamic stiffness of the structure along the element.  The penetration ``lambda_N / k_c`` is
-  then the same fraction of the structure's own deflection ``lambda_N / k_w`` in every unit system.
+* Contact: ``k_c = PENALTY_FACTOR k_w``, ``k_w = 1 / (w^T (K + omega^2 M)^-1 w)`` the stiffness of the
+  structure along the element (its springs and its inertia at ``omega``, every other DOF free; the same
+  number in any coordinates of the structure, so a relative contact equals the ground contact in relative
+  coordinates).  The penetration ``lambda_N / k_c`` is then the same fraction of the structure's own
+  deflection ``lambda_N / k_w`` in every unit system.
 
 Under a change of units (lengths, forces or both: ``M, C, K`` times ``a``, forcing and ``mu F_N`` times
 ``b``) ``V`` scales like a velocity and ``k_w`` like a stiffness, so ``kappa gamma`` and ``k_c / k_w`` are
@@ -40,7 +42,7 @@ import time
 
 import numpy as np
 
-from ..scaling import diagonals, displacement_floor
+from ..scaling import displacement_floor
 
 __all__ = ["SMOOTHING_FACTOR", "PENALTY_FACTOR", "STIFFENING", "ORDER", "REGULARISATION_BOUND", "resolve",
            "unresolved", "regularised", "regularisation_check"]
@@ -84,26 +86,44 @@ def _velocity_scales(system, omega):
     return out
 
 
-def _stiffness(el, system, omega):
-    """``|w^T K w| + omega^2 w^T M w + omega |w^T C w|`` (N/m) from the diagonals (and, for a relative
-    element, the coupling entries) of ``K, M, C``."""
-    def quad(A):
-        tot = 0.0
-        for a, wa in el.direction:
-            for b, wb in el.direction:
-                tot += wa * wb * float(A[a, b])
-        return tot
+def _stiffness_scales(system, omega, elements):
+    """Per element of ``elements`` (indices): ``k_w = 1 / (w^T (K + omega^2 M)^-1 w)`` (N/m), the stiffness of
+    the structure (springs and inertia at ``omega``, all other DOFs free) along ``w``; the same in any
+    coordinates of the structure.  Where it is not positive and finite (an indefinite ``K``): the diagonal
+    form ``|w^T K w| + omega^2 w^T M w``."""
+    import scipy.sparse as sp
+    import scipy.sparse.linalg as spla
 
-    if el.relative_to is None:
-        Kd, Md, Cd = diagonals(system)
-        d = el.dof
-        return abs(float(Kd[d])) + omega ** 2 * float(Md[d]) + omega * abs(float(Cd[d]))
-    return abs(quad(system.K)) + omega ** 2 * quad(system.M) + omega * abs(quad(system.C))
+    n = system.n
+    W = np.zeros((n, len(elements)))
+    for c, j in enumerate(elements):
+        for d, wi in system.elements[j].direction:
+            W[d, c] += wi
+    K, M = system.K, system.M
+    try:
+        if sp.issparse(K) or sp.issparse(M):
+            A = (sp.csc_matrix(K) + omega ** 2 * sp.csc_matrix(M)).tocsc()
+            X = spla.splu(A).solve(W)
+        else:
+            X = np.linalg.solve(np.asarray(K) + omega ** 2 * np.asarray(M), W)
+        flex = np.einsum("ij,ij->j", W, X)
+    except (np.linalg.LinAlgError, RuntimeError, ValueError):
+        flex = np.full(len(elements), np.nan)
+    out = []
+    for c in range(len(elements)):
+        if np.isfinite(flex[c]) and flex[c] > 0.0:
+            out.append(1.0 / float(flex[c]))
+            continue
+        w = W[:, c]
+        quad = lambda B: float(w @ (B @ w))
+        out.append(abs(quad(K)) + omega ** 2 * quad(M))
+    return out
 
 
 def _compute(system, omega):
     """``(elements, record)`` with the defaults filled in (module docstring)."""
-    V = None
+    V = kws = None
+    need = [j for j, el in enumerate(system.elements) if getattr(el, "penalty_stiffness", 0.0) is None]
     els, record = [], []
     for j, el in enumerate(system.elements):
         entry = {"element": j, "kind": el.kind}
@@ -121,13 +141,13 @@ def _compute(system, omega):
         elif getattr(el, "smoothing", None) is not None and not el.history:
             entry.update(smoothing=float(el.smoothing), default=False)
         if getattr(el, "penalty_stiffness", 0.0) is None:
-            kw = _stiffness(el, system, omega)
-            if not (np.isfinite(kw) and kw > 0.0):  # (M is definite: k_w > 0)
-                kw = float(omega ** 2 * diagonals(system)[1][el.dof])
+            if kws is None:
+                kws = dict(zip(need, _stiffness_scales(system, omega, need)))
+            kw = kws[j]
             kc = PENALTY_FACTOR * kw
             el = _replace(el, penalty_stiffness=kc)
             entry.update(penalty_stiffness=kc, stiffness_scale=kw, rule=f"penalty_stiffness = {PENALTY_FACTOR:g} k_w, "
-                         "k_w = |w^T K w| + omega^2 w^T M w + omega |w^T C w|", default=True)
+                         "k_w = 1 / (w^T (K + omega^2 M)^-1 w)", default=True)
         elif getattr(el, "penalty_stiffness", None) is not None:
             entry.update(penalty_stiffness=float(el.penalty_stiffness), default=False)
         els.append(el)
