@@ -17,6 +17,7 @@ linear interpolant of the gap (:mod:`mshbm.methods.hbm_quadrature`).
 """
 from __future__ import annotations
 
+import copy
 import functools
 
 import numpy as np
@@ -134,14 +135,20 @@ class HBMProblem(PiecewiseLinearPaths, HarmonicProblem):
         Used as a fallback when Newton fails from the given start: each
         solution starts the next, stiffer problem.
         """
-        system, omega, n_h, steps, condense, partition, quad = self._args
-        return [HBMProblem(scaled_regularisation(system, f), omega, n_h, steps, condense, partition, quad)
-                for f in factors] + [self]
+        return [self.stiffened(f) for f in factors] + [self]
 
     def stiffened(self, factor):
-        """The same problem with every regularisation ``factor`` times stiffer (the regularisation estimate)."""
-        system, omega, n_h, steps, condense, partition, quad = self._args
-        return HBMProblem(scaled_regularisation(system, factor), omega, n_h, steps, condense, partition, quad)
+        """The same problem with every regularisation ``factor`` times stiffer (``factor < 1``: softer; the
+        homotopy, the regularisation estimate).  Shares the linear part (condensation, ``A``, the AFT
+        matrices), which does not depend on the laws' parameters."""
+        new = copy.copy(self)
+        system = scaled_regularisation(self.system, factor)
+        new.system, new._args = system, (system,) + self._args[1:]
+        for k in ("_scale", "_F"):  # the force scale may include k_c gap (unforced systems)
+            new.__dict__.pop(k, None)
+        pos = {int(d): i for i, d in enumerate(self.keep)}
+        new._fast = None if self._linear else _fast_laws(system.elements, self.nl_cols, pos)
+        return new
 
     def rebuilt(self, omega):
         """The same problem at another frequency, its default regularisations derived there again (so that
