@@ -11,6 +11,10 @@ DOFs ``N``, the linear DOFs ``L`` are eliminated exactly per harmonic
 :class:`mshbm.condensation.Condensation`).  ``condense=False`` solves the full
 (sparse) system instead.  The Jacobian is analytic.
 
+Elements without an explicit ``smoothing`` (friction) or ``penalty_stiffness`` (contact) get them from the
+problem's own scales when the problem is built (:mod:`mshbm.methods.hbm_regularisation`; the values used are
+``info["regularisation"]`` of the solution), so that the same system in other units gives the same answer.
+
 With penalty contacts only, Newton's failures are taken over by an exact piecewise-linear path follower
 (:mod:`mshbm.methods.hbm_path`); the penalty law is evaluated at the AFT samples or integrated on the
 linear interpolant of the gap (:mod:`mshbm.methods.hbm_quadrature`).
