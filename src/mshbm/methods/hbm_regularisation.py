@@ -61,8 +61,8 @@ ORDER = 0.5
 
 def unresolved(system):
     """True if an element of ``system`` has its regularisation left to the default (``None``)."""
-    return any(getattr(el, "smoothing", 0.0) is None or getattr(el, "penalty_stiffness", 0.0) is None
-               for el in system.elements)
+    return any(not el.history and (getattr(el, "smoothing", 0.0) is None
+                                   or getattr(el, "penalty_stiffness", 0.0) is None) for el in system.elements)
 
 
 def regularised(system):
