@@ -10,11 +10,14 @@ An element given without ``smoothing`` (friction) or ``penalty_stiffness`` (cont
 HBM builds its problem, from scales of the same system (:func:`resolve`); a value given explicitly stays
 as given (absolute, in s/m or N/m).
 
-* Friction: ``kappa = SMOOTHING_FACTOR / V``, ``V = omega sum_k k |w^T q_hat_lin,k|`` the peak slip
-  velocity of the linear response (the structure without its elements) at the element, over the
-  forcing's harmonics.  ``kappa gamma`` is then dimensionless and the same in every unit system.  If the
-  linear response has no velocity at the element (static or no forcing, a harmonic at an undamped
-  resonance), ``V = omega D_0`` with ``D_0 = F / k_0`` (:func:`mshbm.scaling.displacement_floor`).
+* Friction: ``kappa = SMOOTHING_FACTOR / V`` with the velocity scale ``V = min(V_lin, omega F / k_w)``:
+  ``V_lin = omega sum_k k |w^T q_hat_lin,k|`` the peak slip velocity of the linear response (the structure
+  without its elements) at the element, over the forcing's harmonics, and ``omega F / k_w`` that of the
+  force scale ``F`` (:func:`mshbm.scaling.force_scale`, the peak forcing) acting quasi-statically on the
+  stiffness ``k_w`` along the element (below).  The second caps the first near a resonance of the
+  structure without its elements, where ``V_lin`` is unbounded while the friction holds the motion (a
+  chain at its undamped resonance whose friction sticks); it is the scale when ``V_lin`` vanishes (a
+  static or no forcing).  ``kappa gamma`` is dimensionless and the same in every unit system.
 * Contact: ``k_c = PENALTY_FACTOR k_w``, ``k_w = 1 / (w^T (K + omega^2 M)^-1 w)`` the stiffness of the
   structure along the element (its springs and its inertia at ``omega``, every other DOF free; the same
   number in any coordinates of the structure, so a relative contact equals the ground contact in relative
@@ -42,7 +45,7 @@ import time
 
 import numpy as np
 
-from ..scaling import displacement_floor
+from ..scaling import force_scale
 
 __all__ = ["SMOOTHING_FACTOR", "PENALTY_FACTOR", "STIFFENING", "ORDER", "REGULARISATION_BOUND", "resolve",
            "unresolved", "regularised", "regularisation_check"]
@@ -122,22 +125,24 @@ def _stiffness_scales(system, omega, elements):
 
 def _compute(system, omega):
     """``(elements, record)`` with the defaults filled in (module docstring)."""
-    V = kws = None
+    V = None
+    smooth = [j for j, el in enumerate(system.elements) if getattr(el, "smoothing", 0.0) is None and not el.history]
     need = [j for j, el in enumerate(system.elements) if getattr(el, "penalty_stiffness", 0.0) is None]
+    kws = dict(zip(need + smooth, _stiffness_scales(system, omega, need + smooth))) if need or smooth else {}
     els, record = [], []
     for j, el in enumerate(system.elements):
         entry = {"element": j, "kind": el.kind}
-        if getattr(el, "smoothing", 0.0) is None and not el.history:
+        if j in smooth:
             if V is None:
                 V = _velocity_scales(system, omega)
-            v = V[j]
-            how = "linear response"
-            if not (np.isfinite(v) and v > 0.0):
-                v, how = omega * displacement_floor(system, omega), "omega D_0"
+            v_lin = V[j]
+            v_f = omega * force_scale(system) / kws[j]
+            v = min(v_lin, v_f) if np.isfinite(v_lin) and v_lin > 0.0 else v_f
             kappa = SMOOTHING_FACTOR / v
             el = _replace(el, smoothing=kappa)
-            entry.update(smoothing=kappa, velocity_scale=v, rule=f"smoothing = {SMOOTHING_FACTOR:g} / V, V = peak "
-                         f"slip velocity of the {how}", default=True)
+            entry.update(smoothing=kappa, velocity_scale=v, linear_velocity=v_lin, force_velocity=v_f,
+                         rule=f"smoothing = {SMOOTHING_FACTOR:g} / V, V = min(peak slip velocity of the linear "
+                         "response, omega F / k_w)", default=True)
         elif getattr(el, "smoothing", None) is not None and not el.history:
             entry.update(smoothing=float(el.smoothing), default=False)
         if getattr(el, "penalty_stiffness", 0.0) is None:
