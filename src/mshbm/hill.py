@@ -66,6 +66,7 @@ from scipy.spatial import cKDTree
 from . import fourier
 from .elements import regularised_forces  # the regularised-force Jacobian: imported in this one place only
 from .errors import InputError
+from .methods.hbm_regularisation import resolve, unresolved
 from .options import aft_steps
 
 __all__ = ["hill_matrices", "hill_exponents", "hill_multipliers", "assess_hbm", "HILL", "MAX_SIZE"]
@@ -113,6 +114,8 @@ def hill_matrices(system, omega, q_hat, steps=None):
     if steps is None:
         steps = aft_steps(n_h)
     Ns = int(steps)
+    if unresolved(system):  # defaults of the regularised laws: those HBM uses at this frequency
+        system = resolve(system, omega)[0]
     M, C, K = system.dense("M"), system.dense("C"), system.dense("K")
     I = np.eye(nc)
     Om = fourier.derivative(I, omega)

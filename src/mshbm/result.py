@@ -212,6 +212,9 @@ class PeriodicSolution:
             "certificate": None if self.certificate is None else self.certificate.as_list(),
             **describe_stability(self),
             "elements": [e.summary() for e in self.elements],
+            # HBM: the regularisation of each element's law as used (the default's rule and scale, or as given)
+            **({"regularisation": self.info["regularisation"]}
+               if isinstance(self.info, dict) and "regularisation" in self.info else {}),
         }
 
 

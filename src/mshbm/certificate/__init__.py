@@ -23,7 +23,9 @@ The checks, in the order :func:`certify` appends them, and the module that defin
 * ``undamped_resonance`` -- :mod:`mshbm.certificate.linear`;
 * ``truncation_solution``, ``truncation_force`` (reported, not gating) -- :mod:`mshbm.certificate.truncation`;
 * ``model_substitution`` (reported, not gating; only where a method substitutes a contact law) --
-  :mod:`mshbm.certificate.substitution`.
+  :mod:`mshbm.certificate.substitution`;
+* ``regularisation`` (reported, not gating; HBM with regularised laws, appended by the solve route after the
+  others: it re-solves the problem) -- :mod:`mshbm.methods.hbm_regularisation`.
 
 :mod:`mshbm.certificate.record` holds the :class:`Check` and :class:`Certificate` records,
 :mod:`mshbm.certificate.kernels` the compiled passes over the grid, :mod:`mshbm.certificate.verdict` the

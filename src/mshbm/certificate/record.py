@@ -65,18 +65,22 @@ class Certificate:
         """JSON-ready list of dicts ``{name, value, bound, passed, gating, note}``."""
         return [c.as_dict() for c in self.checks]
 
-    def describe_warnings(self):
+    def describe_warnings(self, only=None):
         """The non-gating checks above their bound (the harmonic truncation estimates), for the message of a
-        certified solution; ``""`` when there are none."""
-        above = [c for c in self.checks if not c.gating and not c.passed and c.value is not None and c.bound is not None]
+        certified solution; ``""`` when there are none.  ``only``: the check of that name only."""
+        above = [c for c in self.checks if not c.gating and not c.passed and c.value is not None and c.bound is not None
+                 and (only is None or c.name == only)]
         parts = [f"{c.name} {c.value:.3g} > {c.bound:.3g}" + (f" ({c.note})" if c.note else "")
-                 for c in above if c.name not in ("step_accuracy_size", "model_substitution")]
+                 for c in above if c.name not in ("step_accuracy_size", "model_substitution", "regularisation")]
         out = []
         if parts:
             out.append("the harmonic truncation error may exceed its bound: " + ", ".join(parts)
                        + "; more harmonics (option harmonics) reduce it")
         out += [f"one step's accuracy is {c.value:.3g} of the orbit's size (> {c.bound:.3g}); more steps (option "
                 "steps) reduce it" for c in above if c.name == "step_accuracy_size"]
+        out += [f"the regularised laws' error is estimated at {c.value:.3g} of the amplitude (> {c.bound:.3g}); a "
+                "stiffer law (friction smoothing, contact penalty_stiffness) reduces it" for c in above
+                if c.name == "regularisation"]
         return "; ".join(out)
 
     def describe_failures(self):

@@ -29,7 +29,9 @@ class Contact(Element):
         Newton restitution coefficient ``e_N`` in ``[0, 1]``.
     penalty_stiffness, penalty_damping : float
         ``k_c > 0`` (N/m) and ``d_c >= 0`` (Ns/m) of the penalty law eq. (45),
-        used by HBM only.
+        used by HBM only.  ``penalty_stiffness=None`` (default): HBM derives it from the structure's
+        stiffness along the element, ``k_c = PENALTY_FACTOR k_w`` (:mod:`mshbm.methods.hbm_regularisation`),
+        the same physics in every unit system; a number is used as given.
     relative_to : int or None
         Second DOF ``J``: the gap is then ``g_N = gap - (q_dof - q_J)`` (``w = -(e_dof - e_J)``);
         ``None`` (default): a stop fixed to the ground.
@@ -38,7 +40,7 @@ class Contact(Element):
     dof: int
     gap: float
     restitution: float = 1.0
-    penalty_stiffness: float = 8000.0
+    penalty_stiffness: float | None = None
     penalty_damping: float = 0.0
     relative_to: int | None = None
     kind: str = field(default="contact", init=False)
@@ -54,8 +56,9 @@ class Contact(Element):
         if not 0.0 <= e <= 1.0:
             raise InputError("contact.restitution", f"must lie in [0, 1], got {e:g}")
         object.__setattr__(self, "restitution", e)
-        object.__setattr__(self, "penalty_stiffness",
-                           _finite_number("contact.penalty_stiffness", self.penalty_stiffness, positive=True))
+        if self.penalty_stiffness is not None:
+            object.__setattr__(self, "penalty_stiffness",
+                               _finite_number("contact.penalty_stiffness", self.penalty_stiffness, positive=True))
         object.__setattr__(self, "penalty_damping",
                            _finite_number("contact.penalty_damping", self.penalty_damping, nonnegative=True))
         self._check_relative()
@@ -77,6 +80,9 @@ class Contact(Element):
 
         At ``g_N = 0`` the sample counts as closed (one-sided derivatives).
         """
+        if self.penalty_stiffness is None:
+            raise TypeError("contact.penalty_stiffness is None (the default): HBM fills it in from the structure's "
+                            "stiffness (mshbm.methods.hbm_regularisation.resolve) before the law is evaluated")
         g = self.gap + s
         closed = g <= 0.0
         lam = np.where(closed, -(self.penalty_stiffness * g + self.penalty_damping * gamma), 0.0)
@@ -84,16 +90,20 @@ class Contact(Element):
                 np.where(closed, -self.penalty_damping, 0.0))
 
     def scaled(self, factor):
-        """``k_c`` and ``d_c`` times ``factor``."""
+        """``k_c`` and ``d_c`` times ``factor`` (``k_c = None``, the default left to HBM: ``d_c`` only)."""
+        if self.penalty_stiffness is None:
+            return replace(self, penalty_damping=self.penalty_damping * factor)
         return replace(self, penalty_stiffness=self.penalty_stiffness * factor,
                        penalty_damping=self.penalty_damping * factor)
 
     def force_scale(self, stiffness, penalty=False):
         """``K_dd gap`` (and ``k_c gap`` with ``penalty``)."""
         F = float(stiffness[self.dof]) * self.gap
-        if penalty:
+        if penalty and self.penalty_stiffness is not None:
             F = max(F, self.penalty_stiffness * self.gap)
         return F
 
     def magnitude_terms(self):
+        if self.penalty_stiffness is None:
+            return []
         return [(f"{self.kind}.penalty_stiffness", "k_c gap", self.penalty_stiffness * max(self.gap, 1.0))]

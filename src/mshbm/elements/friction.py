@@ -65,8 +65,11 @@ class Friction(Element):
     normal_force : float
         Normal force ``F_N`` (N), ``>= 0``.  The friction bound is ``mu*F_N``.  With
         ``normal_contact``: the preload ``N_0`` added to the contact force.
-    smoothing : float
-        Regularisation ``kappa`` (s/m) of eq. (42), used by HBM only.
+    smoothing : float or None
+        Regularisation ``kappa`` (s/m) of eq. (42), used by HBM only.  ``None`` (default): HBM derives it
+        from the problem's velocity scale, ``kappa = SMOOTHING_FACTOR / V`` with ``V`` the peak slip velocity
+        of the linear response at the element (:mod:`mshbm.methods.hbm_regularisation`), the same physics in
+        every unit system; a number is used as given.
     relative_to : int or None
         Second DOF ``J``: the element then acts on ``q_dof - q_J`` (slip velocity ``u_dof - u_J``,
         ``w = e_dof - e_J``); ``None`` (default): between ``dof`` and the ground.
@@ -80,7 +83,7 @@ class Friction(Element):
     dof: int
     mu: float
     normal_force: float
-    smoothing: float = 800.0
+    smoothing: float | None = None
     relative_to: int | None = None
     normal_contact: int | None = None
     kind: str = field(default="friction", init=False)
@@ -93,8 +96,9 @@ class Friction(Element):
         object.__setattr__(self, "mu", _finite_number("friction.mu", self.mu, nonnegative=True))
         object.__setattr__(self, "normal_force",
                            _finite_number("friction.normal_force", self.normal_force, nonnegative=True))
-        object.__setattr__(self, "smoothing",
-                           _finite_number("friction.smoothing", self.smoothing, positive=True))
+        if self.smoothing is not None:
+            object.__setattr__(self, "smoothing",
+                               _finite_number("friction.smoothing", self.smoothing, positive=True))
         self._check_relative()
         if self.normal_contact is not None:
             c = self.normal_contact
@@ -139,6 +143,7 @@ class Friction(Element):
         ``dn_ds``, ``dn_dgamma`` (arrays or ``None``) with respect to its own ``s_N``, ``gamma_N``.
         Returns ``(lam, dlam_dgamma_T, dlam_ds_N, dlam_dgamma_N)`` (``None`` for a vanishing term).
         """
+        self._resolved()
         pos = lam_n > 0.0
         FN = self.normal_force + np.where(pos, lam_n, 0.0)
         ku = self.smoothing * gamma
@@ -161,12 +166,20 @@ class Friction(Element):
         contact: :meth:`coupled_law`)."""
         if self.normal_contact is not None:
             raise TypeError("friction with a normal contact: its law depends on the contact force (coupled_law)")
+        self._resolved()
         a = self.bound * 2.0 / np.pi
         ku = self.smoothing * gamma
         return -a * np.arctan(ku), None, -a * self.smoothing / (1.0 + ku * ku)
 
+    def _resolved(self):
+        if self.smoothing is None:
+            raise TypeError("friction.smoothing is None (the default): HBM fills it in from the problem's scales "
+                            "(mshbm.methods.hbm_regularisation.resolve) before the law is evaluated")
+
     def scaled(self, factor):
-        """``kappa`` times ``factor``."""
+        """``kappa`` times ``factor`` (``None``, the default left to HBM: unchanged)."""
+        if self.smoothing is None:
+            return self
         return replace(self, smoothing=self.smoothing * factor)
 
     def bound_scaled(self, s):

@@ -10,8 +10,9 @@ A case file is a top-level mapping.  A wall-spring-mass chain (see
     omega: 0.6283185307179586        # forcing frequency (rad/s), > 0
     forcing:                         # amplitude*cos(k w t) + sin*sin(k w t) + constant
       - {dof: 2, amplitude: 5}       #   on a 0-based DOF (k = harmonic, default 1)
-    friction: {dof: 0, mu: 0.8, normal_force: 9.81, smoothing: 800}
+    friction: {dof: 0, mu: 0.8, normal_force: 9.81, smoothing: 800}   # smoothing (HBM): optional
     # or: contact: {dof: 0, gap: 0.1, restitution: 1, penalty_stiffness: 8000, penalty_damping: 0}
+    # (smoothing, penalty_stiffness left out: from the problem's scales, mshbm.methods.hbm_regularisation)
     # friction/contact may also be lists of such mappings
     # friction with its normal load from a contact (a blade damper, examples/damper2d.yaml):
     #   friction: {dof: 1, mu: 0.5, normal_contact: 0}   # bound mu (normal_force + lambda_N(t)),

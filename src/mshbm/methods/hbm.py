@@ -11,6 +11,10 @@ DOFs ``N``, the linear DOFs ``L`` are eliminated exactly per harmonic
 :class:`mshbm.condensation.Condensation`).  ``condense=False`` solves the full
 (sparse) system instead.  The Jacobian is analytic.
 
+Elements without an explicit ``smoothing`` (friction) or ``penalty_stiffness`` (contact) get them from the
+problem's own scales when the problem is built (:mod:`mshbm.methods.hbm_regularisation`; the values used are
+``info["regularisation"]`` of the solution), so that the same system in other units gives the same answer.
+
 With penalty contacts only, Newton's failures are taken over by an exact piecewise-linear path follower
 (:mod:`mshbm.methods.hbm_path`); the penalty law is evaluated at the AFT samples or integrated on the
 linear interpolant of the gap (:mod:`mshbm.methods.hbm_quadrature`).
@@ -22,6 +26,7 @@ message names.
 """
 from __future__ import annotations
 
+import copy
 import functools
 
 import numpy as np
@@ -32,6 +37,7 @@ from . import hbm_kernels
 from .base import HarmonicProblem
 from .common import guess_parts
 from .hbm_path import PiecewiseLinearPaths
+from .hbm_regularisation import resolve as resolve_regularisation
 from .hbm_quadrature import PENALTY_QUADRATURES, hat_integrals, hat_mass_dft, linear_quadrature_unsupported
 from ..elements import Contact, Friction, regularised_forces
 from ..errors import InputError
@@ -106,6 +112,9 @@ class HBMProblem(PiecewiseLinearPaths, HarmonicProblem):
         if penalty_quadrature not in PENALTY_QUADRATURES:
             raise InputError("penalty_quadrature", f"must be one of {', '.join(PENALTY_QUADRATURES)}, "
                                                    f"got {penalty_quadrature!r}")
+        # the regularisations left to their defaults, from the problem's scales (mshbm.methods.hbm_regularisation)
+        self.given_system = system
+        system, self.regularisation = resolve_regularisation(system, float(omega))
         self._args = (system, omega, harmonics, steps, condense, partition, penalty_quadrature)
         self._setup_harmonic_balance(system, omega, harmonics, steps, condense, partition)
         pos = {int(d): i for i, d in enumerate(self.keep)}
@@ -135,9 +144,25 @@ class HBMProblem(PiecewiseLinearPaths, HarmonicProblem):
         Used as a fallback when Newton fails from the given start: each
         solution starts the next, stiffer problem.
         """
-        system, omega, n_h, steps, condense, partition, quad = self._args
-        return [HBMProblem(scaled_regularisation(system, f), omega, n_h, steps, condense, partition, quad)
-                for f in factors] + [self]
+        return [self.stiffened(f) for f in factors] + [self]
+
+    def stiffened(self, factor):
+        """The same problem with every regularisation ``factor`` times stiffer (``factor < 1``: softer; the
+        homotopy, the regularisation estimate).  Shares the linear part (condensation, ``A``, the AFT
+        matrices), which does not depend on the laws' parameters."""
+        new = copy.copy(self)
+        system = scaled_regularisation(self.system, factor)
+        new.system, new._args = system, (system,) + self._args[1:]
+        for k in ("_scale", "_F"):  # the force scale may include k_c gap (unforced systems)
+            new.__dict__.pop(k, None)
+        pos = {int(d): i for i, d in enumerate(self.keep)}
+        new._fast = None if self._linear else _fast_laws(system.elements, self.nl_cols, pos)
+        return new
+
+    def rebuilt(self, omega):
+        """The same problem at another frequency, its default regularisations derived there again (so that
+        ``dR/domega`` is that of the problems a frequency sweep builds)."""
+        return type(self)(self.given_system, float(omega), **self.build_options)
 
     def initial_guess(self, guess=None):
         q_hat, _, _ = guess_parts(guess, self.system, self.omega, self.n_h, states=False)
@@ -321,6 +346,7 @@ class HBMProblem(PiecewiseLinearPaths, HarmonicProblem):
         lam[:-1] = self._element_forces(q, u)
         lam[-1] = lam[0]
         info = {"condensed": self.condense}  # partition, conditioning: typed fields of the solution
+        info["regularisation"] = [dict(r) for r in self.regularisation]
         contacts = self._contacts()
         if contacts:
             # AFT resolution of each contact: samples with g_N <= 0 (a few only: increase ``steps``);

@@ -48,6 +48,7 @@ from .. import validate
 from ..certificate import apply_certificate, certify
 from ..condensation import SingularHarmonicError
 from ..errors import ConvergenceError, InputError
+from ..methods.hbm_regularisation import REGULARISATION_BOUND, regularisation_check, regularised
 from ..methods.registry import build_problem
 from ..result import PeriodicSolution
 from ..solvers import newton as newton_
@@ -312,6 +313,13 @@ class Route:
                                          "step_change": step_accuracy.get("step_change")}
         # success only if certified (mshbm.certificate)
         apply_certificate(problem, sol, nkw["tol"], step_accuracy, cert=None if cached is None else cached["cert"])
+        if sol.success and problem.penalty_laws and regularised(problem.system) and not self.single_start \
+                and not self.in_frequency:
+            # the error of the regularised laws (HBM): one re-solve with stiffer laws (not gating; not for the
+            # nested solves of a start ladder, whose answers are starts)
+            check = regularisation_check(problem, sol, nkw, REGULARISATION_BOUND)
+            if not check.passed and check.value is not None:
+                sol.message = f"{sol.message}; warning: {sol.certificate.describe_warnings(only='regularisation')}"
         if section is not None:
             _unshift(sol, section)
         if laddered and not sol.success:

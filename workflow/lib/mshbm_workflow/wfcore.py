@@ -107,10 +107,10 @@ def chain_parameters(system):
         raise ValueError(f"{system.name}: a paper system has one element, on mass 1")
     el = system.elements[0]
     if el.kind == "friction":
-        out["friction"] = {"mu": float(el.mu), "normal_force": float(el.normal_force), "kappa": float(el.smoothing)}
+        out["friction"] = {"mu": float(el.mu), "normal_force": float(el.normal_force), "kappa": None if el.smoothing is None else float(el.smoothing)}
     else:
         out["contact"] = {"gap": float(el.gap), "restitution": float(el.restitution),
-                          "penalty_stiffness": float(el.penalty_stiffness), "penalty_damping": float(el.penalty_damping)}
+                          "penalty_stiffness": None if el.penalty_stiffness is None else float(el.penalty_stiffness), "penalty_damping": float(el.penalty_damping)}
     same = chain([out["mass_first"]] + [out["mass_other"]] * (n - 1), out["stiffness"], out["damping"],
                  forcing=[{"dof": n - 1, "amplitude": out["forcing_amplitude"]}], elements=system.elements)
     if not all(np.array_equal(np.asarray(same.dense(k)), A) for k, A in zip("MCK", (M, C, K))) \
