@@ -1,0 +1,314 @@
+"""A-posteriori error estimates of a solve, and the refinement of its discretisation to a requested accuracy.
+
+Every result of :func:`mshbm.solve` carries, besides the certificate of the discretised equations
+(:mod:`mshbm.certificate`), estimates of the relative amplitude error
+``e = max_i |A_i - A_i^exact| / max_i A_i`` (``A_i = (max - min) / 2`` of DOF ``i``) that each approximation
+causes, measured by re-solving with a coarser discretisation from the converged answer:
+
+``truncation`` (HBM, DLFT, MS-HBM)
+    The same solve at ``n_c = n_h // 2`` harmonics (Newton from the answer).  With the amplitude change
+    ``d = e(A(n_h), A(n_c))`` and an algebraic convergence ``e(n) ~ n^-p``, the error at ``n_h`` is
+    ``d / ((n_h / n_c)^p - 1)``; the estimate takes ``p = 1`` (the slowest rate of the methods' nonsmooth
+    solutions; a refinement that observes a slower rate uses it).  For ``n_h = 1``, or when the coarse solve
+    fails, the solve at ``2 n_h``: error ``d / (1 - 2^-p)``.
+``time_discretisation`` (shooting and MS-HBM with Moreau-Jean steps)
+    The same at ``N / 2`` steps per period (first order at impacts and stick-slip, ``p = 1``: the error at
+    ``N`` is ``d``), else at ``2 N`` (``2 d``).  Zero for the exact event-driven flow.
+
+An estimate whose re-solves both fail is ``None`` ("not estimated"), and the combined check ``accuracy``
+(:func:`mshbm.certificate.combined.combined_check`: the sum of ``truncation``, ``time_discretisation`` and the
+``regularisation`` and ``model_substitution`` estimates of the certificate) then fails.
+
+Refinement (option ``accuracy``): while the combined estimate exceeds the request, the discretisation of the
+largest estimate is refined -- ``n_h`` doubled (``truncation``), the steps doubled (``time_discretisation``),
+or what the problem class's hook ``refine(kind, system, options)`` returns for the other kinds (``(system,
+options)`` of a more accurate model, or ``None``: :meth:`mshbm.methods.base.PeriodicProblem.refine`) -- and
+the problem re-solved from the previous answer, which is then the coarse partner of the refined estimate (the
+other estimates are carried over).  It stops when the request is met, when the discretisation cannot be
+refined (``n_h`` 2000, ``2^24`` steps, :data:`MAX_LEVELS` levels), when a refined solve fails, or when the
+solve's ``max_time`` is spent; the result then fails naming the estimate.
+
+``info["accuracy"]``: the requested (or default) accuracy, the combined estimate, the estimates, the levels
+tried and the CPU-independent wall time of the estimates.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import replace
+
+import numpy as np
+
+from ..certificate.combined import DEFAULT_ACCURACY, combined_check, estimates, gate
+from ..certificate.record import Check
+from ..errors import InputError
+from ..methods.capabilities import capabilities as method_capabilities
+from ..options import aft_steps
+from ..scaling import displacement_floor
+from .options import capabilities, without
+
+__all__ = ["MAX_LEVELS", "RATE", "estimate_and_refine", "amplitude_change"]
+
+#: most refinements of one solve
+MAX_LEVELS = 6
+#: the assumed (slowest) algebraic convergence rate ``p`` of the estimates
+RATE = 1.0
+MAX_HARMONICS, MAX_STEPS = 2000, 1 << 24
+_DROP = ("guess", "stability", "progress", "raise_on_failure", "accuracy")
+
+
+def amplitude_change(sol, ref, floor=0.0):
+    """``max_i |A_i - A_ref,i| / max(max_i A_i, floor)`` of two solutions of the same system (``inf`` when
+    an amplitude is not finite)."""
+    a, b = np.asarray(sol.amplitude, dtype=float), np.asarray(ref.amplitude, dtype=float)
+    if a.shape != b.shape or not (np.all(np.isfinite(a)) and np.all(np.isfinite(b))):
+        return math.inf
+    scale = max(float(np.max(np.abs(a), initial=0.0)), float(floor))
+    d = float(np.max(np.abs(a - b), initial=0.0))
+    return d / scale if scale > 0 else (0.0 if d == 0 else math.inf)
+
+
+class _Estimator:
+    """The estimates of one solve (module docstring); ``route`` solves without estimates of their own."""
+
+    def __init__(self, route, system, omega, method, options, t0):
+        self.route, self.system, self.omega, self.method = route, system, float(omega), method
+        self.options = without(options, *_DROP)
+        self.caps = method_capabilities(method)
+        self.truncates = bool(capabilities(method).harmonic_truncation)
+        self.user_steps = "steps" in options
+        self.floor = 1e-3 * displacement_floor(system, self.omega)
+        self.t0 = t0
+        self.diffs = {}  # the last amplitude change between refinement levels, per estimate
+        self.solved = {}  # (harmonics, steps) -> the certified re-solve, or None (failed)
+        self.spent = 0.0
+
+    # -- settings of a solution
+    def integrator(self, sol):
+        return sol.info.get("integrator") or self.options.get("integrator")
+
+    def time_stepped(self, sol):
+        return sol.time_step is not None and sol.q_time.shape[1] > 0
+
+    def settings(self, sol, harmonics=None, steps=None):
+        """Options of ``sol``'s discretisation with ``harmonics`` / ``steps`` changed."""
+        n = int(sol.harmonics) if harmonics is None else int(harmonics)
+        out = dict(self.options, harmonics=n)
+        if self.caps.aft_samples:  # HBM, DLFT: AFT samples follow n_h unless given
+            if self.user_steps:
+                out["steps"] = max(int(self.options["steps"]), 2 * n + 2) if steps is None else int(steps)
+            else:
+                out.pop("steps", None)
+        else:
+            out["steps"] = int(sol.steps) if steps is None else int(steps)
+        integ = self.integrator(sol)
+        if integ is not None:
+            out["integrator"] = integ
+        return out
+
+    def resolve(self, sol, **settings):
+        """The solve at ``settings`` from ``sol`` (Newton and the problem's own fallbacks, no ladder), or ``None``
+        when it fails or the settings are not valid."""
+        opts = self.settings(sol, **settings)
+        key = (int(opts["harmonics"]), opts.get("steps"))
+        if key in self.solved:
+            return self.solved[key]
+        t = time.perf_counter()
+        try:
+            alt = self.route.single().solve(self.system, self.omega, self.method, guess=sol, stability=False, **opts)
+        except InputError:
+            alt = None
+        self.spent += time.perf_counter() - t
+        self.solved[key] = alt if alt is not None and alt.success else None
+        return self.solved[key]
+
+    # -- the estimates
+    def truncation(self, sol):
+        """``(value, note)`` of ``truncation`` (module docstring)."""
+        n = int(sol.harmonics)
+        if 2 * n <= MAX_HARMONICS:
+            f = self.resolve(sol, harmonics=2 * n)
+            if f is not None:
+                d = amplitude_change(sol, f, self.floor)
+                p = self.rate("truncation", d)
+                return d / (1.0 - 2.0 ** -p), (f"amplitude change {d:.3g} against n_h = {2 * n}, / (1 - 2^-p), "
+                                               f"p = {p:.3g}")
+        if n >= 2:
+            nc = n // 2
+            c = self.resolve(sol, harmonics=nc)
+            if c is not None:
+                d = amplitude_change(sol, c, self.floor)
+                return d / ((n / nc) ** RATE - 1.0), (f"amplitude change {d:.3g} against n_h = {nc}, "
+                                                      f"/ (({n}/{nc})^p - 1), p = {RATE:g}")
+        return None, f"not estimated: the re-solves at n_h = {2 * n} and {n // 2} failed"
+
+    def rate(self, kind, d):
+        """The rate ``p`` of the estimate ``kind`` with the amplitude change ``d`` at ratio 2: :data:`RATE`, or
+        the slower rate observed against the previous level's change."""
+        last = self.diffs.get(kind)
+        self.diffs[kind] = d
+        if last is not None and d > 0 and last > 0:
+            return min(RATE, max(0.25, math.log2(last / d)))
+        return RATE
+
+    def time_discretisation(self, sol):
+        """``(value, note)`` of ``time_discretisation`` (module docstring)."""
+        if self.integrator(sol) == "event":
+            return 0.0, "the exact event-driven flow (no time steps)"
+        N, n = int(sol.steps), int(sol.harmonics)
+        low = 2 * n + 2 if self.caps.harmonic_unknowns else 8
+        if N % 2 == 0 and N // 2 >= low:
+            c = self.resolve(sol, steps=N // 2)
+            if c is not None:
+                d = amplitude_change(sol, c, self.floor)
+                p = self.rate("time_discretisation", d)
+                return d / (2.0 ** p - 1.0), (f"amplitude change {d:.3g} against {N // 2} steps, / (2^p - 1), "
+                                              f"p = {p:.3g}")
+        if 2 * N <= MAX_STEPS:
+            f = self.resolve(sol, steps=2 * N)
+            if f is not None:
+                d = amplitude_change(sol, f, self.floor)
+                return d / (1.0 - 2.0 ** -RATE), f"amplitude change {d:.3g} against {2 * N} steps, / (1 - 2^-p)"
+        return None, f"not estimated: the re-solves at {N // 2} and {2 * N} steps failed"
+
+    def attach(self, sol, values, accuracy, requested):
+        """Put the estimates ``values`` (``{name: (value, note)}``) and the check ``accuracy`` into ``sol``'s
+        certificate and gate ``sol.success`` on it."""
+        cert = sol.certificate
+        for name, (value, note) in values.items():
+            ok = value is not None and value <= accuracy
+            chk = Check(name, value, float(accuracy), bool(ok), False, note)
+            cert.checks = [c for c in cert.checks if c.name != name] + [chk]
+        chk = combined_check(cert, accuracy, requested)
+        gate(sol, chk)
+        return chk
+
+    def own_estimates(self, sol, only=None):
+        """The estimates this module computes for ``sol`` (``{name: (value, note)}``); ``only``: that one."""
+        out = {}
+        if self.truncates and only in (None, "truncation"):
+            out["truncation"] = self.truncation(sol)
+        if self.time_stepped(sol) and only in (None, "time_discretisation"):
+            out["time_discretisation"] = self.time_discretisation(sol)
+        return out
+
+    def refined(self, kind, sol):
+        """``(system, options)`` of the next level for the estimate ``kind``, or ``None``."""
+        if kind == "truncation":
+            n = 2 * int(sol.harmonics)
+            if n > MAX_HARMONICS:
+                return None
+            opts = self.settings(sol, harmonics=n)
+            if "steps" in opts and self.caps.harmonic_unknowns:
+                opts["steps"] = max(opts["steps"], 2 * n + 2 if not self.caps.aft_samples else aft_steps(n))
+            return self.system, opts
+        if kind == "time_discretisation":
+            N = 2 * int(sol.steps)
+            return None if N > MAX_STEPS else (self.system, self.settings(sol, steps=N))
+        hook = getattr(capabilities(self.method), "refine", None)
+        if hook is None:
+            return None
+        return hook(kind, self.system, self.settings(sol))
+
+
+def estimate_and_refine(route, system, omega, method, options, sol, accuracy=None, t0=None):
+    """The estimates of ``sol`` and, with ``accuracy`` given, the refinement loop (module docstring).
+
+    Parameters
+    ----------
+    route : mshbm.route.driver.Route
+        The route of the solve (its re-solves run on ``replace(route, estimate=False)``).
+    system, omega, method, options
+        The solve's arguments (``options`` as given, without ``stability``).
+    sol : PeriodicSolution
+        The solve's certified (or failed) result at the user's discretisation.
+    accuracy : float or None
+        The requested relative amplitude accuracy; ``None``: :data:`DEFAULT_ACCURACY` gates, no refinement.
+
+    Returns
+    -------
+    PeriodicSolution
+        ``sol`` or the last refined solution, with the estimates and the check ``accuracy`` in its certificate
+        and ``info["accuracy"]``.
+    """
+    t0 = time.perf_counter() if t0 is None else t0
+    requested = accuracy is not None
+    acc = float(accuracy) if requested else DEFAULT_ACCURACY
+    est = _Estimator(replace(route, estimate=False), system, omega, method, options, t0)
+    if sol.certificate is None or not np.all(np.isfinite(sol.amplitude)):
+        return sol
+    values = est.own_estimates(sol)
+    chk = est.attach(sol, values, acc, requested)
+    levels = [_level(sol, chk, None)]
+    stop = ""
+    while requested and not chk.passed and sol.success is False and _only_accuracy(sol):
+        if len(levels) > MAX_LEVELS:
+            stop = f"{MAX_LEVELS} refinements made"
+            break
+        if route.deadline is not None and time.perf_counter() >= route.deadline:
+            stop = "time budget max_time spent"
+            break
+        current = estimates(sol.certificate)
+        missing = [k for k, (v, _) in values.items() if v is None]
+        kind = missing[0] if missing else max(current, key=current.get)
+        nxt = est.refined(kind, sol)
+        if nxt is None:
+            stop = f"{kind} cannot be refined further by this method"
+            break
+        sys_n, opts = nxt
+        key = (int(opts["harmonics"]), opts.get("steps"))
+        new = est.solved.get(key) if sys_n is system else None  # the estimate's own re-solve at these settings
+        if new is None:
+            t = time.perf_counter()
+            new = replace(route, estimate=False).solve(sys_n, omega, method, guess=sol, stability=False, **opts)
+            est.spent += time.perf_counter() - t
+        if not new.success:
+            stop = f"the refined solve ({_describe(opts)}) failed: {new.message}"
+            break
+        if sys_n is not system:
+            est.system, est.solved, system = sys_n, {}, sys_n
+        new = _fresh(new)
+        values = {k: (v, note if "carried over" in note else f"{note} (carried over from the previous level)")
+                  for k, (v, note) in values.items() if k != kind}
+        own = est.own_estimates(new, only=kind)
+        values.update(own)
+        sol = new
+        chk = est.attach(sol, values, acc, requested)
+        levels.append(_level(sol, chk, kind))
+    if stop:
+        sol.message += f"; refinement stopped: {stop}"
+    sol.info["accuracy"] = {"accuracy": acc, "requested": requested, "estimate": chk.value, "passed": chk.passed,
+                            "estimates": {k: v for k, v in estimates(sol.certificate).items()},
+                            "levels": levels, "estimate_time_s": est.spent}
+    sol.wall_time = float(sol.wall_time) + (est.spent if len(levels) == 1 else 0.0)
+    if len(levels) > 1:
+        sol.wall_time = time.perf_counter() - t0
+    return sol
+
+
+def _only_accuracy(sol):
+    """The certificate of ``sol`` fails on ``accuracy`` only (a refinement can help)."""
+    return sol.certificate.failed == ["accuracy"]
+
+
+def _fresh(sol):
+    """A copy of ``sol`` whose certificate has no estimates yet (a cached re-solve is also another level's
+    partner)."""
+    from copy import copy
+
+    out = copy(sol)
+    out.info = dict(sol.info)
+    cert = copy(sol.certificate)
+    cert.checks = list(sol.certificate.checks)
+    cert.info = dict(sol.certificate.info)
+    out.certificate = cert
+    return out
+
+
+def _level(sol, chk, kind):
+    return {"harmonics": int(sol.harmonics), "steps": int(sol.steps), "refined": kind,
+            "estimate": chk.value, "passed": bool(chk.passed)}
+
+
+def _describe(opts):
+    return ", ".join(f"{k}={opts[k]}" for k in ("harmonics", "steps") if k in opts)
