@@ -45,6 +45,7 @@ from ..errors import InputError
 from ..methods.capabilities import capabilities as method_capabilities
 from ..options import aft_steps
 from ..scaling import displacement_floor
+from ..solvers import newton as newton_
 from .options import capabilities, without
 
 __all__ = ["MAX_LEVELS", "RATE", "estimate_and_refine", "amplitude_change"]
@@ -54,6 +55,8 @@ MAX_LEVELS = 6
 #: the assumed (slowest) algebraic convergence rate ``p`` of the estimates
 RATE = 1.0
 MAX_HARMONICS, MAX_STEPS = 2000, 1 << 24
+#: time box (s) of one re-solve of an estimate: this many seconds, or this factor times the solve's wall time
+RESOLVE_SECONDS, RESOLVE_FACTOR = 5.0, 2.0
 _DROP = ("guess", "stability", "progress", "raise_on_failure", "accuracy")
 
 
@@ -102,8 +105,8 @@ class _Estimator:
         else:
             out["steps"] = int(sol.steps) if steps is None else int(steps)
         integ = self.integrator(sol)
-        if integ is not None:
-            out["integrator"] = integ
+        if "integrator" in self.caps.options:  # the answer's integrator, and no fallback to the other one
+            out["integrator"] = integ or "moreau"
         return out
 
     def resolve(self, sol, **settings):
@@ -114,8 +117,12 @@ class _Estimator:
         if key in self.solved:
             return self.solved[key]
         t = time.perf_counter()
+        # Newton from the answer, then (an impacting orbit periodic only to one step's accuracy) the start ladder
+        # with the answer first, time-boxed
+        route = self.route.tightened(t + max(RESOLVE_SECONDS, RESOLVE_FACTOR * float(sol.wall_time)))
         try:
-            alt = self.route.single().solve(self.system, self.omega, self.method, guess=sol, stability=False, **opts)
+            with newton_.time_box(route.deadline):
+                alt = route.solve(self.system, self.omega, self.method, guess=sol, stability=False, **opts)
         except InputError:
             alt = None
         self.spent += time.perf_counter() - t
@@ -175,12 +182,18 @@ class _Estimator:
         """Put the estimates ``values`` (``{name: (value, note)}``) and the check ``accuracy`` into ``sol``'s
         certificate and gate ``sol.success`` on it."""
         cert = sol.certificate
+        warned = cert.describe_warnings()
+        if warned:  # the warnings of the certificate alone, re-worded below with the estimates
+            sol.message = sol.message.replace(f"; warning: {warned}", "")
         for name, (value, note) in values.items():
             ok = value is not None and value <= accuracy
             chk = Check(name, value, float(accuracy), bool(ok), False, note)
             cert.checks = [c for c in cert.checks if c.name != name] + [chk]
         chk = combined_check(cert, accuracy, requested)
         gate(sol, chk)
+        warned = cert.describe_warnings()
+        if sol.success and warned:
+            sol.message = f"{sol.message}; warning: {warned}"
         return chk
 
     def own_estimates(self, sol, only=None):
@@ -235,13 +248,16 @@ def estimate_and_refine(route, system, omega, method, options, sol, accuracy=Non
     requested = accuracy is not None
     acc = float(accuracy) if requested else DEFAULT_ACCURACY
     est = _Estimator(replace(route, estimate=False), system, omega, method, options, t0)
-    if sol.certificate is None or not np.all(np.isfinite(sol.amplitude)):
+    if not sol.success or sol.certificate is None:  # no answer to estimate the error of
+        sol.info["accuracy"] = {"accuracy": acc, "requested": requested, "estimate": None, "passed": False,
+                                "estimates": {}, "levels": [], "estimate_time_s": 0.0,
+                                "note": "not estimated: the solve failed"}
         return sol
     values = est.own_estimates(sol)
     chk = est.attach(sol, values, acc, requested)
     levels = [_level(sol, chk, None)]
     stop = ""
-    while requested and not chk.passed and sol.success is False and _only_accuracy(sol):
+    while requested and not chk.passed and _only_accuracy(sol):
         if len(levels) > MAX_LEVELS:
             stop = f"{MAX_LEVELS} refinements made"
             break
