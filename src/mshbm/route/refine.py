@@ -67,6 +67,8 @@ MIN_RATE, MAX_RATE = 0.25, 2.0
 MAX_HARMONICS, MAX_STEPS = 2000, 1 << 24
 #: time box (s) of one re-solve of an estimate: this many seconds, or this factor times the solve's wall time
 RESOLVE_SECONDS, RESOLVE_FACTOR = 5.0, 2.0
+#: largest Newton tolerance of an estimate's re-solve (at most 1e-3 times the accuracy)
+RESOLVE_TOL = 1e-6
 _DROP = ("guess", "stability", "progress", "raise_on_failure", "accuracy")
 
 
@@ -84,7 +86,8 @@ def amplitude_change(sol, ref, floor=0.0):
 class _Estimator:
     """The estimates of one solve (module docstring); ``route`` solves without estimates of their own."""
 
-    def __init__(self, route, system, omega, method, options, t0):
+    def __init__(self, route, system, omega, method, options, t0, accuracy):
+        self.accuracy = float(accuracy)
         self.route, self.system, self.omega, self.method = route, system, float(omega), method
         self.options = without(options, *_DROP)
         self.caps = method_capabilities(method)
@@ -123,6 +126,8 @@ class _Estimator:
         """The solve at ``settings`` from ``sol`` (Newton and the problem's own fallbacks, no ladder), or ``None``
         when it fails or the settings are not valid."""
         opts = self.settings(sol, **settings)
+        # an estimate needs the amplitudes to a small fraction of the accuracy, not to Newton's tolerance
+        opts["tol"] = max(float(self.options.get("tol", 1e-10)), min(RESOLVE_TOL, 1e-3 * self.accuracy))
         key = (int(opts["harmonics"]), opts.get("steps"))
         if key in self.solved:
             return self.solved[key]
@@ -257,7 +262,7 @@ def estimate_and_refine(route, system, omega, method, options, sol, accuracy=Non
     t0 = time.perf_counter() if t0 is None else t0
     requested = accuracy is not None
     acc = float(accuracy) if requested else DEFAULT_ACCURACY
-    est = _Estimator(replace(route, estimate=False), system, omega, method, options, t0)
+    est = _Estimator(replace(route, estimate=False), system, omega, method, options, t0, acc)
     if not sol.success or sol.certificate is None:  # no answer to estimate the error of
         sol.info["accuracy"] = {"accuracy": acc, "requested": requested, "estimate": None, "passed": False,
                                 "estimates": {}, "levels": [], "estimate_time_s": 0.0,
@@ -283,11 +288,10 @@ def estimate_and_refine(route, system, omega, method, options, sol, accuracy=Non
             break
         sys_n, opts = nxt
         key = (int(opts["harmonics"]), opts.get("steps"))
-        new = est.solved.get(key) if sys_n is system else None  # the estimate's own re-solve at these settings
-        if new is None:
-            t = time.perf_counter()
-            new = replace(route, estimate=False).solve(sys_n, omega, method, guess=sol, stability=False, **opts)
-            est.spent += time.perf_counter() - t
+        start = est.solved.get(key) if sys_n is system else None  # the estimate's own re-solve at these settings
+        t = time.perf_counter()  # (polished to the solve's tolerance: the estimates' re-solves stop earlier)
+        new = replace(route, estimate=False).solve(sys_n, omega, method, guess=start or sol, stability=False, **opts)
+        est.spent += time.perf_counter() - t
         if not new.success:
             stop = f"the refined solve ({_describe(opts)}) failed: {new.message}"
             break
