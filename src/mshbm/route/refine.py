@@ -4,7 +4,7 @@ Every certified result of :func:`mshbm.solve` carries, besides the certificate o
 (:mod:`mshbm.certificate`), estimates of the relative amplitude error
 ``e = max_i |A_i - A_i^exact| / max_i A_i`` (``A_i = (max - min) / 2`` of DOF ``i``) that each approximation
 causes, measured by re-solving the same problem at another discretisation from the converged answer (Newton,
-then the start ladder with the answer first, time-boxed: :data:`RESOLVE_SECONDS`, :data:`RESOLVE_FACTOR`).
+the start ladder with the answer as its only start, time-boxed: :data:`RESOLVE_SECONDS`, :data:`RESOLVE_FACTOR`).
 With the amplitude change ``d`` between the two answers and an algebraic convergence ``e(n) ~ n^-p``:
 
 ``truncation`` (HBM, DLFT, MS-HBM)
@@ -100,6 +100,7 @@ class _Estimator:
         self.t0 = t0
         self.diffs = {}  # the last amplitude change between refinement levels, per estimate
         self.solved = {}  # (harmonics, steps) -> the certified re-solve, or None (failed)
+        self.failures = []  # messages of the failed re-solves
         self.spent = 0.0
 
     # -- settings of a solution
@@ -135,16 +136,20 @@ class _Estimator:
         if key in self.solved:
             return self.solved[key]
         t = time.perf_counter()
-        # Newton from the answer, then (an impacting orbit periodic only to one step's accuracy) the start ladder
-        # with the answer first, time-boxed
+        # the start ladder with the answer as its only start (Newton, its fallbacks, and the acceptance of an
+        # impacting orbit periodic to one step's accuracy), time-boxed: no other start, which could find another
+        # orbit
         route = self.route.tightened(t + max(RESOLVE_SECONDS, RESOLVE_FACTOR * float(sol.wall_time)))
         try:
             with newton_.time_box(route.deadline):
-                alt = route.solve(self.system, self.omega, self.method, guess=sol, stability=False, **opts)
+                alt = route._solve(self.system, self.omega, self.method, dict(opts, guess=sol),
+                                   ladder_starts=("guess",))
         except InputError:
             alt = None
         self.spent += time.perf_counter() - t
         self.solved[key] = alt if alt is not None and alt.success else None
+        if self.solved[key] is None:
+            self.failures.append(f"{_describe(opts)}: " + ("invalid settings" if alt is None else alt.message[:200]))
         return self.solved[key]
 
     # -- the estimates
@@ -165,7 +170,7 @@ class _Estimator:
                 d = amplitude_change(sol, c, self.floor)
                 return d / ((n / nc) ** RATE - 1.0), (f"amplitude change {d:.3g} against n_h = {nc}, "
                                                       f"/ (({n}/{nc})^p - 1), p = {RATE:g}")
-        return None, f"not estimated: the re-solves at n_h = {2 * n} and {n // 2} failed"
+        return None, f"not estimated: the re-solves at n_h = {2 * n} and {n // 2} failed ({'; '.join(self.failures[-2:])})"
 
     def rate(self, kind, d):
         """The rate ``p`` of the estimate ``kind`` with the amplitude change ``d`` at ratio 2: :data:`RATE`, or
@@ -196,7 +201,8 @@ class _Estimator:
                 d = amplitude_change(sol, f, self.floor)
                 value, note = d / (1.0 - 2.0 ** -RATE), f"amplitude change {d:.3g} against {2 * N} steps, / (1 - 2^-p)"
         if value is None:
-            return None, f"not estimated: the re-solves at {N // 2} and {2 * N} steps failed"
+            return None, (f"not estimated: the re-solves at {N // 2} and {2 * N} steps failed "
+                          f"({'; '.join(self.failures[-2:])})")
         step = self.impact_step(sol)
         if step > value:
             value, note = step, f"{note}; one step at the impacts, h J / (2 max A) = {step:.3g}, is larger (first order)"
