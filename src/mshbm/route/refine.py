@@ -8,7 +8,8 @@ the start ladder with the answer as its only start, time-boxed: :data:`RESOLVE_S
 With the amplitude change ``d`` between the two answers and an algebraic convergence ``e(n) ~ n^-p``:
 
 ``truncation`` (HBM, DLFT, MS-HBM)
-    Against the re-solve at ``2 n_h``: ``d / (1 - 2^-p)``.  (A coarser partner ``n_h / 2`` would be cheaper,
+    Against the re-solve at ``n_f = 2 n_h`` (3 for ``n_h = 1``: a half-wave symmetric orbit has odd harmonics
+    only, and ``n_h = 2`` would change nothing): ``d / (1 - (n_h / n_f)^p)``.  (A coarser partner ``n_h / 2`` would be cheaper,
     but where the series converges fast its change is far larger than the error at ``n_h``: on the paper's
     friction oscillator ``n_h = 2`` is 7 % off, ``n_h = 5`` 5e-5.)  When that re-solve fails, against
     ``n_c = n_h // 2``: ``d / ((n_h / n_c)^p - 1)``.
@@ -28,7 +29,7 @@ is ``None`` ("not estimated"), and the combined check ``accuracy``
 ``regularisation`` and ``model_substitution`` estimates of the certificate) then fails.
 
 Refinement (option ``accuracy``): while the combined estimate exceeds the request, the discretisation of the
-largest estimate is refined -- ``n_h`` doubled (``truncation``: the estimate's re-solve at ``2 n_h`` is that
+largest estimate is refined -- ``n_h`` doubled (``truncation``: the estimate's re-solve at ``n_f`` is that
 level), the steps doubled (``time_discretisation``: the previous level is the new level's coarse partner), or
 what the problem class's hook ``refine(kind, system, options)`` returns for the other kinds (``(system,
 options)`` of a more accurate model, or ``None``: :meth:`mshbm.methods.base.PeriodicProblem.refine`) -- each
@@ -156,13 +157,14 @@ class _Estimator:
     def truncation(self, sol):
         """``(value, note)`` of ``truncation`` (module docstring)."""
         n = int(sol.harmonics)
-        if 2 * n <= MAX_HARMONICS:
-            f = self.resolve(sol, harmonics=2 * n)
+        nf = max(2 * n, n + 2)  # (n + 2 > 2 for n = 1: a half-wave symmetric orbit has odd harmonics only)
+        if nf <= MAX_HARMONICS:
+            f = self.resolve(sol, harmonics=nf)
             if f is not None:
                 d = amplitude_change(sol, f, self.floor)
                 p = self.rate("truncation", d)
-                return d / (1.0 - 2.0 ** -p), (f"amplitude change {d:.3g} against n_h = {2 * n}, / (1 - 2^-p), "
-                                               f"p = {p:.3g}")
+                return d / (1.0 - (n / nf) ** p), (f"amplitude change {d:.3g} against n_h = {nf}, "
+                                                   f"/ (1 - ({n}/{nf})^p), p = {p:.3g}")
         if n >= 2:
             nc = n // 2
             c = self.resolve(sol, harmonics=nc)
@@ -170,7 +172,7 @@ class _Estimator:
                 d = amplitude_change(sol, c, self.floor)
                 return d / ((n / nc) ** RATE - 1.0), (f"amplitude change {d:.3g} against n_h = {nc}, "
                                                       f"/ (({n}/{nc})^p - 1), p = {RATE:g}")
-        return None, f"not estimated: the re-solves at n_h = {2 * n} and {n // 2} failed ({'; '.join(self.failures[-2:])})"
+        return None, f"not estimated: the re-solves at n_h = {nf} and {n // 2} failed ({'; '.join(self.failures[-2:])})"
 
     def rate(self, kind, d):
         """The rate ``p`` of the estimate ``kind`` with the amplitude change ``d`` at ratio 2: :data:`RATE`, or
@@ -249,7 +251,7 @@ class _Estimator:
     def refined(self, kind, sol):
         """``(system, options)`` of the next level for the estimate ``kind``, or ``None``."""
         if kind == "truncation":
-            n = 2 * int(sol.harmonics)
+            n = max(2 * int(sol.harmonics), int(sol.harmonics) + 2)  # the estimate's partner (truncation())
             if n > MAX_HARMONICS:
                 return None
             opts = self.settings(sol, harmonics=n)
