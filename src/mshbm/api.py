@@ -69,13 +69,17 @@ def solve(system, omega, method="mshbm", **options):
         ``True``: also above that size; ``False``: skip.  Not part of ``wall_time``; see
         :mod:`mshbm.stability`), ``period`` (``k``, default 1: a ``kT``-periodic solution, solved on
         the base frequency ``omega / k`` with ``harmonics`` and ``steps`` per forcing period; the
-        result's ``omega`` is ``omega / k``, see :mod:`mshbm.period`).
+        result's ``omega`` is ``omega / k``, see :mod:`mshbm.period`), ``accuracy`` (relative amplitude
+        error in (0, 0.5]: the method refines ``harmonics`` and ``steps`` until the combined error estimate
+        is below it, or fails naming the estimate; default ``None``: nothing is refined and the default
+        accuracy 1e-2 gates ``success``; :mod:`mshbm.route.refine`).
 
     Returns
     -------
     PeriodicSolution
         ``success`` is True only when Newton converged and every gating check of the
-        certificate (``solution.certificate``, :mod:`mshbm.certificate`) passed.
+        certificate (``solution.certificate``, :mod:`mshbm.certificate`) passed, including ``accuracy``:
+        the combined error estimate within the requested or default accuracy (``info["accuracy"]``).
         With ``floquet_multipliers``, ``stable``, ``stability_method`` and ``stability_reason``,
         and per element its force, relative motion, dissipated energy and stick or contact
         fraction over the period (``elements``, :mod:`mshbm.element_outputs`).

@@ -40,7 +40,7 @@ import json
 import math
 import sys
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -436,6 +436,10 @@ def _run(route, system, lam_start, lam_end, method, period, parameter, omega_fix
     if method not in METHODS:
         raise InputError("method", f"unknown method {method!r} (choose from {', '.join(METHODS)})")
     k = check_period(period)
+    if options.get("accuracy") is not None:
+        raise InputError("accuracy", "applies to mshbm.solve only: the points of a branch are certified for their "
+                                     "discretised equations, without the error estimates of mshbm.route.refine")
+    options, route = {key: v for key, v in options.items() if key != "accuracy"}, replace(route, estimate=False)
     if capabilities(method).penalty_laws and "penalty_quadrature" not in options \
             and any(el.unilateral for el in system.elements) \
             and linear_quadrature_unsupported(system.elements) is None:

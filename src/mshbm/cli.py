@@ -1,5 +1,5 @@
-"""Command line: ``mshbm solve CASE.yaml [--method M] [--harmonics N] [--steps N] [--omega W] [--set KEY=VALUE ...]
-[--out FILE] [--quiet]`` and ``mshbm sweep CASE.yaml ...`` (branches in omega or any parameter,
+"""Command line: ``mshbm solve CASE.yaml [--method M] [--harmonics N] [--steps N] [--accuracy E] [--omega W]
+[--set KEY=VALUE ...] [--out FILE] [--quiet]`` and ``mshbm sweep CASE.yaml ...`` (branches in omega or any parameter,
 :mod:`mshbm.cli_sweep`), ``mshbm backbone CASE.yaml ...`` (nonlinear modes,
 :mod:`mshbm.cli_backbone`).
 
@@ -24,6 +24,7 @@ import numpy as np
 
 from . import __version__
 from . import cli_backbone, cli_sweep
+from .certificate.record import SUPERSEDED
 from .errors import ConvergenceError, InputError
 from .interrupt import terminate_as_interrupt
 from . import io as _io
@@ -62,6 +63,10 @@ def _parser():
     s.add_argument("--integrator", choices=("moreau", "event"), default=None,
                    help="time integration of shooting and MS-HBM: Moreau-Jean time stepping (default) or the "
                    "exact event-driven flow (mshbm.integrators.event: friction and contact on single DOFs)")
+    s.add_argument("--accuracy", type=float, default=None, metavar="E",
+                   help="requested relative amplitude error: the method refines its harmonics and steps until the "
+                   "combined error estimate is below E, or fails naming the estimate (default: no refinement, "
+                   "success gated at 1e-2)")
     s.add_argument("--period", type=int, default=None, metavar="K",
                    help="look for a K T-periodic solution (default 1; see mshbm.period)")
     s.add_argument("--omega", type=float, default=None, metavar="W",
@@ -141,16 +146,24 @@ def _table(case, summary):
             ("wall time", f"{summary['wall_time_s']:.3f} s"), ("stable", _stable_text(summary))]
     if summary.get("certificate") is not None:  # mshbm.certificate: gating checks, and estimates above bound
         bad = [c["name"] for c in summary["certificate"] if c["gating"] and not c["passed"]]
+        names = {c["name"] for c in summary["certificate"]}
+        superseded = SUPERSEDED if "truncation" in names else ()
         est = [f"{c['name']} {c['value']:.1e}" for c in summary["certificate"] if not c["gating"] and
-               c["value"] is not None and not c["passed"]]
+               c["value"] is not None and not c["passed"] and c["name"] not in superseded]
         rows.append(("certificate", ("failed: " + ", ".join(bad)) if bad else
                      f"passed ({sum(c['gating'] for c in summary['certificate'])} checks)"
-                     + (f"; above 1e-2: {', '.join(est)}" if est else "")))
+                     + (f"; above their bounds: {', '.join(est)}" if est else "")))
         sub = [c for c in summary["certificate"] if c["name"] == "model_substitution"]
         if sub:  # mshbm.certificate.substitution: the law put in place of the user's, and its estimated effect
             v = sub[0]["value"]
             rows.append(("substitution", sub[0]["note"].split(": ")[0] + (
                 "; effect not estimated" if v is None else f"; estimated relative amplitude error {v:.2g}")))
+    acc = summary.get("accuracy")
+    if acc:  # the combined error estimate (mshbm.route.refine)
+        parts = ", ".join(f"{k} {v:.1e}" for k, v in acc["estimates"].items())
+        est = "not estimated" if acc["estimate"] is None else f"{acc['estimate']:.1e}"
+        rows.append(("error estimate", f"{est} {'<=' if acc['passed'] else '>'} {acc['accuracy']:.0e} "
+                     f"({'requested' if acc['requested'] else 'default'}){': ' + parts if parts else ''}"))
     width = max(len(r[0]) for r in rows)
     lines = [f"{k:<{width}}  {v}" for k, v in rows]
     amp = summary["amplitude"]
@@ -171,7 +184,7 @@ def _solve(args):
     if args.out is not None:
         check_out(args.out, args.case)  # --out rules: mshbm.outfile
     case = _io.load_case(args.case, sets=case_sets(args))
-    cli_opts = {k: getattr(args, k) for k in ("harmonics", "steps", "period", "integrator")
+    cli_opts = {k: getattr(args, k) for k in ("harmonics", "steps", "period", "integrator", "accuracy")
                 if getattr(args, k) is not None}
     try:
         sol = case.solve(args.method, progress=not args.quiet, **cli_opts)

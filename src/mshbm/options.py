@@ -9,7 +9,13 @@ comparison of method names.
 Options and their meaning
 -------------------------
 Common to all methods (:data:`COMMON`): ``guess``, ``tol``, ``max_iter``, ``line_search``,
-``progress``, ``raise_on_failure``, ``continuation``, ``stability``, ``max_time`` (see :func:`mshbm.solve`).
+``progress``, ``raise_on_failure``, ``continuation``, ``stability``, ``max_time``, ``accuracy`` (see
+:func:`mshbm.solve`).
+
+``accuracy`` (relative amplitude error, a number in (0, 0.5]; default ``None``): the method refines its
+discretisation until the combined error estimate of the result is below it, or fails naming the estimate
+(:mod:`mshbm.route.refine`); without it the default accuracy
+:data:`mshbm.certificate.combined.DEFAULT_ACCURACY` (1e-2) gates ``success`` and nothing is refined.
 
 ``max_time`` (s, default ``None``: no limit besides the start ladder's own budget) bounds the wall time of a
 solve: no Newton iteration, start of the ladder or event-driven simulation begins after it, and the solve
@@ -51,11 +57,11 @@ from . import stability as _stability
 from .errors import InputError
 from .methods.capabilities import CAPABILITIES, capabilities
 
-__all__ = ["COMMON", "METHODS", "allowed", "check_options", "default_steps", "default_harmonics", "aft_steps"]
+__all__ = ["COMMON", "METHODS", "allowed", "check_options", "check_accuracy", "default_steps", "default_harmonics", "aft_steps"]
 
 #: options of every method (driver and Newton options)
 COMMON = frozenset({"guess", "tol", "max_iter", "line_search", "progress", "raise_on_failure", "continuation",
-                    "stability", "max_time"})
+                    "stability", "max_time", "accuracy"})
 #: options accepted by each method besides the common ones (from the capability table,
 #: :data:`mshbm.methods.capabilities.CAPABILITIES`)
 METHODS = {name: c.options for name, c in CAPABILITIES.items()}
@@ -95,6 +101,16 @@ def _int_option(key, value, minimum):
     if value < minimum:
         raise InputError(key, f"must be >= {minimum}, got {value}")
     return int(value)
+
+
+def check_accuracy(value):
+    """The validated ``accuracy`` option: ``None`` or a float in (0, 0.5]."""
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
+            or not math.isfinite(float(value)) or not 0.0 < float(value) <= 0.5:
+        raise InputError("accuracy", f"must be a relative amplitude error in (0, 0.5], got {value!r}")
+    return float(value)
 
 
 def check_options(method, options):
@@ -155,6 +171,7 @@ def check_options(method, options):
     if "dlft_predictor" in opts and opts["dlft_predictor"] not in ("velocity", "displacement"):
         raise InputError("dlft_predictor", f"must be 'velocity' or 'displacement', got {opts['dlft_predictor']!r}")
     opts["stability"] = _stability.check_option(opts.get("stability"))
+    opts["accuracy"] = check_accuracy(opts.get("accuracy"))
     return opts
 
 

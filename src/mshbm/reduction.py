@@ -22,7 +22,8 @@ Error estimate (:meth:`ReducedModel.error_estimate`): at every harmonic ``k omeg
 content, the responses of the boundary DOFs to unit forces on them and to the forcing, computed on the full
 model (one sparse LU of ``K - (k omega)^2 M + i k omega C`` per harmonic) and on the reduced one; the largest
 relative difference is the certificate entry ``reduction`` (relative error of the linear dynamics the
-nonlinear elements see).
+nonlinear elements see), one of the estimates summed by the gating ``accuracy`` check
+(:mod:`mshbm.certificate.combined`).
 """
 from __future__ import annotations
 
@@ -113,11 +114,21 @@ class ReducedModel:
         out.elements = list(sol.elements)
         if estimate and sol.certificate is not None:
             from .certificate import Check
+            from .certificate.combined import combined_check, gate
 
             err, note = self.error_estimate(sol)
             info["reduction"]["error_estimate"] = err
-            sol.certificate.checks.append(Check("reduction", err, REDUCTION_BOUND, bool(err <= REDUCTION_BOUND),
-                                                False, note))
+            cert = sol.certificate
+            cert.checks.append(Check("reduction", err, REDUCTION_BOUND, bool(err <= REDUCTION_BOUND), False, note))
+            if "accuracy" in cert:  # the combined estimate of the solve, now with the reduction's
+                acc = cert["accuracy"]
+                requested = isinstance(sol.info.get("accuracy"), dict) and bool(sol.info["accuracy"].get("requested"))
+                gate(out, combined_check(cert, acc.bound, requested))
+                if isinstance(out.info.get("accuracy"), dict):
+                    out.info["accuracy"] = {**out.info["accuracy"], "estimate": cert["accuracy"].value,
+                                            "estimates": {**out.info["accuracy"].get("estimates", {}),
+                                                          "reduction": err},
+                                            "passed": cert["accuracy"].passed}
         return out
 
     def error_estimate(self, sol, content=1e-3):

@@ -210,6 +210,7 @@ class PeriodicSolution:
             "min_rcond": None if self.conditioning is None or not np.size(self.conditioning)
             else float(np.min(self.conditioning)),
             "certificate": None if self.certificate is None else self.certificate.as_list(),
+            "accuracy": self.info.get("accuracy"),
             **describe_stability(self),
             "elements": [e.summary() for e in self.elements],
             # HBM: the regularisation of each element's law as used (the default's rule and scale, or as given)

@@ -7,6 +7,7 @@ holds ``kT``-periodic solutions (:mod:`mshbm.subharmonic`), ``Phi`` the monodrom
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 
 import numpy as np
 
@@ -89,8 +90,9 @@ def switch_period_doubling(system, branch, omega_end, bifurcation=None, offset=5
             # acceptance knows impacting Moreau-Jean orbits periodic to one step, and a transient from rest)
             guess = None if sign is None else \
                 {"q_hat": qh2, "q0": sol1.q[0] + sign * eps * vq, "u0": sol1.u[0] + sign * eps * vu}
-            sh = ROUTE.solve_period(system, w0, "shooting", period=2 * k, steps=N, guess=guess, stability=False,
-                              **sh_opts)
+            # (certified for its discretised equations, as the branch it starts: no error estimates)
+            sh = replace(ROUTE, estimate=False).solve_period(system, w0, "shooting", period=2 * k, steps=N,
+                                                              guess=guess, stability=False, **sh_opts)
             content = subharmonic_content(sh, 2) if sh.success else 0.0
             label = "default starts" if sign is None else ("+v" if sign > 0 else "-v")
             tried.append(f"omega = {w0:.6g}, {label}: "

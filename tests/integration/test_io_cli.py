@@ -30,7 +30,7 @@ BASE = {
     "omega": 0.6283185307179586,
     "forcing": [{"dof": 2, "amplitude": 5}],
     "friction": {"dof": 0, "mu": 0.8, "normal_force": 9.81, "smoothing": 800},
-    "solver": {"method": "mshbm", "harmonics": 2, "steps": 512},
+    "solver": {"method": "mshbm", "harmonics": 3, "steps": 512},
 }
 CONTACT = {"dof": 0, "gap": 0.1, "restitution": 1, "penalty_stiffness": 8000, "penalty_damping": 0}
 MATRICES = {
@@ -452,7 +452,7 @@ def test_overrides_and_solve_defaults(tmp_path):
 def test_case_solve_equals_api_solve(tmp_path):
     case = load_case(write_case(tmp_path, BASE))
     a = case.solve()
-    b = mshbm.solve(case.system, case.omega, "mshbm", harmonics=2, steps=512)
+    b = mshbm.solve(case.system, case.omega, "mshbm", harmonics=3, steps=512)
     assert a.success and b.success
     np.testing.assert_array_equal(a.amplitude, b.amplitude)
 
@@ -511,7 +511,7 @@ def _subprocess(*args, cwd=None):
 
 def test_subprocess_success_writes_json(tmp_path):
     out_json = tmp_path / "r.json"
-    proc = _subprocess("solve", EXAMPLES / "friction3.yaml", "--harmonics", "2", "--steps", "512",
+    proc = _subprocess("solve", EXAMPLES / "friction3.yaml", "--harmonics", "3", "--steps", "512",
                        "--out", out_json, "--quiet")
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout == "" and proc.stderr == ""
@@ -553,3 +553,44 @@ def test_alias_depth_and_short_messages(tmp_path, capsys):
     long_key = "x" * 10_000
     code, out, err = run(capsys, "solve", write_case(tmp_path, {**BASE, long_key: 1}))
     assert code == 2 and len(err.splitlines()) == 1 and err.startswith("error: xxx") and len(err) < 400
+
+
+# ----------------------------------------------------------------------------- accuracy
+def test_cli_states_the_error_estimate_and_json_carries_it(tmp_path, capsys):
+    """The table's one-line ``error estimate`` row and the JSON's ``accuracy`` entry: the combined estimate, its
+    parts and the accuracy they are held to (default 1e-2; ``--accuracy`` and ``solver.accuracy`` request one)."""
+    out_json = tmp_path / "r.json"
+    path = write_case(tmp_path, BASE)
+    code, out, err = run(capsys, "solve", path, "--out", str(out_json))
+    assert code == 0, err
+    data = json.loads(out_json.read_text())
+    acc = data["accuracy"]
+    assert acc["accuracy"] == 1e-2 and not acc["requested"] and acc["passed"]
+    assert set(acc["estimates"]) == {"truncation", "time_discretisation"}
+    assert acc["estimate"] == pytest.approx(sum(acc["estimates"].values()), rel=1e-12) and acc["estimate"] <= 1e-2
+    (row,) = [c for c in data["certificate"] if c["name"] == "accuracy"]
+    assert row["gating"] and row["passed"] and row["value"] == acc["estimate"]
+    line = [ln for ln in out.splitlines() if ln.startswith("error estimate")]
+    assert len(line) == 1 and f"{acc['estimate']:.1e} <= 1e-02 (default)" in line[0] and "truncation" in line[0]
+    # requested on the command line: refined until met (or failed naming the estimate)
+    code, out, err = run(capsys, "solve", path, "--accuracy", "1e-4", "--out", str(out_json))
+    acc = json.loads(out_json.read_text())["accuracy"]
+    assert acc["requested"] and acc["accuracy"] == 1e-4
+    assert (code == 0 and acc["passed"] and acc["estimate"] <= 1e-4) or (code == 1 and "accuracy" in err)
+    # requested in the case file
+    data = copy.deepcopy(BASE)
+    data["solver"]["accuracy"] = 1e-3
+    code, out, err = run(capsys, "solve", write_case(tmp_path, data), "--out", str(out_json))
+    acc = json.loads(out_json.read_text())["accuracy"]
+    assert acc["requested"] and acc["accuracy"] == 1e-3 and "(requested)" in out
+
+
+@pytest.mark.parametrize("value", [0, -0.1, 0.9, "tight", True])
+def test_bad_accuracy_in_the_case_file_names_the_key(tmp_path, capsys, value):
+    data = copy.deepcopy(BASE)
+    data["solver"]["accuracy"] = value
+    assert_input_error(*run(capsys, "solve", write_case(tmp_path, data)), "solver.accuracy")
+
+
+def test_bad_accuracy_on_the_command_line_names_the_option(tmp_path, capsys):
+    assert_input_error(*run(capsys, "solve", write_case(tmp_path, BASE), "--accuracy", "0.9"), "--accuracy")

@@ -16,7 +16,7 @@ size of the solution, ``V = max(omega D, max |u|)``.
 The checks, in the order :func:`certify` appends them, and the module that defines each:
 
 * ``residual``, ``periodicity``, ``step_accuracy_size`` -- :mod:`mshbm.certificate.accuracy`;
-* ``time_discretisation`` -- :mod:`mshbm.certificate.linear`;
+* ``time_warping`` -- :mod:`mshbm.certificate.linear`;
 * ``friction_cone``, ``non_penetration``, ``contact_compression`` -- :mod:`mshbm.certificate.laws`;
 * ``energy_balance``, ``connectivity_work``, ``friction_dissipation``, ``impact_dissipation`` --
   :mod:`mshbm.certificate.energy`;
@@ -27,12 +27,18 @@ The checks, in the order :func:`certify` appends them, and the module that defin
 * ``regularisation`` (reported, not gating; HBM with regularised laws, appended by the solve route after the
   others: it re-solves the problem) -- :mod:`mshbm.methods.hbm_regularisation`.
 
+:func:`mshbm.solve` then adds the a-posteriori error estimates ``truncation`` and ``time_discretisation``
+(:mod:`mshbm.route.refine`: re-solves on a coarser discretisation) and the gating check ``accuracy``, their
+sum with the other estimates present (``regularisation``, ``model_substitution``) against the requested or
+default accuracy (:mod:`mshbm.certificate.combined`).
+
 :mod:`mshbm.certificate.record` holds the :class:`Check` and :class:`Certificate` records,
 :mod:`mshbm.certificate.kernels` the compiled passes over the grid, :mod:`mshbm.certificate.verdict` the
 assembly (:func:`certify`, :func:`apply_certificate`).
 """
 from . import kernels
 from .accuracy import STEP_ACCURACY_NOTE, STEP_ACCURACY_SIZE_BOUND, STEP_ACCURACY_SIZE_NOTE
+from .combined import DEFAULT_ACCURACY, ESTIMATES, combined_check
 from .energy import CONNECTIVITY_WORK_BOUND, ENERGY_TOL, MAX_GRID_VALUES
 from .laws import el_dofs_each, element_tables
 from .linear import MAX_EIG_DOFS, TIME_DISCRETISATION_BOUND
@@ -48,7 +54,7 @@ _harmonic_power = kernels.harmonic_power
 _force_tail = kernels.force_tail
 _element_tables = element_tables
 
-__all__ = ["Check", "Certificate", "certify", "apply_certificate", "ENERGY_TOL", "CONNECTIVITY_WORK_BOUND",
+__all__ = ["Check", "Certificate", "DEFAULT_ACCURACY", "ESTIMATES", "combined_check", "certify", "apply_certificate", "ENERGY_TOL", "CONNECTIVITY_WORK_BOUND",
            "MAX_GRID_VALUES", "MAX_EIG_DOFS", "TIME_DISCRETISATION_BOUND", "TRUNCATION_BOUND",
            "STEP_ACCURACY_NOTE", "STEP_ACCURACY_SIZE_BOUND", "STEP_ACCURACY_SIZE_NOTE", "el_dofs_each",
            "MODEL_SUBSTITUTION_BOUND"]

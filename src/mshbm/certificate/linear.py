@@ -1,6 +1,6 @@
-"""Checks of the linear structure's discretisation: ``time_discretisation`` and ``undamped_resonance``.
+"""Checks of the linear structure's discretisation: ``time_warping`` and ``undamped_resonance``.
 
-``time_discretisation`` (gating, time stepping)
+``time_warping`` (gating, time stepping)
     First-order estimate of the relative error that the Moreau-Jean scheme's frequency warping of
     the time-stepped DOFs ``T`` causes in the periodic response: on a harmonic ``X e^{i w t}``
     (``w = k omega``) the scheme (with ``theta``-weighted forcing) acts like the dynamic stiffness
@@ -15,7 +15,8 @@
     amplified by the condensed compliance); there the discrete periodic solution is far from the continuous
     one, and the remedy is more steps (the estimate falls like ``h^2``).  The element laws are left out
     (first-order, linear part only); the bound catches gross under-resolution, not the percent-level step
-    error of a deliberately coarse grid.
+    error of a deliberately coarse grid: that is the a-posteriori estimate ``time_discretisation`` of
+    :mod:`mshbm.route.refine` (step refinement), which :func:`mshbm.solve` adds.
 ``undamped_resonance`` (gating)
     When no element acts on the solution (no element, friction with ``mu F_N = 0``, contacts that never
     close), the response is that of the linear structure.  If a forced harmonic ``k omega`` lies within the
@@ -44,7 +45,7 @@ MAX_EIG_DOFS = 2000
 
 
 def time_discretisation(problem, sol, system, omega, stepper, D, cert):
-    """Append ``time_discretisation`` to ``cert`` (module docstring); nothing without time-stepped DOFs or
+    """Append ``time_warping`` to ``cert`` (module docstring); nothing without time-stepped DOFs or
     harmonics."""
     T = np.asarray(problem.partition().time, dtype=np.int64)
     qh = np.asarray(sol.q_hat, dtype=float)
@@ -88,7 +89,7 @@ def time_discretisation(problem, sol, system, omega, stepper, D, cert):
     # more than the solution does (the elements dominate: a stuck friction DOF at a resonance of the free
     # structure), it is not a model of the solution's sensitivity and does not gate
     applies = np.isfinite(linear_max) and linear_max <= 10.0 * D
-    cert.checks.append(Check("time_discretisation", worst, TIME_DISCRETISATION_BOUND,
+    cert.checks.append(Check("time_warping", worst, TIME_DISCRETISATION_BOUND,
                              bool(worst <= TIME_DISCRETISATION_BOUND) or not applies, applies,
                              "first-order relative error of the response from the frequency warping of the "
                              f"time-stepped DOFs' M and C (largest at harmonic {k_worst}; h^2 convergence: "

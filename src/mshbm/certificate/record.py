@@ -6,7 +6,11 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-__all__ = ["Check", "Certificate"]
+__all__ = ["Check", "Certificate", "SUPERSEDED"]
+
+#: heuristic checks that the a-posteriori estimate ``truncation`` (:mod:`mshbm.route.refine`) supersedes: they stay
+#: in the certificate, but are no warning once it is there
+SUPERSEDED = ("truncation_solution", "truncation_force")
 
 
 @dataclass
@@ -47,10 +51,15 @@ class Certificate:
 
     @property
     def warnings(self):
-        """Names of the non-gating checks above their bound (``model_substitution`` is named in the message of
+        """Names of the non-gating checks above their bound (the heuristic truncation checks only while no
+        a-posteriori ``truncation`` estimate supersedes them; ``model_substitution`` is named in the message of
         every solution that makes one, :func:`mshbm.certificate.apply_certificate`)."""
-        return [c.name for c in self.checks if not c.gating and not c.passed and c.value is not None
-                and c.name != "model_substitution"]
+        return [c.name for c in self._above() if c.name != "model_substitution"]
+
+    def _above(self):
+        superseded = SUPERSEDED if "truncation" in self else ()
+        return [c for c in self.checks if not c.gating and not c.passed and c.value is not None
+                and c.name not in superseded]
 
     def __getitem__(self, name):
         for c in self.checks:
@@ -68,14 +77,15 @@ class Certificate:
     def describe_warnings(self, only=None):
         """The non-gating checks above their bound (the harmonic truncation estimates), for the message of a
         certified solution; ``""`` when there are none.  ``only``: the check of that name only."""
-        above = [c for c in self.checks if not c.gating and not c.passed and c.value is not None and c.bound is not None
-                 and (only is None or c.name == only)]
+        above = [c for c in self._above() if c.bound is not None and (only is None or c.name == only)]
         parts = [f"{c.name} {c.value:.3g} > {c.bound:.3g}" + (f" ({c.note})" if c.note else "")
-                 for c in above if c.name not in ("step_accuracy_size", "model_substitution", "regularisation")]
+                 for c in above if c.name in ("truncation", *SUPERSEDED)]
         out = []
         if parts:
             out.append("the harmonic truncation error may exceed its bound: " + ", ".join(parts)
                        + "; more harmonics (option harmonics) reduce it")
+        out += [f"the time discretisation error may exceed the accuracy: {c.value:.3g} > {c.bound:.3g} ({c.note}); "
+                "more steps (option steps) reduce it" for c in above if c.name == "time_discretisation"]
         out += [f"one step's accuracy is {c.value:.3g} of the orbit's size (> {c.bound:.3g}); more steps (option "
                 "steps) reduce it" for c in above if c.name == "step_accuracy_size"]
         out += [f"the regularised laws' error is estimated at {c.value:.3g} of the amplitude (> {c.bound:.3g}); a "

@@ -44,7 +44,7 @@ CONTACT_KEYS = {"dof": ..., "gap": ..., "restitution": 1.0, "penalty_stiffness":
 REDUCE_KEYS = ("method", "modes", "keep")
 SOLVER_KEYS = ("method", "harmonics", "steps", "theta", "jacobian", "tol", "max_iter", "partition",
                "condense", "project", "line_search", "continuation", "stability", "dlft_penalty",
-               "dlft_predictor", "integrator")
+               "dlft_predictor", "integrator", "accuracy")
 
 
 
@@ -296,6 +296,11 @@ def _solver(value, n):
         elif k == "dlft_predictor":
             if v not in ("velocity", "displacement"):
                 raise InputError(key, f"must be 'velocity' or 'displacement', got {_describe(v)}")
+        elif k == "accuracy":  # relative amplitude error (mshbm.route.refine)
+            try:
+                v = options_.check_accuracy(_number(key, v))
+            except InputError as exc:
+                raise InputError(key, exc.problem) from None
         elif k == "stability":  # true, false or "auto" (mshbm.stability)
             if not (isinstance(v, bool) or v == "auto"):
                 raise InputError(key, f"must be true, false or 'auto', got {_describe(v)}")

@@ -213,6 +213,15 @@ class PeriodicProblem:
     #: sampled penalty law); a branch traced for a solve's start uses them, so that it follows this problem
     solve_defaults: dict = {}
 
+    @staticmethod
+    def refine(kind, system, options):
+        """The more accurate model for the error estimate ``kind`` (``"regularisation"``,
+        ``"model_substitution"``; :mod:`mshbm.route.refine` refines ``n_h`` and the steps itself): ``(system,
+        options)`` to solve next, starting from the current answer, or ``None`` when the method cannot make that
+        estimate smaller (the default).  ``options``: the solve's options with the current ``harmonics`` and
+        ``steps``."""
+        return None
+
     @property
     def force_row_unknowns(self):
         """Number of leading unknowns that are displacement coefficients balanced by force rows (MS-HBM,

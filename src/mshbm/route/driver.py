@@ -49,6 +49,7 @@ from ..certificate import apply_certificate, certify
 from ..condensation import SingularHarmonicError
 from ..errors import ConvergenceError, InputError
 from ..methods.hbm_regularisation import REGULARISATION_BOUND, regularisation_check, regularised
+from ..options import check_accuracy
 from ..methods.registry import build_problem
 from ..result import PeriodicSolution
 from ..solvers import newton as newton_
@@ -58,6 +59,7 @@ from ..subharmonic import transient_guess
 from ..system import System
 from .continuation import solve_with_continuation
 from .ladder import DEFAULT_STARTS, Ladder, residual_accept
+from . import refine as _refine
 from .options import capabilities, only, without
 from .starts import shift_hat
 
@@ -102,6 +104,10 @@ class Route:
     in_frequency : bool
         Inside the ``"frequency"`` start (its anchor solves and branch): the ladders have no
         ``"frequency"`` start and no event-driven fallback.
+    estimate : bool
+        :meth:`solve` adds the a-posteriori error estimates and the check ``accuracy``, and refines to a
+        requested ``accuracy`` (:mod:`mshbm.route.refine`); False for the solves nested in a solve (starts,
+        anchors, the estimates' own re-solves).
     sweep : callable or None
         The branch tracer of the ``"frequency"`` start, ``sweep(route, system, omega_start, omega_end,
         method, **options) -> Branch`` (:mod:`mshbm.branch`); ``None``: that start reports it has none.
@@ -111,6 +117,7 @@ class Route:
     single_start: bool = False
     in_frequency: bool = False
     sweep: object = None
+    estimate: bool = True
 
     # -- derived routes
     def tightened(self, deadline):
@@ -121,12 +128,12 @@ class Route:
 
     def single(self):
         """The route of the solves made by a start of a ladder (continuation stages): one start each."""
-        return replace(self, single_start=True)
+        return replace(self, single_start=True, estimate=False)
 
     def anchor(self, deadline=None):
         """The route of the ``"frequency"`` start's solves: full ladders without that start, within
         ``deadline`` when given (the start's own time box, which lies within this route's)."""
-        return replace(self, single_start=False, in_frequency=True,
+        return replace(self, single_start=False, in_frequency=True, estimate=False,
                        deadline=self.deadline if deadline is None else deadline)
 
     # -- the solves
@@ -146,22 +153,30 @@ class Route:
             deadline = time.perf_counter() + float(mt) if mt is not None and float(mt) > 0 else None
         except (TypeError, ValueError):
             deadline = None  # not a number: the option check of build_problem names it
-        with newton_.time_box(deadline):
-            sol = self.tightened(deadline)._chain(system, omega, method, options)
-        if deadline is not None and not sol.success and time.perf_counter() > deadline:
-            sol.message = f"{sol.message}; time budget max_time = {float(mt):g} s spent"
-        return sol
-
-    def _chain(self, system, omega, method, options):
+        t0 = time.perf_counter()
+        accuracy = check_accuracy(options.pop("accuracy", None))
         stab = _stability.check_option(options.pop("stability", "auto"))
         theta = options.get("theta", 0.5)
+        route = self.tightened(deadline)
+        with newton_.time_box(deadline):
+            sol = route._chain(system, omega, method, dict(options))
+        with blas_threads(check_threads(options.pop("blas_threads", 1))), validate.quiet_floats():
+            if self.estimate:  # the error estimates, and the refinement to a requested accuracy
+                with newton_.time_box(deadline):
+                    sol = _refine.estimate_and_refine(route, system, omega, method, options, sol, accuracy, t0)
+            if deadline is not None and not sol.success and time.perf_counter() > deadline:
+                sol.message = f"{sol.message}; time budget max_time = {float(mt):g} s spent"
+            return _stability.assess(system, sol, stab, theta=theta)
+
+    def _chain(self, system, omega, method, options):
+        """The strategy chain (module docstring) without the stability analysis."""
         if capabilities(method).explicit_continuation and options.get("continuation") is True \
                 and options.get("guess") is not None:  # guess=None: the start ladder covers it
             with validate.quiet_floats():
-                sol = solve_with_continuation(system, omega, method, solve=self.solve, stability=False, ladder=False,
-                                              **without(options, "continuation"))
+                sol = solve_with_continuation(system, omega, method, solve=replace(self, estimate=False).solve,
+                                              stability=False, ladder=False, **without(options, "continuation"))
             if sol.success or self.single_start:
-                return _stability.assess(system, sol, stab, theta=theta)
+                return sol
             # the restarts and continuations from the guess failed: the start ladder (the guess first), as without
             # the explicit opt-in
             first = sol
@@ -172,13 +187,11 @@ class Route:
             else:
                 sol.wall_time += first.wall_time
             sol.info["continuation"] = first.info.get("continuation")
-            return _stability.assess(system, sol, stab, theta=theta)
+            return sol
         with blas_threads(check_threads(options.pop("blas_threads", 1))), validate.quiet_floats():
             if options.get("guess") is not None and options.get("continuation", True) and not self.single_start:
-                sol = self._guess_first(system, omega, method, options)
-            else:
-                sol = self._solve(system, omega, method, options)
-            return _stability.assess(system, sol, stab, theta=theta)
+                return self._guess_first(system, omega, method, options)
+            return self._solve(system, omega, method, options)
 
     def solve_period(self, system, omega, method="mshbm", period=1, transient_periods=150, **options):
         """:func:`mshbm.period.solve`: a ``period * T``-periodic solution (:mod:`mshbm.subharmonic`).
@@ -317,9 +330,12 @@ class Route:
                 and not self.in_frequency:
             # the error of the regularised laws (HBM): one re-solve with stiffer laws (not gating; not for the
             # nested solves of a start ladder, whose answers are starts)
+            warned = sol.certificate.describe_warnings() if sol.certificate.warnings else ""
             check = regularisation_check(problem, sol, nkw, REGULARISATION_BOUND)
-            if not check.passed and check.value is not None:
-                sol.message = f"{sol.message}; warning: {sol.certificate.describe_warnings(only='regularisation')}"
+            if not check.passed and check.value is not None:  # the message's warnings, now with this estimate
+                if warned:
+                    sol.message = sol.message.replace(f"; warning: {warned}", "")
+                sol.message = f"{sol.message}; warning: {sol.certificate.describe_warnings()}"
         if section is not None:
             _unshift(sol, section)
         if laddered and not sol.success:

@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 import mshbm
+from mshbm.certificate import DEFAULT_ACCURACY
 from mshbm import Contact, Friction, InputError, System, chain
 from paper_systems import system as paper_system
 
@@ -117,13 +118,19 @@ def test_resonant_linear_response_as_guess_is_not_accepted(method):
         assert np.allclose(sol.amplitude[1:], clamped_amplitudes(W1), rtol=_stick_tolerance(method))
 
 
+
+def _solves_its_equations(sol):
+    """Every check of the discretised equations passed (``success`` may still fail on the default accuracy of
+    the error estimates, :mod:`mshbm.route.refine`, which these tests of the other checks do not need)."""
+    return sol.certificate is not None and sol.certificate.failed in ([], ["accuracy"])
+
 @pytest.mark.parametrize("factor", [1e3, 1e8])
 @pytest.mark.parametrize("method", METHODS)
 def test_scaled_solution_as_guess(method, factor):
     """A certified solution times 1e3 / 1e8 as the start: a certified answer equal to the solution or a
     failure, never success elsewhere."""
     ref = mshbm.solve(friction3(), OMEGA, method, harmonics=5, steps=1024)
-    assert ref.success
+    assert _solves_its_equations(ref), ref.message
     guess = {"q_hat": factor * ref.q_hat, "q0": factor * ref.q[0], "u0": factor * ref.u[0]}
     sol = mshbm.solve(friction3(), OMEGA, method, harmonics=5, steps=1024, guess=guess)
     if sol.success:
@@ -215,9 +222,13 @@ def test_friction3_certified_against_exact(method):
     exact = mshbm.exact_periodic(friction3(), OMEGA)
     assert exact.success
     sol = mshbm.solve(friction3(), OMEGA, method, harmonics=9, steps=4096)
-    assert sol.success and sol.certificate.passed, sol.message
+    assert _solves_its_equations(sol), sol.message
     tol = {"hbm": 0.03, "shooting": 1e-4}.get(method, 1e-3)
-    assert np.max(np.abs(sol.amplitude - exact.amplitude)) <= tol * exact.amplitude.max()
+    err = np.max(np.abs(sol.amplitude - exact.amplitude)) / exact.amplitude.max()
+    assert err <= tol
+    # certified means within the default accuracy; otherwise the combined estimate says so (HBM: 3 %)
+    assert sol.success is (sol.certificate["accuracy"].value <= DEFAULT_ACCURACY)
+    assert sol.certificate["accuracy"].value >= err
     e = sol.certificate.info["energy"]
     assert e["damper_dissipation"] == 0.0
     assert e["element_dissipation"][0] == pytest.approx(e["input_work"], rel=1e-6)  # all input to friction
@@ -264,7 +275,7 @@ def test_check_friction_cone_detects_a_force_outside(method):
 @pytest.mark.parametrize("method", ["shooting", "mshbm", "hbm"])
 def test_check_non_penetration_detects_a_smaller_gap(method):
     sol = mshbm.solve(impact5(), OMEGA, method, harmonics=5, steps=1024)
-    assert sol.success
+    assert _solves_its_equations(sol), sol.message
     other = impact5().with_elements([Contact(0, 0.05, 1.0, 8000.0, 0.0)])
     c = _certify(other, sol, harmonics=5, steps=1024)
     assert not c["non_penetration"].passed
@@ -274,7 +285,7 @@ def test_check_non_penetration_detects_a_smaller_gap(method):
 @pytest.mark.parametrize("method", ["shooting", "mshbm-intermediate"])
 def test_check_periodicity_and_energy_detect_tampering(method):
     sol = mshbm.solve(impact5(), OMEGA, method, harmonics=5, steps=1024)
-    assert sol.success
+    assert _solves_its_equations(sol), sol.message
     sol.u_time = sol.u_time.copy()
     sol.u_time[-1] += 0.01
     c = _certify(impact5(), sol, harmonics=5, steps=1024)
