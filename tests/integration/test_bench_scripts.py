@@ -1,7 +1,10 @@
 """Smoke tests of the benchmark scripts (workflow/scripts/bench_*.py) in their --quick form.
 
-They check that the scripts run standalone and write a JSON with the expected keys and finite
-numbers plus a PNG.  No timing is asserted: speed is measured by the benchmarks, not by tests.
+They check that the scripts run and write a JSON with the expected keys and finite numbers plus a
+PNG.  No timing is asserted: speed is measured by the benchmarks, not by tests.  The kernel and
+scaling benchmarks are read from the quick workflow's run (fixture ``quick_run``, tests/conftest.py; rule
+``bench_standalone`` runs ``bench_<name>.py --profile quick``, the same profile as ``--quick``), once per
+session; the others run standalone here.
 """
 import json
 import math
@@ -27,6 +30,13 @@ def _run(script, out):
     return json.loads(out.read_text())
 
 
+def _from_quick_run(quick_run, name):
+    """The JSON of the quick workflow's stand-alone benchmark ``name`` (and its PNG must exist)."""
+    out = quick_run / "benchmarks" / f"{name}.json"
+    assert out.exists() and out.with_suffix(".png").exists()
+    return json.loads(out.read_text())
+
+
 def _finite_positive(x):
     return isinstance(x, (int, float)) and math.isfinite(x) and x > 0
 
@@ -44,8 +54,8 @@ def _check_stats(s):
     assert _finite_positive(s["median_s"]) and s["min_s"] <= s["median_s"]
 
 
-def test_bench_kernel_quick(tmp_path):
-    data = _run("bench_kernel.py", tmp_path / "kernel.json")
+def test_bench_kernel_quick(quick_run):
+    data = _from_quick_run(quick_run, "kernel")
     _check_machine(data)
     assert data["quick"] is True
     meas = data["measurements"]
@@ -117,8 +127,8 @@ def test_workprecision_event_goal_and_grid():
     assert eq["mshbm-event"]["speedup_over_shooting"] == pytest.approx(0.25 / 0.17, rel=1e-14)
 
 
-def test_bench_scaling_quick(tmp_path):
-    data = _run("bench_scaling.py", tmp_path / "scaling.json")
+def test_bench_scaling_quick(quick_run):
+    data = _from_quick_run(quick_run, "scaling")
     _check_machine(data)
     assert "damping_note" in data["system"] and data["system"]["harmonics"] == 5
     chain = data["chain"]
