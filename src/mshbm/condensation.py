@@ -322,6 +322,7 @@ class Condensation:
         for mat, A in (("M", M), ("C", C), ("K", K)):
             blocks[mat] = (_sub(A, self.elim, self.elim), _sub(A, self.elim, self.keep),
                             _sub(A, self.keep, self.elim))
+        self._sparse = (float(omega), blocks)  # for omega_slope
         # banded H_EE (chains, beams): LAPACK band LU, O(n_E) a harmonic; else one sparse LU a harmonic
         band = Banded.build(*(blocks[a][0] for a in "MCK"))
         reuse = _REUSE.get()
@@ -371,6 +372,57 @@ class Condensation:
             self.Z[k] = sol[:, 1:]
             self.T[k] = H_RE @ self.Z[k]
             self.g[k] = H_RE @ self.z[k]
+
+    def omega_slope(self):
+        """``(dT/domega, dg/domega)`` (shapes of ``T`` and ``g``) of the sparse path, from ``Z`` and ``z`` alone;
+        ``None`` on the dense path or where ``M, C, K`` are not symmetric.
+
+        With ``H' = dH/dw = -2 w M + i C`` at ``w = k omega`` and ``d(H_EE^-1) = -H_EE^-1 H_EE' H_EE^-1``::
+
+            dT_k/domega = k (H_RE' Z_k + Z_k^T H_ER' - Z_k^T H_EE' Z_k),
+            dg_k/domega = k (H_RE' z_k - Z_k^T H_EE' z_k)
+
+        (``F`` does not depend on omega), where ``H_RE H_EE^-1 = Z^T`` because symmetric ``M, C, K`` make
+        ``H_EE`` complex symmetric and ``H_RE = H_ER^T``: no solve with ``H_EE``, only sparse products.
+        The finite difference of two condensations at ``omega +- d`` costs two condensations and carries
+        their rounding divided by ``d``."""
+        if getattr(self, "_sparse", None) is None:
+            return None
+        omega, blocks = self._sparse
+        if "_slope" not in self.__dict__:
+            same = lambda A, B: sp.csr_matrix(A - B).count_nonzero() == 0
+            sym = all(same(blocks[a][0], blocks[a][0].T) and same(blocks[a][1], blocks[a][2].T) for a in "MCK")
+            if not sym:
+                self._slope = None
+                return None
+            (M_EE, M_ER, M_RE), (C_EE, C_ER, C_RE) = blocks["M"], blocks["C"]
+            dT, dg = np.zeros_like(self.T), np.zeros_like(self.g)
+            for k in range(1, self.T.shape[0]):  # k = 0: H does not depend on omega
+                w = k * omega
+                d = lambda Mb, Cb: sp.csr_matrix(-2.0 * w * Mb, dtype=complex) + 1j * sp.csr_matrix(Cb, dtype=complex)
+                Z, z = self.Z[k], self.z[k]
+                dEE_Z = d(M_EE, C_EE) @ np.column_stack([Z, z])
+                dRE = d(M_RE, C_RE)
+                dT[k] = k * (dRE @ Z + (d(M_ER, C_ER).T @ Z).T - Z.T @ dEE_Z[:, :-1])
+                dg[k] = k * (dRE @ z - Z.T @ dEE_Z[:, -1])
+            self._slope = (dT, dg)
+        return self._slope
+
+    def shifted(self, d_omega):
+        """A copy of the sparse path's condensation at ``omega + d_omega`` to first order in ``d_omega``
+        (:meth:`omega_slope`; error ``O(d_omega^2)``): ``T`` and ``g`` only, for residuals at ``omega +- d``
+        of a finite-difference ``dR/domega`` (``z``, ``Z`` are not shifted and are left out); ``None`` where
+        :meth:`omega_slope` is ``None``."""
+        slope = self.omega_slope()
+        if slope is None:
+            return None
+        out = object.__new__(type(self))
+        out.keep, out.elim, out.F, out.H_RR, out.rcond = self.keep, self.elim, self.F, self.H_RR, self.rcond
+        out.z = out.Z = None
+        out.T = self.T + d_omega * slope[0]
+        out.g = self.g + d_omega * slope[1]
+        out._sparse = None
+        return out
 
     def _dense(self, system, F, omega, n_h, rcond_min, name):
         """The dense path (``n_E <= 400`` or dense matrices): the blocks of all harmonics at once,

@@ -264,7 +264,7 @@ class PeriodicProblem:
         s0 = self.event_signature(x)
         d = rel_step * self.omega
         for _ in range(4):
-            pp, pm = self.rebuilt(self.omega + d), self.rebuilt(self.omega - d)
+            pp, pm = self.nearby(self.omega + d), self.nearby(self.omega - d)
             Rp = pp.residual(x, jac=False)[0]
             Rm = pm.residual(x, jac=False)[0]
             if s0 is None:
@@ -286,6 +286,12 @@ class PeriodicProblem:
     def rebuilt(self, omega):
         """The same problem (system, options) at another frequency."""
         return type(self)(self.system, float(omega), **self.build_options)
+
+    def nearby(self, omega):
+        """The problem at a frequency ``omega`` a finite-difference step away, for :meth:`omega_derivative`:
+        :meth:`rebuilt`, or a cheaper copy whose residual differs from the rebuilt one's by
+        ``O((omega - self.omega)^2)`` (which a central difference cancels)."""
+        return self.rebuilt(omega)
 
     # ------------------------------------------------------------------ optional capabilities
     def homotopy(self):
