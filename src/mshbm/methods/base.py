@@ -28,7 +28,9 @@ Contract (every subclass)
 ``omega_derivative(x) -> dR/domega``
     Shape ``(n_x,)``, at fixed unknowns (their meaning does not change with omega: coefficients, or
     states at ``t = 0`` with a fixed number of steps per period).  Default: central differences of
-    problems rebuilt at ``omega (1 +- 1e-6)``; what frequency continuation needs besides ``J``.
+    problems at ``omega (1 +- 1e-6)`` (``nearby(omega)``: rebuilt, or a cheaper copy whose residual differs
+    by ``O(d^2)``, e.g. MS-HBM's with its sparse condensation moved by its exact slope); what frequency
+    continuation needs besides ``J``.
     Where a difference crosses a change of the orbit's event sequence (``event_signature``), the
     one-sided difference on the side of the same sequence is taken.
 ``solution_parts(x) -> dict``
