@@ -513,9 +513,8 @@ def _run(route, system, lam_start, lam_end, method, period, parameter, omega_fix
         if "bracket" in f:
             rec["bracket"] = f["bracket"]
         folds.append(rec)
-    with reuse_factors(reuse):  # the bisections of a grazing solve at frequencies between the branch's points
-        others, note = ([], "") if not branch.points else _detect_other(
-            branch, system, _grazing_locator(tracer, system, tol) if parameter == "omega" else None)
+    others, note = ([], "") if not branch.points else _detect_other(
+        branch, system, _grazing_locator(tracer, system, tol) if parameter == "omega" else None)
     branch.bifurcations = sorted(folds + [dict(b) for b in others], key=lambda b: b.get("index", 0))
     branch.success = bool(res.success)
     branch.message = res.message + (f"; {note}" if note else "")
