@@ -257,8 +257,6 @@ class Condensation:
                     f"{name} is singular at harmonic k={k} (k*omega={w:.6g}, rcond~{self.rcond[k]:.1e})", k=k)
             if reuse is not None and solve_k is not None:
                 reuse.keep(key, k, w, solve_k, self.rcond[k])
-            if reuse is not None and band is None:
-                reuse.solved[(key, k)] = (w, sol)
             self.z[k] = sol[:, 0]
             self.Z[k] = sol[:, 1:]
             self.T[k] = H_RE @ self.Z[k]

@@ -24,10 +24,6 @@ class FactorReuse:
 
         X_0 = H_ref^-1 B,    X_{i+1} = H_ref^-1 (B - dH X_i),    dH = (w_ref^2 - w^2) M_EE + i (w - w_ref) C_EE
 
-    (``X_0``: the solution of the last condensation of that harmonic instead, when its frequency is nearer to
-    ``w`` than ``w_ref``: a continuation's corrector moves omega far less than the distance to the kept LU, and
-    the iteration then starts within that small move of the answer and needs fewer solves).
-
     ``dH`` is formed from ``M_EE`` and ``C_EE`` alone, never as the difference of two dynamic stiffnesses, and
     the residual ``B - H X`` is never formed: on a fine mesh ``K_EE`` is so much stiffer than the low modes
     that rounding in ``H X`` is amplified by ``cond(H_EE)`` (a classical refinement step moves ``T`` far
@@ -62,7 +58,6 @@ class FactorReuse:
         self.refactor_after = int(refactor_after)
         self.noise = float(noise)
         self.kept = {}
-        self.solved = {}  # (key, k) -> (w, X) of the last solve: the start of the next refinement
         self.counters = {"factorisations": 0, "refined": 0, "refine_iterations": 0, "refine_failures": 0}
 
     def keep(self, key, k, w, solve, rcond):
@@ -78,11 +73,8 @@ class FactorReuse:
             return None
         w_ref, solve, rcond = entry
         B = np.asarray(B, dtype=complex)
-        near = self.solved.get((key, int(k)))
-        if w != w_ref and near is not None and abs(w - near[0]) < abs(w - w_ref) and near[1].shape == B.shape:
-            X, its = near[1], 0  # start from the solution at the nearest frequency solved so far
-        else:
-            X, its = solve(B), 1
+        X = solve(B)
+        its = 1
         if w != w_ref:
             dH = sp.csr_matrix((w_ref ** 2 - w ** 2) * sp.csr_matrix(M, dtype=complex)
                                + (1j * (w - w_ref)) * sp.csr_matrix(C, dtype=complex))
