@@ -7,16 +7,13 @@ harmonic by harmonic with one LU factorisation each.
 """
 from __future__ import annotations
 
-import contextlib
-import contextvars
-import math
-
 import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ._lapack import lu_solve_batch
+from .factor_reuse import _REUSE, FactorReuse, reuse_factors
 from .fourier import real_block, to_complex
 
 __all__ = ["dynamic_stiffness", "dynamic_stiffness_stack", "permuted_blocks", "Condensation", "SingularHarmonicError", "Banded",
@@ -36,114 +33,6 @@ class SingularHarmonicError(ArithmeticError):
         super().__init__(message)
         self.k = None if k is None else int(k)
 
-
-
-class FactorReuse:
-    """Sparse LU factorisations of ``H_EE(k omega)`` kept for condensations at nearby frequencies.
-
-    Inside ``with reuse_factors() as reuse:`` every sparse :class:`Condensation` (SuperLU path) first solves
-    ``H_EE(w) X = B`` (``w = k omega``; ``B = [F_E, H_ER]``, shape ``(n_E, n_R + 1)``) with the LU of
-    ``H_EE(w_ref)`` kept from an earlier condensation of the same system (its matrices, by identity), DOF
-    split and harmonic, by the splitting iteration::
-
-        X_0 = H_ref^-1 B,    X_{i+1} = H_ref^-1 (B - dH X_i),    dH = (w_ref^2 - w^2) M_EE + i (w - w_ref) C_EE
-
-    ``dH`` is formed from ``M_EE`` and ``C_EE`` alone, never as the difference of two dynamic stiffnesses, and
-    the residual ``B - H X`` is never formed: on a fine mesh ``K_EE`` is so much stiffer than the low modes
-    that rounding in ``H X`` is amplified by ``cond(H_EE)`` (a classical refinement step moves ``T`` far
-    more than the difference between two LUs with different pivoting).
-    The iteration converges when the spectral radius of ``H_ref^-1 dH`` is below 1: for ``|omega -
-    omega_ref|`` small against the distance (in the damping's units) from ``k omega`` to the nearest
-    eigenfrequency of ``E``, e.g. the ``omega +- 1e-6 omega`` of a finite-difference ``dR/domega``, the
-    corrector iterations of a continuation step, and always at ``k = 0``.  A solve is accepted when the
-    last correction is at most ``rtol`` of ``X`` column by column (the error left is then about
-    ``rtol rho / (1 - rho)``, ``rho <= contraction``), or when the corrections stopped shrinking below
-    ``noise`` (the rounding level of ``H_ref^-1 dH X``, which grows with ``|dH|``); otherwise, after ``max_iter`` iterations, a correction that shrank by less than
-    ``contraction`` above ``noise``, or as soon as the observed contraction predicts more than ``max_iter``
-    iterations to reach ``noise``, the condensation factorises afresh and that factorisation replaces the
-    kept one.  A solve accepted after more than ``refactor_after`` iterations drops its kept LU, so the
-    next condensation of that harmonic factorises afresh near its own frequency (on a large mesh one LU
-    costs as much as many solves).
-
-    Why it matters beyond speed: the condensation of an ill-conditioned ``H_EE`` is accurate only to
-    ``~cond(H_EE) eps``, and a fresh LU at each ``omega``
-    puts a *different* rounding error there, so ``R(x, omega)`` jumps at that level when ``omega`` moves by
-    any amount: a central difference ``dR/domega`` over ``omega (1 +- 1e-6)`` is then noise of order one,
-    and a continuation corrector (whose ``omega`` moves every iteration) stalls above its tolerance.  With
-    one kept LU the condensation is a smooth (rational) function of ``omega``.
-
-    Counters (``counters``): ``factorisations`` kept, ``refined`` solves accepted, ``refine_iterations``
-    (LU solves in them), ``refine_failures``.  The banded and dense paths (``O(n_E)`` or small ``n_E``)
-    factorise as before.
-    """
-
-    def __init__(self, rtol=1e-13, max_iter=40, contraction=0.7, noise=1e-10, refactor_after=20):
-        self.rtol, self.max_iter, self.contraction = float(rtol), int(max_iter), float(contraction)
-        self.refactor_after = int(refactor_after)
-        self.noise = float(noise)
-        self.kept = {}
-        self.counters = {"factorisations": 0, "refined": 0, "refine_iterations": 0, "refine_failures": 0}
-
-    def keep(self, key, k, w, solve, rcond):
-        """Keep the solver ``solve(B) -> H_EE(w)^-1 B`` of harmonic ``k`` (``w = k omega``) of ``key``."""
-        self.kept[(key, int(k))] = (float(w), solve, float(rcond))
-        self.counters["factorisations"] += 1
-
-    def refine(self, key, k, w, M, C, B):
-        """``(X, rcond_ref)`` with ``H_EE(w) X = B`` by the splitting iteration above (``M, C``: the sparse
-        ``M_EE, C_EE``), or ``None`` (no kept LU, or no convergence)."""
-        entry = self.kept.get((key, int(k)))
-        if entry is None:
-            return None
-        w_ref, solve, rcond = entry
-        B = np.asarray(B, dtype=complex)
-        X = solve(B)
-        its = 1
-        if w != w_ref:
-            dH = sp.csr_matrix((w_ref ** 2 - w ** 2) * sp.csr_matrix(M, dtype=complex)
-                               + (1j * (w - w_ref)) * sp.csr_matrix(C, dtype=complex))
-            last = None
-            while True:
-                Xn = solve(B - dH @ X)
-                its += 1
-                corr = np.max(np.abs(Xn - X), axis=0)
-                size = np.max(np.abs(Xn), axis=0)
-                X = Xn
-                c = float(np.max(corr / np.maximum(size, 1e-300)))
-                if np.all(corr <= self.rtol * size):
-                    break
-                stalled = last is not None and c > self.contraction * last
-                if stalled and c <= self.noise:
-                    break  # the corrections stopped shrinking at rounding level: converged
-                # the iterations still needed to reach the rounding level at the observed contraction
-                hopeless = last is not None and not stalled and c > self.noise and \
-                    its + math.log(self.noise / c) / math.log(c / last) > self.max_iter
-                if not np.isfinite(c) or its > self.max_iter or stalled or hopeless:
-                    self.counters["refine_iterations"] += its
-                    self.counters["refine_failures"] += 1
-                    return None
-                last = c
-        if not np.all(np.isfinite(X)):
-            return None
-        if its > self.refactor_after:  # slow: the next condensation of this harmonic factorises afresh
-            del self.kept[(key, int(k))]
-        self.counters["refined"] += 1
-        self.counters["refine_iterations"] += its
-        return X, rcond
-
-
-_REUSE = contextvars.ContextVar("mshbm_condensation_reuse", default=None)
-
-
-@contextlib.contextmanager
-def reuse_factors(reuse=None):
-    """Context in which sparse condensations reuse kept factorisations (:class:`FactorReuse`); yields it."""
-    reuse = FactorReuse() if reuse is None else reuse
-    token = _REUSE.set(reuse)
-    try:
-        yield reuse
-    finally:
-        _REUSE.reset(token)
 
 
 def dynamic_stiffness(M, C, K, k_omega):
@@ -322,6 +211,7 @@ class Condensation:
         for mat, A in (("M", M), ("C", C), ("K", K)):
             blocks[mat] = (_sub(A, self.elim, self.elim), _sub(A, self.elim, self.keep),
                             _sub(A, self.keep, self.elim))
+        self._sparse = (float(omega), blocks)  # for omega_slope
         # banded H_EE (chains, beams): LAPACK band LU, O(n_E) a harmonic; else one sparse LU a harmonic
         band = Banded.build(*(blocks[a][0] for a in "MCK"))
         reuse = _REUSE.get()
@@ -371,6 +261,57 @@ class Condensation:
             self.Z[k] = sol[:, 1:]
             self.T[k] = H_RE @ self.Z[k]
             self.g[k] = H_RE @ self.z[k]
+
+    def omega_slope(self):
+        """``(dT/domega, dg/domega)`` (shapes of ``T`` and ``g``) of the sparse path, from ``Z`` and ``z`` alone;
+        ``None`` on the dense path or where ``M, C, K`` are not symmetric.
+
+        With ``H' = dH/dw = -2 w M + i C`` at ``w = k omega`` and ``d(H_EE^-1) = -H_EE^-1 H_EE' H_EE^-1``::
+
+            dT_k/domega = k (H_RE' Z_k + Z_k^T H_ER' - Z_k^T H_EE' Z_k),
+            dg_k/domega = k (H_RE' z_k - Z_k^T H_EE' z_k)
+
+        (``F`` does not depend on omega), where ``H_RE H_EE^-1 = Z^T`` because symmetric ``M, C, K`` make
+        ``H_EE`` complex symmetric and ``H_RE = H_ER^T``: no solve with ``H_EE``, only sparse products.
+        The finite difference of two condensations at ``omega +- d`` costs two condensations and carries
+        their rounding divided by ``d``."""
+        if getattr(self, "_sparse", None) is None:
+            return None
+        omega, blocks = self._sparse
+        if "_slope" not in self.__dict__:
+            same = lambda A, B: sp.csr_matrix(A - B).count_nonzero() == 0
+            sym = all(same(blocks[a][0], blocks[a][0].T) and same(blocks[a][1], blocks[a][2].T) for a in "MCK")
+            if not sym:
+                self._slope = None
+                return None
+            (M_EE, M_ER, M_RE), (C_EE, C_ER, C_RE) = blocks["M"], blocks["C"]
+            dT, dg = np.zeros_like(self.T), np.zeros_like(self.g)
+            for k in range(1, self.T.shape[0]):  # k = 0: H does not depend on omega
+                w = k * omega
+                d = lambda Mb, Cb: sp.csr_matrix(-2.0 * w * Mb, dtype=complex) + 1j * sp.csr_matrix(Cb, dtype=complex)
+                Z, z = self.Z[k], self.z[k]
+                dEE_Z = d(M_EE, C_EE) @ np.column_stack([Z, z])
+                dRE = d(M_RE, C_RE)
+                dT[k] = k * (dRE @ Z + (d(M_ER, C_ER).T @ Z).T - Z.T @ dEE_Z[:, :-1])
+                dg[k] = k * (dRE @ z - Z.T @ dEE_Z[:, -1])
+            self._slope = (dT, dg)
+        return self._slope
+
+    def shifted(self, d_omega):
+        """A copy of the sparse path's condensation at ``omega + d_omega`` to first order in ``d_omega``
+        (:meth:`omega_slope`; error ``O(d_omega^2)``): ``T`` and ``g`` only, for residuals at ``omega +- d``
+        of a finite-difference ``dR/domega`` (``z``, ``Z`` are not shifted and are left out); ``None`` where
+        :meth:`omega_slope` is ``None``."""
+        slope = self.omega_slope()
+        if slope is None:
+            return None
+        out = object.__new__(type(self))
+        out.keep, out.elim, out.F, out.H_RR, out.rcond = self.keep, self.elim, self.F, self.H_RR, self.rcond
+        out.z = out.Z = None
+        out.T = self.T + d_omega * slope[0]
+        out.g = self.g + d_omega * slope[1]
+        out._sparse = None
+        return out
 
     def _dense(self, system, F, omega, n_h, rcond_min, name):
         """The dense path (``n_E <= 400`` or dense matrices): the blocks of all harmonics at once,

@@ -97,6 +97,23 @@ def test_pyharm_timeout_string():
     assert bps._timeout_str(90061) == "01:01:01:01"
 
 
+def test_pyharm_budget_is_ten_times_the_twin_within_bounds():
+    assert bps.pyharm_budget("default", 3.79) == pytest.approx(37.9)  # ten times our same-law branch
+    assert bps.pyharm_budget("default", 0.4) == 10.0                 # at least PYHARM_BUDGET_MIN
+    assert bps.pyharm_budget("default", 7.0) == 60.0                 # at most PYHARM_BUDGET
+    assert bps.pyharm_budget("default", None) == 60.0                # no twin time: the cap
+    assert bps.pyharm_budget("quick", 3.79) == 20.0
+    assert bps.pyharm_budget("full", 3.79) == 300.0                  # full: fixed
+
+
+def test_reach_fraction_is_where_the_branch_first_nears_its_end():
+    # 10 points; the largest omega 1.0 first approached (to 1e-4) at index 3: 3 / 10 of the points passed before
+    w = [0.5, 0.8, 0.99, 0.99995, 1.0, 0.99999, 1.0, 1.0, 0.99996, 1.0]
+    assert bps.reach_fraction(w) == pytest.approx(0.3)
+    assert bps.reach_fraction([0.5, 0.6, 0.7]) == pytest.approx(2 / 3)
+    assert bps.reach_fraction([]) is None
+
+
 def test_specs_follow_the_workflow_branches():
     """Our runs of the default profile are the workflow's Fig. 9 branches (config `branches`): the same
     omega ranges, the same method options and max_points; every same-law pair names existing runs."""

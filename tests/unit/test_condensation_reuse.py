@@ -116,3 +116,63 @@ def test_reused_condensation_is_smooth_in_omega():
             d.append((Tp - Tm) / (2 * h * omega))
     assert np.max(np.abs(d[0])) > 0
     assert _close(d[1], d[0], 1e-6)
+
+
+def test_omega_slope_is_the_derivative_of_T_and_g():
+    """:meth:`Condensation.omega_slope` (sparse path, symmetric M, C, K; from Z and z alone) against central
+    differences of reused condensations: the difference at h converges to it like h^2 (each tenth of h shrinks the
+    gap by ~100, measured 5.9e-3, 5.9e-5, 5.9e-7 at h = 1e-3, 1e-4, 1e-5); dT and dg are zero at k = 0."""
+    s = _grid()
+    keep, elim = _split(s)
+    n_h, omega = 2, 0.37 * np.sqrt(1.0e4)
+    with reuse_factors():
+        c = Condensation(s, omega, n_h, keep, elim)
+        dT, dg = c.omega_slope()
+        assert np.all(dT[0] == 0) and np.all(dg[0] == 0)
+        gaps = []
+        for h in (1e-3, 1e-4, 1e-5):
+            cp = Condensation(s, omega * (1 + h), n_h, keep, elim)
+            cm = Condensation(s, omega * (1 - h), n_h, keep, elim)
+            fT, fg = (cp.T - cm.T) / (2 * h * omega), (cp.g - cm.g) / (2 * h * omega)
+            gaps.append(max(float(np.max(np.abs(fT[k] - dT[k])) / np.max(np.abs(dT[k]))) for k in (1, 2)))
+            assert _close(fg[1:], dg[1:], 1e-5)
+    assert gaps[2] < 1e-6
+    assert all(0.005 < b / a < 0.02 for a, b in zip(gaps, gaps[1:]))  # h^2: the slope is the derivative
+    # shifted: T and g to first order, z and Z left out
+    d = 1e-6 * omega
+    sh = c.shifted(d)
+    assert sh.z is None and sh.Z is None and sh.shifted(d) is None
+    assert np.array_equal(sh.T, c.T + d * dT) and np.array_equal(sh.g, c.g + d * dg)
+
+
+def test_omega_slope_is_none_where_it_does_not_apply():
+    """The dense path (few eliminated DOFs) and a non-symmetric C have no slope (H_RE H_EE^-1 = Z^T fails)."""
+    s = _grid(nx=10, ny=10)
+    keep, elim = _split(s)
+    assert Condensation(s, 30.0, 1, keep, elim).omega_slope() is None  # n_E < 400: dense
+    s = _grid()
+    keep, elim = _split(s)
+    C = s.C.tolil()
+    C[0, 1] += 1e-12  # symmetric to 3e-13 (accepted by System), not exactly
+    s2 = System(s.M, C.tocsr(), s.K, np.zeros((3, s.n)))
+    assert Condensation(s2, 30.0, 1, keep, elim).omega_slope() is None
+
+
+def test_mixed_problem_nearby_gives_the_rebuilt_omega_derivative():
+    """MS-HBM's dR/domega from problems whose condensation is shifted to first order (``nearby``) equals the
+    one from fully rebuilt problems to the rounding of the difference (sparse 576-DOF grid, a friction
+    element on the forced corner)."""
+    import mshbm
+
+    s0 = _grid()
+    n = s0.n
+    s = System(s0.M, s0.C, s0.K, s0.forcing_hat(1), elements=[mshbm.Friction(dof=n - 1, mu=0.5, normal_force=1e-3)])
+    omega = 0.37 * np.sqrt(1.0e4)
+    with reuse_factors():
+        p, _ = mshbm.build_problem(s, omega, "mshbm", harmonics=3, steps=256)
+        x = p.initial_guess("linear")
+        new = p.omega_derivative(x)
+        p.nearby = p.rebuilt  # the fully rebuilt problems
+        old = p.omega_derivative(x)
+    assert np.max(np.abs(new)) > 0
+    assert _close(new, old, 1e-6)

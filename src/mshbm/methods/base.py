@@ -28,7 +28,9 @@ Contract (every subclass)
 ``omega_derivative(x) -> dR/domega``
     Shape ``(n_x,)``, at fixed unknowns (their meaning does not change with omega: coefficients, or
     states at ``t = 0`` with a fixed number of steps per period).  Default: central differences of
-    problems rebuilt at ``omega (1 +- 1e-6)``; what frequency continuation needs besides ``J``.
+    problems at ``omega (1 +- 1e-6)`` (``nearby(omega)``: rebuilt, or a cheaper copy whose residual differs
+    by ``O(d^2)``, e.g. MS-HBM's with its sparse condensation moved by its exact slope); what frequency
+    continuation needs besides ``J``.
     Where a difference crosses a change of the orbit's event sequence (``event_signature``), the
     one-sided difference on the side of the same sequence is taken.
 ``solution_parts(x) -> dict``
@@ -273,7 +275,7 @@ class PeriodicProblem:
         s0 = self.event_signature(x)
         d = rel_step * self.omega
         for _ in range(4):
-            pp, pm = self.rebuilt(self.omega + d), self.rebuilt(self.omega - d)
+            pp, pm = self.nearby(self.omega + d), self.nearby(self.omega - d)
             Rp = pp.residual(x, jac=False)[0]
             Rm = pm.residual(x, jac=False)[0]
             if s0 is None:
@@ -295,6 +297,12 @@ class PeriodicProblem:
     def rebuilt(self, omega):
         """The same problem (system, options) at another frequency."""
         return type(self)(self.system, float(omega), **self.build_options)
+
+    def nearby(self, omega):
+        """The problem at a frequency ``omega`` a finite-difference step away, for :meth:`omega_derivative`:
+        :meth:`rebuilt`, or a cheaper copy whose residual differs from the rebuilt one's by
+        ``O((omega - self.omega)^2)`` (which a central difference cancels)."""
+        return self.rebuilt(omega)
 
     # ------------------------------------------------------------------ optional capabilities
     def homotopy(self):

@@ -243,7 +243,7 @@ class MixedProblem(_MixedBase):
     # --
 
     def __init__(self, system, omega, harmonics, steps, theta=0.5, jacobian="exact", partition=None,
-                 project=True, integrator="moreau", accumulation="moreau"):
+                 project=True, integrator="moreau", accumulation="moreau", condensation=None):
         self.system, self.omega, self.n_h = system, float(omega), int(harmonics)
         self.jacobian = jacobian
         n = system.n
@@ -253,7 +253,9 @@ class MixedProblem(_MixedBase):
             raise InputError(key, "the nonlinear subsystem is empty: the system has no friction or contact "
                              "element (use 'hbm', or give partition=[dofs] to integrate some DOFs in time)")
         self.Ld = complement(n, self.Nd)
-        if partition is None:
+        if condensation is not None:  # given (nearby): its split of the DOFs
+            self.cond, self.Nd, self.Ld = condensation, condensation.keep, condensation.elim
+        elif partition is None:
             # a resonance of L (k omega an eigenfrequency of L with N clamped): its DOFs are integrated with N
             # instead of condensed (mshbm.condensation.condense_around_resonances)
             self.cond, self.Nd, self.Ld, moved = condense_around_resonances(system, omega, self.n_h, self.Nd, self.Ld)
@@ -268,6 +270,19 @@ class MixedProblem(_MixedBase):
         self.nN = self.Nd.size
         self.nc = 2 * self.n_h + 1
         self._time, self._harm, self._cond_dofs = self.Nd, self.Nd, self.Ld
+
+    def nearby(self, omega):
+        """The problem at ``omega`` a finite-difference step away with the condensation of ``L`` moved to
+        ``omega`` to first order (:meth:`mshbm.condensation.Condensation.shifted`, the exact slope of ``T`` and
+        ``g``): on a large sparse ``L`` a condensation costs several LU solves per harmonic and the integrator
+        of ``N`` almost nothing, and the difference to :meth:`rebuilt` is ``O((omega - self.omega)^2)``.
+        :meth:`rebuilt` where the condensation has no slope (the dense path, which is cheap)."""
+        cond = self.cond.shifted(float(omega) - self.omega)
+        if cond is None:
+            return self.rebuilt(omega)
+        p = type(self)(self.system, float(omega), **{**self.build_options, "condensation": cond})
+        p.notes = self.notes
+        return p
 
     # the mixed residual (27): harmonic-balance rows of N are the connectivity q_hat_N - FFT(q_N)
     _force_rows = False
@@ -371,7 +386,7 @@ class IntermediateProblem(_MixedBase):
     force_row_unknowns = property(lambda self: self.nc * self.n2)  # solve-route capability (mshbm.methods.base)
 
     def __init__(self, system, omega, harmonics, steps, theta=0.5, jacobian="exact", partition=None,
-                 project=True, integrator="moreau", accumulation="moreau"):
+                 project=True, integrator="moreau", accumulation="moreau", condensation=None):
         self.system, self.omega, self.n_h = system, float(omega), int(harmonics)
         self.jacobian = jacobian
         n = system.n

@@ -370,12 +370,22 @@ def numbers(wp, other, digest):
                pyharm_newton_speedup_min=min(ps["speedups_newton_only"]) if ps.get("speedups_newton_only") else None)
     sw = other.get("pyharm_sweep") or {}  # branch tracing against pyHarm's continuation
     num["pyharm_sweep_available"] = sw.get("status") in ("ok", "partial")
+    budget = (sw.get("settings") or {}).get("pyharm_cpu_budget_s")  # a number in older files: one fixed budget
+    budget = budget if isinstance(budget, dict) else {"max": budget, "factor_of_twin": None, "min": None}
+    num.update(sweep_pyharm_budget_factor=budget.get("factor_of_twin"), sweep_pyharm_budget_min_s=budget.get("min"),
+               sweep_pyharm_budget_max_s=budget.get("max"))
+    spent = [r.get("reach_fraction") for s in ((sw.get("summary") or {}).get("per_system") or {}).values()
+             for r in (s.get("branches") or {}).values() if str(r.get("stop", "")).startswith("CPU-time budget")]
+    # the largest fraction of its points a budget-limited pyHarm run had passed when it first came within 1e-4
+    # of the omega where it ended (0: no run spent its budget; None: not recorded)
+    num["sweep_pyharm_budget_reach_fraction"] = (max(spent) if spent and None not in spent else
+                                                 (0.0 if not spent else None))
     for system, s in ((sw.get("summary") or {}).get("per_system") or {}).items():
         for name, r in (s.get("branches") or {}).items():
             key = f"sweep_{system}_{re.sub(r'[^A-Za-z0-9]+', '_', name)}"  # e.g. sweep_impact5_pyharm_penalty_ours
             num.update({f"{key}_time_s": r.get("wall_time_s"), f"{key}_cpu_s": r.get("cpu_time_s"),
                         f"{key}_points": r.get("points"),
-                        f"{key}_omega_reached": r.get("omega_reached")})
+                        f"{key}_omega_reached": r.get("omega_reached"), f"{key}_budget_s": r.get("cpu_budget_s")})
     sp = (other.get("scipy") or {}).get("summary", {})
     num.update(scipy_median_speedup=sp.get("median_speedup"), scipy_min_speedup=sp.get("min_speedup"))
     return num
