@@ -52,7 +52,7 @@ import time
 import numpy as np
 
 from .arclength_parts import (ContinuationPoint, ContinuationResult, Evaluator, Failed, backtrack, bordered_solve,
-                              locate_fold, orientation, stall_folds, tangent)
+                              free_directions, locate_fold, orientation, stall_folds, tangent)
 
 #: a step whose tangents at its ends have ``|cos| <`` this is taken as a kink of the branch (see ``continuation``)
 KINK_COS = 0.9
@@ -174,8 +174,9 @@ class _Trace:
     def stalled(self, x, lam):
         return self.stall_accept(x, lam) if self.stall_accept is not None else None
 
-    def newton_fixed(self, x, lam, allow_stall=True, max_iter=None):
-        """Newton at fixed ``lam`` (the start and the end point); returns (x, it, r, data, stall)."""
+    def newton_fixed(self, x, lam, allow_stall=True, max_iter=None, free=None):
+        """Newton at fixed ``lam`` (the start and the end point); returns (x, it, r, data, stall).  ``free``:
+        the free directions of the point ``x`` comes from, in physical units (rows ``F / w``), held fixed."""
         ev, tol = self.ev, self.tol
         best = None
         max_iter = self.max_corrector_iter if max_iter is None else max_iter
@@ -187,7 +188,7 @@ class _Trace:
                 return x, it, r, (R, s, J, g), None
             if it == max_iter:
                 break
-            dx = bordered_solve(J / s[:, None], -R / s)
+            dx = bordered_solve(J / s[:, None], -R / s, free=free)
             xn, ok = backtrack(lambda xx: ev(xx, lam, jac=False)[2], x, dx, r)
             if not ok:
                 break
@@ -197,8 +198,9 @@ class _Trace:
             return best + (info,)
         raise Failed(f"Newton at fixed parameter {lam:.6g} did not converge (||R/s|| = {r:.2e})")
 
-    def corrector(self, xp, lp, t, w, ds):
-        """Bordered Newton from the predictor ``(xp, lp)`` on the hyperplane orthogonal to ``t``."""
+    def corrector(self, xp, lp, t, w, ds, free=None):
+        """Bordered Newton from the predictor ``(xp, lp)`` on the hyperplane orthogonal to ``t``; ``free``: the
+        free directions (scaled) of the point the step comes from, held fixed (minimum-norm corrections)."""
         ev, tol, lsc, lam0, ds0 = self.ev, self.tol, self.lsc, self.lam0, self.ds0
         max_corrector_iter, max_jump = self.max_corrector_iter, self.max_jump
         x, lam = xp.copy(), lp
@@ -222,7 +224,7 @@ class _Trace:
             A[:-1, :-1] = (J * w[None, :]) / s[:, None]
             A[:-1, -1] = g * lsc / s
             A[-1, :-1], A[-1, -1] = ty, tm
-            z = bordered_solve(A, -np.concatenate([R / s, [c]]))
+            z = bordered_solve(A, -np.concatenate([R / s, [c]]), free=free)
             dx, dl = z[:-1] * w, z[-1] * lsc
             a, accepted = 1.0, False
             for _ in range(8):  # backtracking on the scaled residual
@@ -240,7 +242,8 @@ class _Trace:
             # the bordered iteration stalled: polish at the parameter reached (a natural-parameter Newton
             # on x alone often finds the root that the joint line search misses), else accept the stall
             try:
-                xf, itf, rf, dataf, _ = self.newton_fixed(best[0], best[1], allow_stall=False)
+                xf, itf, rf, dataf, _ = self.newton_fixed(best[0], best[1], allow_stall=False,
+                                                          free=None if free is None else free / w[None, :])
                 if float(np.linalg.norm((xf - best[0]) / w)) <= 0.5 * max(ds, ds0):  # the same root, not another
                     return xf, best[1], best[2] + itf, rf, dataf, None
             except Failed:
@@ -255,11 +258,21 @@ class _Trace:
         R, s, J, g = data
         lsc, segment = self.lsc, self.segment
         w = np.asarray(self.unknown_scale(x, lam), dtype=float)
-        t = tangent(J, g, s, w, lsc, previous=prev_t)
+        free = free_directions(J, g, s, w, lsc)
+        t = tangent(J, g, s, w, lsc, previous=prev_t, free=free)
         seg = segment(x, lam) if segment is not None and stall is None else None
+        if free is not None:
+            self.counters["free_points"] = self.counters.get("free_points", 0) + 1
+            self.counters["free_dimension"] = max(self.counters.get("free_dimension", 0), int(free.shape[0]))
         return ContinuationPoint(x=x, lam=float(lam), dx=t[:-1] * w, dlam=float(t[-1] * lsc), iterations=it,
-                                 ds=ds, residual=r, stall=stall, segment=seg,
-                                 orientation=orientation(J, g, s, w, lsc, t) if seg is not None else 0), t, w
+                                 ds=ds, residual=r, stall=stall, segment=seg, free=free,
+                                 orientation=orientation(J, g, s, w, lsc, t) if seg is not None and free is None
+                                 else 0), t, w
+
+    @staticmethod
+    def free_units(p, w):
+        """The free directions of point ``p`` as rows on the physical unknowns (``F / w``), or None."""
+        return None if p.free is None else p.free / w[None, :]
 
     def scaled_t(self, p, w):
         t = np.concatenate([p.dx / w, [p.dlam / self.lsc]])
@@ -275,7 +288,13 @@ class _Trace:
             if nd > 0 and float(d @ t) > 0:
                 t = d / nd
         xp, lp = p.x + ds * t[:-1] * w, p.lam + ds * t[-1] * lsc
-        return self.corrector(xp, lp, t, w, ds), t
+        if p.free is None:
+            return self.corrector(xp, lp, t, w, ds), t
+        try:
+            return self.corrector(xp, lp, t, w, ds, free=p.free), t
+        except Failed:
+            # the step left the family (a stuck element starts to slip: its offset is no longer free)
+            return self.corrector(xp, lp, t, w, ds), t
 
     def judged(self, q, what="point rejected", detail=True):
         """``q`` with the payload of ``accept`` (none without it); :class:`Failed` when it rejects ``q`` (its
@@ -311,7 +330,8 @@ class _Trace:
                 lam_n = lam_end
             try:
                 x, it, r, data, _ = self.newton_fixed(p.x, lam_n, allow_stall=False,
-                                                      max_iter=2 * self.max_corrector_iter)
+                                                      max_iter=2 * self.max_corrector_iter,
+                                                      free=self.free_units(p, w))
             except Failed as exc:
                 last = str(exc)
                 continue
@@ -336,12 +356,38 @@ class _Trace:
             return q
         raise Failed(last)
 
+    def near_family(self, back=4):
+        """A point among the last ``back`` has free directions (:func:`free_directions`)."""
+        return any(p.free is not None for p in self.points[-back:])
+
+    def family_step(self, p, w):
+        """A step at fixed ``lam`` onwards (by the ``lam`` part of ``min(ds, ds0)`` along the tangent, at least ``KINK_STEPS[0]``, in the direction of travel) where the branch would turn
+        back next to a family of solutions (a stuck element: its offset is free inside an interval that
+        shrinks as the amplitude grows).  The arclength corrector follows the family's edge, and where the
+        interval closes its tangent turns into the other edge, back in ``lam``: a corner of the solution set,
+        not a fold.  Newton at fixed ``lam`` from ``p`` (no free directions held) continues on the branch
+        beyond (slip); the point is oriented onwards and the corner recorded as a kink (``"family": True``)."""
+        sgn = 1.0 if p.dlam > 0 else -1.0 if p.dlam < 0 else self.direction
+        lam_n = p.lam + sgn * max(min(self.ds, self.ds0) * abs(self.scaled_t(p, w)[-1]), KINK_STEPS[0]) * self.lsc
+        if (lam_n - self.lam_end) * self.direction > 0 and (p.lam - self.lam_end) * self.direction < 0:
+            lam_n = self.lam_end
+        x, it, r, data, st = self.newton_fixed(p.x, lam_n, allow_stall=False, max_iter=2 * self.max_corrector_iter)
+        q, _, _ = self.make_point(x, lam_n, it, r, data, self.ds, self.scaled_t(p, w), st)
+        if q.dlam * sgn < 0:
+            q.dx, q.dlam, q.orientation = -q.dx, -q.dlam, -q.orientation
+        self.judged(q)
+        self.kinks.append({"lam": float(p.lam), "lam_right": float(lam_n), "index": len(self.points),
+                           "fixed_lam": True, "family": True})
+        self.counters["family_steps"] = self.counters.get("family_steps", 0) + 1
+        return q
+
     def finish_at_end(self, p, q):
         """Solve at ``lam_end`` from the interpolation between points ``p`` and ``q`` that bracket it."""
         lam_end = self.lam_end
         a = (lam_end - p.lam) / (q.lam - p.lam)
         xg = p.x + a * (q.x - p.x)
-        x, it, r, data, st = self.newton_fixed(xg, lam_end)
+        x, it, r, data, st = self.newton_fixed(
+            xg, lam_end, free=self.free_units(q, np.asarray(self.unknown_scale(q.x, q.lam), dtype=float)))
         w = np.asarray(self.unknown_scale(x, lam_end), dtype=float)
         pt, _, _ = self.make_point(x, lam_end, it, r, data, q.ds, self.scaled_t(q, w), st)
         return pt
@@ -356,7 +402,7 @@ class _Trace:
             lam_n = p.lam + direction * natural
             if (lam_n - lam_end) * direction > 0:
                 lam_n = lam_end
-            x, it, r, data, st = self.newton_fixed(p.x, lam_n)
+            x, it, r, data, st = self.newton_fixed(p.x, lam_n, free=self.free_units(p, w))
             q, _, _ = self.make_point(x, lam_n, it, r, data, natural / lsc, self.scaled_t(p, w), st)
             q.dx, q.dlam = (x - p.x) / (natural / lsc), direction * lsc  # secant, not the (useless) tangent
             self.judged(q)
@@ -400,6 +446,8 @@ class _Trace:
         else:
             kink = None
         moved = np.concatenate([(x - p.x) / w, [(lam - p.lam) / lsc]])  # the step in scaled units
+        if p.free is not None:  # a move within the family of a stuck element is no jump
+            moved[:-1] -= p.free.T @ (p.free @ moved[:-1])
         dist = float(np.linalg.norm(moved))
         if p.segment is not None and st is None and float(self.scaled_t(p, w) @ moved) < 0.1 * ds:
             # a corrector polished at fixed lam (see ``corrector``) can return to p itself (at a corner
@@ -505,6 +553,8 @@ class _Trace:
                 continue
             try:
                 q, it, kink = self.arclength_step(p, w)
+                if p.dlam * q.dlam <= 0 and self.near_family():
+                    q, it, kink = self.family_step(p, w), 0, None
             except Failed as exc:
                 if self.failed_step(p, w, exc):
                     break
