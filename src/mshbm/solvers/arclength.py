@@ -56,6 +56,8 @@ from .arclength_parts import (ContinuationPoint, ContinuationResult, Evaluator, 
 
 #: a step whose tangents at its ends have ``|cos| <`` this is taken as a kink of the branch (see ``continuation``)
 KINK_COS = 0.9
+#: the corrector finishes at fixed lam once its scaled residual is below this (see ``_Trace.corrector``)
+POLISH_AT = 1e-6
 #: relative steps in lam tried, in this order, by a step at fixed lam across a kink (``kink_crossing``)
 KINK_STEPS = (1e-3, 1e-4, 1e-5)
 
@@ -212,12 +214,25 @@ class _Trace:
             if abs(lam - lp) > max_jump * max(ds, ds0) * lsc:
                 raise Failed(f"the corrector moved the parameter to {lam:.6g}, more than {max_jump:g} x max(ds, ds0) "
                               "from the predictor (a jump, or a useless dR/dlam)")
+            r_prev = r if it > 0 else np.inf
             R, s, r, J, g = ev(x, lam)
             c = float(ty @ ((x - xp) / w) + tm * (lam - lp) / lsc)
             if np.isfinite(r) and abs(c) <= 1e-8 and (best is None or r < best[3]):
                 best = (x, lam, it, r, (R, s, J, g))
             if r <= tol and abs(c) <= 1e-8:
                 return x, lam, it, r, (R, s, J, g), None
+            if it > 0 and r <= POLISH_AT and r > 1e-3 * r_prev:
+                # the parameter has converged to within the step's accuracy but the bordered iteration no
+                # longer converges quadratically: finish by Newton on x alone at this lam (dR/dlam of a
+                # rebuilt problem carries its rounding, e.g. a condensation's LU, and the bordered
+                # iteration then stalls at that noise; at fixed lam it plays no role)
+                try:
+                    xf, itf, rf, dataf, _ = self.newton_fixed(x, lam, allow_stall=False, max_iter=4,
+                                                              free=None if free is None else free / w[None, :])
+                    if float(np.linalg.norm((xf - x) / w)) <= 0.1 * max(ds, ds0):
+                        return xf, lam, it + itf, rf, dataf, None
+                except Failed:
+                    pass
             if it == max_corrector_iter or not np.isfinite(r):
                 break
             A = np.zeros((x.size + 1, x.size + 1))
