@@ -27,7 +27,8 @@ Algorithm (Keller's pseudo-arclength):
 * corrector: Newton on the bordered system ``[R / s; t . ((y, mu) - predictor)] = 0`` (the
   hyperplane through the predictor orthogonal to ``t``), with backtracking on the scaled residual;
 * step control: ``ds`` grows by ``grow`` after a corrector of at most ``fast_iter`` iterations,
-  shrinks by ``shrink`` after one of more than ``slow_iter``; a failed (or rejected, see ``accept``)
+  shrinks by ``shrink`` after one of more than ``slow_iter``, and grows at most to ``ds max_turn / theta``
+  after a step whose tangent turned by ``theta`` (curvature); a failed (or rejected, see ``accept``)
   corrector halves ``ds`` and retries, down to ``ds_min``;
 * kinks (nonsmooth points of the branch, e.g. a grazing impact: the saltation of an impact at velocity
   ``v`` grows like ``1 / v``, so ``dR/dx`` jumps there and the branch has a corner): where a step passes a
@@ -68,7 +69,7 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
                  ds0=0.02, ds_min=1e-5, ds_max=0.2, max_points=200, tol=1e-10, max_corrector_iter=12,
                  fast_iter=3, slow_iter=7, grow=1.6, shrink=0.5, predictor="tangent", accept=None,
                  callback=None, fold_rtol=1e-3, max_time=None, lam_limits=None, stall_accept=None, max_jump=3.0,
-                 stall_fold_rtol=5e-3, natural_fallback=True, kink_crossing=True, segment=None):
+                 stall_fold_rtol=5e-3, natural_fallback=True, kink_crossing=True, segment=None, max_turn=0.5):
     """Trace the branch of ``R(x, lam) = 0`` from the converged point ``(x0, lam0)`` towards ``lam_end``.
 
     Parameters
@@ -95,6 +96,10 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
         ``accept(x, lam, stall) -> (ok, payload)`` after each converged corrector (e.g. a certificate;
         ``stall`` is what ``stall_accept`` returned, else ``None``); a rejected point counts as a
         failed corrector.  The payload is stored on the point.
+    max_turn : float
+        Largest turn (radians) of the scaled tangent per step: after a step whose tangent turned by ``theta``
+        the step grows at most to ``ds max_turn / theta`` (the curve's curvature, not only the corrector's
+        effort, bounds the growth; it never shrinks the step, which the corrector's effort does; 0 disables).
     max_jump : float
         A corrected point farther than ``max_jump * max(ds, ds0)`` (scaled) from the last point is rejected
         (a jump to another branch) and the step is shortened.  (Not ``ds`` alone: near points accepted at
@@ -145,7 +150,7 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
         max_corrector_iter=max_corrector_iter, fast_iter=fast_iter, slow_iter=slow_iter, grow=grow, shrink=shrink,
         predictor=predictor, accept=accept, callback=callback, fold_rtol=fold_rtol, max_time=max_time,
         stall_accept=stall_accept, max_jump=max_jump, stall_fold_rtol=stall_fold_rtol,
-        natural_fallback=natural_fallback, kink_crossing=kink_crossing, segment=segment))
+        natural_fallback=natural_fallback, kink_crossing=kink_crossing, segment=segment, max_turn=max_turn))
     return trace.run(x0)
 
 
@@ -230,7 +235,10 @@ class _Trace:
                     xf, itf, rf, dataf, _ = self.newton_fixed(x, lam, allow_stall=False, max_iter=4,
                                                               free=None if free is None else free / w[None, :])
                     if float(np.linalg.norm((xf - x) / w)) <= 0.1 * max(ds, ds0):
-                        return xf, lam, it + itf, rf, dataf, None
+                        # the step control counts the polish as one iteration (its steps remove the noise of
+                        # dR/dlam, not the predictor's error); all of them are counted in ``polish_iterations``
+                        self.counters["polish_iterations"] = self.counters.get("polish_iterations", 0) + itf
+                        return xf, lam, it + min(itf, 1), rf, dataf, None
                 except Failed:
                     pass
             if it == max_corrector_iter or not np.isfinite(r):
@@ -595,6 +603,12 @@ class _Trace:
             ds = self.ds
             self.ds = min(ds * self.grow, self.ds_max) if it <= self.fast_iter else (
                 max(ds * self.shrink, self.ds_min) if it > self.slow_iter else ds)
+            if self.max_turn and p.stall is None and q.stall is None and kink is None:
+                # the curve, not only the corrector, limits the step
+                wq = np.asarray(self.unknown_scale(q.x, q.lam), dtype=float)
+                turn = float(np.arccos(np.clip(self.scaled_t(q, wq) @ self.scaled_t(p, wq), -1.0, 1.0)))
+                if turn > 0.0:  # no growth past a turn of max_turn per step (never a shrink: the corrector's effort does)
+                    self.ds = min(self.ds, max(ds, ds * self.max_turn / turn))
         folds = self.folds + stall_folds(points, self.stall_fold_rtol)
         folds.sort(key=lambda f: f["index"])
         self.counters.update(residual_evaluations=self.ev.n_res, parameter_derivatives=self.ev.n_dlam,
