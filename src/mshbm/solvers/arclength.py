@@ -226,19 +226,17 @@ class _Trace:
                 best = (x, lam, it, r, (R, s, J, g))
             if r <= tol and abs(c) <= 1e-8:
                 return x, lam, it, r, (R, s, J, g), None
-            if it > 0 and r <= POLISH_AT and r > 1e-3 * r_prev:
+            if it > 0 and r <= POLISH_AT and r > 0.9 * r_prev:
                 # the parameter has converged to within the step's accuracy but the bordered iteration no
-                # longer converges quadratically: finish by Newton on x alone at this lam (dR/dlam of a
+                # longer lowers the residual (by 10 % at least): finish by Newton on x alone at this lam (dR/dlam of a
                 # rebuilt problem carries its rounding, e.g. a condensation's LU, and the bordered
                 # iteration then stalls at that noise; at fixed lam it plays no role)
                 try:
                     xf, itf, rf, dataf, _ = self.newton_fixed(x, lam, allow_stall=False, max_iter=4,
                                                               free=None if free is None else free / w[None, :])
                     if float(np.linalg.norm((xf - x) / w)) <= 0.1 * max(ds, ds0):
-                        # the step control counts the polish as one iteration (its steps remove the noise of
-                        # dR/dlam, not the predictor's error); all of them are counted in ``polish_iterations``
                         self.counters["polish_iterations"] = self.counters.get("polish_iterations", 0) + itf
-                        return xf, lam, it + min(itf, 1), rf, dataf, None
+                        return xf, lam, it + itf, rf, dataf, None
                 except Failed:
                     pass
             if it == max_corrector_iter or not np.isfinite(r):
