@@ -142,6 +142,10 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
     Returns
     -------
     ContinuationResult
+        Its ``counters`` include ``free_points`` (points solved, kept or not, where the solutions at fixed
+        ``lam`` form a family: :func:`mshbm.solvers.arclength_parts.free_directions`), ``free_dimension``
+        (the family's largest number of free directions, held fixed by minimum-norm steps) and
+        ``family_steps`` (corners at the family's edge crossed at fixed ``lam``).
     """
     ev = Evaluator(residual, d_lam, residual_scale, unknown_scale,
                     lam_scale if lam_scale is not None else (abs(lam0) if lam0 != 0 else 1.0))
