@@ -558,7 +558,7 @@ def sweep(system, omega_start, omega_end, method="mshbm", period=1, **options):
         ``partition``...; ``guess`` for the start point; ``tol`` also for the corrector; ``max_iter`` also bounds the corrector's
         iterations, at most 12), and the
         continuation's: ``ds`` (first arclength step, scaled, default 0.02), ``ds_min`` (1e-5),
-        ``ds_max`` (0.1), ``max_points`` (400), ``predictor`` (``"tangent"`` or ``"secant"``),
+        ``ds_max`` (0.1; growth bounded by a turn of the tangent of 0.5 rad per step), ``max_points`` (400), ``predictor`` (``"tangent"`` or ``"secant"``),
         ``max_time`` (s), ``progress`` (show progress on a terminal; ``"always"``: also elsewhere),
         ``stability`` (as for :func:`mshbm.solve`), ``blas_threads`` (default 1, as for :func:`mshbm.solve`).
         HBM with penalty contacts (``d_c = 0``, no friction loaded by a contact) defaults to

@@ -27,7 +27,8 @@ Algorithm (Keller's pseudo-arclength):
 * corrector: Newton on the bordered system ``[R / s; t . ((y, mu) - predictor)] = 0`` (the
   hyperplane through the predictor orthogonal to ``t``), with backtracking on the scaled residual;
 * step control: ``ds`` grows by ``grow`` after a corrector of at most ``fast_iter`` iterations,
-  shrinks by ``shrink`` after one of more than ``slow_iter``; a failed (or rejected, see ``accept``)
+  shrinks by ``shrink`` after one of more than ``slow_iter``, and grows at most to ``ds max_turn / theta``
+  after a step whose tangent turned by ``theta`` (curvature); a failed (or rejected, see ``accept``)
   corrector halves ``ds`` and retries, down to ``ds_min``;
 * kinks (nonsmooth points of the branch, e.g. a grazing impact: the saltation of an impact at velocity
   ``v`` grows like ``1 / v``, so ``dR/dx`` jumps there and the branch has a corner): where a step passes a
@@ -52,10 +53,12 @@ import time
 import numpy as np
 
 from .arclength_parts import (ContinuationPoint, ContinuationResult, Evaluator, Failed, backtrack, bordered_solve,
-                              locate_fold, orientation, stall_folds, tangent)
+                              free_directions, locate_fold, orientation, stall_folds, tangent)
 
 #: a step whose tangents at its ends have ``|cos| <`` this is taken as a kink of the branch (see ``continuation``)
 KINK_COS = 0.9
+#: the corrector finishes at fixed lam once its scaled residual is below this (see ``_Trace.corrector``)
+POLISH_AT = 1e-6
 #: relative steps in lam tried, in this order, by a step at fixed lam across a kink (``kink_crossing``)
 KINK_STEPS = (1e-3, 1e-4, 1e-5)
 
@@ -66,7 +69,7 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
                  ds0=0.02, ds_min=1e-5, ds_max=0.2, max_points=200, tol=1e-10, max_corrector_iter=12,
                  fast_iter=3, slow_iter=7, grow=1.6, shrink=0.5, predictor="tangent", accept=None,
                  callback=None, fold_rtol=1e-3, max_time=None, lam_limits=None, stall_accept=None, max_jump=3.0,
-                 stall_fold_rtol=5e-3, natural_fallback=True, kink_crossing=True, segment=None):
+                 stall_fold_rtol=5e-3, natural_fallback=True, kink_crossing=True, segment=None, max_turn=0.5):
     """Trace the branch of ``R(x, lam) = 0`` from the converged point ``(x0, lam0)`` towards ``lam_end``.
 
     Parameters
@@ -93,6 +96,10 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
         ``accept(x, lam, stall) -> (ok, payload)`` after each converged corrector (e.g. a certificate;
         ``stall`` is what ``stall_accept`` returned, else ``None``); a rejected point counts as a
         failed corrector.  The payload is stored on the point.
+    max_turn : float
+        Largest turn (radians) of the scaled tangent per step: after a step whose tangent turned by ``theta``
+        the step grows at most to ``ds max_turn / theta`` (the curve's curvature, not only the corrector's
+        effort, bounds the growth; it never shrinks the step, which the corrector's effort does; 0 disables).
     max_jump : float
         A corrected point farther than ``max_jump * max(ds, ds0)`` (scaled) from the last point is rejected
         (a jump to another branch) and the step is shortened.  (Not ``ds`` alone: near points accepted at
@@ -135,6 +142,10 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
     Returns
     -------
     ContinuationResult
+        Its ``counters`` include ``free_points`` (points solved, kept or not, where the solutions at fixed
+        ``lam`` form a family: :func:`mshbm.solvers.arclength_parts.free_directions`), ``free_dimension``
+        (the family's largest number of free directions, held fixed by minimum-norm steps) and
+        ``family_steps`` (corners at the family's edge crossed at fixed ``lam``).
     """
     ev = Evaluator(residual, d_lam, residual_scale, unknown_scale,
                     lam_scale if lam_scale is not None else (abs(lam0) if lam0 != 0 else 1.0))
@@ -143,7 +154,7 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
         max_corrector_iter=max_corrector_iter, fast_iter=fast_iter, slow_iter=slow_iter, grow=grow, shrink=shrink,
         predictor=predictor, accept=accept, callback=callback, fold_rtol=fold_rtol, max_time=max_time,
         stall_accept=stall_accept, max_jump=max_jump, stall_fold_rtol=stall_fold_rtol,
-        natural_fallback=natural_fallback, kink_crossing=kink_crossing, segment=segment))
+        natural_fallback=natural_fallback, kink_crossing=kink_crossing, segment=segment, max_turn=max_turn))
     return trace.run(x0)
 
 
@@ -174,8 +185,9 @@ class _Trace:
     def stalled(self, x, lam):
         return self.stall_accept(x, lam) if self.stall_accept is not None else None
 
-    def newton_fixed(self, x, lam, allow_stall=True, max_iter=None):
-        """Newton at fixed ``lam`` (the start and the end point); returns (x, it, r, data, stall)."""
+    def newton_fixed(self, x, lam, allow_stall=True, max_iter=None, free=None):
+        """Newton at fixed ``lam`` (the start and the end point); returns (x, it, r, data, stall).  ``free``:
+        the free directions of the point ``x`` comes from, in physical units (rows ``F / w``), held fixed."""
         ev, tol = self.ev, self.tol
         best = None
         max_iter = self.max_corrector_iter if max_iter is None else max_iter
@@ -187,7 +199,7 @@ class _Trace:
                 return x, it, r, (R, s, J, g), None
             if it == max_iter:
                 break
-            dx = bordered_solve(J / s[:, None], -R / s)
+            dx = bordered_solve(J / s[:, None], -R / s, free=free)
             xn, ok = backtrack(lambda xx: ev(xx, lam, jac=False)[2], x, dx, r)
             if not ok:
                 break
@@ -197,8 +209,9 @@ class _Trace:
             return best + (info,)
         raise Failed(f"Newton at fixed parameter {lam:.6g} did not converge (||R/s|| = {r:.2e})")
 
-    def corrector(self, xp, lp, t, w, ds):
-        """Bordered Newton from the predictor ``(xp, lp)`` on the hyperplane orthogonal to ``t``."""
+    def corrector(self, xp, lp, t, w, ds, free=None):
+        """Bordered Newton from the predictor ``(xp, lp)`` on the hyperplane orthogonal to ``t``; ``free``: the
+        free directions (scaled) of the point the step comes from, held fixed (minimum-norm corrections)."""
         ev, tol, lsc, lam0, ds0 = self.ev, self.tol, self.lsc, self.lam0, self.ds0
         max_corrector_iter, max_jump = self.max_corrector_iter, self.max_jump
         x, lam = xp.copy(), lp
@@ -210,19 +223,33 @@ class _Trace:
             if abs(lam - lp) > max_jump * max(ds, ds0) * lsc:
                 raise Failed(f"the corrector moved the parameter to {lam:.6g}, more than {max_jump:g} x max(ds, ds0) "
                               "from the predictor (a jump, or a useless dR/dlam)")
+            r_prev = r if it > 0 else np.inf
             R, s, r, J, g = ev(x, lam)
             c = float(ty @ ((x - xp) / w) + tm * (lam - lp) / lsc)
             if np.isfinite(r) and abs(c) <= 1e-8 and (best is None or r < best[3]):
                 best = (x, lam, it, r, (R, s, J, g))
             if r <= tol and abs(c) <= 1e-8:
                 return x, lam, it, r, (R, s, J, g), None
+            if it > 0 and r <= POLISH_AT and r > 0.9 * r_prev:
+                # the parameter has converged to within the step's accuracy but the bordered iteration no
+                # longer lowers the residual (by 10 % at least): finish by Newton on x alone at this lam (dR/dlam of a
+                # rebuilt problem carries its rounding, e.g. a condensation's LU, and the bordered
+                # iteration then stalls at that noise; at fixed lam it plays no role)
+                try:
+                    xf, itf, rf, dataf, _ = self.newton_fixed(x, lam, allow_stall=False, max_iter=4,
+                                                              free=None if free is None else free / w[None, :])
+                    if float(np.linalg.norm((xf - x) / w)) <= 0.1 * max(ds, ds0):
+                        self.counters["polish_iterations"] = self.counters.get("polish_iterations", 0) + itf
+                        return xf, lam, it + itf, rf, dataf, None
+                except Failed:
+                    pass
             if it == max_corrector_iter or not np.isfinite(r):
                 break
             A = np.zeros((x.size + 1, x.size + 1))
             A[:-1, :-1] = (J * w[None, :]) / s[:, None]
             A[:-1, -1] = g * lsc / s
             A[-1, :-1], A[-1, -1] = ty, tm
-            z = bordered_solve(A, -np.concatenate([R / s, [c]]))
+            z = bordered_solve(A, -np.concatenate([R / s, [c]]), free=free)
             dx, dl = z[:-1] * w, z[-1] * lsc
             a, accepted = 1.0, False
             for _ in range(8):  # backtracking on the scaled residual
@@ -240,7 +267,8 @@ class _Trace:
             # the bordered iteration stalled: polish at the parameter reached (a natural-parameter Newton
             # on x alone often finds the root that the joint line search misses), else accept the stall
             try:
-                xf, itf, rf, dataf, _ = self.newton_fixed(best[0], best[1], allow_stall=False)
+                xf, itf, rf, dataf, _ = self.newton_fixed(best[0], best[1], allow_stall=False,
+                                                          free=None if free is None else free / w[None, :])
                 if float(np.linalg.norm((xf - best[0]) / w)) <= 0.5 * max(ds, ds0):  # the same root, not another
                     return xf, best[1], best[2] + itf, rf, dataf, None
             except Failed:
@@ -255,11 +283,21 @@ class _Trace:
         R, s, J, g = data
         lsc, segment = self.lsc, self.segment
         w = np.asarray(self.unknown_scale(x, lam), dtype=float)
-        t = tangent(J, g, s, w, lsc, previous=prev_t)
+        free = free_directions(J, g, s, w, lsc)
+        t = tangent(J, g, s, w, lsc, previous=prev_t, free=free)
         seg = segment(x, lam) if segment is not None and stall is None else None
+        if free is not None:
+            self.counters["free_points"] = self.counters.get("free_points", 0) + 1
+            self.counters["free_dimension"] = max(self.counters.get("free_dimension", 0), int(free.shape[0]))
         return ContinuationPoint(x=x, lam=float(lam), dx=t[:-1] * w, dlam=float(t[-1] * lsc), iterations=it,
-                                 ds=ds, residual=r, stall=stall, segment=seg,
-                                 orientation=orientation(J, g, s, w, lsc, t) if seg is not None else 0), t, w
+                                 ds=ds, residual=r, stall=stall, segment=seg, free=free,
+                                 orientation=orientation(J, g, s, w, lsc, t) if seg is not None and free is None
+                                 else 0), t, w
+
+    @staticmethod
+    def free_units(p, w):
+        """The free directions of point ``p`` as rows on the physical unknowns (``F / w``), or None."""
+        return None if p.free is None else p.free / w[None, :]
 
     def scaled_t(self, p, w):
         t = np.concatenate([p.dx / w, [p.dlam / self.lsc]])
@@ -275,7 +313,13 @@ class _Trace:
             if nd > 0 and float(d @ t) > 0:
                 t = d / nd
         xp, lp = p.x + ds * t[:-1] * w, p.lam + ds * t[-1] * lsc
-        return self.corrector(xp, lp, t, w, ds), t
+        if p.free is None:
+            return self.corrector(xp, lp, t, w, ds), t
+        try:
+            return self.corrector(xp, lp, t, w, ds, free=p.free), t
+        except Failed:
+            # the step left the family (a stuck element starts to slip: its offset is no longer free)
+            return self.corrector(xp, lp, t, w, ds), t
 
     def judged(self, q, what="point rejected", detail=True):
         """``q`` with the payload of ``accept`` (none without it); :class:`Failed` when it rejects ``q`` (its
@@ -311,7 +355,8 @@ class _Trace:
                 lam_n = lam_end
             try:
                 x, it, r, data, _ = self.newton_fixed(p.x, lam_n, allow_stall=False,
-                                                      max_iter=2 * self.max_corrector_iter)
+                                                      max_iter=2 * self.max_corrector_iter,
+                                                      free=self.free_units(p, w))
             except Failed as exc:
                 last = str(exc)
                 continue
@@ -336,12 +381,38 @@ class _Trace:
             return q
         raise Failed(last)
 
+    def near_family(self, back=4):
+        """A point among the last ``back`` has free directions (:func:`free_directions`)."""
+        return any(p.free is not None for p in self.points[-back:])
+
+    def family_step(self, p, w):
+        """A step at fixed ``lam`` onwards (by the ``lam`` part of ``min(ds, ds0)`` along the tangent, at least ``KINK_STEPS[0]``, in the direction of travel) where the branch would turn
+        back next to a family of solutions (a stuck element: its offset is free inside an interval that
+        shrinks as the amplitude grows).  The arclength corrector follows the family's edge, and where the
+        interval closes its tangent turns into the other edge, back in ``lam``: a corner of the solution set,
+        not a fold.  Newton at fixed ``lam`` from ``p`` (no free directions held) continues on the branch
+        beyond (slip); the point is oriented onwards and the corner recorded as a kink (``"family": True``)."""
+        sgn = 1.0 if p.dlam > 0 else -1.0 if p.dlam < 0 else self.direction
+        lam_n = p.lam + sgn * max(min(self.ds, self.ds0) * abs(self.scaled_t(p, w)[-1]), KINK_STEPS[0]) * self.lsc
+        if (lam_n - self.lam_end) * self.direction > 0 and (p.lam - self.lam_end) * self.direction < 0:
+            lam_n = self.lam_end
+        x, it, r, data, st = self.newton_fixed(p.x, lam_n, allow_stall=False, max_iter=2 * self.max_corrector_iter)
+        q, _, _ = self.make_point(x, lam_n, it, r, data, self.ds, self.scaled_t(p, w), st)
+        if q.dlam * sgn < 0:
+            q.dx, q.dlam, q.orientation = -q.dx, -q.dlam, -q.orientation
+        self.judged(q)
+        self.kinks.append({"lam": float(p.lam), "lam_right": float(lam_n), "index": len(self.points),
+                           "fixed_lam": True, "family": True})
+        self.counters["family_steps"] = self.counters.get("family_steps", 0) + 1
+        return q
+
     def finish_at_end(self, p, q):
         """Solve at ``lam_end`` from the interpolation between points ``p`` and ``q`` that bracket it."""
         lam_end = self.lam_end
         a = (lam_end - p.lam) / (q.lam - p.lam)
         xg = p.x + a * (q.x - p.x)
-        x, it, r, data, st = self.newton_fixed(xg, lam_end)
+        x, it, r, data, st = self.newton_fixed(
+            xg, lam_end, free=self.free_units(q, np.asarray(self.unknown_scale(q.x, q.lam), dtype=float)))
         w = np.asarray(self.unknown_scale(x, lam_end), dtype=float)
         pt, _, _ = self.make_point(x, lam_end, it, r, data, q.ds, self.scaled_t(q, w), st)
         return pt
@@ -356,7 +427,7 @@ class _Trace:
             lam_n = p.lam + direction * natural
             if (lam_n - lam_end) * direction > 0:
                 lam_n = lam_end
-            x, it, r, data, st = self.newton_fixed(p.x, lam_n)
+            x, it, r, data, st = self.newton_fixed(p.x, lam_n, free=self.free_units(p, w))
             q, _, _ = self.make_point(x, lam_n, it, r, data, natural / lsc, self.scaled_t(p, w), st)
             q.dx, q.dlam = (x - p.x) / (natural / lsc), direction * lsc  # secant, not the (useless) tangent
             self.judged(q)
@@ -400,6 +471,8 @@ class _Trace:
         else:
             kink = None
         moved = np.concatenate([(x - p.x) / w, [(lam - p.lam) / lsc]])  # the step in scaled units
+        if p.free is not None:  # a move within the family of a stuck element is no jump
+            moved[:-1] -= p.free.T @ (p.free @ moved[:-1])
         dist = float(np.linalg.norm(moved))
         if p.segment is not None and st is None and float(self.scaled_t(p, w) @ moved) < 0.1 * ds:
             # a corrector polished at fixed lam (see ``corrector``) can return to p itself (at a corner
@@ -505,6 +578,8 @@ class _Trace:
                 continue
             try:
                 q, it, kink = self.arclength_step(p, w)
+                if p.dlam * q.dlam <= 0 and self.near_family():
+                    q, it, kink = self.family_step(p, w), 0, None
             except Failed as exc:
                 if self.failed_step(p, w, exc):
                     break
@@ -530,6 +605,12 @@ class _Trace:
             ds = self.ds
             self.ds = min(ds * self.grow, self.ds_max) if it <= self.fast_iter else (
                 max(ds * self.shrink, self.ds_min) if it > self.slow_iter else ds)
+            if self.max_turn and p.stall is None and q.stall is None and kink is None:
+                # the curve, not only the corrector, limits the step
+                wq = np.asarray(self.unknown_scale(q.x, q.lam), dtype=float)
+                turn = float(np.arccos(np.clip(self.scaled_t(q, wq) @ self.scaled_t(p, wq), -1.0, 1.0)))
+                if turn > 0.0:  # no growth past a turn of max_turn per step (never a shrink: the corrector's effort does)
+                    self.ds = min(self.ds, max(ds, ds * self.max_turn / turn))
         folds = self.folds + stall_folds(points, self.stall_fold_rtol)
         folds.sort(key=lambda f: f["index"])
         self.counters.update(residual_evaluations=self.ev.n_res, parameter_derivatives=self.ev.n_dlam,

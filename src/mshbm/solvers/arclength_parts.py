@@ -14,7 +14,11 @@ import numpy as np
 import scipy.sparse as sp
 
 __all__ = ["ContinuationPoint", "ContinuationResult", "Failed", "bordered_solve", "Evaluator", "orientation",
-           "tangent", "backtrack", "stall_folds", "locate_fold"]
+           "tangent", "backtrack", "stall_folds", "locate_fold", "free_directions", "FREE_RTOL"]
+
+#: a singular value of the scaled ``[J_y, g]`` below ``FREE_RTOL`` times the largest marks a free direction
+#: (see :func:`free_directions`)
+FREE_RTOL = 1e-10
 
 
 
@@ -35,6 +39,9 @@ class ContinuationPoint:
     stall: object = None
     orientation: int = 0  # sign det [J_y, g; t^T] (scaled), 0 if singular or not computed
     segment: object = None  # the smooth piece of the residual (``segment``), None if unknown
+    #: free directions of the solution set at fixed ``lam`` (:func:`free_directions`, rows in scaled
+    #: unknowns, shape ``(k, n_x)``), None if there are none
+    free: object = None
 
 
 @dataclass
@@ -55,8 +62,20 @@ class Failed(Exception):
     pass
 
 
-def bordered_solve(A, b):
-    """``A^-1 b`` (least squares if ``A`` is singular); :class:`Failed` if not finite."""
+def bordered_solve(A, b, free=None):
+    """``A^-1 b`` (least squares if ``A`` is singular); :class:`Failed` if not finite.
+
+    ``free`` (shape ``(k, m)``, ``m <= A.shape[1]``): rows appended to ``A`` with right-hand side 0, so
+    that the solution has no component along the free directions (their first ``m`` unknowns): the
+    minimum-norm step of a system whose solutions form a family (:func:`free_directions`), solved in
+    the least-squares sense (exact when the system is consistent)."""
+    if free is not None:
+        F = np.zeros((free.shape[0], A.shape[1]))
+        F[:, :free.shape[1]] = free
+        z = np.linalg.lstsq(np.vstack([A, F]), np.concatenate([b, np.zeros(F.shape[0])]), rcond=None)[0]
+        if not np.all(np.isfinite(z)):
+            raise Failed("singular bordered system")
+        return z
     try:
         z = np.linalg.solve(A, b)
     except np.linalg.LinAlgError:
@@ -103,11 +122,45 @@ def orientation(J, g, s, w, lam_scale, t):
     return int(sign) if np.isfinite(logdet) else 0
 
 
-def tangent(J, g, s, w, lam_scale, previous=None):
+def free_directions(J, g, s, w, lam_scale, rtol=FREE_RTOL):
+    """Free directions of the solutions at fixed ``lam``: an orthonormal basis (rows, scaled unknowns
+    ``y = x / w``, shape ``(k, n_x)``) of the null space of ``J_y`` when ``[J_y, g]`` is rank deficient
+    too (singular values below ``rtol`` times the largest), else ``None``.
+
+    Then the solutions near ``(x, lam)`` are not a curve but a family of dimension ``k + 1``: e.g. a
+    Jenkins slider that sticks the whole period can sit at any offset (with the structure's mean
+    displacement following it), and its periodicity row is identically zero.  At a fold ``J_y`` is
+    singular but ``[J_y, g]`` is not, and there are no free directions.  The continuation fixes the free
+    directions by the minimum-norm rule: tangents and corrections have no component along them
+    (:func:`bordered_solve`), i.e. the offset of a stuck element stays where the branch brought it."""
+    Jy = (J * w[None, :]) / s[:, None]
+    A = np.hstack([Jy, (g * lam_scale / s)[:, None]])
+    if A.size == 0 or not np.all(np.isfinite(A)):
+        return None
+    sa = np.linalg.svd(A, compute_uv=False)
+    if sa[0] == 0.0 or sa[-1] > rtol * sa[0]:
+        return None
+    _, sj, Vt = np.linalg.svd(Jy)
+    k = int(np.sum(sj <= rtol * sa[0]))
+    return Vt[-k:].copy() if k > 0 else None
+
+
+def tangent(J, g, s, w, lam_scale, previous=None, free=None):
     """Unit tangent ``(t_y, t_mu)`` in scaled variables of ``R(x, lam) = 0`` (see the module docstring),
-    oriented along ``previous`` (a scaled tangent) or, without one, towards increasing ``lam``."""
+    oriented along ``previous`` (a scaled tangent) or, without one, towards increasing ``lam``; with
+    ``free`` (:func:`free_directions`) the one orthogonal to the free directions (minimum norm)."""
     A = np.hstack([(J * w[None, :]) / s[:, None], (g * lam_scale / s)[:, None]])
     n = A.shape[1]
+    if free is not None:
+        gauge = np.zeros(n)
+        gauge[-1] = 1.0
+        if previous is not None and abs(float(previous[-1])) < 0.5:  # near a fold: the previous tangent
+            gauge = previous
+        z = bordered_solve(np.vstack([A, gauge]), np.eye(n)[-1], free=free)
+        z = z / np.linalg.norm(z)
+        if previous is not None and float(z @ previous) < 0 or previous is None and z[-1] < 0:
+            z = -z
+        return z
     if previous is None:  # the row that fixes the gauge: the column of A least in its range (lam, unless at a fold)
         gauge = np.zeros(n)
         gauge[-1] = 1.0

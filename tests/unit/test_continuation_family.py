@@ -1,0 +1,40 @@
+"""Continuation through a family of solutions (a free direction, as the offset of a stuck Jenkins slider):
+the free direction is found, held fixed by minimum-norm steps, and reported."""
+import numpy as np
+
+from mshbm.solvers.arclength import continuation
+from mshbm.solvers.arclength_parts import free_directions, tangent
+
+
+def _family(x, lam):
+    """R = (x0 (1 + x0^2) - lam, 0): every x1 solves the second row (a zero row and column, like the
+    periodicity row of a slider that sticks all period); x0 is the curve's own unknown."""
+    R = np.array([x[0] * (1 + x[0] ** 2) - lam, 0.0])
+    J = np.array([[1 + 3 * x[0] ** 2, 0.0], [0.0, 0.0]])
+    return R, J
+
+
+def test_free_direction_found_and_tangent_orthogonal_to_it():
+    R, J = _family(np.array([0.5, 0.3]), 0.625)
+    g, s, w = np.array([-1.0, 0.0]), np.ones(2), np.ones(2)
+    F = free_directions(J, g, s, w, 1.0)
+    assert F is not None and F.shape == (1, 2)
+    assert abs(abs(F[0, 1]) - 1.0) < 1e-12 and abs(F[0, 0]) < 1e-12
+    t = tangent(J, g, s, w, 1.0, free=F)
+    assert abs(t[1]) < 1e-12 and t[2] > 0  # no component along the family, oriented to increasing lam
+    assert abs(t[0] / t[2] - 1 / 1.75) < 1e-12  # dx0/dlam = 1 / (1 + 3 x0^2)
+    # at a fold J is singular but [J, g] is not: no free direction
+    assert free_directions(np.array([[0.0, 1.0], [0.0, 1.0]]), np.array([1.0, 0.0]), s, w, 1.0) is None
+
+
+def test_continuation_holds_the_offset_and_reports_the_family():
+    res = continuation(_family, lambda x, lam: np.array([-1.0, 0.0]), np.array([0.0, 0.3]), 0.0, 2.0,
+                       residual_scale=lambda x, lam: np.ones(2), unknown_scale=lambda x, lam: np.ones(2),
+                       lam_scale=1.0, ds0=0.05, ds_max=0.2, max_points=200)
+    assert res.success, res.message
+    x = np.array([p.x for p in res.points])
+    lam = np.array([p.lam for p in res.points])
+    np.testing.assert_allclose(x[:, 1], 0.3, atol=1e-14)  # the free unknown stays where it started
+    np.testing.assert_allclose(x[:, 0] * (1 + x[:, 0] ** 2), lam, atol=1e-10)
+    assert lam[-1] == 2.0 and np.all(np.diff(lam) > 0) and not res.folds
+    assert res.counters["free_points"] >= len(res.points) and res.counters["free_dimension"] == 1
