@@ -30,6 +30,7 @@ from .interrupt import terminate_as_interrupt
 from . import io as _io
 from .options import METHODS
 from .outfile import check_out, jsonable, write_text
+from .io.overrides import add_set_option, case_sets
 from .validate import quiet_floats
 
 __all__ = ["main"]
@@ -79,21 +80,6 @@ def _parser():
     cli_sweep.add_parser(sub, METHOD_CHOICES)  # mshbm sweep: mshbm.cli_sweep
     cli_backbone.add_parser(sub)  # mshbm backbone: mshbm.cli_backbone
     return p
-
-
-def add_set_option(parser):
-    """``--set KEY=VALUE`` (repeatable) of every subcommand that reads a case file."""
-    parser.add_argument("--set", action="append", default=None, metavar="KEY=VALUE", dest="set",
-                        help="set a dotted key of the case file, e.g. friction.0.normal_force=2.5 or "
-                        "solver.harmonics=9 (value read as YAML; repeatable)")
-
-
-def case_sets(args):
-    """The ``--set`` assignments of ``args`` (and ``--omega`` of ``solve``) for :func:`mshbm.io.load_case`."""
-    sets = list(args.set or [])
-    if getattr(args, "command", None) == "solve" and args.omega is not None:
-        sets.append(("omega", args.omega))
-    return sets
 
 
 class _CompileNotice:

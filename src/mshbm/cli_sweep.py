@@ -35,6 +35,7 @@ from . import __version__
 from .branch import sweep
 from .errors import InputError
 from .interrupt import SweepInterrupted
+from .io.overrides import add_set_option, case_sets
 from . import io as _io
 from .options import COMMON as _COMMON, METHODS
 from .outfile import check_out, write_text
@@ -62,7 +63,6 @@ def add_parser(sub, method_choices):
     s.add_argument("--end", type=float, default=None, metavar="B", help="end value of --parameter")
     s.add_argument("--omega", type=float, default=None, metavar="W",
                    help="fixed forcing frequency (rad/s) of a sweep in another --parameter (default: the case's)")
-    from .cli import add_set_option
     add_set_option(s)
     s.add_argument("--harmonics", type=int, default=None, metavar="N", help="number of harmonics n_h (per period T)")
     s.add_argument("--steps", type=int, default=None, metavar="N", help="time steps (samples) per period T")
@@ -184,7 +184,6 @@ _NAMES = {"omega_start": "--omega-start", "omega_end": "--omega-end", "period": 
 
 def run(args, exit_codes, write_json, error):
     """Run ``mshbm sweep`` (``args`` from :func:`add_parser`); returns the exit code."""
-    from .cli import case_sets
 
     ok, not_conv = exit_codes
     for key, path in (("--out", args.out), ("--plot", args.plot)):

@@ -23,14 +23,14 @@ from __future__ import annotations
 import difflib
 
 from ..errors import InputError
+from .keys import CONTACT_KEYS, FORCING_KEYS, FRICTION_KEYS, REDUCE_KEYS, SOLVER_KEYS, TOP_KEYS
 from .matrices import RAYLEIGH_KEYS
 from .yaml import describe as _describe, load_yaml as _load_yaml
 
-__all__ = ["parse_assignment", "apply_sets", "SECTION_KEYS"]
+__all__ = ["parse_assignment", "apply_sets", "SECTION_KEYS", "add_set_option", "case_sets"]
 
 
 def _schema():
-    from .case import CONTACT_KEYS, FORCING_KEYS, FRICTION_KEYS, REDUCE_KEYS, SOLVER_KEYS, TOP_KEYS
     return {(): tuple(TOP_KEYS), ("solver",): tuple(SOLVER_KEYS), ("friction",): tuple(FRICTION_KEYS),
             ("contact",): tuple(CONTACT_KEYS), ("forcing",): tuple(FORCING_KEYS), ("damping",): tuple(RAYLEIGH_KEYS),
             ("reduce",): tuple(REDUCE_KEYS)}
@@ -135,3 +135,18 @@ def apply_sets(data, sets):
         parts = [p.strip() for p in key.split(".")]
         data = _assign(data, parts, 0, value, key, schema)
     return data
+
+
+def add_set_option(parser):
+    """``--set KEY=VALUE`` (repeatable) of every subcommand that reads a case file."""
+    parser.add_argument("--set", action="append", default=None, metavar="KEY=VALUE", dest="set",
+                        help="set a dotted key of the case file, e.g. friction.0.normal_force=2.5 or "
+                        "solver.harmonics=9 (value read as YAML; repeatable)")
+
+
+def case_sets(args):
+    """The ``--set`` assignments of ``args`` (and ``--omega`` of ``solve``) for :func:`mshbm.io.load_case`."""
+    sets = list(args.set or [])
+    if getattr(args, "command", None) == "solve" and args.omega is not None:
+        sets.append(("omega", args.omega))
+    return sets
