@@ -51,9 +51,17 @@ def stops_case():
     return beta, r, float(ex.info["amplitude_exact"][0])
 
 
+def certified(sol):
+    """The discretised equations solved and certified; ``success`` then says whether the combined error estimate
+    is within the default accuracy (it need not be here: these tests measure the estimates themselves)."""
+    assert sol.certificate is not None and sol.certificate.failed in ([], ["accuracy"]), sol.message
+    assert sol.success is sol.certificate["accuracy"].passed
+    return True
+
+
 def hbm(system, omega, n_h):
     sol = mshbm.solve(system, omega, "hbm", harmonics=n_h, stability=False)
-    assert sol.success, sol.message
+    certified(sol)
     return sol
 
 
@@ -83,7 +91,7 @@ def test_explicit_smoothing_stays_absolute():
     # a 4 x stiffer law changes nothing there (kappa gamma << 1: the law hardly acts), but the estimate is at
     # least the distance of the law from Coulomb's along the solution (its work deficit, ~1): flagged
     check = sol.certificate["regularisation"]
-    assert check.value > 0.9 and not check.passed and "regularised laws' error" in sol.message
+    assert check.value > 0.9 and not check.passed and ("regularised laws' error" in sol.message or "regularisation" in sol.certificate["accuracy"].note)
 
 
 def test_paper_friction_chain_scaled_by_1e_11_same_answer():
@@ -122,7 +130,7 @@ def test_dlft_default_penalty_gives_the_same_answer_in_other_units(system):
     args = (0.6,) if system is coulomb else ()
     ref = mshbm.solve(system(*args), omega, "dlft", harmonics=15, stability=False)
     sol = mshbm.solve(system(*args, force=1e-11, length=1e-3), omega, "dlft", harmonics=15, stability=False)
-    assert ref.success and sol.success
+    assert certified(ref) and certified(sol) and ref.success is sol.success
     assert sol.amplitude[0] * 1e-3 == pytest.approx(ref.amplitude[0], rel=1e-8)
     assert sol.info["dlft_penalty"][0] == pytest.approx(ref.info["dlft_penalty"][0] * 1e-14, rel=1e-12)
     assert "regularisation" not in sol.certificate
@@ -154,7 +162,7 @@ def test_regularisation_estimate_brackets_the_error(stops_case, smoothing):
     est = sol.certificate["regularisation"].value
     assert true <= est <= 3.0 * true
     if smoothing == 800.0:  # the former default: flagged, not hidden
-        assert not sol.certificate["regularisation"].passed and "regularised laws' error" in sol.message
+        assert not sol.certificate["regularisation"].passed and ("regularised laws' error" in sol.message or "regularisation" in sol.certificate["accuracy"].note)
 
 
 @pytest.mark.parametrize("smoothing", [800.0, None])
@@ -170,7 +178,7 @@ def test_long_stops_estimate_flags_the_error(smoothing):
     err = abs(sol.amplitude[0] / ex.info["amplitude_exact"][0] - 1.0)
     est = sol.certificate["regularisation"].value
     assert err / 1.5 <= est <= 1.5 * err
-    assert est > hr.REGULARISATION_BOUND and "regularised laws' error" in sol.message
+    assert est > hr.REGULARISATION_BOUND and ("regularised laws' error" in sol.message or "regularisation" in sol.certificate["accuracy"].note)
 
 
 def test_regularisation_estimate_continuous_motion():
@@ -207,4 +215,4 @@ def test_undamped_resonance_velocity_scale_is_capped():
     assert record[0]["linear_velocity"] > 1e6 and record[0]["velocity_scale"] == record[0]["force_velocity"] < 10.0
     sol = mshbm.solve(s, w1, "hbm", harmonics=3, steps=1024, guess="zero", stability=False)
     H = np.array([[2.0 - w1 ** 2, -1.0], [-1.0, 1.0 - w1 ** 2]])
-    assert sol.success and np.allclose(sol.amplitude[1:], np.abs(np.linalg.solve(H, [0.0, 5.0])), rtol=1e-4)
+    assert certified(sol) and np.allclose(sol.amplitude[1:], np.abs(np.linalg.solve(H, [0.0, 5.0])), rtol=1e-4)
