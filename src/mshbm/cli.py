@@ -145,7 +145,9 @@ def _table(case, summary):
             rows.append(("substitution", sub[0]["note"].split(": ")[0] + (
                 "; effect not estimated" if v is None else f"; estimated relative amplitude error {v:.2g}")))
     acc = summary.get("accuracy")
-    if acc:  # the combined error estimate (mshbm.route.refine)
+    if acc and acc.get("skipped"):
+        rows.append(("error estimate", f"not estimated ({acc['skipped']})"))
+    elif acc:  # the combined error estimate (mshbm.route.refine)
         parts = ", ".join(f"{k} {v:.1e}" for k, v in acc["estimates"].items())
         est = "not estimated" if acc["estimate"] is None else f"{acc['estimate']:.1e}"
         rows.append(("error estimate", f"{est} {'<=' if acc['passed'] else '>'} {acc['accuracy']:.0e} "

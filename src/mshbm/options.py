@@ -16,6 +16,9 @@ Common to all methods (:data:`COMMON`): ``guess``, ``tol``, ``max_iter``, ``line
 discretisation until the combined error estimate of the result is below it, or fails naming the estimate
 (:mod:`mshbm.route.refine`); without it the default accuracy
 :data:`mshbm.certificate.combined.DEFAULT_ACCURACY` (1e-2) gates ``success`` and nothing is refined.
+``accuracy=False`` makes no estimates: ``success`` then certifies the discretised equations only (the
+message says "accuracy not estimated"); for callers that measure the error themselves against exact
+references, and for timing a discretisation (the paper's figure solves and work-precision benchmarks).
 
 ``max_time`` (s, default ``None``: no limit besides the start ladder's own budget) bounds the wall time of a
 solve: no Newton iteration, start of the ladder or event-driven simulation begins after it, and the solve
@@ -104,9 +107,9 @@ def _int_option(key, value, minimum):
 
 
 def check_accuracy(value):
-    """The validated ``accuracy`` option: ``None`` or a float in (0, 0.5]."""
-    if value is None:
-        return None
+    """The validated ``accuracy`` option: ``None``, ``False`` (no estimates) or a float in (0, 0.5]."""
+    if value is None or value is False:
+        return value
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
             or not math.isfinite(float(value)) or not 0.0 < float(value) <= 0.5:
         raise InputError("accuracy", f"must be a relative amplitude error in (0, 0.5], got {value!r}")

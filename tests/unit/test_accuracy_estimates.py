@@ -9,6 +9,8 @@ at 1024 and 4096 steps (omega = 2), 0.66 % and 0.12 % (omega = 2.2).
 """
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -89,3 +91,26 @@ def test_truncation_estimate_of_one_harmonic_sees_the_odd_harmonics(omega):
     trunc = sol.certificate["truncation"]
     assert "against n_h = 3" in trunc.note and 0.02 < err <= trunc.value
     assert not sol.success and sol.certificate.failed == ["accuracy"]
+
+
+def test_accuracy_false_makes_no_estimates_and_says_so(tmp_path):
+    """``accuracy=False``: no re-solves and no ``accuracy`` check; ``success`` certifies the discretised equations
+    only, and the message and ``info["accuracy"]`` say that the accuracy was not estimated.  The same solve with
+    the default accuracy is no success (its truncation estimate is above 1 %)."""
+    from mshbm.io import load_case, parse_case
+    import yaml
+
+    case = load_case(Path(__file__).resolve().parents[2] / "examples" / "impact5.yaml")
+    free = case.solve(harmonics=3, accuracy=False)
+    gated = case.solve(harmonics=3)
+    assert free.success and "accuracy" not in free.certificate and "truncation" not in free.certificate
+    assert "accuracy not estimated" in free.message and free.info["accuracy"]["skipped"] == "accuracy=False"
+    assert not gated.success and gated.certificate.failed == ["accuracy"]
+    assert np.array_equal(free.x, gated.x)  # the same solution of the same equations
+    data = yaml.safe_load((Path(__file__).resolve().parents[2] / "examples" / "impact5.yaml").read_text())
+    data["solver"] = {**data.get("solver", {}), "accuracy": False}
+    assert parse_case(data).solver["accuracy"] is False
+    data["solver"]["accuracy"] = True
+    with pytest.raises(mshbm.InputError) as e:
+        parse_case(data)
+    assert e.value.key == "solver.accuracy"

@@ -279,9 +279,9 @@ def _solver(value, n):
         elif k == "dlft_predictor":
             if v not in ("velocity", "displacement"):
                 raise InputError(key, f"must be 'velocity' or 'displacement', got {_describe(v)}")
-        elif k == "accuracy":  # relative amplitude error (mshbm.route.refine)
+        elif k == "accuracy":  # relative amplitude error (mshbm.route.refine), or false: no estimates
             try:
-                v = options_.check_accuracy(_number(key, v))
+                v = False if v is False else options_.check_accuracy(_number(key, v))
             except InputError as exc:
                 raise InputError(key, exc.problem) from None
         elif k == "stability":  # true, false or "auto" (mshbm.stability)

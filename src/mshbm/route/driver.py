@@ -161,9 +161,13 @@ class Route:
         with newton_.time_box(deadline):
             sol = route._chain(system, omega, method, dict(options))
         with blas_threads(check_threads(options.pop("blas_threads", 1))), validate.quiet_floats():
-            if self.estimate:  # the error estimates, and the refinement to a requested accuracy
+            if self.estimate and accuracy is not False:  # the error estimates, and the refinement to a request
                 with newton_.time_box(deadline):
                     sol = _refine.estimate_and_refine(route, system, omega, method, options, sol, accuracy, t0)
+            elif self.estimate:
+                sol.info["accuracy"] = {"accuracy": None, "requested": False, "estimate": None, "passed": None,
+                                        "estimates": {}, "skipped": "accuracy=False"}
+                sol.message = f"{sol.message}; accuracy not estimated (accuracy=False)"
             if deadline is not None and not sol.success and time.perf_counter() > deadline:
                 sol.message = f"{sol.message}; time budget max_time = {float(mt):g} s spent"
             return _stability.assess(system, sol, stab, theta=theta)

@@ -49,6 +49,7 @@ def timed_solve(system, omega, factor, method, repeats, warmup=True, **opts):
     ``warmup``: one untimed solve first (numba compilation; needed once per method and process).
     """
     opts.setdefault("stability", False)  # the Floquet analysis is not part of the timed solve
+    opts.setdefault("accuracy", False)  # nor error estimates: the error is measured against the reference
     start = strategies.nearby_start(system, omega, method, factor, **opts)
     if not start.ok:
         start = strategies.linear_start()

@@ -56,7 +56,7 @@ def solve_options(method, n_h, steps, numerics):
     # stability=False: the Floquet analysis (mshbm.stability) is not part of the timed solve; it runs
     # once on the displayed solution (see `run`)
     kw = dict(harmonics=int(n_h), steps=int(steps), tol=float(numerics["tol"]),
-              max_iter=int(numerics["max_iter"]), stability=False)
+              max_iter=int(numerics["max_iter"]), stability=False, accuracy=numerics.get("accuracy", False))
     if base not in ("hbm", "dlft"):
         kw.update(theta=float(numerics["theta"]), jacobian=jac or numerics["jacobian"])
     return base, kw
