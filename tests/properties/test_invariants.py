@@ -18,6 +18,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import mshbm
+from tests import discretised
 from mshbm import Contact, Friction, chain, condensation, fourier
 from mshbm.integrators.moreau_jean import MoreauJean
 from paper_systems import OMEGA, friction_chain, impact_chain
@@ -85,7 +86,7 @@ def solutions(system, omega):
     out = []
     for method, kw in (("shooting", dict(steps=512)), ("mshbm", dict(harmonics=3, steps=512))):
         try:
-            out.append(mshbm.solve(system, omega, method, max_iter=30, **kw))
+            out.append(discretised.solve(system, omega, method, max_iter=30, **kw))
         except mshbm.InputError as exc:  # e.g. omega on a resonance of H_LL: a clear failure
             assert exc.key == "omega", exc
     return out
@@ -99,7 +100,7 @@ def paper_solutions():
     for name, system in cases.items():
         for method, kw in (("shooting", dict(steps=1024)), ("mshbm", dict(harmonics=5, steps=1024)),
                            ("mshbm", dict(harmonics=15, steps=2048))):
-            sol = mshbm.solve(system, OMEGA, method, **kw)
+            sol = discretised.solve(system, OMEGA, method, **kw)
             assert sol.success, (name, method, sol.message)
             out.append((name, system, sol))
     return out
@@ -124,7 +125,7 @@ def test_energy_balance_per_period(paper_solutions):
 @given(case=random_chain("friction"))
 def test_discrete_energy_identity_random_friction(case):
     system, omega = case
-    sol = mshbm.solve(system, omega, "shooting", steps=256, max_iter=20)
+    sol = discretised.solve(system, omega, "shooting", steps=256, max_iter=20)
     if not np.all(np.isfinite(sol.q_time)):
         assert not sol.success
         return
@@ -209,7 +210,7 @@ def test_friction_cone_random_systems(case):
 
 def test_hbm_regularised_friction_inside_cone():
     system = friction_chain(3)
-    sol = mshbm.solve(system, OMEGA, "hbm", harmonics=10)
+    sol = discretised.solve(system, OMEGA, "hbm", harmonics=10)
     assert sol.success
     assert np.all(np.abs(sol.lam) <= 0.8 * 9.81 * (1 + 1e-12))
 

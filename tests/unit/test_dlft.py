@@ -21,6 +21,7 @@ import numpy as np
 import pytest
 
 import mshbm
+from tests import discretised
 from mshbm import Contact, Friction, InputError, chain
 from mshbm.methods import dlft_kernels
 from mshbm.methods.exact import exact_periodic
@@ -96,7 +97,7 @@ def test_jacobian_against_finite_differences(case, kw):
 def test_residual_is_the_force_mismatch():
     """``R = w DFT[lambda_L - lambda]``: zero at a solution, and the force lies in the cone."""
     c = mshbm.load_case(EXAMPLES / "friction3.yaml")
-    sol = c.solve("dlft", harmonics=8, steps=512, stability=False)
+    sol = c.solve("dlft", accuracy=False, harmonics=8, steps=512, stability=False)
     assert sol.success and sol.residual < 1e-10
     el = c.system.elements[0]
     assert np.max(np.abs(sol.lam)) <= el.bound * (1 + 1e-12)
@@ -109,7 +110,7 @@ def den_hartog_case():
     beta, r = 0.6, 0.3
     s = den_hartog(r)
     X = den_hartog_amplitude(beta, r)
-    ex = exact_periodic(s, beta, guess=mshbm.solve(s, beta, "shooting", steps=2048, stability=False))
+    ex = exact_periodic(s, beta, guess=discretised.solve(s, beta, "shooting", steps=2048, stability=False))
     return s, beta, X, ex
 
 
@@ -126,7 +127,7 @@ def test_den_hartog_dlft_within_half_percent_and_converging(den_hartog_case):
     s, beta, X, _ = den_hartog_case
     err = {}
     for n_h in (5, 9, 15, 25, 41):
-        sol = mshbm.solve(s, beta, "dlft", harmonics=n_h, stability=False)
+        sol = discretised.solve(s, beta, "dlft", harmonics=n_h, stability=False)
         assert sol.success and sol.info["dlft_predictor"] == "velocity"
         err[n_h] = sol.amplitude[0] / X - 1.0
     assert abs(err[25]) <= 0.005
@@ -142,7 +143,7 @@ def test_den_hartog_displacement_predictor_converges_slower(den_hartog_case):
     s, beta, X, _ = den_hartog_case
     err = {}
     for n_h in (5, 9, 25):
-        sol = mshbm.solve(s, beta, "dlft", harmonics=n_h, stability=False, dlft_predictor="displacement")
+        sol = discretised.solve(s, beta, "dlft", harmonics=n_h, stability=False, dlft_predictor="displacement")
         assert sol.success and sol.info["dlft_predictor"] == "displacement"
         assert "dlft_velocity_penalty" not in sol.info
         err[n_h] = abs(sol.amplitude[0] / X - 1.0)
@@ -163,7 +164,7 @@ def test_den_hartog_force_reverses_with_the_velocity(den_hartog_case):
     s, beta, _, _ = den_hartog_case
     lag = {}
     for pred in ("velocity", "displacement"):
-        sol = mshbm.solve(s, beta, "dlft", harmonics=25, steps=1024, stability=False, dlft_predictor=pred)
+        sol = discretised.solve(s, beta, "dlft", harmonics=25, steps=1024, stability=False, dlft_predictor=pred)
         prob, _ = mshbm.build_problem(s, beta, "dlft", harmonics=25, steps=1024, dlft_predictor=pred)
         lam, _ = prob.element_states(sol.x)[0]
         u = prob.Vs @ (prob.Om @ sol.x)
@@ -183,7 +184,7 @@ def test_den_hartog_eps_dependence(den_hartog_case):
     out = {}
     for pred in ("velocity", "displacement"):
         for eps in (1.0, 56.0, 224.0, 896.0, 1e4):
-            sol = mshbm.solve(s, beta, "dlft", harmonics=25, dlft_penalty=eps, stability=False, dlft_predictor=pred)
+            sol = discretised.solve(s, beta, "dlft", harmonics=25, dlft_penalty=eps, stability=False, dlft_predictor=pred)
             assert sol.success and sol.info["dlft_penalty"] == [eps]
             out[pred, eps] = (abs(sol.amplitude[0] / X - 1.0), sol.info["stick_samples"][0])
     # measured (velocity): 0.71, 0.34, 0.28, 0.26, 0.27 %; (displacement): 1.6, 1.1, 0.85, 0.60, 0.38 %
@@ -194,7 +195,7 @@ def test_den_hartog_eps_dependence(den_hartog_case):
         assert out[pred, 56.0][0] > out[pred, 896.0][0]
     assert out["velocity", 1e4][0] == pytest.approx(out["displacement", 1e4][0], abs=0.0015)
     # the default is the largest |A_dd(k omega)| = (25 beta)^2 - 1, the velocity parameter that over 25 beta
-    sol = mshbm.solve(s, beta, "dlft", harmonics=25, stability=False)
+    sol = discretised.solve(s, beta, "dlft", harmonics=25, stability=False)
     assert sol.info["dlft_penalty"][0] == pytest.approx((25 * beta) ** 2 - 1.0)
     assert sol.info["dlft_velocity_penalty"][0] == pytest.approx(((25 * beta) ** 2 - 1.0) / (25 * beta))
 
@@ -203,7 +204,7 @@ def test_den_hartog_eps_dependence(den_hartog_case):
 @pytest.fixture(scope="module")
 def friction3_exact():
     c = mshbm.load_case(EXAMPLES / "friction3.yaml")
-    ms = mshbm.solve(c.system, c.omega, "mshbm", harmonics=5, steps=1024, stability=False)
+    ms = discretised.solve(c.system, c.omega, "mshbm", harmonics=5, steps=1024, stability=False)
     ex = exact_periodic(c.system, c.omega, guess=ms)
     assert ex.success
     return c, ex
@@ -245,7 +246,7 @@ def test_friction_chain_against_exact(friction3_exact):
     errs = {}
     for pred, n_hs in (("velocity", (10, 25, 41)), ("displacement", (25,))):
         for n_h in n_hs:
-            sol = c.solve("dlft", harmonics=n_h, steps=Ns, stability=False, dlft_predictor=pred)
+            sol = c.solve("dlft", accuracy=False, harmonics=n_h, steps=Ns, stability=False, dlft_predictor=pred)
             assert sol.success
             errs[pred, n_h] = float(np.max(np.abs(sol.amplitude - A) / A))
     assert errs["velocity", 25] < 0.006 and errs["velocity", 41] < 0.003
@@ -260,7 +261,7 @@ def test_friction_chain_against_exact(friction3_exact):
     ref, events = _stick_set(ex, T, Ns)
     for pred in ("velocity", "displacement"):
         prob, _ = mshbm.build_problem(c.system, c.omega, "dlft", harmonics=25, steps=Ns, dlft_predictor=pred)
-        sol = c.solve("dlft", harmonics=25, steps=Ns, stability=False, dlft_predictor=pred)
+        sol = c.solve("dlft", accuracy=False, harmonics=25, steps=Ns, stability=False, dlft_predictor=pred)
         _, stick = prob.element_states(sol.x)[0]
         tr, off = _transitions(stick, events, T, Ns)
         bad = int(np.count_nonzero(stick != ref))
@@ -277,7 +278,7 @@ def test_friction_chain_against_exact(friction3_exact):
 @pytest.fixture(scope="module")
 def impact_exact():
     s, omega = impact_oscillator(), 0.8
-    ex = exact_periodic(s, omega, guess=mshbm.solve(s, omega, "mshbm", harmonics=5, stability=False))
+    ex = exact_periodic(s, omega, guess=discretised.solve(s, omega, "mshbm", harmonics=5, stability=False))
     assert ex.success and ex.info["n_impacts"] == 1
     return s, omega, ex
 
@@ -289,7 +290,7 @@ def test_contact_against_exact(impact_exact):
     A = ex.info["amplitude_exact"][0]
     err, pen = {}, {}
     for n_h in (5, 25):
-        sol = mshbm.solve(s, omega, "dlft", harmonics=n_h, stability=False)
+        sol = discretised.solve(s, omega, "dlft", harmonics=n_h, stability=False)
         assert sol.success, sol.message
         err[n_h] = 1.0 - sol.amplitude[0] / A
         cert = sol.certificate
@@ -309,9 +310,9 @@ def test_impact_chain_by_exact_path_following():
     (DLFTProblem.newton_fallback) reaches the DLFT solution. Measured amplitude error against the exact
     e_N = 1 orbit: 25 % at n_h = 25 (HBM: 24 %, MS-HBM: 0.3 %)."""
     c = mshbm.load_case(EXAMPLES / "impact5.yaml")
-    ms = mshbm.solve(c.system, c.omega, "mshbm", harmonics=5, stability=False)
+    ms = discretised.solve(c.system, c.omega, "mshbm", harmonics=5, stability=False)
     A = exact_periodic(c.system, c.omega, guess=ms).info["amplitude_exact"]
-    sol = c.solve("dlft", harmonics=25, stability=False, guess="linear")
+    sol = c.solve("dlft", accuracy=False, harmonics=25, stability=False, guess="linear")
     assert sol.success and "gap continuation" in sol.message
     err = float(np.max(np.abs(sol.amplitude - A) / A))
     assert 0.2 < err < 0.3
@@ -338,7 +339,7 @@ def _contact_force(prob, x, offset):
 def test_bad_penalty(value):
     c = mshbm.load_case(EXAMPLES / "friction3.yaml")
     with pytest.raises(InputError) as info:
-        mshbm.solve(c.system, c.omega, "dlft", dlft_penalty=value)
+        discretised.solve(c.system, c.omega, "dlft", dlft_penalty=value)
     assert info.value.key == "dlft_penalty"
 
 
@@ -346,14 +347,14 @@ def test_bad_penalty(value):
 def test_bad_predictor(value):
     c = mshbm.load_case(EXAMPLES / "friction3.yaml")
     with pytest.raises(InputError) as info:
-        mshbm.solve(c.system, c.omega, "dlft", dlft_predictor=value)
+        discretised.solve(c.system, c.omega, "dlft", dlft_predictor=value)
     assert info.value.key == "dlft_predictor"
 
 
 def test_predictor_is_a_dlft_option_only(tmp_path):
     c = mshbm.load_case(EXAMPLES / "friction3.yaml")
     with pytest.raises(InputError) as info:
-        mshbm.solve(c.system, c.omega, "hbm", dlft_predictor="velocity")
+        discretised.solve(c.system, c.omega, "hbm", dlft_predictor="velocity")
     assert info.value.key == "dlft_predictor"
     text = (EXAMPLES / "friction3.yaml").read_text()
     solver = "solver: {method: mshbm, harmonics: 3, steps: 4096}"
@@ -364,17 +365,17 @@ def test_predictor_is_a_dlft_option_only(tmp_path):
     assert info.value.key == "solver.dlft_predictor"
     p.write_text(text.replace(solver, "solver: {method: dlft, harmonics: 5, dlft_predictor: displacement}"))
     case = mshbm.load_case(p)
-    sol = case.solve(stability=False)
+    sol = case.solve(accuracy=False, stability=False)
     assert sol.success and sol.info["dlft_predictor"] == "displacement"
 
 
 def test_penalty_is_a_dlft_option_only():
     c = mshbm.load_case(EXAMPLES / "friction3.yaml")
     with pytest.raises(InputError) as info:
-        mshbm.solve(c.system, c.omega, "hbm", dlft_penalty=10.0)
+        discretised.solve(c.system, c.omega, "hbm", dlft_penalty=10.0)
     assert info.value.key == "dlft_penalty"
     with pytest.raises(InputError) as info:
-        mshbm.solve(c.system, c.omega, "dlft", theta=0.5)
+        discretised.solve(c.system, c.omega, "dlft", theta=0.5)
     assert info.value.key == "theta"
 
 
@@ -392,13 +393,13 @@ def test_two_elements_on_one_dof():
     s = chain([1.0, 1.0], 1.0, 0.1, forcing=[{"dof": 1, "amplitude": 1.0}],
               elements=[Friction(0, 0.5, 1.0), Contact(0, 0.2)])
     with pytest.raises(InputError) as info:
-        mshbm.solve(s, 0.8, "dlft")
+        discretised.solve(s, 0.8, "dlft")
     assert info.value.key == "elements"
 
 
 def test_non_convergence_is_clean():
     c = mshbm.load_case(EXAMPLES / "friction3.yaml")
-    sol = mshbm.solve(c.system, c.omega, "dlft", harmonics=10, max_iter=1, guess="zero", continuation=False)
+    sol = discretised.solve(c.system, c.omega, "dlft", harmonics=10, max_iter=1, guess="zero", continuation=False)
     assert sol.success is False and sol.stable is None
     assert "iteration" in sol.message
     assert np.all(np.isfinite(sol.q_hat))
@@ -408,8 +409,10 @@ def test_non_convergence_is_clean():
 def test_cli_solve_dlft(tmp_path):
     out = tmp_path / "r.json"
     proc = subprocess.run([sys.executable, "-m", "mshbm", "solve", str(EXAMPLES / "friction3.yaml"), "--method",
-                           "dlft", "--out", str(out), "--quiet"], capture_output=True, text=True, timeout=300)
+                           "dlft", "--accuracy", "0.1", "--out", str(out), "--quiet"], capture_output=True, text=True,
+                          timeout=300)  # n_H = 3: a truncation of a few per cent, within the requested 10 %
     assert proc.returncode == 0, proc.stderr
     data = json.loads(out.read_text())
     assert data["method"] == "dlft" and data["success"] is True and data["harmonics"] == 3
+    assert data["accuracy"]["requested"] and data["accuracy"]["estimate"] <= 0.1
     assert len(data["amplitude"]) == 3 and all(math.isfinite(a) for a in data["amplitude"])

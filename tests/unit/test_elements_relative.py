@@ -23,6 +23,7 @@ import numpy as np
 import pytest
 
 import mshbm
+from tests import discretised
 from mshbm import Contact, Friction, InputError, System, chain
 from mshbm.integrators.moreau_jean import MoreauJean
 from mshbm.methods.exact import exact_periodic
@@ -62,13 +63,13 @@ METHODS = {"shooting": dict(steps=4096), "mshbm": dict(steps=4096, harmonics=15)
 def test_relative_friction_tends_to_den_hartog(method):
     ground = chain([1.0], 1.0, 0.0, forcing=[{"dof": 0, "amplitude": 1.0}], elements=[Friction(0, 1.0, F_DH, smoothing=KAPPA_DH)])
     amp = lambda s: float(np.max(np.abs(s.displacement([0]))))
-    g = mshbm.solve(ground, OMEGA_DH, method, **METHODS[method])
+    g = discretised.solve(ground, OMEGA_DH, method, **METHODS[method])
     assert g.success
     ref = den_hartog(OMEGA_DH, F_DH)
     err = {}
     for k2 in (1e2, 1e3):
         for first in (0, 1):  # dof / relative_to swapped: the same element (w changes sign)
-            s = mshbm.solve(_held(k2, first), OMEGA_DH, method, **METHODS[method])
+            s = discretised.solve(_held(k2, first), OMEGA_DH, method, **METHODS[method])
             assert s.success, s.message
             e = abs(amp(s) - amp(g)) / ref
             assert err.setdefault(k2, e) == pytest.approx(e, rel=1e-6, abs=1e-12)
@@ -110,14 +111,14 @@ COV = {"shooting": dict(steps=2048), "mshbm": dict(steps=2048, harmonics=10, par
 @pytest.mark.parametrize("kind", list(ELEMENTS))
 def test_relative_element_is_ground_element_in_relative_coordinates(kind, method):
     rel, ground, Tn = _pair(*ELEMENTS[kind], n=3 if method == "mshbm-intermediate" else 2)
-    a = mshbm.solve(rel, 0.8, method, **COV[method])
-    b = mshbm.solve(ground, 0.8, method, **COV[method])
+    a = discretised.solve(rel, 0.8, method, **COV[method])
+    b = discretised.solve(ground, 0.8, method, **COV[method])
     assert a.success and b.success, (a.message, b.message)
     qa, qb = np.asarray(a.q_hat), np.asarray(b.q_hat) @ Tn.T
     scale = np.abs(qa).max()
     assert np.abs(qa - qb).max() <= 1e-9 * scale
     # the element did act: the linear response differs
-    lin = mshbm.solve(rel.with_elements([]), 0.8, method, **COV[method])
+    lin = discretised.solve(rel.with_elements([]), 0.8, method, **COV[method])
     assert np.abs(np.asarray(lin.q_hat) - qa).max() > 1e-2 * scale
     # the certificate judged the relative law: friction cone / non-penetration on q0 - q1
     names = {c.name: c for c in a.certificate.checks}
@@ -139,7 +140,7 @@ def test_relative_friction_against_exact_flow_of_relative_coordinates():
     ref = np.asarray(ex.q_hat)[:3] @ Tn.T
     errs = []
     for steps in (1024, 4096):
-        s = mshbm.solve(rel, 0.8, "shooting", steps=steps)
+        s = discretised.solve(rel, 0.8, "shooting", steps=steps)
         errs.append(np.abs(np.asarray(s.q_hat)[:3] - ref).max() / np.abs(ref).max())
     assert errs[1] < 1e-4 and errs[0] / errs[1] > 3.0
 
@@ -149,7 +150,7 @@ def test_exact_flow_and_stability_of_relative_elements():
     with pytest.raises(InputError) as info:
         exact_periodic(rel, 0.8)
     assert info.value.key == "friction.relative_to"
-    sol = mshbm.solve(rel, 0.8, "shooting", steps=1024)
+    sol = discretised.solve(rel, 0.8, "shooting", steps=1024)
     assert sol.success
     assert "relative" in sol.stability_reason
     assert sol.stable is None  # stick phases: the step map has no saltation terms, no verdict
@@ -189,7 +190,7 @@ def test_two_body_periodic_impacts_all_methods():
     out = {}
     for method, opt in (("shooting", dict(steps=4096)), ("mshbm", dict(steps=4096, harmonics=15)),
                         ("hbm", dict(harmonics=15, steps=1024))):
-        sol = mshbm.solve(s, 1.2, method, **opt)
+        sol = discretised.solve(s, 1.2, method, **opt)
         assert sol.success, sol.message
         g = 0.5 - (sol.displacement([0])[:, 0] - sol.displacement([1])[:, 0])
         if method == "hbm":  # penalty: penetrates by ~ lambda / k_c (measured 0.0074)
@@ -299,11 +300,11 @@ def test_jenkins_hbm_linear_while_sticking():
     kt = 5.0
     s = chain([1.0, 1.0], 1.0, 0.05, forcing=[{"dof": 1, "amplitude": 0.1}],
               elements=[Jenkins(0, 1.0, 100.0, tangential_stiffness=kt)])
-    sol = mshbm.solve(s, 0.8, "hbm", harmonics=5, steps=256)
+    sol = discretised.solve(s, 0.8, "hbm", harmonics=5, steps=256)
     assert sol.success
     K = s.dense("K").copy()
     K[0, 0] += kt
-    lin = mshbm.solve(System(s.M, s.C, K, s.f_hat), 0.8, "hbm", harmonics=5)
+    lin = discretised.solve(System(s.M, s.C, K, s.f_hat), 0.8, "hbm", harmonics=5)
     qa, qb = np.asarray(sol.q_hat), np.asarray(lin.q_hat)
     assert np.abs(qa[1:] - qb[1:]).max() <= 1e-12 * np.abs(qb).max()
     assert sol.stable is None and "Jenkins" in sol.stability_reason
@@ -317,7 +318,7 @@ def test_jenkins_hbm_tends_to_coulomb():
     for kt in (1e2, 1e3, 1e4, 1e6):
         s = chain([1.0], 1.0, 0.0, forcing=[{"dof": 0, "amplitude": 1.0}],
                   elements=[Jenkins(0, 1.0, F_DH, tangential_stiffness=kt)])
-        sol = mshbm.solve(s, OMEGA_DH, "hbm", harmonics=15, steps=1024)
+        sol = discretised.solve(s, OMEGA_DH, "hbm", harmonics=15, steps=1024)
         assert sol.success
         amps[kt] = float(np.max(np.abs(sol.displacement([0]))))
         # energy: the friction work balances the input (certificate) and the loop slides at mu F_N
@@ -330,8 +331,8 @@ def test_jenkins_hbm_tends_to_coulomb():
 def test_jenkins_relative_equals_ground_in_relative_coordinates():
     rel, ground, Tn = _pair(Jenkins(0, 0.3, 1.0, tangential_stiffness=20.0, relative_to=1),
                             Jenkins(0, 0.3, 1.0, tangential_stiffness=20.0))
-    a = mshbm.solve(rel, 0.8, "hbm", harmonics=10, steps=512)
-    b = mshbm.solve(ground, 0.8, "hbm", harmonics=10, steps=512)
+    a = discretised.solve(rel, 0.8, "hbm", harmonics=10, steps=512)
+    b = discretised.solve(ground, 0.8, "hbm", harmonics=10, steps=512)
     assert a.success and b.success
     qa, qb = np.asarray(a.q_hat), np.asarray(b.q_hat) @ Tn.T
     assert np.abs(qa - qb).max() <= 1e-9 * np.abs(qa).max()
@@ -358,7 +359,7 @@ def test_jenkins_all_methods_agree(relative):
               elements=[Jenkins(0, 1.0, 0.4, tangential_stiffness=8.0, relative_to=relative)])
     out = {}
     for method, opt in JEN_METHODS.items():
-        sol = mshbm.solve(s, 0.8, method, **opt)
+        sol = discretised.solve(s, 0.8, method, **opt)
         assert sol.success, (method, sol.message)
         assert sol.stable is None and "Jenkins" in sol.stability_reason
         # the reported solution has the structure's 3 DOFs (the sliders are not reported)
@@ -378,11 +379,11 @@ def test_jenkins_time_stepping_linear_while_sticking(method):
     s = chain([1.0, 1.0], 1.0, 0.05, forcing=[{"dof": 1, "amplitude": 0.1}],
               elements=[Jenkins(0, 1.0, 100.0, tangential_stiffness=kt)])
     opt = dict(steps=2048) if method == "shooting" else dict(steps=2048, harmonics=5, partition=[0, 1])
-    sol = mshbm.solve(s, 0.8, method, **opt)
+    sol = discretised.solve(s, 0.8, method, **opt)
     assert sol.success
     K = s.dense("K").copy()
     K[0, 0] += kt
-    lin = mshbm.solve(System(s.M, s.C, K, s.f_hat), 0.8, method, **opt)
+    lin = discretised.solve(System(s.M, s.C, K, s.f_hat), 0.8, method, **opt)
     qa, qb = np.asarray(sol.q_hat), np.asarray(lin.q_hat)
     assert np.abs(qa[1:] - qb[1:]).max() <= 1e-11 * np.abs(qb).max()  # measured 2e-14
 
@@ -399,7 +400,7 @@ def test_jenkins_dissipation_is_the_masing_loop(method):
                [Jenkins(0, 1.0, b, tangential_stiffness=kt)])
     opt = {"shooting": dict(steps=4096), "mshbm": dict(harmonics=10, steps=4096),
            "hbm": dict(harmonics=25, steps=4096)}[method]
-    sol = mshbm.solve(s, 1.0, method, **opt)
+    sol = discretised.solve(s, 1.0, method, **opt)
     assert sol.success
     q, lam = sol.displacement([0])[:, 0], np.asarray(sol.lam)[:, 0]
     amp = 0.5 * (q.max() - q.min())
@@ -415,13 +416,13 @@ def test_jenkins_time_stepping_tends_to_coulomb():
     elastic phase after a velocity reversal lasts ~ sqrt(2 mu F_N / (k_t |s''|)), so the amplitude
     error falls like k_t^(-1/2) (measured 0.0237, 0.0072, 0.0023 for k_t = 1e2, 1e3, 1e4)."""
     amp = lambda sol: float(np.max(np.abs(sol.displacement([0]))))
-    c = mshbm.solve(chain([1.0], 1.0, 0.0, forcing=[{"dof": 0, "amplitude": 1.0}],
+    c = discretised.solve(chain([1.0], 1.0, 0.0, forcing=[{"dof": 0, "amplitude": 1.0}],
                           elements=[Friction(0, 1.0, F_DH)]), OMEGA_DH, "shooting", steps=4096)
     err = []
     for kt in (1e2, 1e3, 1e4):
         s = chain([1.0], 1.0, 0.0, forcing=[{"dof": 0, "amplitude": 1.0}],
                   elements=[Jenkins(0, 1.0, F_DH, tangential_stiffness=kt)])
-        sol = mshbm.solve(s, OMEGA_DH, "shooting", steps=4096)
+        sol = discretised.solve(s, OMEGA_DH, "shooting", steps=4096)
         assert sol.success
         err.append(abs(amp(sol) - amp(c)))
     assert all(2.8 < err[i] / err[i + 1] < 3.8 for i in range(2))

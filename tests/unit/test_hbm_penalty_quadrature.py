@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import mshbm
+from tests import discretised
 from mshbm.api import build_problem
 from mshbm.methods.hbm import hat_integrals
 from test_hbm_robust import penalty_ode_amplitudes
@@ -54,7 +55,7 @@ def test_linear_quadrature_is_the_sampled_law_while_the_contact_is_closed():
 @pytest.mark.parametrize("condense", [True, False])
 def test_jacobian_of_the_linear_quadrature_against_differences(condense):
     system = impact_chain(5)
-    s = mshbm.solve(system, 0.6, "hbm", harmonics=10, stability=False, penalty_quadrature="linear",
+    s = discretised.solve(system, 0.6, "hbm", harmonics=10, stability=False, penalty_quadrature="linear",
                     condense=condense)
     assert s.success, s.message
     p = build_problem(system, 0.6, "hbm", harmonics=10, penalty_quadrature="linear", condense=condense)[0]
@@ -75,7 +76,7 @@ def test_jacobian_is_continuous_where_the_sampled_one_jumps():
     """Along a line in q_hat that moves the contact edges across samples, the linear quadrature's Jacobian
     changes in proportion to the step; the sampled law's jumps by k_c-sized steps (why its branch kinks)."""
     system = impact_chain(5)
-    s = mshbm.solve(system, 0.6, "hbm", harmonics=10, stability=False)
+    s = discretised.solve(system, 0.6, "hbm", harmonics=10, stability=False)
     jumps = {}
     for quad in ("samples", "linear"):
         p = build_problem(system, 0.6, "hbm", harmonics=10, penalty_quadrature=quad)[0]
@@ -132,10 +133,10 @@ def test_hbm_sweep_traces_the_impact_chain_branch(impact5, event_branch):
 
 def test_sampled_quadrature_is_kept_on_request_and_checked(impact5):
     with pytest.raises(mshbm.InputError, match="penalty_quadrature"):
-        mshbm.solve(impact5, 0.6, "hbm", harmonics=5, penalty_quadrature="trapezoid")
+        discretised.solve(impact5, 0.6, "hbm", harmonics=5, penalty_quadrature="trapezoid")
     damped = impact5.with_elements([mshbm.Contact(0, 0.1, 1.0, 8000.0, 5.0)])
     with pytest.raises(mshbm.InputError, match="penalty_quadrature"):
-        mshbm.solve(damped, 0.6, "hbm", harmonics=5, penalty_quadrature="linear")
+        discretised.solve(damped, 0.6, "hbm", harmonics=5, penalty_quadrature="linear")
     b = mshbm.sweep(impact5, 0.5, 0.53, "hbm", harmonics=9, penalty_quadrature="samples", stability=False,
                     max_points=40)
     # the sampled equations' branch at the default 512 samples: a fold at 0.531 rad/s turns it back

@@ -12,6 +12,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 import mshbm
+from tests import discretised
 from mshbm import condensation, fourier
 from mshbm.api import build_problem
 from mshbm.solvers.newton import solve_problem
@@ -79,7 +80,7 @@ def penalty_ode_amplitudes(system, omega, y0, tol=1e-9):
 def test_hbm_converges_to_the_penalty_model_as_n_h_grows():
     """HBM error = truncation error of the penalty model, not a solver artefact (5 masses, k_c = 1000)."""
     system = impact_chain(5, kc=1000.0)
-    sols = {n_h: mshbm.solve(system, OMEGA, "hbm", harmonics=n_h) for n_h in (9, 20, 40)}
+    sols = {n_h: discretised.solve(system, OMEGA, "hbm", harmonics=n_h) for n_h in (9, 20, 40)}
     assert all(s.success for s in sols.values())
     s40 = sols[40]
     amp = penalty_ode_amplitudes(system, OMEGA, np.concatenate([s40.q[0], s40.u[0]]))
@@ -91,7 +92,7 @@ def test_hbm_converges_to_the_penalty_model_as_n_h_grows():
 
 @pytest.fixture(scope="module")
 def impact50_ref():
-    return mshbm.solve(impact_chain(50), OMEGA, "shooting", steps=4096)
+    return discretised.solve(impact_chain(50), OMEGA, "shooting", steps=4096)
 
 
 @pytest.mark.parametrize("n_h", [3, 9, 20])
@@ -99,7 +100,7 @@ def impact50_ref():
 @pytest.mark.parametrize("n", [5, 50])
 def test_impact_hbm_converges_from_default_start(n, kc, n_h):
     system = impact_chain(n, kc=kc)
-    s = mshbm.solve(system, OMEGA, "hbm", harmonics=n_h)
+    s = discretised.solve(system, OMEGA, "hbm", harmonics=n_h)
     assert s.success, s.message
     scale = max(1.0, np.abs(s.x).max())
     assert s.residual <= 1e-10 * scale
@@ -113,7 +114,7 @@ def test_hbm_approaches_shooting_as_kc_grows(impact50_ref):
     assert ref.success
     errs = []
     for kc in (10.0, 100.0, 1000.0, 8000.0):
-        s = mshbm.solve(impact_chain(50, kc=kc), OMEGA, "hbm", harmonics=20)
+        s = discretised.solve(impact_chain(50, kc=kc), OMEGA, "hbm", harmonics=20)
         assert s.success, s.message
         errs.append(abs(s.amplitude[0] / ref.amplitude[0] - 1))
     # measured: 0.61, 0.41, 0.16, 0.077 (mass 1; n_H = 20)
@@ -138,17 +139,17 @@ def test_newton_alone_stalls_and_the_fallback_is_exact():
 
 def test_guess_homotopy_and_gap_continuation_agree():
     system = impact_chain(5, kc=8000.0)
-    a = mshbm.solve(system, OMEGA, "hbm", harmonics=20)
-    ref = mshbm.solve(system, OMEGA, "shooting", steps=2048)
-    b = mshbm.solve(system, OMEGA, "hbm", harmonics=20, guess=ref)
+    a = discretised.solve(system, OMEGA, "hbm", harmonics=20)
+    ref = discretised.solve(system, OMEGA, "shooting", steps=2048)
+    b = discretised.solve(system, OMEGA, "hbm", harmonics=20, guess=ref)
     assert a.success and b.success, (a.message, b.message)
     assert np.allclose(a.q_hat, b.q_hat, rtol=0, atol=1e-8 * np.abs(a.q_hat).max())
 
 
 def test_uncondensed_hbm_uses_the_same_fallback():
     system = impact_chain(5, kc=8000.0)
-    a = mshbm.solve(system, OMEGA, "hbm", harmonics=9)
-    b = mshbm.solve(system, OMEGA, "hbm", harmonics=9, condense=False)
+    a = discretised.solve(system, OMEGA, "hbm", harmonics=9)
+    b = discretised.solve(system, OMEGA, "hbm", harmonics=9, condense=False)
     assert a.success and b.success, (a.message, b.message)
     assert np.allclose(a.q_hat, b.q_hat, rtol=0, atol=1e-8 * np.abs(a.q_hat).max())
 
@@ -157,7 +158,7 @@ def test_success_only_with_a_small_residual():
     # d_c > 0 makes eq. (45) jump at g_N = 0: no exact zero may exist (measured: none found at d_c = 50)
     system = mshbm.chain([10.0] + [1.0] * 4, 1.0, 0.3, forcing=[{"dof": 4, "amplitude": 5.0}],
                          elements=[mshbm.Contact(0, 0.1, 1.0, 8000.0, 50.0)])
-    s = mshbm.solve(system, OMEGA, "hbm", harmonics=3)
+    s = discretised.solve(system, OMEGA, "hbm", harmonics=3)
     scale = max(1.0, np.abs(s.x).max())
     if s.success:
         assert s.residual <= 1e-10 * scale
@@ -167,14 +168,14 @@ def test_success_only_with_a_small_residual():
 
 @pytest.fixture(scope="module")
 def friction3_ref():
-    return mshbm.solve(friction_chain(3), OMEGA, "shooting", steps=8192)
+    return discretised.solve(friction_chain(3), OMEGA, "shooting", steps=8192)
 
 
 @pytest.mark.parametrize("kappa", [1e3, 1e4, 1e5])
 def test_stiff_friction_hbm_converges(friction3_ref, kappa):
     system = friction_chain(3, kappa)
     for n_h in (3, 9, 20):
-        s = mshbm.solve(system, OMEGA, "hbm", harmonics=n_h)
+        s = discretised.solve(system, OMEGA, "hbm", harmonics=n_h)
         assert s.success, s.message
         assert s.residual <= 1e-10 * max(1.0, np.abs(s.x).max())
     err = np.max(np.abs(s.amplitude[[0, 2]] / friction3_ref.amplitude[[0, 2]] - 1))

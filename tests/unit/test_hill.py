@@ -12,6 +12,7 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import linear_sum_assignment
 
 import mshbm
+from tests import discretised
 from mshbm import Friction, chain, hill
 from mshbm.errors import InputError
 from mshbm.methods.hbm import HBMProblem
@@ -37,7 +38,7 @@ def _linear_multipliers(system, omega):
 @pytest.mark.parametrize("omega", [0.4, 1.3, 2.9])
 def test_linear_damped_exact(omega, filt):
     s = chain([1.0, 2.0], [1.0, 3.0], [0.05, 0.1], forcing=[{"dof": 1, "amplitude": 1.0}])
-    sol = mshbm.solve(s, omega, "hbm", harmonics=5, stability=False)
+    sol = discretised.solve(s, omega, "hbm", harmonics=5, stability=False)
     mu = hill.hill_multipliers(s, omega, sol.q_hat, sol.steps, filter=filt)
     ref = _linear_multipliers(s, omega)
     assert mu.shape == (4,)
@@ -88,7 +89,7 @@ def test_regularised_friction_against_ode_monodromy(case):
     else:
         s = chain([1.0, 1.0], 1.0, 0.05, forcing=[{"dof": 1, "amplitude": 1.0}],
                   elements=[Friction(0, 1.0, 0.4, 2.0)])
-    sol = mshbm.solve(s, omega, "hbm", harmonics=25, stability=False)
+    sol = discretised.solve(s, omega, "hbm", harmonics=25, stability=False)
     assert sol.success
     ref = _regularised_monodromy(s, omega, np.concatenate([sol.q[0], sol.u[0]]))
     for filt in ("symmetric", "imag"):
@@ -105,7 +106,7 @@ def test_hill_matrix_is_the_hbm_jacobian():
     s = chain([1.0, 1.0, 1.0], 1.0, 0.0, forcing=[{"dof": 2, "amplitude": 5.0}],
               elements=[Friction(0, 0.8, 5.0, 800.0)])
     omega = np.pi / 5
-    sol = mshbm.solve(s, omega, "hbm", harmonics=4, stability=False)
+    sol = discretised.solve(s, omega, "hbm", harmonics=4, stability=False)
     assert sol.success
     prob = HBMProblem(s, omega, 4, sol.steps, condense=False)
     _, J = prob.residual(sol.q_hat.reshape(-1))
@@ -128,7 +129,7 @@ def test_double_negative_multiplier():
     wd = np.sqrt(1 - zeta ** 2)
     s = chain([1.0], 1.0, 2 * zeta, forcing=[{"dof": 0, "amplitude": 1.0}])
     omega = 2 * wd
-    sol = mshbm.solve(s, omega, "hbm", harmonics=3, stability=False)
+    sol = discretised.solve(s, omega, "hbm", harmonics=3, stability=False)
     for filt in ("symmetric", "imag"):
         mu = hill.hill_multipliers(s, omega, sol.q_hat, sol.steps, filter=filt)
         assert _match(mu, [-np.exp(-zeta * np.pi / wd)] * 2) < 1e-9
@@ -141,10 +142,10 @@ def test_stiff_regularisation_no_spurious_multipliers(friction3):
     multipliers ~ 0.  With the copy check the largest pair is that of the lightly damped modes, close to
     the exact nonsmooth flow's (0.9666), and a verdict needs a margin above the estimated error."""
     omega = np.pi / 5
-    exact = mshbm.solve(friction3, omega, "hbm", harmonics=5)
+    exact = discretised.solve(friction3, omega, "hbm", harmonics=5)
     assert exact.stability_method == mshbm.stability.EXACT
     rho_exact = float(np.max(np.abs(exact.floquet_multipliers)))
-    sol = mshbm.solve(friction3, omega, "hbm", harmonics=40, stability=False)
+    sol = discretised.solve(friction3, omega, "hbm", harmonics=40, stability=False)
     mu, err = hill.hill_multipliers(friction3, omega, sol.q_hat, sol.steps, full_output=True)
     assert abs(np.abs(mu[0]) - rho_exact) < 1e-2  # measured 0.9630 against 0.9666
     out = hill.assess_hbm(friction3, sol)
@@ -154,7 +155,7 @@ def test_stiff_regularisation_no_spurious_multipliers(friction3):
 
 def test_no_verdict_within_the_error_estimate(monkeypatch):
     s = chain([1.0], 1.0, 0.1, forcing=[{"dof": 0, "amplitude": 1.0}], elements=[Friction(0, 1.0, 0.3, 2.0)])
-    sol = mshbm.solve(s, 0.9, "hbm", harmonics=10, stability=False)
+    sol = discretised.solve(s, 0.9, "hbm", harmonics=10, stability=False)
     mu, err = hill.hill_multipliers(s, 0.9, sol.q_hat, sol.steps, full_output=True)
     rho = np.abs(mu[0])  # 0.58: stable with a margin far above the error estimate
     assert hill.assess_hbm(s, sol).stable is True and err.max() < 1e-3

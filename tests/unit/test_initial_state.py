@@ -4,13 +4,14 @@ import copy
 import numpy as np
 
 import mshbm
+from tests import discretised
 from paper_systems import OMEGA, impact_chain
 
 
 def test_initial_state_is_row_zero_of_the_time_series():
     system = impact_chain(5, e=0.8)
     for method, kw in (("mshbm", dict(harmonics=5, steps=512)), ("hbm", dict(harmonics=7))):
-        sol = mshbm.solve(system, OMEGA, method, **kw)
+        sol = discretised.solve(system, OMEGA, method, **kw)
         assert sol.success, (method, sol.message)
         fresh = copy.copy(sol)
         for key in ("q", "u"):  # cached full series (the stability analysis may have made them)
@@ -36,7 +37,7 @@ def test_fast_path_builds_the_problem_once(monkeypatch):
     real = driver.build_problem
     monkeypatch.setattr(driver, "build_problem", lambda *a, **k: calls.append(1) or real(*a, **k))
     opts = dict(harmonics=5, steps=512, max_iter=2)
-    sol = mshbm.solve(system, OMEGA, "mshbm", guess="zero", **opts)
+    sol = discretised.solve(system, OMEGA, "mshbm", guess="zero", **opts)
     assert len(calls) == 1
     assert sol.info["starts"][0]["start"] == "guess"  # the ladder ran after the fast path
     assert sol.success, sol.message

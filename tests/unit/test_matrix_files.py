@@ -7,6 +7,7 @@ import sys
 import zipfile
 
 import numpy as np
+from tests import discretised
 import pytest
 import scipy.io as sio
 import scipy.sparse as sp
@@ -86,7 +87,8 @@ def test_matrix_files_bit_for_bit(chain_data, ext, tmp_path):
         a, b = getattr(inline.system, name), getattr(files.system, name)
         assert type(a) is type(b) and np.array_equal(a, b)
     for method in METHODS:
-        r1, r2 = inline.solve(method), files.solve(method)
+        # the discretised equations (accuracy=False): the test is that files and inline give the same bits
+        r1, r2 = inline.solve(method, accuracy=False), files.solve(method, accuracy=False)
         assert r1.success and r2.success, (method, r1.message, r2.message)
         for arr in ARRAYS:
             assert np.array_equal(getattr(r1, arr), getattr(r2, arr)), (method, arr)

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 import mshbm
+from tests import discretised
 from mshbm import certificate as cm
 from mshbm import scaling, validate
 from mshbm.elements import Contact, Friction
@@ -59,7 +60,7 @@ def test_check_forcing_shortcut_keeps_the_errors():
     assert e.value.key == "steps"
     validate.check_forcing(s, "shooting", 1, 7, np.arange(3))
     with pytest.raises(InputError) as e:
-        mshbm.solve(s, 1.0, "hbm", harmonics=2)
+        discretised.solve(s, 1.0, "hbm", harmonics=2)
     assert e.value.key == "harmonics"
     unforced = chain([1.0], [1.0], 0.1, elements=[Friction(dof=0, mu=0.1, normal_force=1.0)])
     validate.check_forcing(unforced, "hbm", 1, 16, np.zeros(0, dtype=np.int64))
@@ -77,7 +78,7 @@ def test_guess_parts_without_states():
     with pytest.raises(InputError) as e:
         guess_parts({"q_hat": q_hat, "u0": [0.0, np.inf, 0.0]}, s, 1.3, 3, states=False)
     assert e.value.key == "guess.u0"
-    sol = mshbm.solve(s, 1.3, "hbm", harmonics=3, stability=False)
+    sol = discretised.solve(s, 1.3, "hbm", harmonics=3, stability=False)
     assert sol.success
     c = guess_parts(sol, s, 1.3, 3, states=False)
     # a solution's own states: PeriodicSolution.initial_state() (from the Fourier coefficients, without the time
@@ -86,7 +87,7 @@ def test_guess_parts_without_states():
     assert np.array_equal(c[0], sol.q_hat) and np.array_equal(c[1], q0) and np.array_equal(c[2], u0)
     assert np.allclose(c[1], sol.q[0], rtol=0, atol=1e-14 * np.abs(sol.q).max())
     # same iterates from a dict guess with and without the derived states: HBM's solve is unchanged
-    g = mshbm.solve(s, 1.3, "hbm", harmonics=3, stability=False, guess={"q_hat": sol.q_hat * 1.001})
+    g = discretised.solve(s, 1.3, "hbm", harmonics=3, stability=False, guess={"q_hat": sol.q_hat * 1.001})
     assert g.success and np.allclose(g.q_hat, sol.q_hat, rtol=0, atol=1e-9 * np.abs(sol.q_hat).max())
 
 

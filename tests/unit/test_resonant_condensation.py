@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 import mshbm
+from tests import discretised
 from mshbm import Friction, chain
 from mshbm.condensation import condense_around_resonances, resonant_modes
 
@@ -34,7 +35,7 @@ def _rel(a, b):
 
 @pytest.fixture(scope="module")
 def shooting_at_resonance():
-    sol = mshbm.solve(friction3(), W_L[0], "shooting", steps=8192)
+    sol = discretised.solve(friction3(), W_L[0], "shooting", steps=8192)
     assert sol.success
     return sol
 
@@ -54,7 +55,7 @@ def test_condensation_moves_the_null_space_support():
 def test_mshbm_at_resonance_of_the_linear_subsystem(shooting_at_resonance):
     """Before: InputError "H_LL is singular at harmonic k=1".  Now the resonant DOFs are time-integrated;
     amplitudes agree with full shooting (N = 8192) to 1e-4 relative (measured 2e-5: the step error)."""
-    sol = mshbm.solve(friction3(), W_L[0], "mshbm", harmonics=5, steps=2048)
+    sol = discretised.solve(friction3(), W_L[0], "mshbm", harmonics=5, steps=2048)
     assert sol.success, sol.message
     assert sol.partition.time.tolist() == [0, 1, 2]
     assert "moved to the time-integrated subsystem N" in sol.message
@@ -65,7 +66,7 @@ def test_mshbm_at_resonance_of_the_linear_subsystem(shooting_at_resonance):
 def test_hbm_at_resonance_of_the_linear_subsystem(shooting_at_resonance):
     """HBM keeps the resonant DOFs as harmonic unknowns; with the regularised law (kappa = 800) it agrees
     with set-valued shooting to the stress suite's HBM tolerance of 15 % (measured 3.5 %)."""
-    sol = mshbm.solve(friction3(), W_L[0], "hbm", harmonics=10)
+    sol = discretised.solve(friction3(), W_L[0], "hbm", harmonics=10)
     assert sol.success, sol.message
     assert sol.partition.harmonic.tolist() == [0, 1, 2] and sol.partition.condensed.size == 0
     assert "moved to the harmonic unknowns" in sol.message
@@ -76,8 +77,8 @@ def test_superharmonic_resonance_mshbm_matches_shooting():
     """omega = W_L[1] / 2: H_LL singular at harmonic k = 2 only."""
     s = friction3()
     w = W_L[1] / 2
-    sol = mshbm.solve(s, w, "mshbm", harmonics=5, steps=2048)
-    ref = mshbm.solve(s, w, "shooting", steps=8192)
+    sol = discretised.solve(s, w, "mshbm", harmonics=5, steps=2048)
+    ref = discretised.solve(s, w, "shooting", steps=8192)
     assert sol.success and ref.success
     assert "harmonic k=2" in sol.info["notes"][0]
     assert _rel(sol.amplitude, ref.amplitude) < 1e-3
@@ -86,7 +87,7 @@ def test_superharmonic_resonance_mshbm_matches_shooting():
 def test_explicit_partition_keeps_the_error():
     """A partition given by the caller is not changed: the singular block is still an InputError."""
     with pytest.raises(mshbm.InputError) as exc:
-        mshbm.solve(friction3(), W_L[0], "mshbm", harmonics=1, steps=256, partition=[0])
+        discretised.solve(friction3(), W_L[0], "mshbm", harmonics=1, steps=256, partition=[0])
     assert exc.value.key == "omega" and "H_LL is singular at harmonic k=1" in exc.value.problem
 
 
@@ -95,8 +96,8 @@ def test_intermediate_resonant_subsystem3_joins_subsystem2():
     DOF 2 joins subsystem 2; the answer equals the standard MS-HBM's (the same truncated equations) to
     1e-10 relative."""
     s = friction3()
-    a = mshbm.solve(s, 1.0, "mshbm-intermediate", harmonics=5, steps=2048)
-    b = mshbm.solve(s, 1.0, "mshbm", harmonics=5, steps=2048)
+    a = discretised.solve(s, 1.0, "mshbm-intermediate", harmonics=5, steps=2048)
+    b = discretised.solve(s, 1.0, "mshbm", harmonics=5, steps=2048)
     assert a.success and b.success, (a.message, b.message)
     assert a.partition.harmonic.tolist() == [1, 2] and a.partition.condensed.size == 0
     assert "H_33 singular at harmonic k=1" in a.info["notes"][0] and "subsystem 2" in a.message
@@ -113,8 +114,8 @@ def test_intermediate_empty_subsystem2_is_standard_mshbm():
     f_hat[1, 0] = 1.0  # cos on the friction DOF
     f_hat[1, 2] = 2.0  # and on the chain
     s = mshbm.System(M, C, K, f_hat, [Friction(0, 0.5, 1.0)])
-    a = mshbm.solve(s, 0.8, "mshbm-intermediate", harmonics=5, steps=1024)
-    b = mshbm.solve(s, 0.8, "mshbm", harmonics=5, steps=1024)
+    a = discretised.solve(s, 0.8, "mshbm-intermediate", harmonics=5, steps=1024)
+    b = discretised.solve(s, 0.8, "mshbm", harmonics=5, steps=1024)
     assert a.success and b.success, (a.message, b.message)
     assert a.method == "mshbm-intermediate"
     assert "solved as such" in a.message and "Section 3.2" in a.info["notes"][0]
@@ -125,7 +126,7 @@ def test_intermediate_empty_subsystem2_is_standard_mshbm():
     assert a.amplitude[1:] == pytest.approx(np.abs(X), rel=1e-9)
     # an explicit partition with an empty subsystem 2 stays an error naming the key
     with pytest.raises(mshbm.InputError) as exc:
-        mshbm.solve(s, 0.8, "mshbm-intermediate", harmonics=5, steps=1024, partition=[[0], []])
+        discretised.solve(s, 0.8, "mshbm-intermediate", harmonics=5, steps=1024, partition=[[0], []])
     assert exc.value.key == "partition"
 
 
@@ -153,7 +154,7 @@ def test_forced_undamped_mode_without_element_has_no_periodic_solution(method):
     v = np.linalg.eigh(K_LL)[1][:, 0]
     assert abs(v @ np.array([0.0, 1.0])) > 0.1  # the forcing drives the mode
     with pytest.raises(mshbm.InputError) as exc:
-        mshbm.solve(s, W_L[0], method, harmonics=3, steps=256)
+        discretised.solve(s, W_L[0], method, harmonics=3, steps=256)
     assert exc.value.key == "omega"
     assert "no periodic solution exists" in exc.value.problem and "DOFs [1, 2]" in exc.value.problem
 
@@ -163,5 +164,5 @@ def test_unforced_undamped_mode_without_element_is_not_unique():
     modes = resonant_modes(s, W_L[0], 1, [0], [1, 2])
     assert modes["no_solution"] is None and "not unique" in modes["not_unique"]
     with pytest.raises(mshbm.InputError) as exc:
-        mshbm.solve(s, W_L[0], "mshbm", harmonics=3, steps=256)
+        discretised.solve(s, W_L[0], "mshbm", harmonics=3, steps=256)
     assert exc.value.key == "omega" and "not unique" in exc.value.problem

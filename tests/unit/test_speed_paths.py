@@ -9,6 +9,7 @@
 * :func:`mshbm.fourier.idft_derivative_matrix` equals ``Vs @ Om``.
 """
 import numpy as np
+from tests import discretised
 import pytest
 import scipy.linalg as sla
 import scipy.sparse as sp
@@ -188,7 +189,7 @@ def test_fourier_element_terms_match_the_stored_grid():
     els = [Contact(dof=0, gap=0.02, penalty_stiffness=300.0, penalty_damping=0.5),
            Contact(dof=1, gap=0.05, penalty_stiffness=200.0, relative_to=2)]
     s = chain([1.0, 2.0, 1.5], [3.0, 1.0, 2.0], 0.1, forcing=[{"dof": 2, "amplitude": 1.0}], elements=els)
-    sol = mshbm.solve(s, 1.1, "hbm", harmonics=4, steps=128, stability=False)
+    sol = discretised.solve(s, 1.1, "hbm", harmonics=4, steps=128, stability=False)
     assert sol.success, sol.message
     dofs = np.array([0, 1, 2])
     I, J, sign = np.array([0, 1]), np.array([-1, 2]), np.array([e.sign for e in els], dtype=float)

@@ -198,8 +198,11 @@ REGULARISATION_NOTE = ("estimated relative amplitude error of the regularised la
 
 def law_distance(system, sol):
     """Distance of the regularised laws from the set-valued ones along the solution ``sol`` (dimensionless):
-    the largest of, per friction element, the deficit ``1 - W / W_0`` of the work ``W = -int lambda gamma dt``
-    it dissipates against ``W_0 = int mu F_N |gamma| dt`` of Coulomb's law on the same motion, and per contact
+    the largest of, per friction element, the deficit ``(W_0 - W) / max(W_0, W_in)`` of the work
+    ``W = -int lambda gamma dt`` it dissipates against ``W_0 = int mu F_N |gamma| dt`` of Coulomb's law on the same
+    motion, relative to the energy the orbit dissipates (``W_in``, the forcing's work per period, at least ``W_0``)
+    and weighted by ``min(1, max|gamma| / max|u|)`` (the element's slip speed against the orbit's velocities: a
+    sticking element's creep), and per contact
     the penetration ``max(-g_N)`` relative to the largest amplitude.  Small against the amplitude change where the
     law acts as the set-valued one (about a tenth of it on Den Hartog's oscillator); close to 1 where the
     regularisation is so soft that the law hardly acts at all (a tiny ``mu F_N`` with an absolute ``kappa``),
@@ -207,6 +210,10 @@ def law_distance(system, sol):
     t, lam = np.asarray(sol.t), np.asarray(sol.lam)
     dt = np.diff(t)
     top = float(np.max(sol.amplitude, initial=0.0))
+    cert = getattr(sol, "certificate", None)
+    energy = {} if cert is None else cert.info.get("energy", {})
+    W_in = abs(float(energy.get("input_work", 0.0) or 0.0))
+    V = float(np.max(np.abs(np.asarray(sol.u)), initial=0.0))  # the orbit's velocity scale
     out = 0.0
     for j, el in enumerate(system.elements):
         if el.history:
@@ -215,7 +222,13 @@ def law_distance(system, sol):
             gam = el.local(np.asarray(sol.u))[:-1]
             W0 = float(np.sum(el.bound_samples(lam)[:-1] * np.abs(gam) * dt))
             if W0 > 0.0:
-                out = max(out, 1.0 - float(-np.sum(lam[:-1, j] * gam * dt)) / W0)
+                # the work deficit relative to the energy the orbit dissipates per period (at least W_0): an
+                # element that creeps where Coulomb's would stick has a deficit near W_0 but W_0 is then a
+                # vanishing part of the energy budget, and the amplitude hardly depends on it
+                # and weighted by the element's slip speed against the orbit's: a creep far below the orbit's
+                # velocities (an element that sticks) moves the amplitude by as little
+                weight = min(1.0, float(np.max(np.abs(gam), initial=0.0)) / V) if V > 0 else 1.0
+                out = max(out, weight * (W0 - float(-np.sum(lam[:-1, j] * gam * dt))) / max(W0, W_in))
         elif el.unilateral and top > 0.0:
             out = max(out, max(0.0, -float(np.min(el.gap + el.local(np.asarray(sol.q))))) / top)
     return out

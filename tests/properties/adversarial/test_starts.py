@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 import mshbm
+from tests import discretised
 from mshbm import Contact, Friction, System, chain
 from mshbm.methods.common import linear_response
 from mshbm.api import build_problem
@@ -52,7 +53,7 @@ def test_clamped_amplitudes_of_the_stick_case():
 @pytest.mark.parametrize("omega", [0.3, W1, 0.8])
 @pytest.mark.parametrize("method", METHODS)
 def test_stick_case_converges_to_the_clamped_chain(method, omega):
-    sol = mshbm.solve(stick_chain(), omega, method, harmonics=3, steps=1024)
+    sol = discretised.solve(stick_chain(), omega, method, harmonics=3, steps=1024)
     exact = clamped_amplitudes(omega)
     # the friction force needed to hold DOF 0 (the spring force of DOF 1) stays below mu F_N = 80
     assert exact[1] < 80.0
@@ -107,7 +108,7 @@ _RESULTS = {}
 def _osc_solve(gap, e, omega, method="shooting"):
     key = (gap, e, omega, method)
     if key not in _RESULTS:
-        _RESULTS[key] = mshbm.solve(oscillator(gap, e), omega, method, steps=2000)
+        _RESULTS[key] = discretised.solve(oscillator(gap, e), omega, method, steps=2000)
     return _RESULTS[key]
 
 
@@ -195,7 +196,7 @@ def test_impact_oscillator_stable_orbit_at_omega_1_5(method):
     """omega = 1.5, gap 0.1, e = 0.7: the (1,1) orbit is stable (multipliers of modulus e = 0.7), yet
     both methods stalled at iteration 1; the Moreau-Jean map has no exact periodic point there
     (impact time quantised to the grid), so the answer is periodic to one step's accuracy."""
-    sol = mshbm.solve(oscillator(0.1, 0.7), 1.5, method, steps=2000)
+    sol = discretised.solve(oscillator(0.1, 0.7), 1.5, method, steps=2000)
     assert sol.success, sol.message
     ex = exact_periodic(oscillator(0.1, 0.7), 1.5)
     assert ex.success and np.max(np.abs(ex.info["floquet_multipliers"])) < 1.0
@@ -251,7 +252,7 @@ def impact50():
 def impact50_reference():
     system = impact50()
     w = 0.98 * math.pi / 5
-    shoot = mshbm.solve(system, w, "shooting", steps=4096)
+    shoot = discretised.solve(system, w, "shooting", steps=4096)
     assert shoot.success and shoot.info.get("start_used", "linear") == "linear"
     return system, w, shoot
 
@@ -267,10 +268,10 @@ def test_impact50_at_098_omega(impact50_reference, method, n_h):
     answer is checked against full shooting, to the truncation error of n_h harmonics, as is the
     root found from the shooting orbit."""
     system, w, shoot = impact50_reference
-    sol = mshbm.solve(system, w, method, harmonics=n_h, steps=4096)
+    sol = discretised.solve(system, w, method, harmonics=n_h, steps=4096)
     assert sol.success, sol.message
     assert sol.residual < 1e-12 and "step_accuracy" not in sol.info
-    ref = mshbm.solve(system, w, method, harmonics=n_h, steps=4096, guess=shoot)
+    ref = discretised.solve(system, w, method, harmonics=n_h, steps=4096, guess=shoot)
     assert ref.success and ref.residual < 1e-12
     for s in (sol, ref):
         assert abs(s.amplitude[0] / shoot.amplitude[0] - 1) < (1e-2 if n_h == 3 else 1e-3)
@@ -350,10 +351,10 @@ def test_explicit_guess_is_the_first_rung_and_continuation_false_a_single_start(
     """A good explicit guess is accepted as the ladder's first start (one record); ``continuation=False``
     runs Newton from the start alone (no ladder)."""
     system = stick_chain()
-    sol = mshbm.solve(system, 0.3, "mshbm", harmonics=3, steps=256, guess="linear")
+    sol = discretised.solve(system, 0.3, "mshbm", harmonics=3, steps=256, guess="linear")
     assert sol.info["start_used"] == "guess" and len(sol.info["starts"]) == 1
     assert np.allclose(sol.amplitude[1:], clamped_amplitudes(0.3)[1:], rtol=1e-3)
-    sol = mshbm.solve(system, 0.3, "mshbm", harmonics=3, steps=256, continuation=False)
+    sol = discretised.solve(system, 0.3, "mshbm", harmonics=3, steps=256, continuation=False)
     assert "starts" not in sol.info
     assert np.allclose(sol.amplitude[1:], clamped_amplitudes(0.3)[1:], rtol=1e-3)
     assert not ROUTE.single_start  # the public route is not left inside a ladder
@@ -363,8 +364,8 @@ def test_poor_explicit_guess_falls_back_to_the_ladder():
     """Newton from a poor guess (rest, far from the stick orbit) is the first rung; when it is not accepted
     the default starts follow, and the answer is the closed-form stick orbit."""
     system = stick_chain()
-    direct = mshbm.solve(system, W1, "mshbm", harmonics=3, steps=256, guess="zero", continuation=False)
-    sol = mshbm.solve(system, W1, "mshbm", harmonics=3, steps=256, guess="zero")
+    direct = discretised.solve(system, W1, "mshbm", harmonics=3, steps=256, guess="zero", continuation=False)
+    sol = discretised.solve(system, W1, "mshbm", harmonics=3, steps=256, guess="zero")
     assert sol.success, sol.message
     assert sol.info["starts"][0]["start"] == "guess"
     assert np.allclose(np.abs(sol.q_hat[1]), clamped_amplitudes(W1), rtol=1e-4, atol=1e-9)
@@ -378,10 +379,10 @@ def test_unit_scaling_gives_the_same_start_and_answer(method, scale):
     """M, C, K, f and mu F_N times s: the physical scales move with the units, the accepted start and
     the displacements do not.  (HBM is left out: its Newton test ||R|| <= tol max(1, ||x0||) is in
     force units and not scale-invariant, which the certificate's test replaces.)"""
-    base = mshbm.solve(stick_chain(), W1, method, harmonics=3, steps=512)
+    base = discretised.solve(stick_chain(), W1, method, harmonics=3, steps=512)
     sys_s = chain([scale] * 3, scale, forcing=[{"dof": 2, "amplitude": 5.0 * scale}],
                   elements=[Friction(0, 0.8, 100.0 * scale)])
-    sol = mshbm.solve(sys_s, W1, method, harmonics=3, steps=512)
+    sol = discretised.solve(sys_s, W1, method, harmonics=3, steps=512)
     assert sol.success and sol.info["start_used"] == base.info["start_used"] == "clamped"
     assert np.allclose(sol.amplitude, base.amplitude, rtol=1e-9, atol=1e-9 * base.amplitude.max())
     assert np.allclose(base.amplitude, clamped_amplitudes(W1), rtol=1e-4)
@@ -390,7 +391,7 @@ def test_unit_scaling_gives_the_same_start_and_answer(method, scale):
 @pytest.mark.parametrize("method", ["shooting", "mshbm"])
 def test_continuation_true_without_guess_runs_the_start_ladder(method):
     """continuation=True stalled at iteration 1 before (omega = 1.5, gap 0.1, e = 0.7)."""
-    sol = mshbm.solve(oscillator(0.1, 0.7), 1.5, method, steps=2000, continuation=True)
+    sol = discretised.solve(oscillator(0.1, 0.7), 1.5, method, steps=2000, continuation=True)
     assert sol.success, sol.message
     ex = exact_periodic(oscillator(0.1, 0.7), 1.5)
     assert abs(sol.amplitude[0] / ex.info["amplitude_exact"][0] - 1) < 1e-2
@@ -412,7 +413,7 @@ def test_friction_chain_default_start(normal_force, omega, method):
     success with amplitudes 5e6..2e7)."""
     system = chain([1, 1, 1], 1.0, forcing=[{"dof": 2, "amplitude": 5.0}],
                    elements=[Friction(0, 0.8, normal_force)])
-    sol = mshbm.solve(system, omega, method, harmonics=5, steps=1024)
+    sol = discretised.solve(system, omega, method, harmonics=5, steps=1024)
     if normal_force == 5.0 and omega == W1:
         _check_clean_failure(sol)
         assert not exact_periodic(system, omega, guess=sol, max_iter=10).success

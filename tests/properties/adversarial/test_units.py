@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 
 import mshbm
+from tests import discretised
 from mshbm import Contact, Friction, System, chain
 from paper_systems import system as paper_system
 
@@ -71,7 +72,7 @@ def homogeneous(system, s, hbm=False):
 
 @lru_cache(maxsize=None)
 def reference(name, method):
-    return mshbm.solve(SYSTEMS[name](), OMEGA, method, **OPTS)
+    return discretised.solve(SYSTEMS[name](), OMEGA, method, **OPTS)
 
 
 @lru_cache(maxsize=None)
@@ -79,7 +80,7 @@ def rounding_spread(name, method):
     """Largest change of the Newton iteration count when the unit changes by a few ulps only (``s = 1 + k 2^-50``,
     ``k = 1..6``): how much rounding alone moves Newton's path on this problem."""
     ref = reference(name, method)
-    return max(abs(mshbm.solve(in_units(SYSTEMS[name](), 1.0 + k * 2.0 ** -50), OMEGA, method, **OPTS).iterations
+    return max(abs(discretised.solve(in_units(SYSTEMS[name](), 1.0 + k * 2.0 ** -50), OMEGA, method, **OPTS).iterations
                    - ref.iterations) for k in range(1, 7))
 
 
@@ -117,7 +118,7 @@ def test_reference_is_certified_and_agrees_with_shooting(name, method):
 @pytest.mark.parametrize("method", METHODS)
 def test_units_do_not_change_the_answer(method, name, s):
     ref = reference(name, method)
-    sol = mshbm.solve(in_units(SYSTEMS[name](), s), OMEGA, method, **OPTS)
+    sol = discretised.solve(in_units(SYSTEMS[name](), s), OMEGA, method, **OPTS)
     assert_same_outcome(ref, sol, 1.0)
     # rounding may move the last iterate across tol (2), and where Newton's path itself is sensitive to rounding
     # (HBM with the regularised friction law: 13 to 18 iterations under unit changes of a few ulps), a change of
@@ -131,7 +132,7 @@ def test_units_do_not_change_the_answer(method, name, s):
 @pytest.mark.parametrize("method", METHODS)
 def test_homogeneity(method, name, s):
     ref = reference(name, method)
-    sol = mshbm.solve(homogeneous(SYSTEMS[name](), s, hbm=method == "hbm"), OMEGA, method, **OPTS)
+    sol = discretised.solve(homogeneous(SYSTEMS[name](), s, hbm=method == "hbm"), OMEGA, method, **OPTS)
     assert_same_outcome(ref, sol, s)
 
 
@@ -146,7 +147,7 @@ def test_stuck_chain_in_other_units(method, s):
     # clamped chain [[2, -1], [-1, 1]] - w^2 I, forcing 5 on the last mass
     H = np.array([[2.0 - w * w, -1.0], [-1.0, 1.0 - w * w]])
     exact = np.abs(np.linalg.solve(H, [0.0, 5.0]))
-    sol = mshbm.solve(in_units(base, s), w, method, guess="zero", harmonics=3, steps=1024)
+    sol = discretised.solve(in_units(base, s), w, method, guess="zero", harmonics=3, steps=1024)
     assert sol.success, sol.message
     # HBM: the arctan law with kappa = 1e5 creeps; shooting: Moreau-Jean integrates the clamped chain with
     # an O((omega h)^2) error; MS-HBM: the stuck DOF is integrated, the clamped rest is exact
