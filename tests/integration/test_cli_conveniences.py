@@ -14,6 +14,7 @@ import yaml
 
 import mshbm
 from mshbm.cli import main
+from tests.integration.test_io_cli import run, write_case  # noqa: F401  (the CLI helpers of the CLI tests)
 from mshbm.io import load_case
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -23,16 +24,6 @@ DH = {"name": "dh", "masses": [1], "stiffness": 1, "damping": 0.1, "omega": 2,
       "forcing": [{"dof": 0, "amplitude": 1}], "friction": {"dof": 0, "mu": 1, "normal_force": 0.3}}
 
 
-def run(capsys, *argv):
-    code = main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return code, out, err
-
-
-def write_case(tmp_path, data, name="case.yaml"):
-    path = tmp_path / name
-    path.write_text(yaml.safe_dump(data, sort_keys=False))
-    return path
 
 
 def assert_input_error(code, out, err, key):

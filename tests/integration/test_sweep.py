@@ -156,7 +156,9 @@ def test_sweep_without_condensation_equals_condensed(method):
     b = mshbm.sweep(s, 1.6, 2.0, method, harmonics=7, condense=False, stability=False)
     assert b.success and b.omega[-1] == pytest.approx(2.0) and len(b) >= 5
     for i in (1, len(b) // 2, len(b) - 1):  # the condensed solve at the branch's frequencies
-        ref = mshbm.solve(s, b.omega[i], method, harmonics=7, stability=False)
+        # a branch point is certified for its discretised equations (sweeps make no error estimates): so is the
+        # pointwise solve it is compared with
+        ref = mshbm.solve(s, b.omega[i], method, harmonics=7, stability=False, accuracy=False)
         assert ref.success
         np.testing.assert_allclose(b.amplitude[i], ref.amplitude, rtol=1e-7)
 
