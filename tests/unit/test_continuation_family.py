@@ -38,3 +38,22 @@ def test_continuation_holds_the_offset_and_reports_the_family():
     np.testing.assert_allclose(x[:, 0] * (1 + x[:, 0] ** 2), lam, atol=1e-10)
     assert lam[-1] == 2.0 and np.all(np.diff(lam) > 0) and not res.folds
     assert res.counters["free_points"] >= len(res.points) and res.counters["free_dimension"] == 1
+
+
+def test_revisit_is_an_exact_repetition_of_an_earlier_point():
+    """The guard against a continuation that cycles (seen on a reduced FE blade with a stop: the same 20 points
+    traced again and again until max_points): a point that repeats an earlier one to 1e-6 in the scaled
+    variables is named; a nearby but distinct point (the other side of a fold) and the last two points are not."""
+    from types import SimpleNamespace
+
+    from mshbm.solvers.arclength import _Trace
+
+    pts = [SimpleNamespace(x=np.array([np.cos(a), np.sin(a)]), lam=float(a)) for a in np.linspace(0.0, 1.0, 11)]
+    tr = SimpleNamespace(points=pts, lsc=1.0)
+    w = np.ones(2)
+    again = SimpleNamespace(x=pts[3].x * (1 + 1e-9), lam=pts[3].lam)
+    assert _Trace.revisited(tr, again, w) == 3
+    near = SimpleNamespace(x=pts[3].x + 1e-4, lam=pts[3].lam)
+    assert _Trace.revisited(tr, near, w) is None
+    last = SimpleNamespace(x=pts[-1].x.copy(), lam=pts[-1].lam)
+    assert _Trace.revisited(tr, last, w) is None

@@ -330,6 +330,16 @@ class _Trace:
                 raise Failed(what + (f": {q.payload}" if detail and isinstance(q.payload, str) else ""))
         return q
 
+    def revisited(self, q, w, rtol=1e-6):
+        """Index of an earlier point (not one of the last two) that ``q`` repeats to ``rtol`` in the scaled
+        unknowns and parameter: the continuation has come round to where it was and would trace the same points
+        again (a closed loop, or a step sequence that cycles); ``None`` otherwise.  Exact repetition only: the
+        two sides of a fold, or a branch passing near an earlier part, are not taken for it."""
+        for i, p in enumerate(self.points[:-2]):
+            if abs(q.lam - p.lam) <= rtol * self.lsc and float(np.max(np.abs((q.x - p.x) / w), initial=0.0)) <= rtol:
+                return i
+        return None
+
     def add(self, q, ds):
         self.points.append(q)
         if self.callback is not None:
@@ -587,6 +597,13 @@ class _Trace:
             if kink is not None:
                 self.kinks.append(kink)
                 self.counters["kinks"] = self.counters.get("kinks", 0) + 1
+            back = self.revisited(q, w)
+            if back is not None:  # the curve closed on itself: it would be traced again and again
+                self.message = (f"the continuation came back to its point {back} (lam = {points[back].lam:.6g}) and "
+                                "would trace the same points again (a closed loop of the curve, or a cycle of steps "
+                                "at a corner): stopped before lam_end")
+                self.counters["revisits"] = self.counters.get("revisits", 0) + 1
+                break
             self.fold(p, w, q)
             # the end of the range
             if (q.lam - lam_end) * direction >= 0 and (p.lam - lam_end) * direction < 0:
