@@ -111,7 +111,6 @@ class ReducedModel:
         out = dataclasses.replace(sol, q_hat=np.asarray(sol.q_hat) @ self.T.T, time_dofs=self.boundary[td[keep]],
                                   q_time=np.asarray(sol.q_time)[:, keep], u_time=np.asarray(sol.u_time)[:, keep],
                                   info=info)
-        out.elements = list(sol.elements)
         if estimate and sol.certificate is not None:
             from .certificate import Check
             from .certificate.combined import combined_check, gate

@@ -13,7 +13,7 @@ from .record import Certificate, Check
 from .substitution import model_substitution_check
 from .truncation import truncation_checks
 
-__all__ = ["certify", "apply_certificate"]
+__all__ = ["certify", "apply_certificate", "reword_warnings"]
 
 
 def certify(problem, sol, tol, step_accuracy=None, step_size_gating=True):
@@ -131,3 +131,13 @@ def apply_certificate(problem, sol, tol, step_accuracy=None, cert=None):
         sol.message = f"{sol.message}; model substitution: {c.note} ({est})"
     return cert
 
+
+def reword_warnings(sol, before):
+    """After checks were added to ``sol.certificate``: replace its warnings ``before`` (as
+    :meth:`Certificate.describe_warnings` worded them when they went into ``sol.message``) by the current ones,
+    named only on a success."""
+    if before:
+        sol.message = sol.message.replace(f"; warning: {before}", "")
+    now = sol.certificate.describe_warnings()
+    if sol.success and now:
+        sol.message = f"{sol.message}; warning: {now}"

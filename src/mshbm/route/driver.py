@@ -46,6 +46,7 @@ from .._blas import blas_threads, check_threads
 from .. import stability as _stability
 from .. import validate
 from ..certificate import apply_certificate, certify
+from ..certificate.verdict import reword_warnings
 from ..condensation import SingularHarmonicError
 from ..errors import ConvergenceError, InputError
 from ..methods.hbm_regularisation import REGULARISATION_BOUND, regularisation_check, regularised
@@ -334,12 +335,10 @@ class Route:
                 and not self.in_frequency:
             # the error of the regularised laws (HBM): one re-solve with stiffer laws (not gating; not for the
             # nested solves of a start ladder, whose answers are starts)
-            warned = sol.certificate.describe_warnings() if sol.certificate.warnings else ""
+            warned = sol.certificate.describe_warnings()
             check = regularisation_check(problem, sol, nkw, REGULARISATION_BOUND)
             if not check.passed and check.value is not None:  # the message's warnings, now with this estimate
-                if warned:
-                    sol.message = sol.message.replace(f"; warning: {warned}", "")
-                sol.message = f"{sol.message}; warning: {sol.certificate.describe_warnings()}"
+                reword_warnings(sol, warned)
         if section is not None:
             _unshift(sol, section)
         if laddered and not sol.success:

@@ -53,6 +53,7 @@ import numpy as np
 
 from ..certificate.combined import DEFAULT_ACCURACY, combined_check, estimates, gate
 from ..certificate.record import Check
+from ..certificate.verdict import reword_warnings
 from ..errors import InputError
 from ..methods.capabilities import capabilities as method_capabilities
 from ..options import aft_steps
@@ -225,18 +226,14 @@ class _Estimator:
         """Put the estimates ``values`` (``{name: (value, note)}``) and the check ``accuracy`` into ``sol``'s
         certificate and gate ``sol.success`` on it."""
         cert = sol.certificate
-        warned = cert.describe_warnings()
-        if warned:  # the warnings of the certificate alone, re-worded below with the estimates
-            sol.message = sol.message.replace(f"; warning: {warned}", "")
+        warned = cert.describe_warnings()  # the warnings of the certificate alone, re-worded with the estimates
         for name, (value, note) in values.items():
             ok = value is not None and value <= accuracy
             chk = Check(name, value, float(accuracy), bool(ok), False, note)
             cert.checks = [c for c in cert.checks if c.name != name] + [chk]
         chk = combined_check(cert, accuracy, requested)
         gate(sol, chk)
-        warned = cert.describe_warnings()
-        if sol.success and warned:
-            sol.message = f"{sol.message}; warning: {warned}"
+        reword_warnings(sol, warned)
         return chk
 
     def own_estimates(self, sol, only=None):
