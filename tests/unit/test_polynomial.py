@@ -66,6 +66,14 @@ def test_case_file_sections(tmp_path):
     els = case.system.elements
     assert [e.kind for e in els] == ["friction", "polynomial", "polynomial"]
     assert els[1] == Polynomial(1, {2: 0.1, 3: 0.5}, relative_to=0) and els[2] == Polynomial(0, {3: 2.0})
+    # --set: a coefficient by its power, the cubic shorthand by its key
+    case = mshbm.load_case(p, sets=["polynomial.0.coefficients.3=1.5", "polynomial.coefficients.5=0.25",
+                                    "cubic.0.stiffness=3.0"])
+    assert case.system.elements[1].coefficients == ((2, 0.1), (3, 1.5), (5, 0.25))
+    assert case.system.elements[2].coefficients == ((3, 3.0),)
+    with pytest.raises(InputError) as exc:
+        mshbm.load_case(p, sets=["polynomial.0.coefficients.x=1"])
+    assert exc.value.key == "polynomial.0.coefficients.x"
     with pytest.raises(InputError) as exc:
         mshbm.load_case(p, cubic=[{"dof": 0}])
     assert exc.value.key == "cubic[0].stiffness"

@@ -87,6 +87,13 @@ def _assign(node, parts, i, value, key, schema):
                 raise InputError(key, f"names a whole {norm[0]} entry; give one of its keys "
                                         f"({', '.join(schema[norm])})")
             return _assign(node, parts, i + 1, value, key, schema)
+        if norm == ("polynomial", "coefficients"):  # a mapping power -> k_p: its keys are the powers
+            if not (part.isdigit() and last):
+                raise InputError(key, f"a polynomial coefficient is set by its power, e.g. "
+                                      f"{'.'.join(parts[:i])}.3=0.5 (k_3), got {where!r}")
+            out = {k: v for k, v in node.items() if str(k) != part}
+            out[int(part)] = value
+            return out
         allowed = schema.get(norm)
         if allowed is None or part not in allowed:
             close = difflib.get_close_matches(part, list(allowed or ()), n=1)
