@@ -290,3 +290,34 @@ def test_ms_hbm_blocks_with_springs_agree_with_shooting():
     assert sh.success and ms.success and list(ms.time_dofs) == [0, 2, 3, 4]
     diff = np.abs(ms.amplitude - sh.amplitude).max() / sh.amplitude.max()
     assert diff <= _acc(sh) + _acc(ms) and diff < 5e-6
+
+
+def test_dlft_is_hbm_for_the_spring_alone():
+    """No Lagrangian term: DLFT's residual is HBM's (AFT of the same exact law)."""
+    hbm = mshbm.solve(duffing(), 1.2, method="hbm", harmonics=9, stability=False)
+    dl = mshbm.solve(duffing(), 1.2, method="dlft", harmonics=9, stability=False)
+    assert hbm.success and dl.success
+    assert np.abs(np.asarray(dl.q_hat) - np.asarray(hbm.q_hat)).max() < 1e-12 * float(hbm.amplitude[0])
+
+
+@pytest.mark.parametrize("predictor", ["velocity", "displacement"])
+@pytest.mark.parametrize("condense", [True, False])
+def test_dlft_jacobian_with_springs_matches_differences(predictor, condense):
+    """The smooth forces enter the force the linear part demands of the Lagrangian elements on the same DOF:
+    the exact Jacobian against central differences (a spring first in the element list, relative springs)."""
+    from mshbm.methods.dlft import DLFTProblem
+
+    els = [Polynomial(1, {3: 0.3, 2: 0.2}, relative_to=0), Friction(0, 0.3, 1.0), Contact(1, 0.2),
+           Polynomial(0, {3: 0.8})]
+    sys = chain([1.0, 1.0, 1.0], 1.0, 0.05, forcing=[{"dof": 2, "amplitude": 0.3}], elements=els)
+    p = DLFTProblem(sys, 1.0, 5, 64, condense=condense, dlft_predictor=predictor)
+    x = p.initial_guess() + 0.2 * np.random.default_rng(0).standard_normal(p.n_unknowns)
+    R, J = p.residual(x)
+    J = J.toarray() if hasattr(J, "toarray") else J
+    d = 1e-7
+    fd = np.column_stack([(p.residual(x + d * e, jac=False)[0] - p.residual(x - d * e, jac=False)[0]) / (2 * d)
+                          for e in np.eye(x.size)])
+    assert np.abs(J - fd).max() / np.abs(J).max() < 1e-8
+    lam = p.solution_parts(x)["lam"]
+    s = els[0].local(p.Vs @ p.full_coefficients(x))  # w^T q on the AFT samples
+    assert np.allclose(lam[:-1, 0], els[0].law(s)[0], rtol=0, atol=1e-12)
