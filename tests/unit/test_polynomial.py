@@ -321,3 +321,14 @@ def test_dlft_jacobian_with_springs_matches_differences(predictor, condense):
     lam = p.solution_parts(x)["lam"]
     s = els[0].local(p.Vs @ p.full_coefficients(x))  # w^T q on the AFT samples
     assert np.allclose(lam[:-1, 0], els[0].law(s)[0], rtol=0, atol=1e-12)
+
+
+def test_backbone_is_the_single_harmonic_one():
+    """EPMC on the undamped Duffing oscillator at n_h = 1: omega^2 = (k + 3/4 k3 a^2) / m (m = 1: the modal
+    amplitude is the amplitude), damping ratio 0 (the spring is conservative)."""
+    sys = chain([M_], [K_], [0.0], elements=[Polynomial(0, {3: K3})])
+    bb = mshbm.backbone(sys, 0.01, 1.0, method="hbm", harmonics=1, steps=16)
+    a, w = np.asarray(bb.modal_amplitude), np.asarray(bb.omega)
+    assert a.size > 10 and a.max() >= 1.0 - 1e-9
+    assert np.abs(w ** 2 - (K_ + 0.75 * K3 * a ** 2) / M_).max() < 1e-9
+    assert np.abs(np.asarray(bb.damping_ratio)).max() < 1e-12
