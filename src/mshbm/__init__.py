@@ -21,7 +21,8 @@ from .result import PeriodicSolution
 from .system import System, chain
 
 __all__ = ["solve", "build_problem", "residual_omega_derivative", "METHODS", "System", "Element", "Friction",
-           "Jenkins", "Contact", "Polynomial", "chain", "PeriodicSolution", "InputError", "ConvergenceError", "load_case",
+           "Jenkins", "Contact", "Polynomial", "chain", "PeriodicSolution", "InputError", "ConvergenceError",
+           "load_case",
            "exact_periodic", "sweep", "Branch", "continue_forcing", "continue_parameter", "switch_period_doubling",
            "backbone", "Backbone"]
 __version__ = "0.1.0"

@@ -279,7 +279,8 @@ def test_ms_hbm_blocks_with_springs_agree_with_shooting():
     (:func:`mshbm.integrators.subsystem._blocks`), and agrees with shooting (measured 2.0e-6)."""
     from mshbm.integrators.subsystem import _blocks
 
-    els = [Friction(0, 0.3, 1.5), Polynomial(0, {3: 0.8}), Polynomial(2, {3: 0.5}), Polynomial(4, {3: 0.3}, relative_to=3)]
+    els = [Friction(0, 0.3, 1.5), Polynomial(0, {3: 0.8}), Polynomial(2, {3: 0.5}),
+           Polynomial(4, {3: 0.3}, relative_to=3)]
     sys = chain([1.0] * 5, 1.0, 0.05, forcing=[{"dof": 4, "amplitude": 0.5}], elements=els)
     d = np.array([0, 2, 3, 4])
     sub = lambda A: np.asarray(A)[np.ix_(d, d)]

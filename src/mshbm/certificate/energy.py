@@ -127,8 +127,8 @@ def energy_checks(problem, sol, system, omega, h, N, stepper, els, ue_max, cert,
                     f"{N} samples (exact for N > (p + 1) n_h = {(p + 1) * int(sol.harmonics)})")
         else:
             gate_s = False
-            note = ("|work of the polynomial springs over a period| / E, the scheme's discrete work (force at q + h/2 u: "
-                    "zero to O((omega h)^2); reported, not gating)")
+            note = ("|work of the polynomial springs over a period| / E, the scheme's discrete work (force at "
+                    "q + h/2 u: zero to O((omega h)^2); reported, not gating)")
         cert.checks.append(Check("spring_work", val, ENERGY_TOL, bool(val <= ENERGY_TOL) or not gate_s, gate_s, note))
     ct = [j for j, e in enumerate(els) if e.unilateral]
     if ct:

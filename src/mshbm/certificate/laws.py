@@ -189,4 +189,5 @@ def spring_law_check(system, sol, lam, F, h, stepper, cert):
         expect = e.law(e.local(q, col))[0]
         worst = max(worst, max_abs(lam[:, j] - expect) / max(F, max_abs(lam[:, j]), 1e-300))
     cert.checks.append(Check("spring_law", worst, 1e-9, bool(worst <= 1e-9),
-                             note=f"max |lambda - lambda(w^T q)| / max(F, max |lambda|) of the polynomial springs, {where}"))
+                             note="max |lambda - lambda(w^T q)| / max(F, max |lambda|) of the polynomial springs, "
+                                  + where))

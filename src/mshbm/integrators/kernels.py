@@ -48,8 +48,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .local_problem import (KIND_CONTACT, KIND_FRICTION, KIND_SMOOTH, STATUS_CLOSED, STATUS_OPEN, STATUS_PROJECTED,  # noqa: F401
-                            STATUS_SLIP, STATUS_STICK, _local_solve, _rel, _sens_row, _solve_small)
+from .local_problem import (KIND_CONTACT, KIND_FRICTION, KIND_SMOOTH, STATUS_CLOSED, STATUS_OPEN,  # noqa: F401
+                            STATUS_PROJECTED, STATUS_SLIP, STATUS_STICK, _local_solve, _rel, _sens_row, _solve_small)
 
 
 @njit(cache=True)

@@ -561,7 +561,8 @@ class DLFTProblem(HarmonicProblem):
             lam[:-1, self._smooth[0]] = smooth[2]
         lam[-1] = lam[0]
         info = {"condensed": self.condense,  # partition, conditioning: typed fields of the solution
-                "dlft_penalty": [float(e) for e in self.eps], "dlft_predictor": self.predictor}
+                "dlft_penalty": [None if el.smooth else float(e) for e, el in zip(self.eps, self.system.elements)],
+                "dlft_predictor": self.predictor}
         if any(self._velocity(el) for el in self.system.elements):
             info["dlft_velocity_penalty"] = [float(e) if self._velocity(el) else None
                                              for e, el in zip(self.eps_v, self.system.elements)]
