@@ -333,3 +333,28 @@ def test_backbone_is_the_single_harmonic_one():
     assert a.size > 10 and a.max() >= 1.0 - 1e-9
     assert np.abs(w ** 2 - (K_ + 0.75 * K3 * a ** 2) / M_).max() < 1e-9
     assert np.abs(np.asarray(bb.damping_ratio)).max() < 1e-12
+
+
+def test_stability_of_the_three_coexisting_orbits():
+    """Inside the fold band the hardening Duffing oscillator has three orbits (roots of the single-harmonic
+    relation, a cubic in A^2): the middle one a saddle.  The multipliers come from the Moreau-Jean step map
+    (forward sensitivities through the spring); Liouville: mu_1 mu_2 = exp(-c T / m), so a stable orbit's
+    complex pair has |mu| = exp(-c T / (2 m))."""
+    omega = 1.25
+    a, b = K_ - M_ * omega ** 2, 0.75 * K3
+    X = np.roots([b * b, 2 * a * b, a * a + (C_ * omega) ** 2, -F_ ** 2])
+    amps = np.sqrt(np.sort(X[np.abs(X.imag) < 1e-12].real))
+    assert amps.size == 3
+    liouville = np.exp(-C_ * 2 * np.pi / omega / M_)
+    for i, A in enumerate(amps):
+        phi = np.arctan2(C_ * omega, a + b * A * A)
+        qh = np.zeros((3, 1))
+        qh[1, 0], qh[2, 0] = A * np.cos(phi), A * np.sin(phi)
+        sol = mshbm.solve(duffing(), omega, method="hbm", harmonics=5, guess={"q_hat": qh})
+        assert sol.success and abs(float(sol.amplitude[0]) - A) / A < 2e-2  # the branch the guess is on
+        mu = np.asarray(sol.floquet_multipliers)
+        assert abs(np.prod(mu).real - liouville) < 1e-4 * liouville
+        if i == 1:
+            assert sol.stable is False and np.max(np.abs(mu)) > 1.2
+        else:
+            assert sol.stable is True and abs(np.max(np.abs(mu)) - np.sqrt(liouville)) < 1e-4
