@@ -7,7 +7,7 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import fsolve
 
 import mshbm
-from mshbm import Contact, Friction, InputError, Polynomial, chain
+from mshbm import Contact, Friction, InputError, Jenkins, Polynomial, chain
 from mshbm.integrators import kernels
 from mshbm.integrators.moreau_jean import MoreauJean
 
@@ -97,6 +97,8 @@ CASES = {
     "with_friction_contact": (4, [Friction(0, 0.3, 1.0), Contact(1, 0.25, 0.8), Polynomial(2, {3: 3.0}),
                                   Polynomial(3, {1: 0.5, 3: 1.0}, relative_to=1)]),
     "relative_first": (4, [Polynomial(3, {3: 2.0}, relative_to=0), Friction(3, 0.2, 1.0, relative_to=1)]),
+    "with_jenkins": (4, [Jenkins(0, 0.5, 1.0, tangential_stiffness=20.0), Polynomial(0, {3: 2.0}),
+                         Polynomial(2, {2: 0.1, 3: 1.0}, relative_to=1)]),  # a massless slider DOF appended
 }
 
 
@@ -108,7 +110,7 @@ def _setup(name, N=600, theta=0.5):
     h = 2 * np.pi / omega / N
     st = MoreauJean(sys.M, sys.C, sys.K, sys.elements, h, theta)
     B = st.increments(sys.forcing(np.arange(N + 1) * h, omega))
-    q0, u0 = np.array([0.1, -0.2, 0.05, 0.0])[:n], np.array([0.5, 0.0, -0.3, 0.2])[:n]
+    q0, u0 = st.with_slider_state(np.array([0.1, -0.2, 0.05, 0.0])[:n], np.array([0.5, 0.0, -0.3, 0.2])[:n])
     return sys, st, B, q0, u0
 
 
@@ -119,7 +121,7 @@ def test_kernel_matches_numpy_twin(name, theta):
     tr = st.run(q0, u0, B)
     q, u, P = kernels.moreau_jean_numpy(q0, u0, st.Aq, st.Au, st.WG, st.Del, st.MinvG, B, st.theta, st.h,
                                         st.kind, st.dof, st.sign, st.bound, st.gap, st.e, dof2=st.dof2,
-                                        poly=st.poly)
+                                        n_slider=st.n - st.n_structure, poly=st.poly)
     smooth = st.kind == kernels.KIND_SMOOTH
     assert np.all(np.abs(P[:, smooth]).max(axis=0) > 0)
     assert np.allclose(tr.q, q, rtol=0, atol=1e-11) and np.allclose(tr.u, u, rtol=0, atol=1e-11)
@@ -127,7 +129,7 @@ def test_kernel_matches_numpy_twin(name, theta):
     # the smooth impulse is h lambda(w^T q_M), q_M = q + h/2 u at the start of the step
     for j in np.flatnonzero(smooth):
         el = sys.elements[j]
-        s_mid = el.local(tr.q[:-1] + 0.5 * st.h * tr.u[:-1])
+        s_mid = el.local((tr.q[:-1] + 0.5 * st.h * tr.u[:-1])[:, :st.n_structure])
         assert np.allclose(tr.P[:, j], st.h * el.law(s_mid)[0], rtol=1e-13, atol=1e-15)
 
 
