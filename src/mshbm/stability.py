@@ -141,6 +141,9 @@ def _assess(system, sol, stability, steps, theta, t0):
     if any(el.relative_to is not None for el in system.elements):
         reason_exact = "an element relative to a second DOF (the exact flow handles elements on one DOF); "
         return _step_map(system, sol, steps, theta, reason_exact, t0)
+    if any(getattr(el, "smooth", False) for el in system.elements):
+        reason_exact = "a polynomial spring (the exact flow is linear between events); "
+        return _step_map(system, sol, steps, theta, reason_exact, t0)
     own = _own(system, sol)
     if own.get("ok") and own["orbit_distance"] <= OWN_MAX_DISTANCE:
         own.pop("ok")
@@ -379,8 +382,12 @@ def _step_map(system, sol, steps, theta, prefix, t0):
     try:
         prob = ShootingProblem(system, sol.omega, N, theta=theta)
         x = np.concatenate([sol.q[0], sol.u[0]])
-        tr = prob.simulate(x)
-        Phi = prob.stepper.monodromy(tr.status, tr.P)
+        if prob.stepper.smooth:  # state-dependent step Jacobians (polynomial springs): forward sensitivities
+            tr = prob.stepper.run(sol.q[0], sol.u[0], prob.B, sensitivities=True)
+            Phi = np.vstack([tr.Sq, tr.Su])
+        else:
+            tr = prob.simulate(x)
+            Phi = prob.stepper.monodromy(tr.status, tr.P)
         if not np.all(np.isfinite(Phi)):
             raise np.linalg.LinAlgError("non-finite monodromy matrix")
         mult = np.linalg.eigvals(Phi)

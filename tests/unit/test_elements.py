@@ -21,8 +21,9 @@ ELEMENTS = {
 def test_public_names_are_the_element_classes():
     assert mshbm.Friction is Friction and mshbm.Contact is Contact and mshbm.Element is Element
     assert mshbm.system.Friction is Friction and mshbm.system.Contact is Contact
-    assert ELEMENT_TYPES == {"friction": Friction, "contact": Contact}
+    assert ELEMENT_TYPES == {"friction": Friction, "contact": Contact, "polynomial": mshbm.Polynomial}
     assert Friction(0, 0.1, 1.0).kernel_parameters(0.01)[0] == kernels.KIND_FRICTION
+    assert mshbm.Polynomial(0, {3: 1.0}).kernel_parameters(0.01)[0] == kernels.KIND_SMOOTH
     assert Contact(0, 0.1).kernel_parameters(0.01)[0] == kernels.KIND_CONTACT
 
 

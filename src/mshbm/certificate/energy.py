@@ -46,6 +46,14 @@ and ``impact_dissipation``.
     the end-of-step velocity, and the AFT quadrature of a nonsmooth force is exact only to that).
     Time-stepped contacts get no such allowance: the impact law makes the impulse's work vanish for
     ``e_N = 1`` exactly.
+``spring_work`` (polynomial springs)
+    A conservative spring does no work over a period: ``|W_springs| / E``.  Its work is part of the balance
+    (an element's ``P w . u_theta`` in the scheme's discrete work, the AFT quadrature for HBM and DLFT).
+    Fourier series of every DOF: gating with bound :data:`ENERGY_TOL` where the quadrature on the ``N``
+    samples is exact (``N > (p + 1) n_h`` for the highest power ``p``: ``lambda(s(t)) gamma(t)`` is a
+    trigonometric polynomial of that degree), else reported.  Time stepping: reported, not gating -- the
+    force evaluated at ``q + h/2 u`` does the work ``-Delta V`` only to ``O((omega h)^2)``, and the balance
+    that gates (``energy_balance``) holds for the scheme's discrete work exactly.
 """
 from __future__ import annotations
 
@@ -108,6 +116,20 @@ def energy_checks(problem, sol, system, omega, h, N, stepper, els, ue_max, cert,
         w = max(float(Wj[j]) for j in fr)
         cert.checks.append(Check("friction_dissipation", w, bound, bool(w <= bound),
                                  note="work of the friction forces over a period (must not be positive)"))
+    sm = [j for j, e in enumerate(els) if e.smooth]
+    if sm:
+        w = abs(float(sum(Wj[j] for j in sm)))
+        val = w / E if E > 0 else 0.0
+        if is_hbm:
+            p = max(max(els[j].powers) for j in sm)
+            gate_s = N > (p + 1) * int(sol.harmonics)
+            note = ("|work of the polynomial springs over a period| / E, AFT quadrature on "
+                    f"{N} samples (exact for N > (p + 1) n_h = {(p + 1) * int(sol.harmonics)})")
+        else:
+            gate_s = False
+            note = ("|work of the polynomial springs over a period| / E, the scheme's discrete work (force at "
+                    "q + h/2 u: zero to O((omega h)^2); reported, not gating)")
+        cert.checks.append(Check("spring_work", val, ENERGY_TOL, bool(val <= ENERGY_TOL) or not gate_s, gate_s, note))
     ct = [j for j, e in enumerate(els) if e.unilateral]
     if ct:
         if not is_hbm and problem.integrator is not None and problem.integrator.stepper is not None:

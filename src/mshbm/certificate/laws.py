@@ -14,6 +14,11 @@
     series (contacts on a Lagrangian displacement, DLFT).
 ``contact_compression`` (gating, contacts, time series)
     ``-min lambda_N / F`` (contact forces push, never pull); bound ``1e-9``.
+``spring_law`` (gating, smooth elements: polynomial springs)
+    ``max_j max_t |lambda_j - lambda_j(s)| / max(F, max |lambda_j|)``: the reported force is the polynomial of
+    the local displacement ``s = w^T q`` -- at the samples ``t_k`` (HBM, DLFT), at Moreau's midpoint
+    ``q_k + h/2 u_k`` of each step (time stepping, where the force is the step's impulse over ``h``); bound
+    ``1e-9`` (rounding).
 """
 from __future__ import annotations
 
@@ -23,7 +28,8 @@ from .. import fourier
 from .kernels import LAM_ABS, LAM_MAX, LAM_MIN, S_MIN, WU_MAX, element_terms, element_terms_fourier
 from .record import Check
 
-__all__ = ["element_tables", "el_dofs_each", "element_series", "element_terms_table", "law_checks", "max_abs"]
+__all__ = ["element_tables", "el_dofs_each", "element_series", "element_terms_table", "law_checks", "max_abs",
+           "spring_law_check"]
 
 
 def max_abs(a):
@@ -162,3 +168,26 @@ def law_checks(problem, system, terms, lam, F, D, h, stepper, cert):
         if not is_hbm:
             cert.checks.append(Check("contact_compression", comp, 1e-9, bool(comp <= 1e-9),
                                      note="-min lambda_N / F"))
+
+
+def spring_law_check(system, sol, lam, F, h, stepper, cert):
+    """Append ``spring_law`` (module docstring) when the system has smooth elements (polynomial springs)."""
+    sm = [(j, e) for j, e in enumerate(system.elements) if e.smooth]
+    if not sm:
+        return
+    dofs = np.array(sorted({int(d) for _, e in sm for d in e.dofs}), dtype=np.int64)
+    col = {int(d): i for i, d in enumerate(dofs)}
+    N = lam.shape[0] - 1
+    q, u = element_series(sol, dofs, N)
+    where = "at the samples"
+    if stepper is not None:  # the step's impulse over h, evaluated at q_M = q_k + h/2 u_k
+        q = q[:-1] + 0.5 * h * u[:-1]
+        lam = lam[:-1]
+        where = "at q_k + h/2 u_k of each step"
+    worst = 0.0
+    for j, e in sm:
+        expect = e.law(e.local(q, col))[0]
+        worst = max(worst, max_abs(lam[:, j] - expect) / max(F, max_abs(lam[:, j]), 1e-300))
+    cert.checks.append(Check("spring_law", worst, 1e-9, bool(worst <= 1e-9),
+                             note="max |lambda - lambda(w^T q)| / max(F, max |lambda|) of the polynomial springs, "
+                                  + where))

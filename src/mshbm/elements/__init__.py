@@ -42,15 +42,20 @@ InputError; stability falls back to the step map with the reason).
 Elements with an internal state (:class:`Jenkins`) and friction whose normal load comes from a contact
 (``Friction(..., normal_contact=c)``) are described in :mod:`mshbm.elements.friction`.
 
+The smooth polynomial spring :class:`Polynomial` (``lambda = -sum_p k_p s^p``, :attr:`Element.smooth`; cubic
+springs, Duffing) is described in :mod:`mshbm.elements.polynomial`: exact in HBM and DLFT, explicit at the
+midpoint ``q + h/2 u`` in Moreau-Jean, refused by the exact event-driven flow.
+
 Modules: :mod:`~mshbm.elements.base` (the contract), :mod:`~mshbm.elements.friction`,
 :mod:`~mshbm.elements.contact`, :mod:`~mshbm.elements.regularised` (the laws assembled on samples).
 """
 from .base import Element, _dof, _finite_number  # noqa: F401 -- the parameter checks, shared with mshbm.system
 from .contact import Contact
 from .friction import Friction, Jenkins
+from .polynomial import Polynomial
 from .regularised import regularised_forces
 
-__all__ = ["Element", "Friction", "Contact", "Jenkins", "regularised_forces", "ELEMENT_TYPES"]
+__all__ = ["Element", "Friction", "Contact", "Jenkins", "Polynomial", "regularised_forces", "ELEMENT_TYPES"]
 
 #: element classes by their ``kind`` (the case-file keys)
-ELEMENT_TYPES = {cls.kind: cls for cls in (Friction, Contact)}
+ELEMENT_TYPES = {"friction": Friction, "contact": Contact, "polynomial": Polynomial}

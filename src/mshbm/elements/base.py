@@ -77,6 +77,9 @@ class Element:
     #: the law has an internal state (its force depends on the history of ``s``, not on ``(s, gamma)``):
     #: HBM evaluates :meth:`history_law` instead of :meth:`regularised_law`
     history: ClassVar[bool] = False
+    #: a smooth position-dependent force (:class:`mshbm.elements.Polynomial`): no set-valued law, exact in HBM,
+    #: explicit at ``q_M = q + h/2 u`` in Moreau-Jean (kernel kind ``KIND_SMOOTH``)
+    smooth: ClassVar[bool] = False
 
     # ------------------------------------------------------------------ geometry
     @property

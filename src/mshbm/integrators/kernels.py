@@ -23,7 +23,13 @@ DOFs, ``w_j = sign[j] (e_dof[j] - e_dof2[j])`` and ``gamma_j = sign[j] (u[dof[j]
 * contact (kind 1), active when the free end-of-step gap
   ``g_j(q + h((1-theta)u + theta u_free)) <= 0``:
   ``0 <= gamma_j+ + e_j gamma_j- _|_ P_j >= 0`` (Newton's law, ``gamma-`` at
-  the start of the step); inactive: ``P_j = 0``.
+  the start of the step); inactive: ``P_j = 0``;
+* smooth (kind 2, a polynomial spring ``lambda_j = sum_p poly[j, p] s^p``, :class:`mshbm.elements.Polynomial`):
+  Moreau's midpoint rule evaluates the position-dependent force at ``q_M = q + h/2 u`` (the start of the
+  step, whatever ``theta``), known before the step: its impulse ``P_j = h lambda_j(w_j^T q_M)`` is added
+  to the free velocity (``u_free += W w_j P_j``), so no iteration is needed, and the element takes no part
+  in the local problem (status open).  Its sensitivity ``dP_j = h lambda_j'(s_M) w_j^T (dq + h/2 du)``
+  enters ``d u_free`` likewise.
 
 One element is solved in closed form; several by projected Gauss-Seidel on
 ``D`` (exact to ``tol``), a friction loaded by a contact (that loads no other friction) together
@@ -42,8 +48,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .local_problem import (KIND_CONTACT, KIND_FRICTION, STATUS_CLOSED, STATUS_OPEN, STATUS_PROJECTED,  # noqa: F401
-                            STATUS_SLIP, STATUS_STICK, _local_solve, _rel, _sens_row, _solve_small)
+from .local_problem import (KIND_CONTACT, KIND_FRICTION, KIND_SMOOTH, STATUS_CLOSED, STATUS_OPEN,  # noqa: F401
+                            STATUS_PROJECTED, STATUS_SLIP, STATUS_STICK, _local_solve, _rel, _sens_row, _solve_small)
 
 
 @njit(cache=True)
@@ -140,7 +146,7 @@ def _moreau_jean_scalar(q0, u0, aq, au, wg, dl, minvg, B, dB, theta, h, kind, si
 @njit(cache=True)
 def moreau_jean(q0, u0, Aq, Au, WG, Del, MinvG, B, dB, theta, h,
                 kind, dof, dof2, sign, bound, gap, e, nsrc, mu_n, project,
-                want_sens, store_q_sens, tol, max_iter, n_slider):
+                want_sens, store_q_sens, tol, max_iter, n_slider, poly):
     """Integrate ``N = B.shape[0]`` Moreau-Jean steps.
 
     Parameters
@@ -164,6 +170,9 @@ def moreau_jean(q0, u0, Aq, Au, WG, Del, MinvG, B, dB, theta, h,
     Sq, Su : (n, n_s) end sensitivities, ``n_s = 2n + n_p`` (empty if not wanted);
     Sq_traj : (N+1, n, n_s) if ``store_q_sens`` else empty;  max_iter_used : int.
 
+    ``poly``: (m, n_c) coefficients of the smooth elements (kind 2), ``lambda_j = sum_p poly[j, p] s^p``
+    (rows of the other elements unused).
+
     ``n_slider``: the last ``n_slider`` DOFs are massless sliders of Jenkins elements
     (:func:`mshbm.integrators.moreau_jean._with_sliders`), stepped with ``theta = 1``
     (``q+ = q + h u+``) so that their velocity is no state; ``Aq, Au, WG`` must be built alike.
@@ -171,7 +180,7 @@ def moreau_jean(q0, u0, Aq, Au, WG, Del, MinvG, B, dB, theta, h,
     N = B.shape[0]
     n = q0.shape[0]
     m = kind.shape[0]
-    if n == 1 and m == 1 and n_slider == 0:
+    if n == 1 and m == 1 and n_slider == 0 and kind[0] != KIND_SMOOTH:
         return _moreau_jean_scalar(q0, u0, Aq[0, 0], Au[0, 0], WG[0, 0], Del[0, 0], MinvG[0, 0], B, dB, theta, h,
                                    kind[0], sign[0], bound[0], gap[0], e[0], project, want_sens, store_q_sens)
     n_p = dB.shape[2]
@@ -206,6 +215,12 @@ def moreau_jean(q0, u0, Aq, Au, WG, Del, MinvG, B, dB, theta, h,
     dQn = np.empty((n, n_s))
     dP = np.zeros((m, n_s))
     used = 0
+    n_smooth = 0
+    for j in range(m):
+        if kind[j] == KIND_SMOOTH:
+            n_smooth += 1
+    Ps = np.zeros(m)  # explicit impulses of the smooth elements
+    dls = np.zeros(m)  # their d lambda / d s at q_M
     c1v = np.empty(n)
     c2v = np.empty(n)
     for i in range(n):
@@ -222,6 +237,25 @@ def moreau_jean(q0, u0, Aq, Au, WG, Del, MinvG, B, dB, theta, h,
             for j in range(n):
                 s -= Aq[i, j] * q[j] + Au[i, j] * u[j]
             uf[i] = s
+        # smooth elements: impulse h lambda(w^T q_M), q_M = q + h/2 u, into the free velocity
+        if n_smooth > 0:
+            for j in range(m):
+                if kind[j] == KIND_SMOOTH:
+                    d = dof[j]
+                    d2 = dof2[j]
+                    sm = sign[j] * (q[d] + 0.5 * h * u[d])
+                    if d2 >= 0:
+                        sm -= sign[j] * (q[d2] + 0.5 * h * u[d2])
+                    lam = 0.0
+                    dlam = 0.0
+                    for p in range(poly.shape[1] - 1, 0, -1):  # Horner
+                        dlam = dlam * sm + p * poly[j, p]
+                        lam = lam * sm + poly[j, p]
+                    lam = lam * sm + poly[j, 0]
+                    Ps[j] = h * lam
+                    dls[j] = dlam
+                    for i in range(n):
+                        uf[i] += WG[i, j] * Ps[j]
         # predicted free end-of-step gap of contacts
         for j in range(m):
             if kind[j] == KIND_CONTACT:
@@ -260,6 +294,19 @@ def moreau_jean(q0, u0, Aq, Au, WG, Del, MinvG, B, dB, theta, h,
                         if c >= 2 * n:
                             s += dB[k, i, c - 2 * n]
                         dUf[i, c] = s
+            if n_smooth > 0:  # dP_j = h lambda'(s_M) w^T (dq + h/2 du)
+                for j in range(m):
+                    if kind[j] == KIND_SMOOTH:
+                        d = dof[j]
+                        d2 = dof2[j]
+                        for c in range(n_s):
+                            ds = sign[j] * (Sq[d, c] + 0.5 * h * Su[d, c])
+                            if d2 >= 0:
+                                ds -= sign[j] * (Sq[d2, c] + 0.5 * h * Su[d2, c])
+                            dps = h * dls[j] * ds
+                            if dps != 0.0:
+                                for i in range(n):
+                                    dUf[i, c] += WG[i, j] * dps
             # impulse sensitivities for equality-active elements and for slipping friction whose
             # bound follows a closed contact (dP_T = sign(P_T) mu dP_N)
             n_eq = 0
@@ -335,7 +382,7 @@ def moreau_jean(q0, u0, Aq, Au, WG, Del, MinvG, B, dB, theta, h,
             qt[k + 1, i] = qn[i]
             ut[k + 1, i] = un[i]
         for j in range(m):
-            Pt[k, j] = P[j]
+            Pt[k, j] = Ps[j] if kind[j] == KIND_SMOOTH else P[j]
             st[k, j] = status[j]
         if want_sens:
             for i in range(n):
@@ -348,12 +395,14 @@ def moreau_jean(q0, u0, Aq, Au, WG, Del, MinvG, B, dB, theta, h,
 
 
 def moreau_jean_numpy(q0, u0, Aq, Au, WG, Del, MinvG, B, theta, h,
-                      kind, dof, sign, bound, gap, e, project=True, dof2=None, n_slider=0, nsrc=None, mu_n=None):
+                      kind, dof, sign, bound, gap, e, project=True, dof2=None, n_slider=0, nsrc=None, mu_n=None,
+                      poly=None):
     """Plain NumPy version of :func:`moreau_jean` (no sensitivities), for testing.
 
     One element per step is solved in closed form; several by PGS as in the kernel.
     ``dof2``: second DOF of relative elements (-1: ground; default: all on one DOF).
     ``nsrc, mu_n``: normal-load coupling of friction elements (default: none).
+    ``poly``: (m, n_c) coefficients of the smooth elements (kind 2), explicit at ``q + h/2 u``.
     Returns ``q, u, P`` with the shapes of the kernel's outputs.
     """
     N, n, m = B.shape[0], q0.size, kind.size
@@ -369,12 +418,18 @@ def moreau_jean_numpy(q0, u0, Aq, Au, WG, Del, MinvG, B, theta, h,
             W[dof2[j], j] = -sign[j]
     q, u = q0.astype(float).copy(), u0.astype(float).copy()
     qt, ut, Pt = [q.copy()], [u.copy()], np.zeros((N, m))
+    smooth = np.flatnonzero(np.asarray(kind) == KIND_SMOOTH)
     for k in range(N):
         uf = u + B[k] - Aq @ q - Au @ u
+        Ps = np.zeros(m)
+        for j in smooth:  # polynomial spring at q_M = q + h/2 u, explicit
+            Ps[j] = h * np.polynomial.polynomial.polyval(W[:, j] @ (q + 0.5 * h * u), poly[j])
+        uf = uf + WG @ Ps
         P = np.zeros(m)
         qfree = q + h * (1 - th) * u + h * th * uf
         active = np.array([(bound[j] > 0 or nsrc[j] >= 0) if kind[j] == KIND_FRICTION
-                           else gap[j] + W[:, j] @ qfree <= 0 for j in range(m)], dtype=bool)
+                           else (kind[j] != KIND_SMOOTH and gap[j] + W[:, j] @ qfree <= 0)
+                           for j in range(m)], dtype=bool)
         r = np.array([W[:, j] @ uf + (e[j] * (W[:, j] @ u) if kind[j] == KIND_CONTACT else 0.0)
                       for j in range(m)])
         for _ in range(1 if m == 1 else 1000):
@@ -399,5 +454,5 @@ def moreau_jean_numpy(q0, u0, Aq, Au, WG, Del, MinvG, B, theta, h,
         q, u = q_new, u_new
         qt.append(q.copy())
         ut.append(u.copy())
-        Pt[k] = P
+        Pt[k] = P + Ps
     return np.array(qt), np.array(ut), Pt

@@ -16,6 +16,8 @@ from numba import njit
 
 KIND_FRICTION = 0
 KIND_CONTACT = 1
+#: a smooth force evaluated explicitly before the step (polynomial spring): no local problem, never active
+KIND_SMOOTH = 2
 
 # status codes per element and step
 STATUS_OPEN = 0      # contact inactive / impulse zero
@@ -47,6 +49,9 @@ def _local_solve(uf, u, q_free_gap, kind, dof, dof2, sign, bound, e, nsrc, mu_n,
         if kind[j] == KIND_FRICTION:
             r[j] = gf
             active[j] = bound[j] > 0.0 or nsrc[j] >= 0
+        elif kind[j] == KIND_SMOOTH:  # its impulse is in the free velocity already
+            r[j] = 0.0
+            active[j] = False
         else:
             r[j] = gf + e[j] * _rel(u, dof[j], dof2[j], sign[j])
             active[j] = q_free_gap[j] <= 0.0

@@ -154,6 +154,9 @@ class MoreauJean:
         #: normal-load coupling: index of the contact loading friction ``j`` (-1: none) and its ``mu``
         self.nsrc = np.full(m, -1, dtype=np.int64)
         self.mu_n = np.zeros(m)
+        #: coefficients of the smooth elements (polynomial springs, kind 2): ``lambda_j = sum_p poly[j, p] s^p``
+        order = max([max(el.powers) for el in elements if getattr(el, "smooth", False)], default=0)
+        self.poly = np.zeros((m, order + 1))
         for j, el in enumerate(elements):
             for d, w in el.direction:
                 G[d, j] = w
@@ -162,6 +165,8 @@ class MoreauJean:
                 self.dof2[j] = el.relative_to
             self.kind[j], self.bound[j], self.gap[j], self.e[j] = el.kernel_parameters(h)
             self.nsrc[j], self.mu_n[j] = el.kernel_coupling()
+            if getattr(el, "smooth", False):
+                self.poly[j] = el.kernel_polynomial(order)
         for j in np.flatnonzero(self.nsrc >= 0):
             c = int(self.nsrc[j])
             if not (0 <= c < m and c != j and self.kind[c] == kernels.KIND_CONTACT):
@@ -181,6 +186,14 @@ class MoreauJean:
     @property
     def m(self):
         return self.kind.size
+
+    @property
+    def smooth(self):
+        """True if a smooth element (polynomial spring) acts: its force is evaluated explicitly at
+        ``q_M = q + h/2 u`` (:mod:`mshbm.integrators.kernels`), so the step Jacobian depends on the state and
+        the monodromy comes from the forward sensitivities (:meth:`run` with ``sensitivities``), not from
+        :meth:`monodromy`."""
+        return bool(np.any(self.kind == kernels.KIND_SMOOTH))
 
     @property
     def theta_dofs(self):
@@ -256,7 +269,7 @@ class MoreauJean:
             np.ascontiguousarray(B, dtype=float), np.ascontiguousarray(dB, dtype=float),
             self.theta, self.h, self.kind, self.dof, self.dof2, self.sign, self.bound, self.gap, self.e,
             self.nsrc, self.mu_n, self.project, bool(sensitivities or store_q_sensitivities), bool(store_q_sensitivities),
-            self.tol, self.max_iter, self.n - self.n_structure)
+            self.tol, self.max_iter, self.n - self.n_structure, self.poly)
         return Trajectory(*out)
 
     @property
@@ -343,6 +356,9 @@ class MoreauJean:
         -------
         ndarray, shape (2n, 2n)
         """
+        if self.smooth:
+            raise ValueError("monodromy: a polynomial spring makes the step Jacobian depend on the state; "
+                             "integrate with sensitivities=True (Trajectory.Sq, Su) instead")
         N = status.shape[0]
         Phi = np.eye(2 * self.n)
         cache = {}

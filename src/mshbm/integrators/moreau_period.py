@@ -79,8 +79,12 @@ class MoreauJeanIntegrator(PeriodIntegrator):
 
     def run(self, q0, u0, p=None, sensitivities=False, record=False):
         if self.part is None:
-            tr = self.trajectory(q0, u0)
-            jac = self.stepper.monodromy(tr.status, tr.P) if sensitivities else None
+            if sensitivities and self.stepper.smooth:  # state-dependent step Jacobians: forward sensitivities
+                tr = self.stepper.run(q0, u0, self.B, sensitivities=True)
+                jac = np.vstack([tr.Sq, tr.Su])
+            else:
+                tr = self.trajectory(q0, u0)
+                jac = self.stepper.monodromy(tr.status, tr.P) if sensitivities else None
             out = PeriodRun(end=np.concatenate([tr.q[-1], tr.u[-1]]), jacobian=jac, raw=tr)
         else:
             tr = self.part.run(q0, u0, p, sensitivities)

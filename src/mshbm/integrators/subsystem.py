@@ -16,7 +16,7 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
 from .. import fourier
-from ..elements import Contact, Friction, Jenkins
+from ..elements import Contact, Friction, Jenkins, Polynomial
 from ..errors import InputError
 from .moreau_jean import MoreauJean, Trajectory
 
@@ -52,7 +52,7 @@ def _blocks(M, C, K, elements):
     as one block).
     """
     n = M.shape[0]
-    if n < 2 or any(type(el) not in (Friction, Contact, Jenkins) for el in elements):
+    if n < 2 or any(type(el) not in (Friction, Contact, Jenkins, Polynomial) for el in elements):
         return None
     if any(getattr(el, "normal_contact", None) is not None for el in elements):
         return None  # a friction loaded by a contact couples the two elements' DOFs: one block

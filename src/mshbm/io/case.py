@@ -14,11 +14,11 @@ from .. import api
 from ..reduction import craig_bampton
 from .. import options as options_
 from ..errors import InputError
-from ..elements import Jenkins
+from ..elements import Jenkins, Polynomial
 from ..system import Contact, Friction, System, chain
 from .overrides import apply_sets as _apply_sets
-from .keys import (CHAIN_KEYS, CONTACT_KEYS, FORCING_KEYS, FRICTION_KEYS, MATRIX_KEYS, REDUCE_KEYS, SOLVER_KEYS,
-                   TOP_KEYS)
+from .keys import (CHAIN_KEYS, CONTACT_KEYS, CUBIC_KEYS, FORCING_KEYS, FRICTION_KEYS, MATRIX_KEYS, POLYNOMIAL_KEYS,
+                   REDUCE_KEYS, SOLVER_KEYS, TOP_KEYS)
 from .matrices import matrix_storage as _matrix_storage, rayleigh as _rayleigh, \
     rayleigh_damping as _rayleigh_damping, read_matrix_file as _read_matrix_file
 from .yaml import _REPR, MAX_FILE_BYTES, describe as _describe, load_yaml as _load_yaml, read_text as _read_text
@@ -235,6 +235,42 @@ def _elements(kind, value, n, contacts=()):
     return out
 
 
+def _springs(data, n):
+    """The polynomial springs of the sections ``polynomial`` (``coefficients: {p: k_p}``) and ``cubic``
+    (``stiffness: k_3``), in that order (after the friction and contact elements)."""
+    out, seen = [], {}
+    for kind, spec in (("polynomial", POLYNOMIAL_KEYS), ("cubic", CUBIC_KEYS)):
+        value = data.get(kind)
+        if value is None:
+            continue
+        for key, item in _items(kind, value):
+            _check_keys(key, item, tuple(spec))
+            for name, default in spec.items():
+                if default is ... and name not in item:
+                    raise InputError(f"{key}.{name}", "missing (required)")
+            dof = _dof(f"{key}.dof", item["dof"], n)
+            rel = None if item.get("relative_to") is None else _dof(f"{key}.relative_to", item["relative_to"], n)
+            if rel is not None and rel == dof:
+                raise InputError(f"{key}.relative_to", f"must differ from dof ({dof}): the spring acts on "
+                                                       "q_dof - q_relative_to")
+            where = dof if rel is None else (dof, rel)
+            if where in seen:
+                what = f"DOF {where}" if rel is None else f"DOFs {where[0]}-{where[1]}"
+                raise InputError(f"{key}.dof", f"{what} already has a polynomial spring ({seen[where]}): give all "
+                                 "its powers in one 'polynomial' entry")
+            seen[where] = key
+            try:
+                if kind == "cubic":
+                    out.append(Polynomial(dof, {3: _number(f"{key}.stiffness", item["stiffness"])}, rel))
+                else:
+                    out.append(Polynomial(dof, item["coefficients"], rel))
+            except InputError as exc:  # Polynomial names keys "polynomial.coefficients": add the list index
+                if exc.key.startswith("polynomial."):
+                    raise InputError(key + exc.key[len("polynomial"):], exc.problem) from None
+                raise
+    return out
+
+
 def _solver(value, n):
     if value is None:
         return {}
@@ -438,7 +474,7 @@ def parse_case(data, name=None, source=None, base_dir=None, matrix_cache=None):
             C = mats["C"]
         forcing = _forcing(data.get("forcing"), n)
         contacts = _elements("contact", data.get("contact"), n)
-        elements = _elements("friction", data.get("friction"), n, contacts) + contacts
+        elements = _elements("friction", data.get("friction"), n, contacts) + contacts + _springs(data, n)
         system = System(M, C, K, _forcing_hat(forcing, n), elements, name=name)
     else:
         if "masses" not in data:
@@ -453,7 +489,7 @@ def parse_case(data, name=None, source=None, base_dir=None, matrix_cache=None):
         damping = 0.0 if rayleigh else _per_spring("damping", data.get("damping", 0.0))
         forcing = _forcing(data.get("forcing"), n)
         contacts = _elements("contact", data.get("contact"), n)
-        elements = _elements("friction", data.get("friction"), n, contacts) + contacts
+        elements = _elements("friction", data.get("friction"), n, contacts) + contacts + _springs(data, n)
         system = chain(masses, stiffness, damping, forcing=forcing, elements=elements, name=name)
         if rayleigh:
             system = System(system.M, _rayleigh_damping(system.M, system.K, *alpha_beta), system.K,

@@ -1,11 +1,11 @@
 """The keys of a case file (:mod:`mshbm.io`): the schema that :mod:`mshbm.io.case` checks and
 :mod:`mshbm.io.overrides` (``--set``) walks."""
 
-__all__ = ["TOP_KEYS", "CHAIN_KEYS", "MATRIX_KEYS", "FORCING_KEYS", "FRICTION_KEYS", "CONTACT_KEYS", "REDUCE_KEYS",
-           "SOLVER_KEYS"]
+__all__ = ["TOP_KEYS", "CHAIN_KEYS", "MATRIX_KEYS", "FORCING_KEYS", "FRICTION_KEYS", "CONTACT_KEYS", "POLYNOMIAL_KEYS",
+           "CUBIC_KEYS", "REDUCE_KEYS", "SOLVER_KEYS"]
 
 TOP_KEYS = ("name", "masses", "stiffness", "damping", "M", "C", "K", "omega", "forcing",
-            "friction", "contact", "reduce", "solver")
+            "friction", "contact", "polynomial", "cubic", "reduce", "solver")
 CHAIN_KEYS = ("masses", "stiffness", "damping")
 MATRIX_KEYS = ("M", "C", "K")
 FORCING_KEYS = ("dof", "amplitude", "sin", "harmonic", "constant")
@@ -18,6 +18,10 @@ FRICTION_KEYS = {"dof": ..., "mu": ..., "normal_force": ..., "smoothing": None, 
                  "tangential_stiffness": None, "normal_contact": None}
 CONTACT_KEYS = {"dof": ..., "gap": ..., "restitution": 1.0, "penalty_stiffness": None,
                 "penalty_damping": 0.0, "relative_to": None}
+#: polynomial springs ``lambda = -sum_p k_p s^p`` (:class:`mshbm.elements.Polynomial`): ``coefficients`` a mapping
+#: ``{p: k_p}`` (N/m^p, integer powers 1..9); ``cubic``: the shorthand with ``stiffness: k_3`` (N/m^3)
+POLYNOMIAL_KEYS = {"dof": ..., "coefficients": ..., "relative_to": None}
+CUBIC_KEYS = {"dof": ..., "stiffness": ..., "relative_to": None}
 #: ``reduce:`` (a Craig-Bampton reduction onto the element DOFs, :mod:`mshbm.reduction`)
 REDUCE_KEYS = ("method", "modes", "keep")
 SOLVER_KEYS = ("method", "harmonics", "steps", "theta", "jacobian", "tol", "max_iter", "partition",

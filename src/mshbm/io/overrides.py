@@ -23,7 +23,8 @@ from __future__ import annotations
 import difflib
 
 from ..errors import InputError
-from .keys import CONTACT_KEYS, FORCING_KEYS, FRICTION_KEYS, REDUCE_KEYS, SOLVER_KEYS, TOP_KEYS
+from .keys import (CONTACT_KEYS, CUBIC_KEYS, FORCING_KEYS, FRICTION_KEYS, POLYNOMIAL_KEYS, REDUCE_KEYS, SOLVER_KEYS,
+                   TOP_KEYS)
 from .matrices import RAYLEIGH_KEYS
 from .yaml import describe as _describe, load_yaml as _load_yaml
 
@@ -33,11 +34,11 @@ __all__ = ["parse_assignment", "apply_sets", "SECTION_KEYS", "add_set_option", "
 def _schema():
     return {(): tuple(TOP_KEYS), ("solver",): tuple(SOLVER_KEYS), ("friction",): tuple(FRICTION_KEYS),
             ("contact",): tuple(CONTACT_KEYS), ("forcing",): tuple(FORCING_KEYS), ("damping",): tuple(RAYLEIGH_KEYS),
-            ("reduce",): tuple(REDUCE_KEYS)}
+            ("reduce",): tuple(REDUCE_KEYS), ("polynomial",): tuple(POLYNOMIAL_KEYS), ("cubic",): tuple(CUBIC_KEYS)}
 
 
 #: the sections whose entries are mappings, given as one mapping or a list of them
-SECTION_KEYS = ("friction", "contact", "forcing")
+SECTION_KEYS = ("friction", "contact", "forcing", "polynomial", "cubic")
 #: the mappings an override may create when the case file lacks them
 _CREATABLE = ("solver", "damping", "reduce")
 
@@ -86,6 +87,13 @@ def _assign(node, parts, i, value, key, schema):
                 raise InputError(key, f"names a whole {norm[0]} entry; give one of its keys "
                                         f"({', '.join(schema[norm])})")
             return _assign(node, parts, i + 1, value, key, schema)
+        if norm == ("polynomial", "coefficients"):  # a mapping power -> k_p: its keys are the powers
+            if not (part.isdigit() and last):
+                raise InputError(key, f"a polynomial coefficient is set by its power, e.g. "
+                                      f"{'.'.join(parts[:i])}.3=0.5 (k_3), got {where!r}")
+            out = {k: v for k, v in node.items() if str(k) != part}
+            out[int(part)] = value
+            return out
         allowed = schema.get(norm)
         if allowed is None or part not in allowed:
             close = difflib.get_close_matches(part, list(allowed or ()), n=1)

@@ -124,6 +124,11 @@ exactly from the linear response, all gaps offset by ``lambda`` from the first t
 
 The certificate gates the friction cone and the energy balance, and reports the penetration of
 the truncated series without gating it.
+
+Smooth forces (polynomial springs, :class:`mshbm.elements.Polynomial`, on a DOF or between two
+DOFs) are no Lagrangian terms: their force is evaluated by AFT, ``F_s = DFT[f_s(IDFT X)]`` with
+its exact Jacobian, and counted in the force the linear part demands of the set-valued elements,
+``lambda_L = w^T IDFT[A X - r - F_s]``, so ``R = A X - r - F_s - F_nl``.
 """
 from __future__ import annotations
 
@@ -195,7 +200,10 @@ class DLFTProblem(HarmonicProblem):
                                                f"{dlft_predictor!r}")
         self.predictor = dlft_predictor
         n = system.n
+        smooth = [j for j, el in enumerate(system.elements) if el.smooth]
         for el in system.elements:
+            if el.smooth:
+                continue
             if el.normal_contact is not None and dlft_predictor != "velocity":
                 raise InputError("friction.normal_contact", "DLFT supports friction with a normal load from a "
                                  "contact with dlft_predictor 'velocity' only")
@@ -203,7 +211,7 @@ class DLFTProblem(HarmonicProblem):
                 what = "relative_to" if el.relative_to is not None else "tangential_stiffness"
                 raise InputError(f"{el.kind}.{what}", "DLFT supports ground friction and contact only (relative and "
                                  "elastic (Jenkins) elements: use shooting, mshbm or hbm)")
-        dofs = [el.dof for el in system.elements]
+        dofs = [el.dof for el in system.elements if not el.smooth]
         if len(set(dofs)) != len(dofs):
             d = next(d for d in dofs if dofs.count(d) > 1)
             raise InputError("elements", f"DLFT needs one element per DOF (DOF {d} carries a friction and a "
@@ -236,6 +244,8 @@ class DLFTProblem(HarmonicProblem):
         self._el = []
         A = self.A
         for j, el in enumerate(system.elements):
+            if el.smooth:
+                continue
             i = pos[el.dof]
             rows = np.arange(nc) * nR + i
             Ai = A[rows].toarray() if sp.issparse(A) else A[rows]
@@ -248,6 +258,50 @@ class DLFTProblem(HarmonicProblem):
             else:  # y = lambda_L - eps w q (contact: minus eps times the gap)
                 Q[:, sel] -= self.eps[j] * w * self.Vs
             self._el.append((el, j, rows, cols, sel, w, Q))
+        self._drop_smooth(smooth, pos, nc, nR)
+
+    def _drop_smooth(self, smooth, pos, nc, nR):
+        """Take the smooth elements out of the Lagrangian terms: ``self._smooth`` (elements, their
+        columns among the kept DOFs), ``self._pos`` (element index -> position in ``self._el``)."""
+        self._el = [e for e in self._el if not e[0].smooth]
+        self._pos = {e[1]: k for k, e in enumerate(self._el)}
+        els = [self.system.elements[j] for j in smooth]
+        self._smooth = None
+        if els:
+            used = sorted({pos[int(d)] for el in els for d in el.dofs})
+            col = {c: i for i, c in enumerate(used)}
+            local = [tuple(col[pos[int(d)]] for d in el.dofs) if el.relative else col[pos[int(el.dof)]]
+                     for el in els]
+            self._smooth = (smooth, els, np.array(used, dtype=np.int64), local)
+
+    def _smooth_forces(self, x, jac=True):
+        """``(F_s, blocks, lam)``: the smooth forces' coefficients on the unknowns (shape ``(n_x,)``), their
+        Jacobian as ``{(i, k): (2 n_h + 1)^2 block}`` for the kept DOFs ``i, k`` (``d F_s,i / d X_k``), and
+        the element forces on the samples ``(N_s, m_s)``; ``None`` without smooth elements."""
+        if self._smooth is None:
+            return None
+        from ..elements import regularised_forces
+
+        _, els, used, local = self._smooth
+        nc, nR = 2 * self.n_h + 1, self.nR
+        X = np.asarray(x, dtype=float).reshape(nc, nR)[:, used]
+        q = self.Vs @ X
+        lam, f, dfdq, _, off = regularised_forces(els, local, q, np.zeros_like(q), coupling=True)
+        F = np.zeros((nc, nR))
+        F[:, used] = self.E @ f
+        blocks = {}
+        if jac:
+            terms = [(i, i, dfdq[:, i]) for i in range(used.size)] + [(i, k, d) for i, k, d, _ in off if d is not None]
+            for i, k, d in terms:
+                key = (int(used[i]), int(used[k]))
+                B = self.E @ (d[:, None] * self.Vs)
+                blocks[key] = blocks[key] + B if key in blocks else B
+        return F.reshape(-1), blocks, lam
+
+    def _smooth_extra(self, blocks, el_row, w):
+        """``[(k, Y)]``: the derivative of the demanded force ``lambda_L`` of an element on kept DOF ``el_row``
+        through the smooth forces, ``Y = -w Vs d F_s,el_row / d X_k`` (shape ``(N_s, 2 n_h + 1)``)."""
+        return [(k, -w * (self.Vs @ B)) for (i, k), B in blocks.items() if i == el_row]
 
     def _velocity(self, el):
         """True if element ``el`` uses the velocity predictor (friction with ``dlft_predictor="velocity"``)."""
@@ -282,8 +336,7 @@ class DLFTProblem(HarmonicProblem):
             lamL = w * (self.Vs @ linear[rows])
             if self._velocity(el):
                 y = lamL - self.eps_v[j] * (w * (self.Vs @ (self.Om @ x[rows])))
-                b = el.bound_samples(np.stack([o[0] if o is not None else np.zeros(self.Ns) for o in out], axis=1)) \
-                    if el.normal_contact is not None else float(el.bound)
+                b = el.bound_samples(self._element_columns(out)) if el.normal_contact is not None else float(el.bound)
                 stick = np.abs(y) <= b
                 out[k] = (np.clip(y, -b, b), stick.astype(np.int8), None, lamL)
                 continue
@@ -301,10 +354,21 @@ class DLFTProblem(HarmonicProblem):
                 out[k] = (lam, (1 - slip).astype(np.int8), ref, lamL)
         return out
 
+    def _element_columns(self, out):
+        """The forces of ``out`` (per position in ``self._el``) as columns of the system's elements, (N_s, m)."""
+        lam = np.zeros((self.Ns, len(self.system.elements)))
+        for k, o in enumerate(out):
+            if o is not None:
+                lam[:, self._el[k][1]] = o[0]
+        return lam
+
     def residual(self, x, jac=True):
         """``(R, J)`` with shapes ``(n_x,)`` and ``(n_x, n_x)`` (dense if condensed, else sparse)."""
         x = np.asarray(x, dtype=float)
         linear = self.A @ x - self.r
+        smooth = self._smooth_forces(x, jac)
+        if smooth is not None:
+            linear = linear - smooth[0]
         R = linear.copy()
         marched = self._march(x, linear)
         for (el, j, rows, cols, sel, w, Q), (lam, state, ref, lamL) in zip(self._el, marched):
@@ -312,8 +376,20 @@ class DLFTProblem(HarmonicProblem):
         if not jac:
             return R, None
         blocks = []
+        nR, nc = self.nR, 2 * self.n_h + 1
+        if smooth is not None:
+            for (i, k), B in smooth[1].items():
+                blocks.append((np.arange(nc) * nR + i, np.arange(nc) * nR + k, B))
         for (el, j, rows, cols, sel, w, Q), (lam, state, ref, lamL) in zip(self._el, marched):
             act = np.flatnonzero(state)  # only stick/closed samples carry a derivative
+            if smooth is not None and act.size:  # lambda_L through the smooth forces on this element's DOF
+                for k, Y in self._smooth_extra(smooth[1], int(rows[0]), w):
+                    dY = Y[act].copy()
+                    if ref is not None:
+                        r = ref[act]
+                        has = r >= 0
+                        dY[has] -= Y[r[has]]
+                    blocks.append((rows, np.arange(nc) * nR + k, w * (self.E[:, act] @ dY)))
             dlam = Q[act]
             if ref is not None:  # friction stick: minus the derivative of the memory
                 r = ref[act]
@@ -329,11 +405,16 @@ class DLFTProblem(HarmonicProblem):
             blocks.append((rows, cols, w * (self.E[:, act] @ dlam)))
             c = el.normal_contact
             if c is not None:  # slip on a closed contact: d lambda_T = sign(lambda_T) mu d lambda_N
-                _, _, _, cols_c, _, _, Q_c = self._el[c]
+                c = self._pos[c]
+                _, _, rows_c, cols_c, _, w_c, Q_c = self._el[c]
                 sl = np.flatnonzero((state == 0) & (marched[c][1] == 1))
                 if sl.size:
                     g = (el.mu * np.sign(lam[sl]))[:, None] * Q_c[sl]
                     blocks.append((rows, cols_c, w * (self.E[:, sl] @ g)))
+                    if smooth is not None:
+                        for k, Y in self._smooth_extra(smooth[1], int(rows_c[0]), w_c):
+                            g = (el.mu * np.sign(lam[sl]))[:, None] * Y[sl]
+                            blocks.append((rows, np.arange(nc) * nR + k, w * (self.E[:, sl] @ g)))
         if sp.issparse(self.A):
             rr = [np.repeat(rows, cols.size) for rows, cols, _ in blocks]
             cc = [np.tile(cols, rows.size) for rows, cols, _ in blocks]
@@ -447,7 +528,12 @@ class DLFTProblem(HarmonicProblem):
 
         ``constrained`` is True on friction-stick / contact-closed samples.
         """
-        return [(lam, state.astype(bool)) for lam, state, _, _ in self._march(np.asarray(x, dtype=float))]
+        x = np.asarray(x, dtype=float)
+        linear = self.A @ x - self.r
+        smooth = self._smooth_forces(x, jac=False)
+        if smooth is not None:
+            linear = linear - smooth[0]
+        return [(lam, state.astype(bool)) for lam, state, _, _ in self._march(x, linear)]
 
     def full_coefficients(self, x):
         """``q_hat`` of all DOFs, shape (2 n_h + 1, n)."""
@@ -463,23 +549,29 @@ class DLFTProblem(HarmonicProblem):
         q_hat = self.full_coefficients(x)
         T = 2 * np.pi / self.omega
         t = np.linspace(0.0, T, self.Ns + 1)
-        marched = self._march(x)
+        linear = self.A @ x - self.r
+        smooth = self._smooth_forces(x, jac=False)
+        if smooth is not None:
+            linear = linear - smooth[0]
+        marched = self._march(x, linear)
         m = len(self.system.elements)
         lam = np.zeros((self.Ns + 1, m))
-        for j, (l, _, _, _) in enumerate(marched):
-            lam[:-1, j] = l
+        lam[:-1] = self._element_columns(marched)
+        if smooth is not None:
+            lam[:-1, self._smooth[0]] = smooth[2]
         lam[-1] = lam[0]
         info = {"condensed": self.condense,  # partition, conditioning: typed fields of the solution
-                "dlft_penalty": [float(e) for e in self.eps], "dlft_predictor": self.predictor}
+                "dlft_penalty": [None if el.smooth else float(e) for e, el in zip(self.eps, self.system.elements)],
+                "dlft_predictor": self.predictor}
         if any(self._velocity(el) for el in self.system.elements):
             info["dlft_velocity_penalty"] = [float(e) if self._velocity(el) else None
                                              for e, el in zip(self.eps_v, self.system.elements)]
         fr = [j for j, el in enumerate(self.system.elements) if el.bounded]
         ct = [j for j, el in enumerate(self.system.elements) if el.unilateral]
         if fr:
-            info["stick_samples"] = [int(marched[j][1].sum()) for j in fr]
+            info["stick_samples"] = [int(marched[self._pos[j]][1].sum()) for j in fr]
         if ct:
-            info["closed_samples"] = [int(marched[j][1].sum()) for j in ct]
+            info["closed_samples"] = [int(marched[self._pos[j]][1].sum()) for j in ct]
         return dict(t=t, q_hat=q_hat, time_dofs=np.zeros(0, dtype=np.int64),
                     q_time=np.zeros((self.Ns + 1, 0)), u_time=np.zeros((self.Ns + 1, 0)),
                     lam=lam, impulses=None, harmonics=self.n_h, info=info)

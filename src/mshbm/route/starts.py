@@ -165,6 +165,8 @@ def event_steps(parts, system):
     h = float(parts["t"][1] - parts["t"][0])
     ev = []
     for j, el in enumerate(system.elements):
+        if not (el.unilateral or el.bounded):
+            continue  # a smooth force (polynomial spring) never switches
         if el.unilateral:
             act = P[:, j] > 1e-12 * float(np.max(np.abs(P[:, j]), initial=0.0))  # not rounding-level impulses
         else:

@@ -204,6 +204,10 @@ class EventFlow(ModeCatalogue, Transitions, FourierQuadrature, MoreauFallback):
         if accumulation not in ("moreau", "close", "error"):
             raise InputError("accumulation", f"must be 'moreau', 'close' or 'error', got {accumulation!r}")
         for el in system.elements:
+            if getattr(el, "smooth", False):
+                raise InputError(f"{el.kind}.dof", f"the event-driven flow is built on the linear modes between "
+                                 f"events and cannot integrate the {el.kind} spring on DOF {el.dof}; use "
+                                 "integrator 'moreau' (shooting or mshbm), or hbm / dlft")
             if el.history:
                 raise InputError("friction.tangential_stiffness", "the event-driven flow does not support "
                                  "elastic friction (Jenkins: a slider state); use method 'hbm'")
