@@ -194,6 +194,7 @@ class DLFTProblem(HarmonicProblem):
             raise InputError("dlft_predictor", f"must be one of {', '.join(map(repr, PREDICTORS))}, got "
                                                f"{dlft_predictor!r}")
         self.predictor = dlft_predictor
+        system = system.at(omega)  # the forcing at omega (a constant forcing: the same system)
         n = system.n
         for el in system.elements:
             if el.normal_contact is not None and dlft_predictor != "velocity":

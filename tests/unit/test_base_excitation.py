@@ -1,0 +1,153 @@
+"""Base excitation (mshbm.support): a 1-DOF oscillator (mass m, spring k and damper c to a table of imposed
+motion y(t)) against closed forms, and a stop on the table against the equivalent forced problem."""
+import numpy as np
+import pytest
+
+import mshbm
+from mshbm import Contact, InputError, base_excitation, fourier
+
+m, k, c = 1.0, 4.0, 0.3
+Y = 0.01
+#: the structure: DOF 0 the mass, DOF 1 the table (its mass and stiffness rows are dropped)
+M = np.diag([m, 5.0])
+K = np.array([[k, -k], [-k, k]])
+C = np.array([[c, -c], [-c, c]])
+#: base motion y = Y cos(w t) + 0.3 Y sin(2 w t): two harmonics, cosine and sine parts
+X_HAT = [0.0, Y, 0.0, 0.0, 0.3 * Y]
+
+
+def transmissibility(w):
+    """Complex ``X / Y`` of the absolute mass motion per unit table motion at frequency ``w``."""
+    return (k + 1j * c * w) / (k - m * w * w + 1j * c * w)
+
+
+def closed_form_absolute(w):
+    Yk = fourier.to_complex(np.array(X_HAT)[:, None])[:, 0]  # (3,) complex table harmonics
+    X = np.array([Yk[h] * transmissibility(h * w) for h in range(3)])
+    return X
+
+
+FAR = 10.0  # a stop that is never reached (the amplitudes are ~0.1)
+FRAMES = {"absolute": Contact(dof=0, gap=FAR), "relative": Contact(dof=0, gap=FAR, relative_to=1)}
+METHODS = [("hbm", {"harmonics": 3}), ("dlft", {"harmonics": 3}),
+           ("shooting", {"steps": 256, "integrator": "event", "harmonics": 3}),
+           ("mshbm", {"harmonics": 3, "steps": 256, "integrator": "event"})]
+
+
+@pytest.mark.parametrize("frame", sorted(FRAMES))
+@pytest.mark.parametrize("method,opts", METHODS, ids=[mt for mt, _ in METHODS])
+def test_transmissibility_closed_form(frame, method, opts):
+    sys = base_excitation(M, C, K, [1], X_HAT, elements=[FRAMES[frame]])
+    assert sys.base.frame == frame and sys.n == 1
+    for w in (1.3, 2.0, 3.1):
+        sol = mshbm.solve(sys, w, method=method, guess="zero", **opts)
+        assert sol.success, sol.message
+        got = fourier.to_complex(sol.q_hat_absolute)[:3, 0]
+        want = closed_form_absolute(w)
+        assert np.max(np.abs(got - want)) <= 1e-9 * Y
+        assert abs(abs(got[1]) / Y - abs(transmissibility(w))) <= 1e-9 * abs(transmissibility(w))
+        # the table rows are the imposed motion; relative = absolute - table (rigid carriage, R_qs = 1)
+        assert np.array_equal(sol.q_hat_absolute[:5, 1], X_HAT)
+        assert np.allclose(sol.q_hat_relative[:, 0], sol.q_hat_absolute[:, 0] - sol.q_hat_absolute[:, 1],
+                           rtol=0, atol=1e-15)
+
+
+def test_omega_derivative_closed_form():
+    """dR/domega of HBM includes the forcing's slope: for z (relative frame), m z'' + c z' + k z =
+    -m y'' = m w^2 Y cos(w t), harmonic 1 rows (cos, sin) of R = H(w) z - F(w)."""
+    sys = base_excitation(M, C, K, [1], [0.0, Y, 0.0], elements=[FRAMES["relative"]])
+    w = 2.0
+    prob, _ = mshbm.build_problem(sys, w, "hbm", harmonics=1, steps=64)
+    x = np.array([0.0, 0.0123, -0.0456])  # z = a cos + b sin at arbitrary coefficients
+    a, b = x[1], x[2]
+    want = np.array([0.0, -2 * m * w * a + c * b - 2 * m * w * Y, -2 * m * w * b - c * a])
+    got = prob.omega_derivative(x)
+    assert np.max(np.abs(got - want)) <= 1e-8 * np.max(np.abs(want))
+
+
+def test_sweep_points_on_closed_form():
+    """The frequency continuation (its tangent from dR/domega) through the resonance: every point on
+    the transmissibility curve."""
+    sys = base_excitation(M, C, K, [1], [0.0, Y, 0.0], elements=[FRAMES["relative"]])
+    br = mshbm.sweep(sys, 1.0, 3.0, method="hbm", harmonics=1, steps=64)
+    assert br.success, br.message
+    assert len(br.points) > 20 and br.points[-1].omega == pytest.approx(3.0)
+    for p in br.points:
+        qa = p.solution.q_hat_absolute
+        got = complex(qa[1, 0], -qa[2, 0])
+        assert abs(got - Y * transmissibility(p.omega)) <= 1e-9 * Y * abs(transmissibility(p.omega))
+
+
+STOP_METHODS = [("shooting", {"steps": 512}), ("mshbm", {"harmonics": 8, "steps": 512}),
+                ("hbm", {"harmonics": 8, "steps": 256}), ("dlft", {"harmonics": 8, "steps": 256}),
+                ("shooting", {"steps": 512, "integrator": "event"})]
+
+
+@pytest.mark.parametrize("method,opts", STOP_METHODS, ids=[f"{mt}-{o.get('integrator', '')}" for mt, o in STOP_METHODS])
+def test_stop_on_table_equals_forced_problem(method, opts):
+    """A stop on the shaker table (gap 0.04 relative to the table, restitution 0.7): the relative-coordinate
+    problem is the 1-DOF oscillator forced by -m y'' = m w^2 Y cos(w t)."""
+    w, g = 2.0, 0.04
+    sys = base_excitation(M, C, K, [1], [0.0, Y, 0.0], elements=[Contact(dof=0, gap=g, relative_to=1, restitution=0.7)])
+    ref = mshbm.System([[m]], [[c]], [[k]], [[0.0], [m * w * w * Y], [0.0]], [Contact(dof=0, gap=g, restitution=0.7)])
+    a = mshbm.solve(sys, w, method=method, **opts)
+    b = mshbm.solve(ref, w, method=method, **opts)
+    assert np.max(np.abs(a.q_hat - b.q_hat)) <= 1e-12 * np.max(np.abs(b.q_hat))
+    assert np.max(a.displacement()[:, 0]) >= 0.99 * g  # the stop is reached (between samples)
+    assert a.success == b.success
+    assert np.max(np.abs(a.q_hat_relative[:, 0] - b.q_hat[:, 0])) <= 1e-12 * np.max(np.abs(b.q_hat))
+    energy = [ch for ch in a.certificate.checks if ch.name == "energy_balance"]
+    assert len(energy) == 1 and energy[0].passed
+    if opts.get("integrator") == "event":
+        assert a.success, a.message
+
+
+def test_ground_stop_absolute_frame_equals_forced_problem():
+    """Absolute frame with a stop to the fixed ground: m x'' + c x' + k x = k y + c y', y = Y cos(w t), i.e. the
+    forcing k Y cos(w t) - c w Y sin(w t) (its sine part depends on omega)."""
+    w, g = 2.0, 0.04
+    sys = base_excitation(M, C, K, [1], [0.0, Y, 0.0], elements=[Contact(dof=0, gap=g)])
+    assert sys.base.frame == "absolute"
+    ref = mshbm.System([[m]], [[c]], [[k]], [[0.0], [k * Y], [-c * w * Y]], [Contact(dof=0, gap=g)])
+    for method, opts in (("hbm", {"harmonics": 8, "steps": 256}), ("shooting", {"steps": 512, "integrator": "event"})):
+        a = mshbm.solve(sys, w, method=method, **opts)
+        b = mshbm.solve(ref, w, method=method, **opts)
+        assert np.max(np.abs(a.q_hat - b.q_hat)) <= 1e-12 * np.max(np.abs(b.q_hat))
+        assert np.max(a.displacement()[:, 0]) >= 0.99 * g  # the stop is reached (between samples)
+
+
+def test_refusals():
+    with pytest.raises(InputError, match="base DOF"):  # the base DOF named as the element's dof
+        base_excitation(M, C, K, [1], X_HAT, elements=[Contact(dof=1, gap=1.0, relative_to=0)])
+    with pytest.raises(InputError, match="base motion"):  # a ground stop while the mass rides the table
+        base_excitation(M, C, K, [1], X_HAT, elements=[Contact(dof=0, gap=1.0)], frame="relative")
+    with pytest.raises(InputError, match="base.frame"):
+        base_excitation(M, C, K, [1], X_HAT, frame="moving")
+    with pytest.raises(InputError, match="base.dofs"):
+        base_excitation(M, C, K, [2], X_HAT)
+    with pytest.raises(InputError, match="no free DOF"):
+        base_excitation(M, C, K, [0, 1], np.zeros((3, 2)))
+    with pytest.raises(InputError, match="base.amplitude"):
+        base_excitation(M, C, K, [1], [0.0, Y])
+    with pytest.raises(InputError, match="forcing"):
+        base_excitation(M, C, K, [1], X_HAT, f_hat=[[0.0, 0.0], [0.0, 1.0], [0.0, 0.0]])
+    sys = base_excitation(M, C, K, [1], X_HAT)
+    with pytest.raises(InputError, match="period"):
+        mshbm.solve(sys, 2.0, method="hbm", period=2)
+    from mshbm.reduction import craig_bampton
+    with pytest.raises(InputError, match="reduce"):
+        craig_bampton(sys, 0, keep=[0])
+
+
+def test_untuned_forcing_is_undefined():
+    """The system on its own has no forcing value: f_hat is NaN until tuned to a frequency (System.at)."""
+    sys = base_excitation(M, C, K, [1], [0.0, Y, 0.0])
+    assert np.all(np.isnan(sys.f_hat))
+    with pytest.raises(ValueError):
+        sys.forcing_hat(1)
+    w = 1.7
+    tuned = sys.at(w)
+    assert tuned.at(w) is tuned and sys.forcing_hat(1, w).tolist() == tuned.forcing_hat(1).tolist()
+    # absolute frame: k Y cos - c w Y sin
+    assert np.allclose(tuned.f_hat[:, 0], [0.0, k * Y, -c * w * Y], rtol=1e-15, atol=0)
+    assert np.allclose(sys.f_hat_omega_derivative(w)[:, 0], [0.0, 0.0, -c * Y], rtol=1e-15, atol=0)
