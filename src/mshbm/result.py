@@ -231,6 +231,8 @@ class PeriodicSolution:
             "accuracy": self.info.get("accuracy"),
             **describe_stability(self),
             "elements": [e.summary() for e in self.elements],
+            # a support motion: the structure's DOFs in absolute and relative coordinates (mshbm.support)
+            **({"base": self.base.summary(self)} if self.base is not None else {}),
             # HBM: the regularisation of each element's law as used (the default's rule and scale, or as given)
             **({"regularisation": self.info["regularisation"]}
                if isinstance(self.info, dict) and "regularisation" in self.info else {}),

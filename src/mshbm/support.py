@@ -109,6 +109,33 @@ class BaseMotion:
         out[:, self.free] = z_hat + X @ (self.R - self.R_qs).T
         return out
 
+    def absolute_time(self, t, omega, z):
+        """Displacements of every DOF in absolute coordinates at times ``t`` (shape (len(t), n)) from ``z``
+        sampled there (shape (len(t), n_f))."""
+        x = self.motion(t, omega)
+        out = np.zeros((x.shape[0], self.n))
+        out[:, self.free] = np.asarray(z, dtype=float) + x @ self.R.T
+        out[:, self.dofs] = x
+        return out
+
+    def relative_time(self, t, omega, z):
+        """Displacements relative to the base (``q_f - R_qs x_b``; 0 on the base DOFs) at times ``t``, shape
+        (len(t), n)."""
+        x = self.motion(t, omega)
+        out = np.zeros((x.shape[0], self.n))
+        out[:, self.free] = np.asarray(z, dtype=float) + x @ (self.R - self.R_qs).T
+        return out
+
+    def summary(self, sol):
+        """JSON-ready outputs of a solution ``sol`` on the reduced system: the description, both coefficient
+        sets and the amplitudes ``(max - min) / 2`` per DOF on the solution's time grid."""
+        z = sol.displacement()
+        qa, qr = self.absolute_time(sol.t, sol.omega, z), self.relative_time(sol.t, sol.omega, z)
+        amp = lambda q: [float(a) for a in 0.5 * (q.max(axis=0) - q.min(axis=0))]
+        return {**self.as_dict(), "q_hat_absolute": self.absolute_hat(sol.q_hat).tolist(),
+                "q_hat_relative": self.relative_hat(sol.q_hat).tolist(),
+                "amplitude_absolute": amp(qa), "amplitude_relative": amp(qr)}
+
     def as_dict(self):
         """JSON-ready description."""
         return {"dofs": [int(d) for d in self.dofs], "free": [int(d) for d in self.free], "frame": self.frame,
@@ -163,9 +190,10 @@ def _map_elements(elements, dofs, free, R_full, frame):
     base = set(int(d) for d in dofs)
     pos = {int(d): i for i, d in enumerate(free)}
     scale = max(1.0, float(np.abs(R_full).max(initial=0.0)))
-    out = []
-    for j, el in enumerate(elements):
-        key = f"{el.kind}[{j}]"
+    out, seen = [], {}
+    for el in elements:
+        key = f"{el.kind}[{seen.get(el.kind, 0)}]"  # the index among the elements of its kind (case-file entries)
+        seen[el.kind] = seen.get(el.kind, 0) + 1
         if int(el.dof) in base:
             other = "" if el.relative_to is None else f" relative_to {el.relative_to}"
             raise InputError(f"{key}.dof", f"DOF {el.dof} is a base DOF (its motion is imposed): an element on it "

@@ -360,6 +360,18 @@ class System:
         return f"System({self.name!r}, n={self.n}, {els}, sparse={self.is_sparse})"
 
 
+def tuned(system, omega):
+    """``system.at(omega)`` for a :class:`System` with an omega-dependent forcing and a finite ``omega > 0``;
+    anything else unchanged (the input checks downstream name a bad system or frequency)."""
+    if not isinstance(system, System) or not system.forcing_parts or isinstance(omega, bool):
+        return system
+    try:
+        w = float(omega)
+    except (TypeError, ValueError):
+        return system
+    return system.at(w) if np.isfinite(w) and w > 0 else system
+
+
 def _immutable(obj):
     if isinstance(obj, np.ndarray):
         return not obj.flags.writeable

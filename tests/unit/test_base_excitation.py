@@ -151,3 +151,49 @@ def test_untuned_forcing_is_undefined():
     # absolute frame: k Y cos - c w Y sin
     assert np.allclose(tuned.f_hat[:, 0], [0.0, k * Y, -c * w * Y], rtol=1e-15, atol=0)
     assert np.allclose(sys.f_hat_omega_derivative(w)[:, 0], [0.0, 0.0, -c * Y], rtol=1e-15, atol=0)
+
+
+CASE = {"name": "shaker", "M": M.tolist(), "K": K.tolist(), "C": C.tolist(), "omega": 2.0,
+        "base": {"dofs": [1], "motion": [{"dof": 1, "amplitude": Y}, {"dof": 1, "harmonic": 2, "sin": 0.3 * Y}]},
+        "contact": [{"dof": 0, "relative_to": 1, "gap": FAR}],
+        "solver": {"method": "hbm", "harmonics": 3}}
+
+
+def test_case_file_section_and_json_fields():
+    from mshbm.io import parse_case
+
+    case = parse_case(CASE)
+    assert case.system.n == 1 and case.system.base.frame == "relative"
+    sol = mshbm.solve(case.system, 2.0, method="hbm", harmonics=3)
+    assert sol.success, sol.message
+    want = closed_form_absolute(2.0)
+    assert np.max(np.abs(fourier.to_complex(sol.q_hat_absolute)[:3, 0] - want)) <= 1e-9 * Y
+    out = sol.summary()["base"]
+    assert out["dofs"] == [1] and out["free"] == [0] and out["frame"] == "relative"
+    assert np.allclose(out["q_hat_absolute"], sol.q_hat_absolute, rtol=0, atol=0)
+    assert np.allclose(out["q_hat_relative"], sol.q_hat_relative, rtol=0, atol=0)
+    y = Y * np.cos(2.0 * sol.t) + 0.3 * Y * np.sin(4.0 * sol.t)  # the table's motion on the solution's grid
+    assert out["amplitude_absolute"][1] == pytest.approx(0.5 * (y.max() - y.min()), rel=1e-14)
+    assert out["amplitude_relative"][1] == 0.0
+    # --set reaches the base section (a parameter branch in the base amplitude uses it)
+    from mshbm.io.overrides import apply_sets
+    case2 = parse_case(apply_sets(CASE, {"base.motion.0.amplitude": 2 * Y}))
+    assert np.allclose(case2.system.f_hat_at(2.0), case.system.f_hat_at(2.0) * [[1], [2], [2], [1], [1]],
+                       rtol=1e-15, atol=0)
+
+
+@pytest.mark.parametrize("change,key", [
+    ({"base": {"dofs": [1], "motion": [{"dof": 0, "amplitude": Y}]}}, "base.motion[0].dof"),
+    ({"base": {"dofs": [2], "motion": []}}, "base.dofs[0]"),
+    ({"base": {"dofs": [1]}}, "base.motion"),
+    ({"base": {"dofs": [1], "motion": [], "speed": 1}}, "base.speed"),
+    ({"base": {"dofs": [1], "motion": [], "frame": "absolute"}}, "contact[0].relative_to"),
+    ({"solver": {"method": "hbm", "partition": [0]}}, "solver.partition"),
+    ({"forcing": [{"dof": 1, "amplitude": 1.0}]}, "forcing"),
+])
+def test_case_file_errors_name_the_key(change, key):
+    from mshbm.io import parse_case
+
+    with pytest.raises(InputError) as exc:
+        parse_case({**CASE, **change})
+    assert exc.value.key == key

@@ -1,11 +1,11 @@
 """The keys of a case file (:mod:`mshbm.io`): the schema that :mod:`mshbm.io.case` checks and
 :mod:`mshbm.io.overrides` (``--set``) walks."""
 
-__all__ = ["TOP_KEYS", "CHAIN_KEYS", "MATRIX_KEYS", "FORCING_KEYS", "FRICTION_KEYS", "CONTACT_KEYS", "REDUCE_KEYS",
+__all__ = ["TOP_KEYS", "CHAIN_KEYS", "MATRIX_KEYS", "FORCING_KEYS", "FRICTION_KEYS", "CONTACT_KEYS", "REDUCE_KEYS", "BASE_KEYS",
            "SOLVER_KEYS"]
 
 TOP_KEYS = ("name", "masses", "stiffness", "damping", "M", "C", "K", "omega", "forcing",
-            "friction", "contact", "reduce", "solver")
+            "friction", "contact", "reduce", "solver", "base")
 CHAIN_KEYS = ("masses", "stiffness", "damping")
 MATRIX_KEYS = ("M", "C", "K")
 FORCING_KEYS = ("dof", "amplitude", "sin", "harmonic", "constant")
@@ -18,6 +18,9 @@ FRICTION_KEYS = {"dof": ..., "mu": ..., "normal_force": ..., "smoothing": None, 
                  "tangential_stiffness": None, "normal_contact": None}
 CONTACT_KEYS = {"dof": ..., "gap": ..., "restitution": 1.0, "penalty_stiffness": None,
                 "penalty_damping": 0.0, "relative_to": None}
+#: ``base:`` imposed motion of base DOFs (:mod:`mshbm.support`): ``dofs`` (list), ``motion`` (items with the
+#: keys of FORCING_KEYS, displacements in m, on base DOFs), ``frame`` (auto, absolute, relative)
+BASE_KEYS = ("dofs", "motion", "frame")
 #: ``reduce:`` (a Craig-Bampton reduction onto the element DOFs, :mod:`mshbm.reduction`)
 REDUCE_KEYS = ("method", "modes", "keep")
 SOLVER_KEYS = ("method", "harmonics", "steps", "theta", "jacobian", "tol", "max_iter", "partition",

@@ -23,7 +23,7 @@ from __future__ import annotations
 import difflib
 
 from ..errors import InputError
-from .keys import CONTACT_KEYS, FORCING_KEYS, FRICTION_KEYS, REDUCE_KEYS, SOLVER_KEYS, TOP_KEYS
+from .keys import BASE_KEYS, CONTACT_KEYS, FORCING_KEYS, FRICTION_KEYS, REDUCE_KEYS, SOLVER_KEYS, TOP_KEYS
 from .matrices import RAYLEIGH_KEYS
 from .yaml import describe as _describe, load_yaml as _load_yaml
 
@@ -33,7 +33,7 @@ __all__ = ["parse_assignment", "apply_sets", "SECTION_KEYS", "add_set_option", "
 def _schema():
     return {(): tuple(TOP_KEYS), ("solver",): tuple(SOLVER_KEYS), ("friction",): tuple(FRICTION_KEYS),
             ("contact",): tuple(CONTACT_KEYS), ("forcing",): tuple(FORCING_KEYS), ("damping",): tuple(RAYLEIGH_KEYS),
-            ("reduce",): tuple(REDUCE_KEYS)}
+            ("reduce",): tuple(REDUCE_KEYS), ("base",): tuple(BASE_KEYS), ("base", "motion"): tuple(FORCING_KEYS)}
 
 
 #: the sections whose entries are mappings, given as one mapping or a list of them
