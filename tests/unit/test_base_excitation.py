@@ -197,3 +197,56 @@ def test_case_file_errors_name_the_key(change, key):
     with pytest.raises(InputError) as exc:
         parse_case({**CASE, **change})
     assert exc.value.key == key
+
+
+def _z_closed(w):
+    """Relative-frame coefficients of z for y = Y cos(w t): m z'' + c z' + k z = m w^2 Y cos(w t)."""
+    Z = m * w * w * Y / (k - m * w * w + 1j * c * w)
+    return Z
+
+
+@pytest.mark.parametrize("method,opts", [("hbm", {"harmonics": 1, "steps": 64}),
+                                         ("shooting", {"steps": 256, "integrator": "event"})])
+def test_continuation_tangent_closed_form(method, opts):
+    """The tangent of the frequency continuation, dx/domega = -J^-1 dR/domega, equals the slope of the closed-form
+    solution in the method's unknowns (HBM: coefficients; shooting: q(0), u(0))."""
+    sys = base_excitation(M, C, K, [1], [0.0, Y, 0.0], elements=[FRAMES["relative"]])
+    unknowns = {"hbm": lambda Z, w: np.array([0.0, Z.real, -Z.imag]),
+                "shooting": lambda Z, w: np.array([Z.real, (1j * w * Z).real])}[method]
+    for w in (1.5, 2.0, 2.6):
+        prob, _ = mshbm.build_problem(sys, w, method, **opts)
+        x = unknowns(_z_closed(w), w)
+        R, J = prob.residual(x)
+        J = J.toarray() if hasattr(J, "toarray") else np.asarray(J)
+        assert np.max(np.abs(R)) <= 1e-12 * np.max(np.abs(prob.residual_scale(x)))  # x solves R = 0
+        tangent = -np.linalg.solve(J, prob.omega_derivative(x))
+        d = 1e-5
+        want = (unknowns(_z_closed(w + d), w + d) - unknowns(_z_closed(w - d), w - d)) / (2 * d)
+        assert np.max(np.abs(tangent - want)) <= 1e-6 * np.max(np.abs(want))
+
+
+def test_two_masses_on_table_equal_forced_problem():
+    """Two masses on a table (DOF 0), friction between mass 1 and the table and a stop between the masses: the
+    relative frame (R = [1, 1]) is the chain forced by -M_ff 1 y''; dense and sparse matrices agree."""
+    import scipy.sparse as sp
+    from mshbm import Friction
+
+    Mt = np.diag([3.0, 1.0, 0.5])
+    Kt = np.array([[2.0, -2.0, 0.0], [-2.0, 3.0, -1.0], [0.0, -1.0, 1.0]])
+    Ct = 0.02 * Kt
+    w, Yt = 1.1, 0.2
+    els = [Friction(dof=1, relative_to=0, mu=0.3, normal_force=1.0), Contact(dof=2, relative_to=1, gap=0.05)]
+    sys = base_excitation(Mt, Ct, Kt, [0], [0.0, Yt, 0.0], elements=els)
+    assert sys.base.frame == "relative" and np.allclose(sys.base.R, 1.0, rtol=0, atol=1e-14)
+    f = np.zeros((3, 2))
+    f[1] = np.diag(Mt)[1:] * w * w * Yt
+    ref = mshbm.System(Mt[1:, 1:], Ct[1:, 1:], Kt[1:, 1:], f,
+                       [Friction(dof=0, mu=0.3, normal_force=1.0), Contact(dof=1, relative_to=0, gap=0.05)])
+    sps = base_excitation(sp.csr_matrix(Mt), sp.csr_matrix(Ct), sp.csr_matrix(Kt), [0], [0.0, Yt, 0.0], elements=els)
+    opts = {"harmonics": 5, "steps": 1024}
+    a, b, s = (mshbm.solve(x, w, method="mshbm", **opts) for x in (sys, ref, sps))
+    scale = np.max(np.abs(b.q_hat))
+    assert np.max(np.abs(a.q_hat - b.q_hat)) <= 1e-12 * scale and np.max(np.abs(s.q_hat - b.q_hat)) <= 1e-10 * scale
+    assert a.success and b.success, a.message
+    fr, ct = a.elements
+    assert 0.0 < fr.stick_fraction < 1.0 and ct.contact_fraction > 0.0  # stick-slip, and the stop is hit
