@@ -148,6 +148,12 @@ class System:
     to the attribute: the cache checks the objects' identity).
     """
 
+    #: class defaults of the omega-dependent forcing (:meth:`with_omega_forcing`), for copies made by
+    #: ``object.__new__`` and for systems pickled before these attributes existed
+    forcing_parts = ()
+    forcing_omega = None
+    base = None
+
     def __init__(self, M, C, K, f_hat, elements=(), name="system"):
         self.M = _as_matrix("M", M)
         n = self.M.shape[0]
@@ -196,12 +202,10 @@ class System:
                 raise InputError(f"{el.kind}.normal_contact", f"contact {c} acts on the friction's own DOF "
                                  f"{el.dof}: the normal direction must be another DOF")
         self.name = str(name)
-        #: ``(F0, F1, F2)`` of an omega-dependent forcing (``()``: ``f_hat`` does not depend on omega)
-        self.forcing_parts = ()
-        #: frequency (rad/s) at which ``f_hat`` was evaluated (:meth:`at`); ``None``: untuned or constant
-        self.forcing_omega = None
-        #: the support motion (:class:`mshbm.support.BaseMotion`) this system was reduced from, or ``None``
-        self.base = None
+        # instance attributes set by with_omega_forcing / at / mshbm.support.base_excitation (class defaults
+        # above): ``forcing_parts`` (F0, F1, F2) of an omega-dependent forcing (``()``: none), ``forcing_omega``
+        # the frequency (rad/s) at which ``f_hat`` was evaluated (``None``: untuned or constant), ``base`` the
+        # support motion (:class:`mshbm.support.BaseMotion`) the system was reduced from (``None``: none)
 
     # ------------------------------------------------------------------ omega-dependent forcing
     @property

@@ -250,3 +250,26 @@ def test_two_masses_on_table_equal_forced_problem():
     assert a.success and b.success, a.message
     fr, ct = a.elements
     assert 0.0 < fr.stick_fraction < 1.0 and ct.contact_fraction > 0.0  # stick-slip, and the stop is hit
+
+
+def test_cli_solve_writes_absolute_and_relative(tmp_path):
+    """``mshbm solve --out``: exit 0 and the JSON field ``base`` (the case of the README's example, event shooting)."""
+    import json
+
+    import yaml
+    from mshbm.cli import main
+
+    case = {**CASE, "contact": [{"dof": 0, "relative_to": 1, "gap": 0.04, "restitution": 0.7}],
+            "base": {"dofs": [1], "motion": [{"dof": 1, "amplitude": Y}]},
+            "solver": {"method": "shooting", "steps": 512, "integrator": "event"}}
+    path, out = tmp_path / "shaker.yaml", tmp_path / "out.json"
+    path.write_text(yaml.safe_dump(case))
+    assert main(["solve", str(path), "--quiet", "--out", str(out)]) == 0
+    payload = json.loads(out.read_text())
+    base = payload["base"]
+    qa, qr = np.array(base["q_hat_absolute"]), np.array(base["q_hat_relative"])
+    assert qa.shape[1] == 2 and np.array_equal(qa[:3, 1], [0.0, Y, 0.0]) and not np.any(qr[:, 1])
+    assert np.allclose(qa[:, 0] - qa[:, 1], qr[:, 0], rtol=0, atol=1e-15)
+    # relative amplitude on the grid vs the exact extrema of z (the solve's own "amplitude"): the table carries z
+    assert base["amplitude_relative"][0] == pytest.approx(payload["amplitude"][0], rel=1e-3)
+    assert main(["solve", str(path), "--quiet", "--set", "base.frame=absolute"]) == 2
