@@ -182,7 +182,7 @@ def _check_dofs(dofs, n):
         raise InputError("base.dofs", f"repeats a DOF: {arr}")
     if len(arr) >= n:
         raise InputError("base.dofs", f"leaves no free DOF (the structure has {n})")
-    return np.array(sorted(arr), dtype=np.int64)
+    return np.array(arr, dtype=np.int64)
 
 
 def _map_elements(elements, dofs, free, R_full, frame):
@@ -225,7 +225,8 @@ def base_excitation(M, C, K, base_dofs, X_hat, f_hat=None, elements=(), frame="a
     base_dofs : sequence of int
         The DOFs whose motion is imposed.
     X_hat : array_like, shape (2 n_x + 1, n_b) or (2 n_x + 1,) for one base DOF
-        Coefficients ``[X0, Xc_1, Xs_1, ...]`` of the base motion (m).
+        Coefficients ``[X0, Xc_1, Xs_1, ...]`` of the base motion (m), columns in the order of ``base_dofs``
+        (``system.base`` keeps them in increasing DOF order).
     f_hat : array_like, shape (2 n_f + 1, n), optional
         Further forcing on the free DOFs (N); zero on the base DOFs.
     elements : sequence of Element
@@ -240,7 +241,8 @@ def base_excitation(M, C, K, base_dofs, X_hat, f_hat=None, elements=(), frame="a
     """
     full = System(M, C, K, np.zeros((1, np.shape(M)[0])) if f_hat is None else f_hat, name=name)
     n = full.n
-    dofs = _check_dofs(base_dofs, n)
+    given = _check_dofs(base_dofs, n)
+    dofs = np.sort(given)
     keep = np.ones(n, dtype=bool)
     keep[dofs] = False
     free = np.flatnonzero(keep)
@@ -251,6 +253,7 @@ def base_excitation(M, C, K, base_dofs, X_hat, f_hat=None, elements=(), frame="a
         raise InputError("base.amplitude", f"X_hat must have shape (2*n_x+1, {dofs.size}), got {X.shape}")
     if not np.all(np.isfinite(X)):
         raise InputError("base.amplitude", "contains NaN or inf")
+    X = X[:, np.argsort(given)]  # columns in the order of the sorted base DOFs
     fh = full.f_hat
     if np.any(fh[:, dofs] != 0):
         raise InputError("forcing", "a force on a base DOF has no effect (its motion is imposed): remove it")
