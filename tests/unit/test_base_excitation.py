@@ -65,11 +65,16 @@ def test_omega_derivative_closed_form():
     assert np.max(np.abs(got - want)) <= 1e-8 * np.max(np.abs(want))
 
 
-def test_sweep_points_on_closed_form():
+SWEEPS = [("hbm", {"harmonics": 1, "steps": 64}), ("shooting", {"steps": 128, "integrator": "event"}),
+          ("mshbm", {"harmonics": 2, "steps": 128, "integrator": "event"})]
+
+
+@pytest.mark.parametrize("method,opts", SWEEPS, ids=[mt for mt, _ in SWEEPS])
+def test_sweep_points_on_closed_form(method, opts):
     """The frequency continuation (its tangent from dR/domega) through the resonance: every point on
     the transmissibility curve."""
     sys = base_excitation(M, C, K, [1], [0.0, Y, 0.0], elements=[FRAMES["relative"]])
-    br = mshbm.sweep(sys, 1.0, 3.0, method="hbm", harmonics=1, steps=64)
+    br = mshbm.sweep(sys, 1.0, 3.0, method=method, **opts)
     assert br.success, br.message
     assert len(br.points) > 20 and br.points[-1].omega == pytest.approx(3.0)
     for p in br.points:
