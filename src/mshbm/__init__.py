@@ -18,13 +18,14 @@ from .elements import Contact, Element, Friction, Jenkins, Polynomial
 from .errors import ConvergenceError, InputError
 from .methods.exact import exact_periodic
 from .result import PeriodicSolution
+from .support import BaseMotion, base_excitation
 from .system import System, chain
 
 __all__ = ["solve", "build_problem", "residual_omega_derivative", "METHODS", "System", "Element", "Friction",
            "Jenkins", "Contact", "Polynomial", "chain", "PeriodicSolution", "InputError", "ConvergenceError",
            "load_case",
            "exact_periodic", "sweep", "Branch", "continue_forcing", "continue_parameter", "switch_period_doubling",
-           "backbone", "Backbone"]
+           "backbone", "Backbone", "base_excitation", "BaseMotion"]
 __version__ = "0.1.0"
 
 

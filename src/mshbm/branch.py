@@ -178,7 +178,17 @@ class Branch:
                 "bifurcations": [{k: v for k, v in b.items() if k != "x"} for b in self.bifurcations],
                 "iterations": [int(i) for i in self.iterations], "counters": self.counters,
                 "wall_time_s": float(self.wall_time), "origin": dict(self.origin),
-                "points": [p.as_dict() for p in self.points]}
+                "points": [p.as_dict() for p in self.points],
+                # a support motion (mshbm.support): amplitudes of the structure's DOFs, absolute and relative
+                **self._base_amplitudes()}
+
+    def _base_amplitudes(self):
+        sols = [p.solution for p in self.points]
+        if not sols or any(s is None or getattr(s, "base", None) is None for s in sols):
+            return {}
+        out = [s.base.summary(s) for s in sols]
+        return {"base": {**sols[0].base.as_dict(), "amplitude_absolute": [o["amplitude_absolute"] for o in out],
+                         "amplitude_relative": [o["amplitude_relative"] for o in out]}}
 
     def to_json(self, **kwargs):
         """JSON text (non-finite numbers as ``null``)."""
@@ -210,10 +220,7 @@ def unknown_scale(problem, x):
 
 def scaled_forcing(system, load):
     """``system`` with ``f_hat`` times ``load`` (matrices and elements shared)."""
-    new = object.__new__(System)
-    new.__dict__.update(system.__dict__)
-    new.f_hat = system.f_hat * float(load)
-    return new
+    return system.map_forcing(lambda f: f * float(load))
 
 
 def _contact_info(system, sol):

@@ -194,7 +194,7 @@ class Condensation:
         self.keep = np.asarray(keep, dtype=np.int64)
         self.elim = np.asarray(eliminate, dtype=np.int64)
         nR, nE = self.keep.size, self.elim.size
-        F = self.F = to_complex(system.forcing_hat(n_h))
+        F = self.F = to_complex(system.forcing_hat(n_h, omega))
         self.H_RR = None
         self.rcond = np.ones(n_h + 1)
         M, C, K = system.M, system.C, system.K
@@ -449,7 +449,7 @@ def resonant_modes(system, omega, k, keep, elim, null_tol=1e-8):
     support = np.sort(elim[mag > 1e-6 * mag.max()])
     coupled_v = np.abs(H_RE @ V).max(axis=0) > null_tol * scale if keep.size else np.zeros(null.size, bool)
     coupled_w = np.abs(W.conj().T @ H_ER).max(axis=1) > null_tol * scale if keep.size else np.zeros(null.size, bool)
-    F = to_complex(system.forcing_hat(max(k, 0)))[k]
+    F = to_complex(system.forcing_hat(max(k, 0), omega))[k]
     F_E = F[elim]
     F_scale = float(np.abs(F).max(initial=0.0))
     out = {"support": support, "no_solution": None, "not_unique": None}

@@ -291,6 +291,9 @@ def craig_bampton(system, modes, keep=()):
     """
     t0 = time.perf_counter()
     n = system.n
+    if system.omega_dependent:
+        raise InputError("reduce", "a Craig-Bampton reduction of a system with support motion (base) is not "
+                                   "supported: reduce the structure first, then impose the base motion")
     if isinstance(modes, bool) or not isinstance(modes, (int, np.integer)) or modes < 0:
         raise InputError("reduce.modes", f"must be an integer >= 0, got {modes!r}")
     kept = []

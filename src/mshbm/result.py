@@ -81,6 +81,10 @@ class PeriodicSolution:
         Reciprocal condition numbers of the condensed per-harmonic blocks (``H_LL``; 3.3: ``H_33``).
     time_step : float or None
         Moreau-Jean step ``h = T / N`` (s) of the time-stepped DOFs; ``None`` for HBM/DLFT.
+    base : mshbm.support.BaseMotion or None
+        The imposed support motion of a system built by :func:`mshbm.support.base_excitation`: ``q_hat``
+        then holds the solved coordinates ``z`` of the free DOFs, and :attr:`q_hat_absolute`,
+        :attr:`q_hat_relative` those of the whole structure.
     certificate : mshbm.certificate.Certificate or None
         Checks made after Newton (:mod:`mshbm.certificate`); ``success`` requires all
         gating checks to pass.  ``residual`` is the scaled ``||R / s||_inf`` (dimensionless).
@@ -115,6 +119,7 @@ class PeriodicSolution:
     stability_reason: str = "no stability analysis was run"
     stability_orbit: str = ""
     elements: list = field(default_factory=list)
+    base: object = None
 
     @property
     def period(self):
@@ -171,6 +176,19 @@ class PeriodicSolution:
             u0[td] = self.u_time[0]
         return q0, u0
 
+    @property
+    def q_hat_absolute(self):
+        """With a support motion (``base``): coefficients of every DOF of the structure in absolute
+        coordinates, shape (2 n_h + 1, n_structure) (:meth:`mshbm.support.BaseMotion.absolute_hat`); else
+        ``q_hat``."""
+        return self.q_hat if self.base is None else self.base.absolute_hat(self.q_hat)
+
+    @property
+    def q_hat_relative(self):
+        """With a support motion (``base``): coefficients relative to the base's quasi-static motion, shape
+        (2 n_h + 1, n_structure) (:meth:`mshbm.support.BaseMotion.relative_hat`); ``None`` without one."""
+        return None if self.base is None else self.base.relative_hat(self.q_hat)
+
     @cached_property
     def q(self):
         """All displacements, shape (N+1, n)."""
@@ -213,6 +231,8 @@ class PeriodicSolution:
             "accuracy": self.info.get("accuracy"),
             **describe_stability(self),
             "elements": [e.summary() for e in self.elements],
+            # a support motion: the structure's DOFs in absolute and relative coordinates (mshbm.support)
+            **({"base": self.base.summary(self)} if self.base is not None else {}),
             # HBM: the regularisation of each element's law as used (the default's rule and scale, or as given)
             **({"regularisation": self.info["regularisation"]}
                if isinstance(self.info, dict) and "regularisation" in self.info else {}),

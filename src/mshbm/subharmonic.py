@@ -58,6 +58,9 @@ def subharmonic_system(system, k):
     k = check_period(k)
     if k == 1:
         return system
+    if system.omega_dependent:
+        raise InputError("period", "a forcing that depends on omega (support motion) is supported for T-periodic "
+                                   "solutions only (period 1)")
     n_f = system.n_forcing_harmonics
     f_hat = np.zeros((2 * k * n_f + 1, system.n))
     f_hat[0] = system.f_hat[0]

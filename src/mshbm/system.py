@@ -13,6 +13,13 @@ Fourier coefficients in the paper's real convention (eqs. 1-3)::
 
 stored as ``f_hat`` of shape ``(2 n_f + 1, n)``, rows ``[f0, fc_1, fs_1, ...]``.
 
+A forcing may depend on ``omega`` (imposed support motion, :mod:`mshbm.support`): its coefficients are
+then ``f_hat(omega) = F0 + omega F1 + omega^2 F2`` (``forcing_parts = (F0, F1, F2)``).  Such a system is
+*tuned* to one frequency by :meth:`System.at`, which sets ``f_hat = f_hat(omega)``; every problem is built
+on the system tuned to its frequency, so code reading ``f_hat`` sees the forcing at that frequency.  The
+untuned system's ``f_hat`` is NaN (undefined), and :meth:`System.forcing` and :meth:`System.forcing_hat`
+with an explicit ``omega`` evaluate ``f_hat(omega)`` on any copy.
+
 Local nonlinear elements (:mod:`mshbm.elements`: :class:`~mshbm.elements.Friction`,
 :class:`~mshbm.elements.Contact`, re-exported here) act on single DOFs; every element has a
 direction ``w`` (``+e_dof`` for friction, ``-e_dof`` for contact) and its force on the DOFs is
@@ -141,6 +148,12 @@ class System:
     to the attribute: the cache checks the objects' identity).
     """
 
+    #: class defaults of the omega-dependent forcing (:meth:`with_omega_forcing`), for copies made by
+    #: ``object.__new__`` and for systems pickled before these attributes existed
+    forcing_parts = ()
+    forcing_omega = None
+    base = None
+
     def __init__(self, M, C, K, f_hat, elements=(), name="system"):
         self.M = _as_matrix("M", M)
         n = self.M.shape[0]
@@ -189,6 +202,76 @@ class System:
                 raise InputError(f"{el.kind}.normal_contact", f"contact {c} acts on the friction's own DOF "
                                  f"{el.dof}: the normal direction must be another DOF")
         self.name = str(name)
+        # instance attributes set by with_omega_forcing / at / mshbm.support.base_excitation (class defaults
+        # above): ``forcing_parts`` (F0, F1, F2) of an omega-dependent forcing (``()``: none), ``forcing_omega``
+        # the frequency (rad/s) at which ``f_hat`` was evaluated (``None``: untuned or constant), ``base`` the
+        # support motion (:class:`mshbm.support.BaseMotion`) the system was reduced from (``None``: none)
+
+    # ------------------------------------------------------------------ omega-dependent forcing
+    @property
+    def omega_dependent(self):
+        """True if the forcing depends on ``omega`` (``forcing_parts`` set)."""
+        return bool(self.forcing_parts)
+
+    def with_omega_forcing(self, F0, F1, F2):
+        """Copy (matrices shared) whose forcing is ``F0 + omega F1 + omega^2 F2``, each shape
+        ``(2 n_f + 1, n)`` (N, N s, N s^2); untuned (``f_hat`` NaN until :meth:`at`)."""
+        parts = []
+        for key, F in (("F0", F0), ("F1", F1), ("F2", F2)):
+            F = np.array(F, dtype=float)
+            if F.ndim != 2 or F.shape[1] != self.n or F.shape[0] % 2 != 1:
+                raise InputError("forcing", f"{key} must have shape (2*n_f+1, {self.n}), got {F.shape}")
+            if not np.all(np.isfinite(F)):
+                raise InputError("forcing", f"{key} contains NaN or inf")
+            parts.append(F)
+        if len({F.shape for F in parts}) != 1:
+            raise InputError("forcing", f"F0, F1, F2 must have one shape, got {[F.shape for F in parts]}")
+        for F in parts:
+            F.flags.writeable = False
+        new = self.with_elements(self.elements)
+        new.forcing_parts = tuple(parts)
+        nan = np.full(parts[0].shape, np.nan)
+        nan.flags.writeable = False
+        new.f_hat, new.forcing_omega = nan, None
+        return new
+
+    def f_hat_at(self, omega):
+        """Forcing coefficients at ``omega``, shape ``(2 n_f + 1, n)``: ``f_hat`` itself for a forcing that
+        does not depend on omega (the same object)."""
+        if not self.forcing_parts:
+            return self.f_hat
+        if self.forcing_omega is not None and float(omega) == self.forcing_omega:
+            return self.f_hat
+        F0, F1, F2 = self.forcing_parts
+        w = float(omega)
+        return F0 + w * F1 + (w * w) * F2
+
+    def f_hat_omega_derivative(self, omega):
+        """``d f_hat / d omega`` at ``omega``, shape ``(2 n_f + 1, n)`` (zero for a constant forcing)."""
+        if not self.forcing_parts:
+            return np.zeros_like(self.f_hat)
+        _, F1, F2 = self.forcing_parts
+        return F1 + (2.0 * float(omega)) * F2
+
+    def at(self, omega):
+        """The system with ``f_hat`` evaluated at ``omega`` (itself when the forcing does not depend on
+        omega or it is tuned to ``omega`` already; else a copy sharing the matrices)."""
+        if not self.forcing_parts or (self.forcing_omega is not None and float(omega) == self.forcing_omega):
+            return self
+        new = self.with_elements(self.elements)
+        f = self.f_hat_at(omega)
+        f.flags.writeable = False
+        new.f_hat, new.forcing_omega = f, float(omega)
+        return new
+
+    def map_forcing(self, fn):
+        """Copy (matrices shared) with every forcing array ``F`` replaced by ``fn(F)`` (``f_hat``, and the
+        parts of an omega-dependent forcing): scaling, phase shifts, projections."""
+        new = self.with_elements(self.elements)
+        new.f_hat = fn(self.f_hat)
+        if self.forcing_parts:
+            new.forcing_parts = tuple(fn(F) for F in self.forcing_parts)
+        return new
 
     # ------------------------------------------------------------------ basics
     @property
@@ -245,18 +328,27 @@ class System:
         DOFs, and all ``n`` columns would be ``N n`` numbers (3 GB at ``n = 1e5``, 4096 steps).
         """
         t = np.atleast_1d(np.asarray(t, dtype=float))
-        fh = self.f_hat if dofs is None else self.f_hat[:, np.asarray(dofs, dtype=np.int64)]
+        fh = self.f_hat_at(omega)
+        fh = fh if dofs is None else fh[:, np.asarray(dofs, dtype=np.int64)]
         f = np.tile(fh[0], (t.size, 1))
         for k in range(1, self.n_forcing_harmonics + 1):
             f += np.cos(k * omega * t)[:, None] * fh[2 * k - 1]
             f += np.sin(k * omega * t)[:, None] * fh[2 * k]
         return f
 
-    def forcing_hat(self, n_h):
-        """Forcing coefficients truncated or zero-padded to ``n_h`` harmonics, shape (2 n_h + 1, n)."""
+    def forcing_hat(self, n_h, omega=None):
+        """Forcing coefficients truncated or zero-padded to ``n_h`` harmonics, shape (2 n_h + 1, n), at
+        ``omega`` (rad/s; needed only by an omega-dependent forcing, else ``f_hat`` of a tuned system)."""
+        if omega is None:
+            if self.forcing_parts and self.forcing_omega is None:
+                raise ValueError("forcing_hat: the forcing depends on omega; pass omega or tune the system "
+                                 "(System.at)")
+            fh = self.f_hat
+        else:
+            fh = self.f_hat_at(omega)
         out = np.zeros((2 * n_h + 1, self.n))
-        m = min(out.shape[0], self.f_hat.shape[0])
-        out[:m] = self.f_hat[:m]
+        m = min(out.shape[0], fh.shape[0])
+        out[:m] = fh[:m]
         return out
 
     def with_elements(self, elements):
@@ -270,6 +362,18 @@ class System:
         els = ", ".join(f"{e.kind}@{e.dof}" + ("" if e.relative_to is None else f"-{e.relative_to}")
                         for e in self.elements) or "linear"
         return f"System({self.name!r}, n={self.n}, {els}, sparse={self.is_sparse})"
+
+
+def tuned(system, omega):
+    """``system.at(omega)`` for a :class:`System` with an omega-dependent forcing and a finite ``omega > 0``;
+    anything else unchanged (the input checks downstream name a bad system or frequency)."""
+    if not isinstance(system, System) or not system.forcing_parts or isinstance(omega, bool):
+        return system
+    try:
+        w = float(omega)
+    except (TypeError, ValueError):
+        return system
+    return system.at(w) if np.isfinite(w) and w > 0 else system
 
 
 def _immutable(obj):

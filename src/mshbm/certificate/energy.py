@@ -154,7 +154,7 @@ def _fourier_work(sol, system, omega, h, ue_max, terms):
     C = system.C
     qh = np.asarray(sol.q_hat)
     n_h = (qh.shape[0] - 1) // 2
-    fh = system.forcing_hat(n_h)
+    fh = system.forcing_hat(n_h, omega)
     if sp.issparse(C):
         kw = np.arange(1, n_h + 1)[:, None] * omega
         a, b = qh[1::2], qh[2::2]
@@ -224,7 +224,7 @@ def _grid_work(problem, sol, system, omega, h, N, stepper, els, ue_max, cert, R)
         # the coefficients of the L DOFs as full-length rows, zero on td: no submatrix of size n_L
         qh = np.asarray(sol.q_hat)
         n_h = (qh.shape[0] - 1) // 2
-        fh = system.forcing_hat(n_h)
+        fh = system.forcing_hat(n_h, omega)
         k = np.arange(1, n_h + 1)[:, None]
         onL = np.zeros(n)
         onL[Ld] = 1.0

@@ -56,7 +56,7 @@ def time_discretisation(problem, sol, system, omega, stepper, D, cert):
     sub = (lambda A: A.tocsr()[T][:, T].toarray()) if sp.issparse(system.M) else \
         (lambda A: np.asarray(A)[np.ix_(T, T)])
     MT, CT = sub(system.M), sub(system.C)
-    Fk = to_complex(system.forcing_hat(X.shape[0] - 1))  # (n_h + 1, n) forcing harmonics
+    Fk = to_complex(system.forcing_hat(X.shape[0] - 1, omega))  # (n_h + 1, n) forcing harmonics
     worst, k_worst, linear_max = 0.0, None, 0.0
     for k in range(1, X.shape[0]):
         XT = X[k, T]
@@ -114,7 +114,7 @@ def undamped_resonance(system, omega, h, fourier_all_dofs, els, cert, terms):
     w2, Phi = sla.eigh(K, M)
     c_modal = np.einsum("ir,ij,jr->r", Phi, C, Phi)
     scaleK = max(float(np.max(np.abs(w2), initial=0.0)), 1e-300)
-    fh = system.f_hat
+    fh = system.f_hat_at(omega)
     n_f = (fh.shape[0] - 1) // 2
     worst, worst_bound, where = np.inf, 0.0, ""
     for k in range(1, n_f + 1):

@@ -15,10 +15,11 @@ from ..reduction import craig_bampton
 from .. import options as options_
 from ..errors import InputError
 from ..elements import Jenkins, Polynomial
+from ..support import base_excitation
 from ..system import Contact, Friction, System, chain
 from .overrides import apply_sets as _apply_sets
-from .keys import (CHAIN_KEYS, CONTACT_KEYS, CUBIC_KEYS, FORCING_KEYS, FRICTION_KEYS, MATRIX_KEYS, POLYNOMIAL_KEYS,
-                   REDUCE_KEYS, SOLVER_KEYS, TOP_KEYS)
+from .keys import (BASE_KEYS, CHAIN_KEYS, CONTACT_KEYS, CUBIC_KEYS, FORCING_KEYS, FRICTION_KEYS, MATRIX_KEYS,
+                   POLYNOMIAL_KEYS, REDUCE_KEYS, SOLVER_KEYS, TOP_KEYS)
 from .matrices import matrix_storage as _matrix_storage, rayleigh as _rayleigh, \
     rayleigh_damping as _rayleigh_damping, read_matrix_file as _read_matrix_file
 from .yaml import _REPR, MAX_FILE_BYTES, describe as _describe, load_yaml as _load_yaml, read_text as _read_text
@@ -149,16 +150,16 @@ def _matrix(key, value, n=None, base_dir=None, cache=None):
     return out
 
 
-def _forcing(value, n):
-    """Validated forcing items (dicts with all keys filled)."""
+def _forcing(value, n, section="forcing"):
+    """Validated forcing items (dicts with all keys filled); ``section``: the key named in errors."""
     if value is None:
         return []
     if isinstance(value, dict):
         value = [value]
     if not isinstance(value, list):
-        raise InputError("forcing", f"must be a list of mappings {{dof, amplitude, ...}}, got {_describe(value)}")
+        raise InputError(section, f"must be a list of mappings {{dof, amplitude, ...}}, got {_describe(value)}")
     out = []
-    for key, item in _items("forcing", value):
+    for key, item in _items(section, value):
         _check_keys(key, item, FORCING_KEYS)
         if "dof" not in item:
             raise InputError(f"{key}.dof", "missing (required)")
@@ -181,6 +182,27 @@ def _forcing_hat(items, n):
         f_hat[2 * h, d] += it["sin"]
         f_hat[0, d] += it["constant"]
     return f_hat
+
+
+def _base(value, system, n, name):
+    """``base: {dofs, motion, frame}``: the system reduced to the free DOFs (:func:`mshbm.support.base_excitation`;
+    ``motion`` items as forcing items, in m, on the base DOFs)."""
+    if not isinstance(value, dict):
+        raise InputError("base", f"must be a mapping {{dofs, motion, frame}}, got {_describe(value)}")
+    _check_keys("base", value, BASE_KEYS)
+    for key in ("dofs", "motion"):
+        if key not in value:
+            raise InputError(f"base.{key}", "missing (required)")
+    dofs = value["dofs"] if isinstance(value["dofs"], list) else [value["dofs"]]
+    dofs = [_dof(f"base.dofs[{i}]", d, n) for i, d in enumerate(dofs)]
+    motion = _forcing(value["motion"], n, "base.motion")
+    X = _forcing_hat(motion, n)
+    for i, it in enumerate(motion):
+        if it["dof"] not in dofs:
+            raise InputError(f"base.motion[{i}].dof", f"DOF {it['dof']} is not a base DOF (base.dofs: {dofs})")
+    frame = value.get("frame", "auto")
+    return base_excitation(system.M, system.C, system.K, dofs, X[:, sorted(set(dofs))], f_hat=system.f_hat,
+                           elements=system.elements, frame=frame, name=name)
 
 
 def _elements(kind, value, n, contacts=()):
@@ -494,6 +516,12 @@ def parse_case(data, name=None, source=None, base_dir=None, matrix_cache=None):
         if rayleigh:
             system = System(system.M, _rayleigh_damping(system.M, system.K, *alpha_beta), system.K,
                             system.f_hat, system.elements, name=name)
+    if "base" in data:
+        system = _base(data["base"], system, n, name)
+        if isinstance(data.get("solver"), dict) and "partition" in data["solver"]:
+            raise InputError("solver.partition", "cannot be combined with base (the solved DOFs are the free ones, "
+                                                 "renumbered): leave the partition to its default")
+        n = system.n
     solver = _solver(data.get("solver"), n)
     reduction = _reduce(data.get("reduce"), system, n) if "reduce" in data else None
     return Case(system=system, omega=omega, solver=solver, name=name, source=source, data=data, base_dir=base_dir,

@@ -2,10 +2,10 @@
 :mod:`mshbm.io.overrides` (``--set``) walks."""
 
 __all__ = ["TOP_KEYS", "CHAIN_KEYS", "MATRIX_KEYS", "FORCING_KEYS", "FRICTION_KEYS", "CONTACT_KEYS", "POLYNOMIAL_KEYS",
-           "CUBIC_KEYS", "REDUCE_KEYS", "SOLVER_KEYS"]
+           "CUBIC_KEYS", "REDUCE_KEYS", "BASE_KEYS", "SOLVER_KEYS"]
 
 TOP_KEYS = ("name", "masses", "stiffness", "damping", "M", "C", "K", "omega", "forcing",
-            "friction", "contact", "polynomial", "cubic", "reduce", "solver")
+            "friction", "contact", "polynomial", "cubic", "reduce", "solver", "base")
 CHAIN_KEYS = ("masses", "stiffness", "damping")
 MATRIX_KEYS = ("M", "C", "K")
 FORCING_KEYS = ("dof", "amplitude", "sin", "harmonic", "constant")
@@ -22,6 +22,9 @@ CONTACT_KEYS = {"dof": ..., "gap": ..., "restitution": 1.0, "penalty_stiffness":
 #: ``{p: k_p}`` (N/m^p, integer powers 1..9); ``cubic``: the shorthand with ``stiffness: k_3`` (N/m^3)
 POLYNOMIAL_KEYS = {"dof": ..., "coefficients": ..., "relative_to": None}
 CUBIC_KEYS = {"dof": ..., "stiffness": ..., "relative_to": None}
+#: ``base:`` imposed motion of base DOFs (:mod:`mshbm.support`): ``dofs`` (list), ``motion`` (items with the
+#: keys of FORCING_KEYS, displacements in m, on base DOFs), ``frame`` (auto, absolute, relative)
+BASE_KEYS = ("dofs", "motion", "frame")
 #: ``reduce:`` (a Craig-Bampton reduction onto the element DOFs, :mod:`mshbm.reduction`)
 REDUCE_KEYS = ("method", "modes", "keep")
 SOLVER_KEYS = ("method", "harmonics", "steps", "theta", "jacobian", "tol", "max_iter", "partition",

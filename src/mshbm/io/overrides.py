@@ -23,8 +23,8 @@ from __future__ import annotations
 import difflib
 
 from ..errors import InputError
-from .keys import (CONTACT_KEYS, CUBIC_KEYS, FORCING_KEYS, FRICTION_KEYS, POLYNOMIAL_KEYS, REDUCE_KEYS, SOLVER_KEYS,
-                   TOP_KEYS)
+from .keys import (BASE_KEYS, CONTACT_KEYS, CUBIC_KEYS, FORCING_KEYS, FRICTION_KEYS, POLYNOMIAL_KEYS, REDUCE_KEYS,
+                   SOLVER_KEYS, TOP_KEYS)
 from .matrices import RAYLEIGH_KEYS
 from .yaml import describe as _describe, load_yaml as _load_yaml
 
@@ -34,7 +34,8 @@ __all__ = ["parse_assignment", "apply_sets", "SECTION_KEYS", "add_set_option", "
 def _schema():
     return {(): tuple(TOP_KEYS), ("solver",): tuple(SOLVER_KEYS), ("friction",): tuple(FRICTION_KEYS),
             ("contact",): tuple(CONTACT_KEYS), ("forcing",): tuple(FORCING_KEYS), ("damping",): tuple(RAYLEIGH_KEYS),
-            ("reduce",): tuple(REDUCE_KEYS), ("polynomial",): tuple(POLYNOMIAL_KEYS), ("cubic",): tuple(CUBIC_KEYS)}
+            ("reduce",): tuple(REDUCE_KEYS), ("polynomial",): tuple(POLYNOMIAL_KEYS), ("cubic",): tuple(CUBIC_KEYS),
+            ("base",): tuple(BASE_KEYS), ("base", "motion"): tuple(FORCING_KEYS)}
 
 
 #: the sections whose entries are mappings, given as one mapping or a list of them

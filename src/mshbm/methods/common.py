@@ -42,7 +42,7 @@ def linear_response(system, omega, n_h):
 
     Harmonics whose dynamic stiffness is singular (undamped resonance) are set to zero.
     """
-    F = fourier.to_complex(system.forcing_hat(n_h))
+    F = fourier.to_complex(system.forcing_hat(n_h, omega))
     Z = np.zeros_like(F)
     for k in range(n_h + 1):
         if not np.any(F[k]):

@@ -199,6 +199,7 @@ class DLFTProblem(HarmonicProblem):
             raise InputError("dlft_predictor", f"must be one of {', '.join(map(repr, PREDICTORS))}, got "
                                                f"{dlft_predictor!r}")
         self.predictor = dlft_predictor
+        system = system.at(omega)  # the forcing at omega (a constant forcing: the same system)
         n = system.n
         smooth = [j for j, el in enumerate(system.elements) if el.smooth]
         for el in system.elements:

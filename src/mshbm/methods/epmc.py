@@ -98,6 +98,7 @@ def shifted_system(system, xi):
     f = np.zeros((1, system.n))
     f.flags.writeable = False
     new.C, new.f_hat = C, f
+    new.forcing_parts, new.forcing_omega, new.base = (), None, None  # unforced
     return new
 
 

@@ -112,6 +112,7 @@ class HBMProblem(PiecewiseLinearPaths, HarmonicProblem):
         if penalty_quadrature not in PENALTY_QUADRATURES:
             raise InputError("penalty_quadrature", f"must be one of {', '.join(PENALTY_QUADRATURES)}, "
                                                    f"got {penalty_quadrature!r}")
+        system = system.at(omega)  # the forcing at omega (a constant forcing: the same system)
         # the regularisations left to their defaults, from the problem's scales (mshbm.methods.hbm_regularisation)
         self.given_system = system
         system, self.regularisation = resolve_regularisation(system, float(omega))

@@ -244,6 +244,7 @@ class MixedProblem(_MixedBase):
 
     def __init__(self, system, omega, harmonics, steps, theta=0.5, jacobian="exact", partition=None,
                  project=True, integrator="moreau", accumulation="moreau", condensation=None):
+        system = system.at(omega)  # the forcing at omega (a constant forcing: the same system)
         self.system, self.omega, self.n_h = system, float(omega), int(harmonics)
         self.jacobian = jacobian
         n = system.n
@@ -277,8 +278,8 @@ class MixedProblem(_MixedBase):
         ``g``): on a large sparse ``L`` a condensation costs several LU solves per harmonic and the integrator
         of ``N`` almost nothing, and the difference to :meth:`rebuilt` is ``O((omega - self.omega)^2)``.
         :meth:`rebuilt` where the condensation has no slope (the dense path, which is cheap)."""
-        cond = self.cond.shifted(float(omega) - self.omega)
-        if cond is None:
+        cond = None if self.system.omega_dependent else self.cond.shifted(float(omega) - self.omega)
+        if cond is None:  # (the shift moves T and g, not a forcing that depends on omega)
             return self.rebuilt(omega)
         p = type(self)(self.system, float(omega), **{**self.build_options, "condensation": cond})
         p.notes = self.notes
@@ -303,7 +304,7 @@ class MixedProblem(_MixedBase):
         the ``N`` rows of the whole structure's steady state without a solve of size ``n``; a singular
         harmonic is set to zero as in :func:`mshbm.methods.common.linear_response`."""
         H_NN = _coupling(self.system, self.Nd, self.Nd, self.n_h, self.omega)
-        F = fourier.to_complex(self.system.forcing_hat(self.n_h))[:, self.Nd]
+        F = fourier.to_complex(self.system.forcing_hat(self.n_h, self.omega))[:, self.Nd]
         X = np.zeros((self.n_h + 1, self.nN), dtype=complex)
         for k in range(self.n_h + 1):
             if not (np.any(F[k]) or np.any(self.cond.g[k])):
@@ -387,6 +388,7 @@ class IntermediateProblem(_MixedBase):
 
     def __init__(self, system, omega, harmonics, steps, theta=0.5, jacobian="exact", partition=None,
                  project=True, integrator="moreau", accumulation="moreau", condensation=None):
+        system = system.at(omega)  # the forcing at omega (a constant forcing: the same system)
         self.system, self.omega, self.n_h = system, float(omega), int(harmonics)
         self.jacobian = jacobian
         n = system.n
@@ -432,7 +434,7 @@ class IntermediateProblem(_MixedBase):
                                accumulation)
         self.H21r = self.cond.real_matrix(H21)
         self.Sr = self.cond.real_matrix(H22 - self.cond.T)
-        F = fourier.to_complex(system.forcing_hat(self.n_h))
+        F = fourier.to_complex(system.forcing_hat(self.n_h, self.omega))
         self.rhs = fourier.from_complex(F[:, I2] - self.cond.g).reshape(-1)
         self.nc, self.n1, self.n2 = nc, I1.size, I2.size
         self._time, self._harm, self._cond_dofs = I1, I2, I3

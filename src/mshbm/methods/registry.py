@@ -49,6 +49,7 @@ def build_problem(system, omega, method="mshbm", **options):
     if not 1e-100 <= float(omega) <= 1e100:
         raise InputError("omega", f"{float(omega):g} rad/s is outside the supported range [1e-100, 1e100] "
                                   "((k omega)^2 and (h theta)^2 would overflow)")
+    system = system.at(float(omega))  # the forcing at omega (a constant forcing: the same system)
     opts = options_.check_options(method, options)
     solver_keys = options_.COMMON
     prob_opts = {k: v for k, v in opts.items() if k not in solver_keys and k in options_.METHODS[method]}

@@ -67,6 +67,7 @@ class ShootingProblem(PeriodicProblem):
 
     def __init__(self, system, omega, steps, theta=0.5, jacobian="exact", harmonics=10, project=True,
                  integrator="moreau", accumulation="moreau"):
+        system = system.at(omega)  # the forcing at omega (a constant forcing: the same system)
         self.system, self.omega, self.N = system, float(omega), int(steps)
         self.jacobian, self.n_h = jacobian, int(harmonics)
         self.integrator = make_integrator(integrator, system, self.omega, self.N, theta=theta, project=project,

@@ -73,8 +73,7 @@ def scaled_system(system, forcing=1.0, friction=1.0):
     if not isinstance(system, System):
         raise InputError("system", f"must be an mshbm.System, got {type(system).__name__}")
     els = tuple(e.bound_scaled(friction) if friction != 1.0 else e for e in system.elements)
-    new = system.with_elements(els)
-    new.f_hat = system.f_hat * float(forcing)
+    new = system.map_forcing(lambda f: f * float(forcing)).with_elements(els)
     return new
 
 

@@ -57,7 +57,7 @@ from ..solvers import newton as newton_
 from ..solvers.newton import solve_problem
 from ..subharmonic import PERIOD_K_TOL, check_period, period_options, subharmonic_content, subharmonic_system
 from ..subharmonic import transient_guess
-from ..system import System
+from ..system import System, tuned
 from .continuation import solve_with_continuation
 from .ladder import DEFAULT_STARTS, Ladder, residual_accept
 from . import refine as _refine
@@ -149,6 +149,7 @@ class Route:
         ``max_time`` (s): from now on, no Newton iteration (:func:`mshbm.solvers.newton.time_box`), start of
         the ladder or event-driven simulation begins after the deadline; a solve stopped by it fails with a
         message naming the budget."""
+        system = tuned(system, omega)  # the forcing at omega (a constant forcing: the same system)
         mt = options.get("max_time")
         try:
             deadline = time.perf_counter() + float(mt) if mt is not None and float(mt) > 0 else None
@@ -520,7 +521,8 @@ def assemble(problem, method, x, parts, *, success, message, iterations, nfev, r
     return PeriodicSolution(method=method, omega=float(problem.omega), harmonics=n_h, steps=len(parts["t"]) - 1,
                             success=success, message=message, iterations=iterations, nfev=nfev, residual=residual,
                             wall_time=wall_time, x=x, partition=problem.partition(),
-                            conditioning=problem.conditioning(), time_step=problem.time_step, **parts)
+                            conditioning=problem.conditioning(), time_step=problem.time_step,
+                            base=getattr(problem.system, "base", None), **parts)
 
 
 def _solution(problem, method, res, parts, success, message, wall):

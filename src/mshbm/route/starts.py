@@ -73,16 +73,17 @@ EXACT_SHARE = 0.4
 # ---------------------------------------------------------------------------------------------- geometry
 def shifted_system(system, t0, omega):
     """Copy of ``system`` with the forcing advanced by ``t0``: ``f_s(t) = f(t + t0)`` (matrices shared)."""
-    fh = np.array(system.f_hat, dtype=float)
-    out = fh.copy()
-    for k in range(1, (fh.shape[0] - 1) // 2 + 1):
-        phi = k * omega * t0
-        a, b = fh[2 * k - 1], fh[2 * k]
-        out[2 * k - 1] = a * math.cos(phi) + b * math.sin(phi)
-        out[2 * k] = b * math.cos(phi) - a * math.sin(phi)
-    new = system.with_elements(system.elements)
-    new.f_hat = out
-    return new
+    def shift(f_hat):
+        fh = np.array(f_hat, dtype=float)
+        out = fh.copy()
+        for k in range(1, (fh.shape[0] - 1) // 2 + 1):
+            phi = k * omega * t0
+            a, b = fh[2 * k - 1], fh[2 * k]
+            out[2 * k - 1] = a * math.cos(phi) + b * math.sin(phi)
+            out[2 * k] = b * math.cos(phi) - a * math.sin(phi)
+        return out
+
+    return system.map_forcing(shift)
 
 
 def shift_hat(q_hat, omega, t0):
@@ -117,7 +118,7 @@ def clamped_response(system, omega, n_h):
     q_hat[0, Nd] = [fixed[int(d)] for d in Nd]
     if not Ld.size:
         return q_hat
-    F = fourier.to_complex(system.forcing_hat(n_h))
+    F = fourier.to_complex(system.forcing_hat(n_h, omega))
     Z = np.zeros_like(F)
     for k in range(n_h + 1):
         rhs = F[k][Ld].astype(complex)

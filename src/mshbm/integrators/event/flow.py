@@ -197,6 +197,7 @@ class EventFlow(ModeCatalogue, Transitions, FourierQuadrature, MoreauFallback):
         omega = float(omega)
         if not math.isfinite(omega) or omega <= 0:
             raise InputError("omega", f"must be finite and > 0, got {omega}")
+        system = system.at(omega)  # the forcing at omega (a constant forcing: the same system)
         if system.n > MAX_DOFS:
             raise InputError("integrator", f"the event-driven flow uses dense {2 * system.n}-square matrix "
                              f"exponentials; {system.n} DOFs is more than {MAX_DOFS}: use the Moreau-Jean "

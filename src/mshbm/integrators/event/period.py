@@ -43,6 +43,7 @@ class EventIntegrator(PeriodIntegrator):
     def __init__(self, system, omega, steps, dofs=None, coupling=None, harmonics=0, theta=None, project=None,
                  accumulation="moreau"):
         self.omega, self.steps = float(omega), int(steps)
+        system = system.at(omega)  # the forcing at omega (a constant forcing: the same system)
         T = 2 * np.pi / self.omega
         self.h = T / self.steps
         self.t = np.linspace(0.0, T, self.steps + 1)
