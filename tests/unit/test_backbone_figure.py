@@ -22,11 +22,18 @@ def test_backbone_passes_through_forced_peaks_of_jointed_beam(method):
     b, model = out["backbone"], out["model"]
     assert b["success"], b["message"]
     assert all(b["certified"])
-    # stuck: the linear mode of (K + k_t e e^T, M) with Rayleigh damping (EPMC returns zeta exactly there)
+    # stuck joint (HBM's smallest amplitudes): the linear mode phi of (K + k_t e e^T, M), omega_0 and the modal damping
+    # phi^T C phi / (2 omega_0); the Rayleigh C is not proportional to the stuck stiffness, which moves both at second
+    # order in the damping (D^2 ~ 3.5e-6 times the non-proportional part)
     if method == "hbm":
+        from mshbm.methods.epmc import linear_modes
+
+        s, _ = backbone_curve.model(CFG, "hbm")
+        w0, Phi = linear_modes(s, 1)
+        D0 = float(Phi[:, 0] @ (s.C @ Phi[:, 0])) / (2 * w0[0])
         i = int(np.argmin(b["modal_amplitude"]))
-        assert abs(b["omega"][i] / model["omega_stuck"] - 1) < 1e-9
-        assert abs(b["damping_ratio"][i] / CFG["zeta"] - 1) < 0.2  # zeta at omega_1 of the free beam, not of the stuck
+        assert abs(b["omega"][i] / model["omega_stuck"] - 1) < 1e-8
+        assert abs(b["damping_ratio"][i] / D0 - 1) < 1e-7
     peaks = [lv["peak"] for lv in out["levels"]]
     assert len(peaks) == 5 and all(p is not None and p["success"] and p["inside_backbone"] for p in peaks)
     a = np.array([p["modal_amplitude"] for p in peaks])
