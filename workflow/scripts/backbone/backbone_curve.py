@@ -31,6 +31,11 @@ method on the pointwise solves (tolerance 1e-9 relative in omega).  Its deviatio
 backbone's omega interpolated by a cubic spline in ``ln a``.  The amplitude peak and the phase resonance
 differ by ``O(D^2)``.
 
+DLFT's answer depends on its parameter ``eps`` (:mod:`mshbm.methods.dlft`) where the slip phases are short, and
+the backbone's ``eps`` (default rule, on the system with ``C - xi M``) is not the forced response's.  At DLFT's
+level of largest deviation the peak is found again with ``eps`` fixed at :data:`EPS_FACTORS` times its default
+value there (``penalty_sensitivity``): how far DLFT's own answer moves with ``eps``.
+
 Usage::
 
     python workflow/scripts/backbone/backbone_curve.py --config results/config.json --method hbm --out hbm.json
@@ -56,6 +61,8 @@ fe = script_module("fe", "build_fe_model")
 JENKINS_METHODS = ("hbm", "mshbm")
 #: a forced response's scan ends past its peak where the tip amplitude falls below this fraction of the peak's
 STOP = 0.4
+#: DLFT's ``eps`` relative to its default at the peak, for the sensitivity of the worst peak (module docstring)
+EPS_FACTORS = (0.3, 3.0)
 
 
 def model(cfg, method, forcing=0.0):
@@ -188,6 +195,35 @@ def forced_level(cfg, method, b, phi, a_target, omega_bb):
     return out
 
 
+def penalty_sensitivity(cfg, level, index):
+    """DLFT's peak of ``level`` (number ``index``, 1-based) with ``eps`` fixed at :data:`EPS_FACTORS` times its
+    default at the peak (bounded Brent over +-1 % of the peak's omega)."""
+    from scipy.optimize import minimize_scalar
+
+    from mshbm.methods.dlft import DLFTProblem
+    from mshbm.options import aft_steps
+
+    s, facts = model(cfg, "dlft", forcing=level["force"])
+    tip, w0, nh = facts["tip_dof"], level["peak"]["omega"], int(cfg["harmonics"])
+    eps0 = float(DLFTProblem(s, w0, nh, aft_steps(nh)).eps[0])
+    start = mshbm.solve(s, w0, method="dlft", harmonics=nh, stability=False, accuracy=False)
+    peaks = []
+    for f in EPS_FACTORS:
+        opts = dict(method="dlft", harmonics=nh, stability=False, accuracy=False, dlft_penalty=f * eps0)
+        guess = mshbm.solve(s, w0, guess=start, **opts)
+
+        def minus_amplitude(x):
+            sol = mshbm.solve(s, x, guess=guess, **opts)
+            return -sol.amplitude[tip] if sol.success else 0.0
+
+        res = minimize_scalar(minus_amplitude, bounds=(0.99 * w0, 1.01 * w0), method="bounded",
+                              options=dict(xatol=1e-6 * w0))
+        peaks.append(float(res.x))
+    allw = peaks + [w0]
+    return dict(level=index, eps_default=eps0, factors=list(EPS_FACTORS), omega_peak=peaks, omega_peak_default=w0,
+                spread=(max(allw) - min(allw)) / w0)
+
+
 def run(cfg, method):
     """Everything of one method (the JSON written by :func:`main`)."""
     c0, t0 = time.process_time(), time.perf_counter()
@@ -208,6 +244,10 @@ def run(cfg, method):
     dev = [lv["peak"]["deviation"] for lv in out["levels"] if lv["peak"] and lv["peak"]["deviation"] is not None]
     out["max_abs_deviation"] = max(map(abs, dev)) if dev else None
     out["levels_measured"] = len(dev)
+    if method == "dlft" and dev:
+        i = max((k for k, lv in enumerate(out["levels"]) if lv["peak"] and lv["peak"]["deviation"] is not None),
+                key=lambda k: abs(out["levels"][k]["peak"]["deviation"]))
+        out["penalty_sensitivity"] = penalty_sensitivity(cfg, out["levels"][i], i + 1)
     out["cpu_time_s"] = time.process_time() - c0
     out["wall_time_s"] = time.perf_counter() - t0
     return out

@@ -8,7 +8,8 @@ method ``<m>_success``, ``<m>_points``, ``<m>_omega_min``/``_max``, ``<m>_D_max`
 responses), ``<m>_levels`` (peaks measured inside the backbone's range), ``<m>_max_deviation`` (largest
 ``|omega_peak / omega_bb(a_peak) - 1|``), ``<m>_worst_level`` (1-based, levels by increasing force) and
 ``<m>_worst_a`` (its peak's modal amplitude), ``<m>_forces`` (the levels, N); ``max_deviation`` over the methods and
-``deviation_ok`` against ``deviation_goal`` (and at least five peaks per method); ``D_max_squared``, the
+``dlft_eps_peak_spread``: how far (relative) DLFT's peak of its worst level moves when its ``eps`` is fixed at
+``dlft_eps_factors`` times the default (backbone_curve.py); ``deviation_ok`` against ``deviation_goal`` (and at least five peaks per method); ``D_max_squared``, the
 order of the gap between the amplitude peak and the phase resonance.  Between HBM and DLFT: ``hbm_dlft_max_rel_diff_omega`` and
 ``hbm_dlft_max_rel_diff_D``, the largest relative differences of DLFT's omega and D from HBM's (interpolated in
 the log of the tip amplitude) over the tip amplitudes both cover, and ``hbm_dlft_max_abs_diff_D`` (the largest
@@ -86,6 +87,10 @@ def summarize(cfg, curves, timing):
             n[f"{m}_worst_a"] = worst["peak"]["modal_amplitude"]
             n[f"{m}_worst_level"] = c["levels"].index(worst) + 1
     n["max_deviation"] = max(devs) if devs else None
+    for c in curves:
+        if c.get("penalty_sensitivity"):
+            n[f"{c['method']}_eps_peak_spread"] = c["penalty_sensitivity"]["spread"]
+            n[f"{c['method']}_eps_factors"] = " and ".join(f"{f:g}" for f in c["penalty_sensitivity"]["factors"])
     D_max = [n[f"{c['method']}_D_max"] for c in curves if n[f"{c['method']}_D_max"] is not None]
     n["D_max_squared"] = max(D_max) ** 2 if D_max else None
     n["min_levels"] = min(c["levels_measured"] for c in curves)
