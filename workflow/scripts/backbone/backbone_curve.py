@@ -224,8 +224,9 @@ def penalty_sensitivity(cfg, level, index):
                 spread=(max(allw) - min(allw)) / w0)
 
 
-def run(cfg, method):
-    """Everything of one method (the JSON written by :func:`main`)."""
+def run(cfg, method, sensitivity=True):
+    """Everything of one method (the JSON written by :func:`main`); ``sensitivity``: DLFT's
+    :func:`penalty_sensitivity` too."""
     c0, t0 = time.process_time(), time.perf_counter()
     omega_0, phi, a_stick = stuck_mode(cfg)
     b, facts = trace_backbone(cfg, method, a_stick)
@@ -244,7 +245,7 @@ def run(cfg, method):
     dev = [lv["peak"]["deviation"] for lv in out["levels"] if lv["peak"] and lv["peak"]["deviation"] is not None]
     out["max_abs_deviation"] = max(map(abs, dev)) if dev else None
     out["levels_measured"] = len(dev)
-    if method == "dlft" and dev:
+    if method == "dlft" and dev and sensitivity:
         i = max((k for k, lv in enumerate(out["levels"]) if lv["peak"] and lv["peak"]["deviation"] is not None),
                 key=lambda k: abs(out["levels"][k]["peak"]["deviation"]))
         out["penalty_sensitivity"] = penalty_sensitivity(cfg, out["levels"][i], i + 1)
