@@ -285,6 +285,8 @@ def notebook_inputs(name):
         out["summary"] = f"{R}/summary/branches.json"
     if "fe" in data:
         out["summary"] = f"{R}/summary/fe.json"
+    if "backbone" in data:
+        out["summary"] = f"{R}/summary/backbone.json"
     return out
 
 

@@ -7,9 +7,11 @@ Rayleigh damping ``zeta = ZETA`` at the first two bending frequencies; the joint
 of one 50-point backbone (``points=50``, modal amplitude ``A_START .. A_END``, ``n_h = 5``), a goal of 20 s.
 
 The peaks of forced responses against the backbone are tested on a 3-DOF chain
-(``tests/unit/test_backbone.py::test_backbone_passes_through_forced_peaks``).  Not wired into Snakemake
-(stand-alone: ``python workflow/scripts/bench/bench_backbone.py [--out F]``; measure with
-``OPENBLAS_NUM_THREADS=1`` on a shared machine).
+(``tests/unit/test_backbone.py::test_backbone_passes_through_forced_peaks``) and measured on a jointed beam
+(Fig. 11, ``workflow/scripts/backbone/backbone_curve.py``).  Run by rule ``backbone_timing``
+(``results/backbone/timing.json``, quoted in the paper's Sec. 5.9) or stand-alone:
+``python workflow/scripts/bench/bench_backbone.py [--out F]`` (measure with ``OPENBLAS_NUM_THREADS=1`` on a
+shared machine; ``mshbm.backbone`` itself runs its BLAS on one thread).
 """
 from __future__ import annotations
 
