@@ -360,3 +360,28 @@ def test_stability_of_the_three_coexisting_orbits():
             assert sol.stable is False and np.max(np.abs(mu)) > 1.2
         else:
             assert sol.stable is True and abs(np.max(np.abs(mu)) - np.sqrt(liouville)) < 1e-4
+
+
+# ------------------------------------------------------------------------------- with base excitation
+@pytest.mark.parametrize("omega", [0.9, 1.3])
+def test_duffing_on_a_shaker_table_is_the_forced_duffing(omega):
+    """A mass on a shaker table (DOF 1, x_b = Y cos wt) through a linear spring, a damper and a cubic spring
+    (relative_to the table): relative to the table, m z'' + c z' + k z + k3 z^3 = m w^2 Y cos wt, so HBM at
+    n_H = 1 satisfies the single-harmonic relation with F = m w^2 Y to 1e-9, and Moreau-Jean shooting agrees
+    with HBM at n_H = 25 to 1e-5 (its second-order step error at 8000 steps)."""
+    from mshbm.support import base_excitation
+
+    Y = F_ / (M_ * omega ** 2)
+    K = np.array([[K_, -K_], [-K_, K_]])
+    C = np.array([[C_, -C_], [-C_, C_]])
+    M = np.diag([M_, 3.0])
+    s = base_excitation(M, C, K, [1], np.array([0.0, Y, 0.0]), elements=[Polynomial(0, {3: K3}, relative_to=1)])
+    assert s.base.frame == "relative"
+    h1 = mshbm.solve(s, omega, method="hbm", harmonics=1, steps=16, stability=False)
+    assert h1.success
+    assert abs(relation(amplitude_h1(h1), omega)) / F_ ** 2 < 1e-9
+    h25 = mshbm.solve(s, omega, method="hbm", harmonics=25, stability=False)
+    sh = mshbm.solve(s, omega, method="shooting", steps=8000, stability=False)
+    assert h25.success and sh.success
+    A = float(h25.amplitude[0])
+    assert abs(float(sh.amplitude[0]) - A) / A < 1e-5
