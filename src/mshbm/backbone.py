@@ -239,11 +239,12 @@ def backbone(system, amplitude_start, amplitude_end, mode=0, method="hbm", harmo
         return pt["certified"] or pt["residual"] <= 10 * tol, pt
 
     show = _Progress(progress, f"mode {mode}", prob.a_ref)
-    y0 = prob.start(a0)
     try:
-        # one BLAS thread, as mshbm.solve and mshbm.sweep: the many small LUs of the condensation are
-        # ~10^4 times slower with OpenBLAS's threads on a loaded machine
+        # one BLAS thread, as mshbm.solve and mshbm.sweep: the many small LUs of the condensation (and the
+        # event flow's small matrix exponentials) are ~10^3-10^4 times slower with OpenBLAS's threads on a
+        # loaded machine
         with blas_threads(1):
+            y0 = prob.start(a0)
             res = continuation(prob.residual, prob.d_lam, y0, lam0, lam1, residual_scale=prob.residual_scale,
                                unknown_scale=prob.unknown_scale, lam_scale=1.0, ds0=ds_max,
                                ds_min=1e-6 * max(ds_max, 1e-3), ds_max=ds_max, max_points=max_points, tol=tol,

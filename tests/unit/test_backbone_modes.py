@@ -110,3 +110,39 @@ def test_shooting_bad_input():
     with pytest.raises(InputError) as exc:
         backbone(s, 0.1, 1.0, method="shooting", steps=4)
     assert exc.value.key == "steps"
+
+
+def test_coulomb_friction_mode_closed_form():
+    """EPMC by shooting with rigid Coulomb friction on the ground (m = 1.5, k = 2, mu F_N = 0.1, no dashpot),
+    closed form: between velocity reversals q'' - xi q' + omega_0^2 q = -/+ mu F_N / m, a growing oscillation
+    about -/+ r (r = mu F_N / k) whose velocity zeros are pi / omega_d apart (omega_d^2 = omega_0^2 - xi^2/4);
+    a symmetric orbit between -X and X (X > r: no sticking) needs X + r = exp(xi pi / (2 omega_d)) (X - r), so
+    D = xi / (2 omega_d) = ln((X + r) / (X - r)) / pi and omega = omega_d = omega_0 / sqrt(1 + D^2) (the
+    describing function's 2 r / (pi X) for X >> r).  X is the orbit's exact (max - min)/2; observed agreement
+    ~1e-8 (the corrector's tolerance), asserted 1e-6; two slip reversals per period, no stick."""
+    m, k, muN = 1.5, 2.0, 0.1
+    w0, r = np.sqrt(k / m), muN / k
+    s = mshbm.System([[m]], [[0.0]], [[k]], [0.0], elements=[mshbm.Friction(0, 1.0, muN)])
+    b = backbone(s, 0.2, 5.0, method="shooting", points=8)
+    assert b.success, b.message
+    X = b.amplitude[:, 0]
+    D = np.log((X + r) / (X - r)) / np.pi
+    assert X.min() < 4 * r and X.max() > 50 * r
+    assert np.max(np.abs(b.damping_ratio / D - 1)) < 1e-6
+    assert np.max(np.abs(b.omega / (w0 / np.sqrt(1 + D ** 2)) - 1)) < 1e-8
+    d = b.to_dict()
+    assert d["events"] == [2] * len(b) and max(d["energy_balance"]) < 1e-6 and not d["conservative"]
+
+
+def test_impact_mode_started_above_the_stop():
+    """a_start beyond the stop: Newton from the linear mode fails there, so the start is traced from below
+    the stop; the first point is at a_start and on the closed form."""
+    m, k, g = 2.0, 3.0, 0.5
+    s = mshbm.System([[m]], [[0.0]], [[k]], [0.0], elements=[mshbm.Contact(0, g, 1.0)])
+    b = backbone(s, 1.0, 2.0, method="shooting", points=3)
+    assert b.success, b.message
+    d = b.to_dict()
+    assert np.isclose(b.modal_amplitude[0], 1.0, rtol=1e-12) and min(d["impacts"]) == 1
+    A = np.sqrt(2 * np.array(d["energy"]) / k)
+    T = np.array([impact_period(x, g, np.sqrt(k / m)) for x in A])
+    assert np.max(np.abs(2 * np.pi / b.omega / T - 1)) < 1e-6

@@ -40,6 +40,8 @@ import scipy.sparse as sp
 from ..errors import InputError
 from ..integrators.event import EventError, EventFlow, EventTrajectory, contact_margins, extrema
 from ..solvers.arclength_parts import Failed
+from ..solvers.arclength import continuation
+from ..solvers.newton import newton
 from .epmc import linear_modes, shifted_system
 
 __all__ = ["ShootingModeProblem"]
@@ -133,8 +135,92 @@ class ShootingModeProblem:
             raise Failed(f"event-driven flow at omega = {omega:.6g}, xi = {xi:.6g}: {exc}") from None
 
     def start(self, a):
-        """Unknowns of the linear mode at modal amplitude ``a``: ``q = a phi sin(omega_0 t)``."""
-        return np.r_[np.zeros(self.n), a * self.omega0 * self.phi, self.omega0, self.xi0]
+        """A solution at modal amplitude ``a`` (unknowns ``y``), by Newton from the linear mode
+        ``q = a phi sin(omega_0 t)`` (``xi`` from :meth:`_xi_guess`), else from the harmonic-balance mode
+        (EPMC with DLFT, then with HBM-AFT, ``n_h = 9``) at ``a``, shifted to this phase, else (contacts
+        only) by tracing the mode from below the first stop (:meth:`_contact_free_amplitude`); the last guess
+        if none converges (the continuation's first corrector then says why)."""
+        lin = np.r_[np.zeros(self.n), a * self.omega0 * self.phi, self.omega0, self._xi_guess(a)]
+        if not any(el.acts for el in self.system.elements):
+            return lin
+        guesses = [lambda: lin, lambda: self._hbm_guess(a, "dlft"), lambda: self._hbm_guess(a, "hbm")]
+        y = lin
+        for guess in guesses:
+            try:
+                y = guess()
+                res = self._newton_at(y, a)
+            except (Failed, InputError, np.linalg.LinAlgError):
+                continue
+            if res.success:
+                return res.x
+        a_free = self._contact_free_amplitude()
+        if a_free is not None and a > a_free:
+            # impacts from the start: trace this mode from half the amplitude at which the linear mode
+            # touches the first stop (a linear orbit, exact) up to a
+            lam0, lam1 = float(np.log(0.5 * a_free / self.a_ref)), float(np.log(a / self.a_ref))
+            y0 = np.r_[np.zeros(self.n), 0.5 * a_free * self.omega0 * self.phi, self.omega0, self.xi0]
+            ds = 0.25 * abs(lam1 - lam0) + 1e-3
+            res = continuation(self.residual, self.d_lam, y0, lam0, lam1, residual_scale=self.residual_scale,
+                               unknown_scale=self.unknown_scale, lam_scale=1.0, ds0=ds, ds_min=1e-6 * ds,
+                               ds_max=ds, max_points=100, tol=1e-8, natural_fallback=False, kink_crossing=True,
+                               segment=self.segment, lam_limits=(min(lam0, lam1) - 1.0, max(lam0, lam1) + 1.0))
+            if res.success:
+                return res.points[-1].x
+        return y
+
+    def _contact_free_amplitude(self):
+        """The modal amplitude at which the linear mode first touches a stop (kg^1/2 m), or None (no contact
+        moves in the mode, or friction acts: then the small-amplitude mode is not the linear one)."""
+        out = None
+        for el in self.system.elements:
+            if not el.acts:
+                continue
+            if not el.unilateral:
+                return None
+            wphi = abs(float(self.phi[el.dof] - (self.phi[el.relative_to] if el.relative_to is not None else 0.0)))
+            if wphi > 0 and el.gap > 0:
+                out = min(out, el.gap / wphi) if out is not None else el.gap / wphi
+        return out
+
+    def _xi_guess(self, a):
+        """``xi`` of the linear mode plus the describing function of the friction elements on it: a bound
+        ``mu F_N`` slipping with amplitude ``s = |w^T phi| a`` dissipates as a dashpot ``4 mu F_N / (pi omega_0 s)``
+        (1/s)."""
+        xi = self.xi0
+        for el in self.system.elements:
+            if el.acts and el.bounded:
+                wphi = abs(float(self.phi[el.dof] - (self.phi[el.relative_to] if el.relative_to is not None else 0.0)))
+                if wphi > 0:
+                    xi += 4 * float(el.force_scale(0.0)) * wphi / (np.pi * self.omega0 * a)
+        return xi
+
+    def _newton_at(self, y, a):
+        lam = float(np.log(a / self.a_ref))
+        fun = lambda x, jac=True: self.residual(x, lam, jac)
+        return newton(fun, y, tol=1e-10, max_iter=15, scale=lambda x: self.residual_scale(x, lam))
+
+    def _hbm_guess(self, a, method):
+        """``y`` from the EPMC mode by harmonic balance (``method``: "dlft" or "hbm") at ``a`` (cosine phase:
+        ``z(t)`` at ``t = 3 T / 4``)."""
+        from .. import fourier
+        from ..options import aft_steps
+        from .epmc import EPMCProblem
+
+        n_h = 9
+        ep = EPMCProblem(self.system, self.mode, n_h, aft_steps(n_h), method)
+        ep.a_ref = a
+        fun = lambda x, jac=True: ep.residual(x, 0.0, jac)
+        y0 = ep.start(a)
+        y0[-1] = self._xi_guess(a)
+        res = newton(fun, y0, tol=1e-9, max_iter=50, scale=lambda x: ep.residual_scale(x, 0.0))
+        if not res.success:
+            raise Failed(f"harmonic-balance start at a = {a:.6g}: {res.message}")
+        omega, xi = float(res.x[-2]), float(res.x[-1])
+        q_hat = ep.hbm(omega, xi).full_coefficients(res.x[:ep.n_x])
+        t = np.array([1.5 * np.pi / omega])
+        q = fourier.basis(t, omega, n_h) @ q_hat
+        u = fourier.basis(t, omega, n_h) @ fourier.derivative(q_hat, omega)
+        return np.r_[q.reshape(-1), u.reshape(-1), omega, xi]
 
     def _amp_rows(self, q_hat, a):
         return np.array([self.v @ q_hat[2] - a, self.v @ q_hat[1]])
