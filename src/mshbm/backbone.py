@@ -239,21 +239,49 @@ def backbone(system, amplitude_start, amplitude_end, mode=0, method="hbm", harmo
         return pt["certified"] or pt["residual"] <= 10 * tol, pt
 
     show = _Progress(progress, f"mode {mode}", prob.a_ref)
+
+    opts = dict(residual_scale=prob.residual_scale, unknown_scale=prob.unknown_scale, lam_scale=1.0, ds0=ds_max,
+                ds_min=1e-6 * max(ds_max, 1e-3), ds_max=ds_max, tol=tol, accept=accept, callback=show,
+                max_time=max_time, natural_fallback=False, kink_crossing=shooting,
+                segment=prob.segment if shooting else None, lam_limits=(min(lam0, lam1) - 1.0, max(lam0, lam1) + 1.0))
+
+    def trace(y_start, lam_start, n_max):
+        return continuation(prob.residual, prob.d_lam, y_start, lam_start, lam1, **{**opts, "max_points": n_max})
+
     try:
         # one BLAS thread, as mshbm.solve and mshbm.sweep: the many small LUs of the condensation (and the
         # event flow's small matrix exponentials) are ~10^3-10^4 times slower with OpenBLAS's threads on a
         # loaded machine
         with blas_threads(1):
             y0 = prob.start(a0)
-            res = continuation(prob.residual, prob.d_lam, y0, lam0, lam1, residual_scale=prob.residual_scale,
-                               unknown_scale=prob.unknown_scale, lam_scale=1.0, ds0=ds_max,
-                               ds_min=1e-6 * max(ds_max, 1e-3), ds_max=ds_max, max_points=max_points, tol=tol,
-                               accept=accept, callback=show, max_time=max_time, natural_fallback=False,
-                               kink_crossing=shooting, segment=prob.segment if shooting else None, lam_limits=(min(lam0, lam1) - 1.0, max(lam0, lam1) + 1.0))
+            res = trace(y0, lam0, max_points)
+            found = [(p.x, p.lam, p.payload) for p in res.points]
+            bridged = []
+            # shooting: a corner where a reverses (a grazing impact): restart beyond it from the harmonic-balance
+            # mode, trace back from there to the corner (the fold between) and on to a_end
+            while shooting and not res.success and found and len(bridged) < 3 and len(found) < max_points:
+                lam_c = found[-1][1]
+                hop = prob.restart_past_corner(lam_c, lam1, tol=tol)
+                if hop is None:
+                    break
+                bridged.append(prob.a_ref * math.exp(lam_c))
+                # back from the restart over the fold to the corner: the points on the restart's smooth piece
+                # (the same event sequence; past the corner the trace would go on down the other piece)
+                back = continuation(prob.residual, prob.d_lam, hop[0], hop[1], lam_c - 1.0,
+                                    **{**opts, "max_points": max(10, max_points - len(found)) // 2, "ds0": ds_max / 2,
+                                       "ds_max": ds_max / 2})
+                piece = []
+                for p in back.points[1:]:
+                    if p.segment is None or p.segment != back.points[0].segment:
+                        break
+                    piece.append((p.x, p.lam, p.payload))
+                found += piece[::-1]
+                res = trace(hop[0], hop[1], max(2, max_points - len(found)))
+                found += [(p.x, p.lam, p.payload) for p in res.points]
     finally:
         show.close()
-    for p in res.points:
-        pt = p.payload if p.payload is not None else accept(p.x, p.lam, None)[1]
+    for x, lam, payload in found:
+        pt = payload if payload is not None else accept(x, lam, None)[1]
         pt.setdefault("certified", False)
         pt.setdefault("stable", None)
         pt.pop("q_hat", None)
@@ -264,6 +292,10 @@ def backbone(system, amplitude_start, amplitude_end, mode=0, method="hbm", harmo
     msg = re.sub(r"lam_end = \S+ in", f"a_end = {a1:.6g} in", res.message)
     msg = re.sub(r"lam(?:_end)? = (-?[0-9.e+-]+)", lambda m: f"a = {prob.a_ref * math.exp(float(m.group(1))):.6g}",
                  msg).replace("lam", "ln a")
+    if bridged:
+        msg = re.sub(r" in \d+ points", f" in {len(found)} points", msg)
+        msg += f" (after {len(bridged)} corner(s) passed by a restart from the DLFT mode, at a = " + \
+            ", ".join(f"{a:.6g}" for a in bridged) + ")"
     msg = msg if not bad else f"{msg}; {len(bad)} point(s) not certified (first: {bad[0]})"
     return Backbone(success=success, message=msg, mode=int(mode), method=method, harmonics=int(harmonics),
                     steps=int(steps), dofs=dofs, omega_linear=prob.omega0,

@@ -168,6 +168,40 @@ class ShootingModeProblem:
                 return res.points[-1].x
         return y
 
+    def restart_past_corner(self, lam_c, lam_end, tol=1e-8):
+        """An orbit beyond a corner of the branch at ``lam_c`` where the trace in ``a`` stopped, or None.
+
+        At a grazing impact the backbone has a corner where ``a`` reverses (a stop hardens the mode: omega
+        grows with the impacts while ``a`` first falls back, then folds and grows again), which no step in
+        ``a`` crosses.  The harmonic-balance mode (EPMC with DLFT, ``n_h = 15``, set-valued contact: smooth
+        enough to pass the corner) is traced from ``0.9 a_c`` to ``a_t = 1.05 a_c`` (towards ``lam_end``),
+        which it reaches beyond the fold; its orbit there, shifted to this phase, starts Newton on the
+        shooting residual at ``a_t``.  Returns ``(y, lam_t)``."""
+        from ..options import aft_steps
+        from .epmc import EPMCProblem
+
+        a_c = self.a_ref * np.exp(lam_c)
+        if lam_end <= lam_c:
+            return None
+        a_t = min(1.05 * a_c, self.a_ref * np.exp(lam_end))
+        n_h = 15
+        try:
+            ep = EPMCProblem(self.system, self.mode, n_h, aft_steps(n_h), "dlft")
+            ep.a_ref = np.e * a_t
+            l0, l1 = float(np.log(0.9 * a_c / ep.a_ref)), float(np.log(a_t / ep.a_ref))
+            ds = abs(l1 - l0) / 10
+            res = continuation(ep.residual, ep.d_lam, ep.start(0.9 * a_c), l0, l1, residual_scale=ep.residual_scale,
+                               unknown_scale=ep.unknown_scale, lam_scale=1.0, ds0=ds, ds_min=1e-6 * ds, ds_max=ds,
+                               max_points=200, tol=1e-8, natural_fallback=False, kink_crossing=False,
+                               lam_limits=(l0 - 1.0, l1 + 1.0))
+            if not res.success:
+                return None
+            y0 = self._from_hbm(ep, res.points[-1].x)
+            out = self._newton_at(y0, a_t, tol)
+        except (Failed, InputError, np.linalg.LinAlgError):
+            return None
+        return (out.x, float(np.log(a_t / self.a_ref))) if out.success else None
+
     def _contact_free_amplitude(self):
         """The modal amplitude at which the linear mode first touches a stop (kg^1/2 m), or None (no contact
         moves in the mode, or friction acts: then the small-amplitude mode is not the linear one)."""
@@ -194,15 +228,13 @@ class ShootingModeProblem:
                     xi += 4 * float(el.force_scale(0.0)) * wphi / (np.pi * self.omega0 * a)
         return xi
 
-    def _newton_at(self, y, a):
+    def _newton_at(self, y, a, tol=1e-10):
         lam = float(np.log(a / self.a_ref))
         fun = lambda x, jac=True: self.residual(x, lam, jac)
-        return newton(fun, y, tol=1e-10, max_iter=15, scale=lambda x: self.residual_scale(x, lam))
+        return newton(fun, y, tol=tol, max_iter=15, scale=lambda x: self.residual_scale(x, lam))
 
     def _hbm_guess(self, a, method):
-        """``y`` from the EPMC mode by harmonic balance (``method``: "dlft" or "hbm") at ``a`` (cosine phase:
-        ``z(t)`` at ``t = 3 T / 4``)."""
-        from .. import fourier
+        """``y`` from the EPMC mode by harmonic balance (``method``: "dlft" or "hbm") at ``a``."""
         from ..options import aft_steps
         from .epmc import EPMCProblem
 
@@ -215,11 +247,18 @@ class ShootingModeProblem:
         res = newton(fun, y0, tol=1e-9, max_iter=50, scale=lambda x: ep.residual_scale(x, 0.0))
         if not res.success:
             raise Failed(f"harmonic-balance start at a = {a:.6g}: {res.message}")
-        omega, xi = float(res.x[-2]), float(res.x[-1])
-        q_hat = ep.hbm(omega, xi).full_coefficients(res.x[:ep.n_x])
+        return self._from_hbm(ep, res.x)
+
+    def _from_hbm(self, ep, x):
+        """Shooting unknowns from EPMC's ``x`` (:class:`~mshbm.methods.epmc.EPMCProblem`, cosine phase):
+        ``z(t)`` of its Fourier series at ``t = 3 T / 4``."""
+        from .. import fourier
+
+        omega, xi = float(x[-2]), float(x[-1])
+        q_hat = ep.hbm(omega, xi).full_coefficients(x[:ep.n_x])
         t = np.array([1.5 * np.pi / omega])
-        q = fourier.basis(t, omega, n_h) @ q_hat
-        u = fourier.basis(t, omega, n_h) @ fourier.derivative(q_hat, omega)
+        V = fourier.basis(t, omega, ep.n_h)
+        q, u = V @ q_hat, V @ fourier.derivative(q_hat, omega)
         return np.r_[q.reshape(-1), u.reshape(-1), omega, xi]
 
     def _amp_rows(self, q_hat, a):
