@@ -126,11 +126,12 @@ class _Progress:
     def __init__(self, enabled, label, a_ref):
         self.enabled = enabled is True and sys.stderr.isatty() or enabled == "always"
         self.label, self.a_ref = label, a_ref
+        self.offset = 0  # points traced before the current continuation (restarts past corners)
 
     def __call__(self, point, n, ds):
         if self.enabled:
             y = point.x
-            print(f"\r[backbone {self.label}] points {n:4d}  a {self.a_ref * math.exp(point.lam):10.4g}  omega {y[-2]:10.6g}  "
+            print(f"\r[backbone {self.label}] points {n + self.offset:4d}  a {self.a_ref * math.exp(point.lam):10.4g}  omega {y[-2]:10.6g}  "
                   f"D {y[-1] / (2 * y[-2]):9.3e}  step {ds:.3g}   ", end="", file=sys.stderr, flush=True)
 
     def close(self):
@@ -259,7 +260,10 @@ def backbone(system, amplitude_start, amplitude_end, mode=0, method="hbm", harmo
             bridged = []
             # shooting: a corner where a reverses (a grazing impact): restart beyond it from the harmonic-balance
             # mode, trace back from there to the corner (the fold between) and on to a_end
-            while shooting and not res.success and found and len(bridged) < 3 and len(found) < max_points:
+            while (shooting and not res.success and res.message.startswith("step size below ds_min") and found
+                   and len(bridged) < 3 and len(found) < max_points):
+                if max_time is not None:
+                    opts["max_time"] = max_time - (time.perf_counter() - t0)
                 lam_c = found[-1][1]
                 hop = prob.restart_past_corner(lam_c, lam1, tol=tol)
                 if hop is None:
@@ -267,6 +271,7 @@ def backbone(system, amplitude_start, amplitude_end, mode=0, method="hbm", harmo
                 bridged.append(prob.a_ref * math.exp(lam_c))
                 # back from the restart over the fold to the corner: the points on the restart's smooth piece
                 # (the same event sequence; past the corner the trace would go on down the other piece)
+                show.offset = len(found)
                 back = continuation(prob.residual, prob.d_lam, hop[0], hop[1], lam_c - 1.0,
                                     **{**opts, "max_points": max(10, max_points - len(found)) // 2, "ds0": ds_max / 2,
                                        "ds_max": ds_max / 2})
@@ -276,6 +281,7 @@ def backbone(system, amplitude_start, amplitude_end, mode=0, method="hbm", harmo
                         break
                     piece.append((p.x, p.lam, p.payload))
                 found += piece[::-1]
+                show.offset = len(found)
                 res = trace(hop[0], hop[1], max(2, max_points - len(found)))
                 found += [(p.x, p.lam, p.payload) for p in res.points]
     finally:
