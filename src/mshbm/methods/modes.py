@@ -101,7 +101,13 @@ class ShootingModeProblem:
         self.xi0 = float(self.phi @ self.C @ self.phi)
         self._cache = {}
         self.a_ref = 1.0
-        self.flow(self.omega0, self.xi0)  # the flow's own input checks (element kinds), at once
+        try:
+            self.flow(self.omega0, self.xi0)  # the flow's own input checks (element kinds, size), at once
+        except InputError as exc:
+            if exc.key != "integrator":
+                raise
+            raise InputError("method", f"backbone by shooting: {exc.problem.split(': use')[0]}; use method 'hbm' "
+                             "or 'dlft'") from None
         acting = [el for el in system.elements if el.acts]
         #: no dissipation: no damping matrix, elastic impacts only, no acting friction
         self.conservative = (not np.any(self.C) and all(el.unilateral and el.restitution == 1.0 for el in acting))
