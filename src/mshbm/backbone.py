@@ -4,7 +4,8 @@ The mode ``k`` of a system is traced from modal amplitude ``a_start`` to ``a_end
 continuation (:func:`mshbm.solvers.arclength.continuation`) in ``lam = ln a`` of the EPMC residual of
 :mod:`mshbm.methods.epmc` (harmonic balance: ``method="hbm"`` or ``"dlft"``) or of
 :mod:`mshbm.methods.modes` (``method="shooting"``: the exact event-driven flow; for a conservative system,
-the conservative nonsmooth mode with ``xi = 0``) (notation there: ``a`` the mass-normalised modal
+the conservative nonsmooth mode with ``xi = 0``) or of :mod:`mshbm.methods.modes_mixed` (``method="mshbm"``:
+MS-HBM, the element DOFs by that flow, the others condensed per harmonic) (notation there: ``a`` the mass-normalised modal
 amplitude of the first harmonic in kg^1/2 m, ``omega`` the frequency in rad/s, ``xi`` the artificial
 negative damping in 1/s, ``D = xi / (2 omega)`` the modal damping ratio).
 
@@ -32,7 +33,9 @@ A point is certified when ``residual <= 10 tol``, ``amplitude_residual <= 10 tol
 leaves ``xi`` at its tolerance, and the relative balance is rounding over rounding); with shooting also
 without Moreau-Jean segments, and for a conservative
 system (``C = 0``, elastic impacts, no acting friction) with energy conservation ``energy_drift <= 10 tol``
-and ``|D| <= 10 tol``.  The backbone succeeds when it reaches ``a_end`` with every point certified.
+and ``|D| <= 10 tol``.  MS-HBM: ``residual`` is its residual over its row scales, no energy balance
+(``None``), certified by the residuals, no Moreau-Jean segments and (conservative) ``|D| <= 10 tol``; it
+adds ``impacts``, ``events`` and ``moreau_segments``.  The backbone succeeds when it reaches ``a_end`` with every point certified.
 """
 from __future__ import annotations
 
@@ -48,6 +51,7 @@ from ._blas import blas_threads
 from .errors import InputError
 from .methods.epmc import EPMCProblem
 from .methods.modes import ShootingModeProblem
+from .methods.modes_mixed import MixedModeProblem
 from .options import aft_steps
 from .solvers.arclength import continuation
 from .system import System
@@ -61,7 +65,7 @@ SHOOTING_STEPS = 256
 #: the per-point fields of shooting besides the common ones (module docstring)
 _SHOOTING_KEYS = ("periodicity_q", "periodicity_u", "energy", "energy_drift", "impacts", "events",
                   "moreau_segments", "max_multiplier", "energy_mismatch", "q0", "u0")
-_METHODS = ("hbm", "dlft", "shooting")
+_METHODS = ("hbm", "dlft", "shooting", "mshbm")
 
 
 @dataclass
@@ -115,7 +119,8 @@ class Backbone:
                "stability_note": ("Floquet multipliers of the conservative orbit (all on the unit circle: "
                                   "neutrally stable)" if self.conservative and self.method == "shooting" else
                                   "not defined for the EPMC's artificial autonomous motion")}
-        for k in keys + (_SHOOTING_KEYS if self.method == "shooting" else ()):
+        extra = {"shooting": _SHOOTING_KEYS, "mshbm": ("impacts", "events", "moreau_segments")}.get(self.method, ())
+        for k in keys + extra:
             out[k] = [p[k] for p in self.points]
         out["amplitude"] = [list(map(float, p["amplitude"])) for p in self.points]
         out["harmonic_content"] = [p["harmonics"] for p in self.points]
@@ -164,12 +169,14 @@ def backbone(system, amplitude_start, amplitude_end, mode=0, method="hbm", harmo
         HBM-AFT (regularised Coulomb friction, the set-valued Jenkins law, penalty contacts), DLFT (set-valued
         Coulomb friction on the ground and unilateral contact) or shooting with the exact event-driven flow
         (set-valued friction on the ground and unilateral contacts with Newton's impact law, any ``e_N``;
-        :mod:`mshbm.methods.modes`).
+        :mod:`mshbm.methods.modes`), or MS-HBM with that flow for the element DOFs
+        (:mod:`mshbm.methods.modes_mixed`).
     harmonics : int
         ``n_h`` (default 5); with shooting only the reported harmonic content.
     steps : int, optional
         AFT samples per period (default :func:`mshbm.options.aft_steps`); with shooting the output samples
-        per period of a point and the Moreau-Jean steps of the flow's fallback (default 256).
+        per period of a point and the Moreau-Jean steps of the flow's fallback (default 256; MS-HBM
+        ``max(256, 4 n_h)``).
     dofs : list of int, optional
         DOFs whose amplitude is reported (default: the reference DOF, the largest entry of the mode).
     points : int
@@ -205,9 +212,14 @@ def backbone(system, amplitude_start, amplitude_end, mode=0, method="hbm", harmo
     # shooting: the branch has corners where the event sequence changes (a grazing impact): the event
     # sequence marks its smooth pieces, and a step at fixed a crosses a corner the corrector cannot turn
     shooting = method == "shooting"
+    flow = method in ("shooting", "mshbm")  # the event-driven flow: corners, event sequences, its certificate
     if shooting:
         steps = SHOOTING_STEPS if steps is None else steps
         prob = ShootingModeProblem(system, mode, harmonics, steps)
+    elif method == "mshbm":
+        if steps is None:
+            steps = max(SHOOTING_STEPS, 4 * harmonics) if isinstance(harmonics, (int, np.integer)) else 0
+        prob = MixedModeProblem(system, mode, harmonics, steps)
     else:
         if steps is None:
             steps = aft_steps(harmonics) if isinstance(harmonics, (int, np.integer)) else 0
@@ -230,12 +242,13 @@ def backbone(system, amplitude_start, amplitude_end, mode=0, method="hbm", harmo
         if shooting:
             ok = (ok and not pt["moreau_segments"]
                   and (pt["energy_balance"] <= ENERGY_TOL or pt["energy_mismatch"] <= 10 * tol))
-        else:
-            ok = ok and pt["energy_balance"] <= ENERGY_TOL
-        if shooting:
             if prob.conservative:
                 ok = ok and pt["energy_drift"] <= 10 * tol and abs(pt["damping_ratio"]) <= 10 * tol
                 pt["stable"] = bool(pt["max_multiplier"] <= 1 + 1e-6)
+        elif method == "mshbm":  # no energy balance (mshbm.methods.modes_mixed)
+            ok = ok and not pt["moreau_segments"] and (not prob.conservative or abs(pt["damping_ratio"]) <= 10 * tol)
+        else:
+            ok = ok and pt["energy_balance"] <= ENERGY_TOL
         pt["certified"] = bool(ok)
         return pt["certified"] or pt["residual"] <= 10 * tol, pt
 
@@ -243,8 +256,8 @@ def backbone(system, amplitude_start, amplitude_end, mode=0, method="hbm", harmo
 
     opts = dict(residual_scale=prob.residual_scale, unknown_scale=prob.unknown_scale, lam_scale=1.0, ds0=ds_max,
                 ds_min=1e-6 * max(ds_max, 1e-3), ds_max=ds_max, tol=tol, accept=accept, callback=show,
-                max_time=max_time, natural_fallback=False, kink_crossing=shooting,
-                segment=prob.segment if shooting else None, lam_limits=(min(lam0, lam1) - 1.0, max(lam0, lam1) + 1.0))
+                max_time=max_time, natural_fallback=False, kink_crossing=flow,
+                segment=prob.segment if flow else None, lam_limits=(min(lam0, lam1) - 1.0, max(lam0, lam1) + 1.0))
 
     def trace(y_start, lam_start, n_max):
         return continuation(prob.residual, prob.d_lam, y_start, lam_start, lam1, **{**opts, "max_points": n_max})

@@ -2,7 +2,7 @@
 by shooting with the exact event-driven flow (:func:`mshbm.backbone`; a conservative system's mode with
 ``shooting``: damping ratio 0).
 
-``mshbm backbone CASE.yaml --method hbm|dlft|shooting --mode K --amplitude-start A --amplitude-end B [--harmonics N]
+``mshbm backbone CASE.yaml --method hbm|dlft|shooting|mshbm --mode K --amplitude-start A --amplitude-end B [--harmonics N]
 [--steps N] [--points N] [--max-points N] [--dofs D [D ...]] [--out b.json] [--plot b.png] [--quiet]``
 
 The case's forcing and frequency are ignored (the mode is an autonomous motion).  Exit codes as for
@@ -31,9 +31,10 @@ def add_parser(sub):
                        "extended periodic motion concept. Exit codes: 0 end reached, 1 stopped early, "
                        "2 invalid input, 3 internal error.")
     s.add_argument("case", metavar="CASE.yaml", help="case file (see examples/)")
-    s.add_argument("--method", choices=("hbm", "dlft", "shooting"), default="hbm",
-                   help="hbm (HBM-AFT, default), dlft (set-valued friction and contact) or shooting (the exact "
-                   "event-driven flow: friction on the ground and impacts)")
+    s.add_argument("--method", choices=("hbm", "dlft", "shooting", "mshbm"), default="hbm",
+                   help="hbm (HBM-AFT, default), dlft (set-valued friction and contact), shooting (the exact "
+                   "event-driven flow: friction on the ground and impacts) or mshbm (the element DOFs by that flow, "
+                   "the others by harmonic balance)")
     s.add_argument("--mode", type=int, default=0, metavar="K", help="0-based mode of the linear system with "
                    "the Jenkins joints stuck (default 0)")
     s.add_argument("--amplitude-start", type=float, required=True, metavar="A",

@@ -172,3 +172,38 @@ def test_impact5_grazing_corner_is_passed():
     assert abs(b.amplitude[first - 1, 0] - 0.1) < 1e-6  # the last linear point grazes the stop
     assert b.modal_amplitude[first:].min() < 0.9 * a_c and np.all(np.diff(b.omega[first:]) > 0)
     assert np.max(np.abs(b.omega[:first] / b.omega_linear - 1)) < 1e-12
+
+
+M3 = np.diag([1.0, 2.0, 1.5])
+K3 = np.array([[3.0, -1.0, 0.0], [-1.0, 2.0, -1.0], [0.0, -1.0, 1.0]])
+
+
+def test_mshbm_mode_against_shooting_friction_chain():
+    """EPMC by MS-HBM (n_h = 15: the friction DOF in time by the exact flow, the other two condensed per
+    harmonic) against shooting of the whole chain (exact) with Coulomb friction on mass 0 and light mass-
+    proportional damping: at both ends of the range (a = 0.5: stick-slip, four events per period; a = 5: two
+    slip reversals) omega agrees to 1e-6 and D to 1e-5 (observed 6e-8 and 2e-7: the coupling's truncation)."""
+    s = mshbm.System(M3, 0.01 * M3, K3, np.zeros(3), elements=[mshbm.Friction(0, 1.0, 0.05)])
+    bm = backbone(s, 0.5, 5.0, method="mshbm", harmonics=15, points=6, dofs=[0])
+    bs = backbone(s, 0.5, 5.0, method="shooting", harmonics=5, points=6, dofs=[0])
+    assert bm.success, bm.message
+    assert bs.success, bs.message
+    for i in (0, -1):
+        assert bm.modal_amplitude[i] == bs.modal_amplitude[i]
+        assert abs(bm.omega[i] / bs.omega[i] - 1) < 1e-6
+        assert abs(bm.damping_ratio[i] / bs.damping_ratio[i] - 1) < 1e-5
+        assert abs(bm.amplitude[i, 0] / bs.amplitude[i, 0] - 1) < 1e-5
+    d = bm.to_dict()
+    assert d["events"][0] == 4 and d["events"][-1] == 2 and d["energy_balance"] == [None] * len(bm)
+    assert bm.damping_ratio[0] > 3 * bm.damping_ratio[-1] > 3 * 0.01 / (2 * bm.omega[-1])
+
+
+def test_mshbm_linear_below_the_stop():
+    """MS-HBM modes of a Rayleigh-damped chain with a stop far away: the linear omega_k and zeta_k to 1e-9."""
+    alpha, beta = 0.02, 0.003
+    s = mshbm.System(M3, alpha * M3 + beta * K3, K3, np.zeros(3), elements=[mshbm.Contact(0, 10.0, 1.0)])
+    wk = np.sqrt(sla.eigh(K3, M3, eigvals_only=True)[1])
+    b = backbone(s, 1e-2, 1.0, mode=1, method="mshbm", harmonics=3, points=3)
+    assert b.success, b.message
+    assert np.max(np.abs(b.omega / wk - 1)) < 1e-9
+    assert np.max(np.abs(b.damping_ratio / (alpha / (2 * wk) + beta * wk / 2) - 1)) < 1e-9

@@ -44,7 +44,7 @@ from ..solvers.arclength import continuation
 from ..solvers.newton import newton
 from .epmc import linear_modes, shifted_system
 
-__all__ = ["ShootingModeProblem"]
+__all__ = ["ShootingModeProblem", "xi_guess"]
 
 _FD_OMEGA, _FD_XI = 1e-6, 1e-6
 #: Gauss-Legendre nodes per smooth piece of the power integrals of the energy balance
@@ -53,6 +53,19 @@ _GAUSS = np.polynomial.legendre.leggauss(8)
 
 def _dense(A):
     return A.toarray() if sp.issparse(A) else np.asarray(A, dtype=float)
+
+
+def xi_guess(system, phi, omega0, xi0, a):
+    """``xi`` (1/s) of the linear mode ``phi`` (``xi0``) plus the describing function of the friction elements
+    on it: a bound ``mu F_N`` slipping with amplitude ``s = |w^T phi| a`` dissipates as a dashpot
+    ``4 mu F_N / (pi omega_0 s)``."""
+    xi = xi0
+    for el in system.elements:
+        if el.acts and el.bounded:
+            wphi = abs(float(phi[el.dof] - (phi[el.relative_to] if el.relative_to is not None else 0.0)))
+            if wphi > 0:
+                xi += 4 * float(el.force_scale(0.0)) * wphi / (np.pi * omega0 * a)
+    return xi
 
 
 class ShootingModeProblem:
@@ -223,16 +236,7 @@ class ShootingModeProblem:
         return out
 
     def _xi_guess(self, a):
-        """``xi`` of the linear mode plus the describing function of the friction elements on it: a bound
-        ``mu F_N`` slipping with amplitude ``s = |w^T phi| a`` dissipates as a dashpot ``4 mu F_N / (pi omega_0 s)``
-        (1/s)."""
-        xi = self.xi0
-        for el in self.system.elements:
-            if el.acts and el.bounded:
-                wphi = abs(float(self.phi[el.dof] - (self.phi[el.relative_to] if el.relative_to is not None else 0.0)))
-                if wphi > 0:
-                    xi += 4 * float(el.force_scale(0.0)) * wphi / (np.pi * self.omega0 * a)
-        return xi
+        return xi_guess(self.system, self.phi, self.omega0, self.xi0, a)
 
     def _newton_at(self, y, a, tol=1e-10):
         lam = float(np.log(a / self.a_ref))
