@@ -207,3 +207,20 @@ def test_mshbm_linear_below_the_stop():
     assert b.success, b.message
     assert np.max(np.abs(b.omega / wk - 1)) < 1e-9
     assert np.max(np.abs(b.damping_ratio / (alpha / (2 * wk) + beta * wk / 2) - 1)) < 1e-9
+
+
+def test_mshbm_conservative_impact_oscillator_closed_form():
+    """The conservative impact oscillator by MS-HBM (the one DOF in time; n_h = 5 only for the connectivity):
+    T(A) of the closed form to 1e-6 (observed 2e-9) with A from the exact extrema ((max - min)/2 = (g + A)/2
+    once it impacts), D = 0."""
+    m, k, g = 2.0, 3.0, 0.5
+    s = mshbm.System([[m]], [[0.0]], [[k]], [0.0], elements=[mshbm.Contact(0, g, 1.0)])
+    b = backbone(s, 0.3, 3.0, method="mshbm", harmonics=5, points=12)
+    assert b.success, b.message
+    amp = b.amplitude[:, 0]
+    hit = np.array(b.to_dict()["impacts"]) > 0
+    assert hit.sum() >= 5 and (~hit).sum() >= 3 and np.all(amp[hit] > g) and np.all(amp[~hit] < g)
+    A = np.where(hit, 2 * amp - g, amp)
+    T = np.array([impact_period(x, g, np.sqrt(k / m)) for x in A])
+    assert np.max(np.abs(2 * np.pi / b.omega / T - 1)) < 1e-6
+    assert np.max(np.abs(b.damping_ratio)) < 1e-7
