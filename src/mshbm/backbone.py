@@ -271,9 +271,9 @@ def backbone(system, amplitude_start, amplitude_end, mode=0, method="hbm", harmo
             res = trace(y0, lam0, max_points)
             found = [(p.x, p.lam, p.payload) for p in res.points]
             bridged = []
-            # shooting: a corner where a reverses (a grazing impact): restart beyond it from the harmonic-balance
+            # shooting, MS-HBM: a corner where a reverses (a grazing impact): restart beyond it from the harmonic-balance
             # mode, trace back from there to the corner (the fold between) and on to a_end
-            while (shooting and not res.success and res.message.startswith("step size below ds_min") and found
+            while (flow and not res.success and res.message.startswith("step size below ds_min") and found
                    and len(bridged) < 3 and len(found) < max_points):
                 if max_time is not None:
                     opts["max_time"] = max_time - (time.perf_counter() - t0)

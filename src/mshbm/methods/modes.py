@@ -44,7 +44,7 @@ from ..solvers.arclength import continuation
 from ..solvers.newton import newton
 from .epmc import linear_modes, shifted_system
 
-__all__ = ["ShootingModeProblem", "xi_guess"]
+__all__ = ["ShootingModeProblem", "xi_guess", "harmonic_mode_past", "shift_to_sine_phase"]
 
 _FD_OMEGA, _FD_XI = 1e-6, 1e-6
 #: Gauss-Legendre nodes per smooth piece of the power integrals of the energy balance
@@ -53,6 +53,38 @@ _GAUSS = np.polynomial.legendre.leggauss(8)
 
 def _dense(A):
     return A.toarray() if sp.issparse(A) else np.asarray(A, dtype=float)
+
+
+def harmonic_mode_past(system, mode, a_c, a_t, n_h=15):
+    """The EPMC mode by DLFT (``n_h`` harmonics, set-valued laws: smooth enough to pass a grazing corner)
+    traced from ``0.9 a_c`` to ``a_t``: ``(EPMCProblem, x)`` at ``a_t`` (cosine phase), or None."""
+    from ..options import aft_steps
+    from .epmc import EPMCProblem
+
+    ep = EPMCProblem(system, mode, n_h, aft_steps(n_h), "dlft")
+    ep.a_ref = np.e * a_t
+    l0, l1 = float(np.log(0.9 * a_c / ep.a_ref)), float(np.log(a_t / ep.a_ref))
+    ds = abs(l1 - l0) / 10
+    res = continuation(ep.residual, ep.d_lam, ep.start(0.9 * a_c), l0, l1, residual_scale=ep.residual_scale,
+                       unknown_scale=ep.unknown_scale, lam_scale=1.0, ds0=ds, ds_min=1e-6 * ds, ds_max=ds,
+                       max_points=200, tol=1e-8, natural_fallback=False, kink_crossing=False,
+                       lam_limits=(l0 - 1.0, l1 + 1.0))
+    return (ep, res.points[-1].x) if res.success else None
+
+
+def shift_to_sine_phase(q_hat, omega):
+    """Fourier coefficients ``(2 n_h + 1, n)`` of ``q(t + 3 T / 4)`` (EPMC's cosine phase to the sine phase of
+    the shooting modes), and ``q, u`` at that time (the new ``t = 0``), shapes ``(n,)``."""
+    from .. import fourier
+
+    n_h = (q_hat.shape[0] - 1) // 2
+    out = q_hat.copy()
+    for k in range(1, n_h + 1):
+        th = 1.5 * np.pi * k
+        a, b = q_hat[2 * k - 1], q_hat[2 * k]
+        out[2 * k - 1], out[2 * k] = a * np.cos(th) + b * np.sin(th), b * np.cos(th) - a * np.sin(th)
+    V = fourier.basis(np.zeros(1), omega, n_h)
+    return out, (V @ out).reshape(-1), (V @ fourier.derivative(out, omega)).reshape(-1)
 
 
 def xi_guess(system, phi, omega0, xi0, a):
@@ -196,27 +228,15 @@ class ShootingModeProblem:
         enough to pass the corner) is traced from ``0.9 a_c`` to ``a_t = 1.05 a_c`` (towards ``lam_end``),
         which it reaches beyond the fold; its orbit there, shifted to this phase, starts Newton on the
         shooting residual at ``a_t``.  Returns ``(y, lam_t)``."""
-        from ..options import aft_steps
-        from .epmc import EPMCProblem
-
-        a_c = self.a_ref * np.exp(lam_c)
         if lam_end <= lam_c:
             return None
+        a_c = self.a_ref * np.exp(lam_c)
         a_t = min(1.05 * a_c, self.a_ref * np.exp(lam_end))
-        n_h = 15
         try:
-            ep = EPMCProblem(self.system, self.mode, n_h, aft_steps(n_h), "dlft")
-            ep.a_ref = np.e * a_t
-            l0, l1 = float(np.log(0.9 * a_c / ep.a_ref)), float(np.log(a_t / ep.a_ref))
-            ds = abs(l1 - l0) / 10
-            res = continuation(ep.residual, ep.d_lam, ep.start(0.9 * a_c), l0, l1, residual_scale=ep.residual_scale,
-                               unknown_scale=ep.unknown_scale, lam_scale=1.0, ds0=ds, ds_min=1e-6 * ds, ds_max=ds,
-                               max_points=200, tol=1e-8, natural_fallback=False, kink_crossing=False,
-                               lam_limits=(l0 - 1.0, l1 + 1.0))
-            if not res.success:
+            hb = harmonic_mode_past(self.system, self.mode, a_c, a_t)
+            if hb is None:
                 return None
-            y0 = self._from_hbm(ep, res.points[-1].x)
-            out = self._newton_at(y0, a_t, tol)
+            out = self._newton_at(self._from_hbm(*hb), a_t, tol)
         except (Failed, InputError, np.linalg.LinAlgError):
             return None
         return (out.x, float(np.log(a_t / self.a_ref))) if out.success else None
@@ -262,14 +282,9 @@ class ShootingModeProblem:
     def _from_hbm(self, ep, x):
         """Shooting unknowns from EPMC's ``x`` (:class:`~mshbm.methods.epmc.EPMCProblem`, cosine phase):
         ``z(t)`` of its Fourier series at ``t = 3 T / 4``."""
-        from .. import fourier
-
         omega, xi = float(x[-2]), float(x[-1])
-        q_hat = ep.hbm(omega, xi).full_coefficients(x[:ep.n_x])
-        t = np.array([1.5 * np.pi / omega])
-        V = fourier.basis(t, omega, ep.n_h)
-        q, u = V @ q_hat, V @ fourier.derivative(q_hat, omega)
-        return np.r_[q.reshape(-1), u.reshape(-1), omega, xi]
+        _, q, u = shift_to_sine_phase(ep.hbm(omega, xi).full_coefficients(x[:ep.n_x]), omega)
+        return np.r_[q, u, omega, xi]
 
     def _amp_rows(self, q_hat, a):
         return np.array([self.v @ q_hat[2] - a, self.v @ q_hat[1]])

@@ -13,7 +13,8 @@ first harmonic ``a sin(omega t)``, as by shooting).  ``d/dx`` exact (the flow's 
 sensitivities); ``d/domega``, ``d/dxi`` central differences of rebuilt problems.
 
 The only error against the nonsmooth model is the harmonic truncation of the coupling (``N``'s motion
-is exact for the coupling force it gets); no energy balance is formed (the powers of ``N`` and of the
+is exact for the coupling force it gets); a grazing corner is passed as by shooting
+(:meth:`MixedModeProblem.restart_past_corner`); no energy balance is formed (the powers of ``N`` and of the
 truncated ``L`` are not comparable to the certificate's 1e-6): a point is certified by its residuals.
 """
 from __future__ import annotations
@@ -26,7 +27,7 @@ from ..solvers.arclength_parts import Failed
 from ..solvers.newton import newton
 from .epmc import linear_modes, shifted_system
 from .mixed import MixedProblem
-from .modes import ShootingModeProblem, xi_guess
+from .modes import ShootingModeProblem, harmonic_mode_past, shift_to_sine_phase, xi_guess
 
 __all__ = ["MixedModeProblem"]
 
@@ -176,10 +177,32 @@ class MixedModeProblem:
         res = self._newton_at(y, a)
         return res.x if res is not None and res.success else y
 
-    def _newton_at(self, y, a):
+    def restart_past_corner(self, lam_c, lam_end, tol=1e-8):
+        """An orbit beyond a grazing corner at ``lam_c`` (:meth:`ShootingModeProblem.restart_past_corner`): from
+        the DLFT mode at ``a_t = 1.05 a_c``, shifted to the sine phase, by Newton; ``(y, lam_t)`` or None."""
+        if lam_end <= lam_c:
+            return None
+        a_c = self.a_ref * np.exp(lam_c)
+        a_t = min(1.05 * a_c, self.a_ref * np.exp(lam_end))
+        try:
+            hb = harmonic_mode_past(self.system, self.mode, a_c, a_t, n_h=max(self.n_h, 15))
+            if hb is None:
+                return None
+            ep, x = hb
+            omega, xi = float(x[-2]), float(x[-1])
+            qh, q, u = shift_to_sine_phase(ep.hbm(omega, xi).full_coefficients(x[:ep.n_x]), omega)
+            P = np.zeros((self.nc, self.nN))
+            m = min(self.nc, qh.shape[0])
+            P[:m] = qh[:m, self.Nd]
+            res = self._newton_at(np.r_[P.reshape(-1), q[self.Nd], u[self.Nd], omega, xi], a_t, tol)
+        except (Failed, InputError, np.linalg.LinAlgError):
+            return None
+        return (res.x, float(np.log(a_t / self.a_ref))) if res is not None and res.success else None
+
+    def _newton_at(self, y, a, tol=1e-10):
         lam = float(np.log(a / self.a_ref))
         try:
-            return newton(lambda x, jac=True: self.residual(x, lam, jac), y, tol=1e-10, max_iter=15,
+            return newton(lambda x, jac=True: self.residual(x, lam, jac), y, tol=tol, max_iter=15,
                           scale=lambda x: self.residual_scale(x, lam))
         except (Failed, np.linalg.LinAlgError):
             return None
