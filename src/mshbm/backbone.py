@@ -2,19 +2,40 @@
 
 The mode ``k`` of a system is traced from modal amplitude ``a_start`` to ``a_end`` by pseudo-arclength
 continuation (:func:`mshbm.solvers.arclength.continuation`) in ``lam = ln a`` of the EPMC residual of
-:mod:`mshbm.methods.epmc` (notation there: ``a`` the mass-normalised modal amplitude of the first
-harmonic in kg^1/2 m, ``omega`` the frequency in rad/s, ``xi`` the artificial negative damping in 1/s,
-``D = xi / (2 omega)`` the modal damping ratio).
+:mod:`mshbm.methods.epmc` (harmonic balance: ``method="hbm"`` or ``"dlft"``) or of
+:mod:`mshbm.methods.modes` (``method="shooting"``: the exact event-driven flow; for a conservative system,
+the conservative nonsmooth mode with ``xi = 0``) or of :mod:`mshbm.methods.modes_mixed` (``method="mshbm"``:
+MS-HBM, the element DOFs by that flow, the others condensed per harmonic) (notation there: ``a`` the mass-normalised modal
+amplitude of the first harmonic in kg^1/2 m, ``omega`` the frequency in rad/s, ``xi`` the artificial
+negative damping in 1/s, ``D = xi / (2 omega)`` the modal damping ratio).
 
-Per point: ``modal_amplitude``, ``amplitude`` ((max - min)/2 of the Fourier series of the chosen DOFs, m),
-``omega``, ``damping_ratio``, ``xi``, ``harmonics`` (``|Q_k|`` of the reference DOF, ``k = 1..n_h``) and
-the certificate: ``residual_N`` (the largest HBM residual, N), ``residual`` (the same over the force scale
-:meth:`~mshbm.methods.epmc.EPMCProblem.force_scale`), ``amplitude_residual`` (relative),
-``energy_balance`` (relative mismatch of ``xi <q', M q'> = <q', C q'> - <gamma, lambda>``) and
-``truncation`` (``|Q_nh| / |Q_1|`` at the reference DOF; an estimate, not gated).  ``stable`` is ``None``:
-the stability of the artificial autonomous motion says nothing about a forced or free response.
+Per point: ``modal_amplitude``, ``amplitude`` ((max - min)/2 of the chosen DOFs, m: of the Fourier series
+with harmonic balance, exact on the flow with shooting), ``omega``, ``damping_ratio``, ``xi``,
+``harmonics`` (``|Q_k|`` of the reference DOF, ``k = 1..n_h``) and the certificate: ``residual_N`` (the
+largest HBM residual, N; ``None`` with shooting), ``residual`` (the HBM residual over the force scale
+:meth:`~mshbm.methods.epmc.EPMCProblem.force_scale`; with shooting the periodicity ``q(T) - q0`` over the
+displacement scale and ``u(T) - u0`` over ``omega`` times it), ``amplitude_residual`` (relative),
+``energy_balance`` (relative mismatch of ``xi <q', M q'> = <q', C q'> - <gamma, lambda>``, with shooting
++ the impact losses, over the largest of these mean powers, floor ``1e-12 omega <q', M q'>``) and ``truncation`` (``|Q_nh| / |Q_1|`` at the
+reference DOF; an estimate, not gated).  Shooting adds ``periodicity_q`` (m), ``periodicity_u`` (m/s),
+``energy_mismatch`` (the same mismatch over the reactive power ``omega <q', M q'>``),
+``energy`` (J, at ``t = 0``), ``energy_drift`` (``max |H(t) - H(0)| / H(0)`` over the orbit), ``impacts``
+and ``events`` per period, ``moreau_segments`` (the flow's fallback at accumulations of impacts),
+``max_multiplier`` (the largest modulus of the Floquet multipliers; of a conservative orbit without its
+trivial pair at 1) and the orbit's start state ``q0`` (m), ``u0`` (m/s) at ``t = 0`` (the zero crossing
+of the modal coordinate's first harmonic).  ``stable`` is ``None`` for EPMC: the stability of the
+artificial autonomous motion says nothing about a forced or free response; for a conservative mode by
+shooting (``xi = 0``: an orbit of the free system) it is ``max_multiplier <= 1 + 1e-6`` (an orbit of a
+conservative system is at best neutrally stable).
+
 A point is certified when ``residual <= 10 tol``, ``amplitude_residual <= 10 tol`` and
-``energy_balance <= 1e-6``; the backbone succeeds when it reaches ``a_end`` with every point certified.
+``energy_balance <= 1e-6`` (shooting: or ``energy_mismatch <= 10 tol``: where nothing dissipates Newton
+leaves ``xi`` at its tolerance, and the relative balance is rounding over rounding); with shooting also
+without Moreau-Jean segments, and for a conservative
+system (``C = 0``, elastic impacts, no acting friction) with energy conservation ``energy_drift <= 10 tol``
+and ``|D| <= 10 tol``.  MS-HBM: ``residual`` is its residual over its row scales, no energy balance
+(``None``), certified by the residuals, no Moreau-Jean segments and (conservative) ``|D| <= 10 tol``; it
+adds ``impacts``, ``events`` and ``moreau_segments``.  The backbone succeeds when it reaches ``a_end`` with every point certified.
 """
 from __future__ import annotations
 
@@ -29,6 +50,8 @@ import numpy as np
 from ._blas import blas_threads
 from .errors import InputError
 from .methods.epmc import EPMCProblem
+from .methods.modes import ShootingModeProblem
+from .methods.modes_mixed import MixedModeProblem
 from .options import aft_steps
 from .solvers.arclength import continuation
 from .system import System
@@ -37,7 +60,12 @@ __all__ = ["backbone", "Backbone"]
 
 #: gate of the energy balance (relative): the harmonic balance satisfies it to the residual's accuracy
 ENERGY_TOL = 1e-6
-_METHODS = ("hbm", "dlft")
+#: output samples per period of a point by shooting (the flow is exact: they only split it into pieces)
+SHOOTING_STEPS = 256
+#: the per-point fields of shooting besides the common ones (module docstring)
+_SHOOTING_KEYS = ("periodicity_q", "periodicity_u", "energy", "energy_drift", "impacts", "events",
+                  "moreau_segments", "max_multiplier", "energy_mismatch", "q0", "u0")
+_METHODS = ("hbm", "dlft", "shooting", "mshbm")
 
 
 @dataclass
@@ -52,6 +80,7 @@ class Backbone:
     steps: int
     dofs: list
     omega_linear: float
+    conservative: bool = False
     points: list = field(default_factory=list)
     wall_time: float = 0.0
     cpu_time: float = 0.0
@@ -85,9 +114,13 @@ class Backbone:
         out = {"success": bool(self.success), "message": self.message, "mode": self.mode, "method": self.method,
                "harmonics": self.harmonics, "steps": self.steps, "dofs": list(self.dofs),
                "omega_linear": self.omega_linear, "wall_time_s": self.wall_time, "cpu_time_s": self.cpu_time,
-               "stable": [None] * len(self.points),
-               "stability_note": "not defined for the EPMC's artificial autonomous motion"}
-        for k in keys:
+               "conservative": self.conservative,
+               "stable": [p.get("stable") for p in self.points],
+               "stability_note": ("Floquet multipliers of the conservative orbit (all on the unit circle: "
+                                  "neutrally stable)" if self.conservative and self.method == "shooting" else
+                                  "not defined for the EPMC's artificial autonomous motion")}
+        extra = {"shooting": _SHOOTING_KEYS, "mshbm": ("impacts", "events", "moreau_segments")}.get(self.method, ())
+        for k in keys + extra:
             out[k] = [p[k] for p in self.points]
         out["amplitude"] = [list(map(float, p["amplitude"])) for p in self.points]
         out["harmonic_content"] = [p["harmonics"] for p in self.points]
@@ -98,11 +131,12 @@ class _Progress:
     def __init__(self, enabled, label, a_ref):
         self.enabled = enabled is True and sys.stderr.isatty() or enabled == "always"
         self.label, self.a_ref = label, a_ref
+        self.offset = 0  # points traced before the current continuation (restarts past corners)
 
     def __call__(self, point, n, ds):
         if self.enabled:
             y = point.x
-            print(f"\r[backbone {self.label}] points {n:4d}  a {self.a_ref * math.exp(point.lam):10.4g}  omega {y[-2]:10.6g}  "
+            print(f"\r[backbone {self.label}] points {n + self.offset:4d}  a {self.a_ref * math.exp(point.lam):10.4g}  omega {y[-2]:10.6g}  "
                   f"D {y[-1] / (2 * y[-2]):9.3e}  step {ds:.3g}   ", end="", file=sys.stderr, flush=True)
 
     def close(self):
@@ -131,13 +165,18 @@ def backbone(system, amplitude_start, amplitude_end, mode=0, method="hbm", harmo
         order.
     mode : int
         0-based mode of the linear system with the Jenkins joints stuck.
-    method : {"hbm", "dlft"}
-        HBM-AFT (regularised Coulomb friction, the set-valued Jenkins law, penalty contacts) or DLFT (set-valued
-        Coulomb friction on the ground and unilateral contact).
+    method : {"hbm", "dlft", "shooting"}
+        HBM-AFT (regularised Coulomb friction, the set-valued Jenkins law, penalty contacts), DLFT (set-valued
+        Coulomb friction on the ground and unilateral contact) or shooting with the exact event-driven flow
+        (set-valued friction on the ground and unilateral contacts with Newton's impact law, any ``e_N``;
+        :mod:`mshbm.methods.modes`), or MS-HBM with that flow for the element DOFs
+        (:mod:`mshbm.methods.modes_mixed`).
     harmonics : int
-        ``n_h`` (default 5).
+        ``n_h`` (default 5); with shooting only the reported harmonic content.
     steps : int, optional
-        AFT samples per period (default :func:`mshbm.options.aft_steps`).
+        AFT samples per period (default :func:`mshbm.options.aft_steps`); with shooting the output samples
+        per period of a point and the Moreau-Jean steps of the flow's fallback (default 256; MS-HBM
+        ``max(256, 4 n_h)``).
     dofs : list of int, optional
         DOFs whose amplitude is reported (default: the reference DOF, the largest entry of the mode).
     points : int
@@ -170,9 +209,21 @@ def backbone(system, amplitude_start, amplitude_end, mode=0, method="hbm", harmo
     max_points = 4 * int(points) + 10 if max_points is None else max_points
     if isinstance(max_points, bool) or not isinstance(max_points, (int, np.integer)) or max_points < 2:
         raise InputError("max_points", f"must be an integer >= 2, got {max_points!r}")
-    if steps is None:
-        steps = aft_steps(harmonics) if isinstance(harmonics, (int, np.integer)) else 0
-    prob = EPMCProblem(system, mode, harmonics, steps, method)
+    # shooting: the branch has corners where the event sequence changes (a grazing impact): the event
+    # sequence marks its smooth pieces, and a step at fixed a crosses a corner the corrector cannot turn
+    shooting = method == "shooting"
+    flow = method in ("shooting", "mshbm")  # the event-driven flow: corners, event sequences, its certificate
+    if shooting:
+        steps = SHOOTING_STEPS if steps is None else steps
+        prob = ShootingModeProblem(system, mode, harmonics, steps)
+    elif method == "mshbm":
+        if steps is None:
+            steps = max(SHOOTING_STEPS, 4 * harmonics) if isinstance(harmonics, (int, np.integer)) else 0
+        prob = MixedModeProblem(system, mode, harmonics, steps)
+    else:
+        if steps is None:
+            steps = aft_steps(harmonics) if isinstance(harmonics, (int, np.integer)) else 0
+        prob = EPMCProblem(system, mode, harmonics, steps, method)
     if dofs is None:
         dofs = [prob.ref_dof]
     dofs = [int(d) for d in dofs]
@@ -187,26 +238,71 @@ def backbone(system, amplitude_start, amplitude_end, mode=0, method="hbm", harmo
 
     def accept(y, lam, stall):
         pt = prob.point(y, lam, dofs)
-        pt["certified"] = bool(pt["residual"] <= 10 * tol and pt["amplitude_residual"] <= 10 * tol
-                               and pt["energy_balance"] <= ENERGY_TOL)
+        ok = pt["residual"] <= 10 * tol and pt["amplitude_residual"] <= 10 * tol
+        if shooting:
+            ok = (ok and not pt["moreau_segments"]
+                  and (pt["energy_balance"] <= ENERGY_TOL or pt["energy_mismatch"] <= 10 * tol))
+            if prob.conservative:
+                ok = ok and pt["energy_drift"] <= 10 * tol and abs(pt["damping_ratio"]) <= 10 * tol
+                pt["stable"] = bool(pt["max_multiplier"] <= 1 + 1e-6)
+        elif method == "mshbm":  # no energy balance (mshbm.methods.modes_mixed)
+            ok = ok and not pt["moreau_segments"] and (not prob.conservative or abs(pt["damping_ratio"]) <= 10 * tol)
+        else:
+            ok = ok and pt["energy_balance"] <= ENERGY_TOL
+        pt["certified"] = bool(ok)
         return pt["certified"] or pt["residual"] <= 10 * tol, pt
 
     show = _Progress(progress, f"mode {mode}", prob.a_ref)
-    y0 = prob.start(a0)
+
+    opts = dict(residual_scale=prob.residual_scale, unknown_scale=prob.unknown_scale, lam_scale=1.0, ds0=ds_max,
+                ds_min=1e-6 * max(ds_max, 1e-3), ds_max=ds_max, tol=tol, accept=accept, callback=show,
+                max_time=max_time, natural_fallback=False, kink_crossing=flow,
+                segment=prob.segment if flow else None, lam_limits=(min(lam0, lam1) - 1.0, max(lam0, lam1) + 1.0))
+
+    def trace(y_start, lam_start, n_max):
+        return continuation(prob.residual, prob.d_lam, y_start, lam_start, lam1, **{**opts, "max_points": n_max})
+
     try:
-        # one BLAS thread, as mshbm.solve and mshbm.sweep: the many small LUs of the condensation are
-        # ~10^4 times slower with OpenBLAS's threads on a loaded machine
+        # one BLAS thread, as mshbm.solve and mshbm.sweep: the many small LUs of the condensation (and the
+        # event flow's small matrix exponentials) are ~10^3-10^4 times slower with OpenBLAS's threads on a
+        # loaded machine
         with blas_threads(1):
-            res = continuation(prob.residual, prob.d_lam, y0, lam0, lam1, residual_scale=prob.residual_scale,
-                               unknown_scale=prob.unknown_scale, lam_scale=1.0, ds0=ds_max,
-                               ds_min=1e-6 * max(ds_max, 1e-3), ds_max=ds_max, max_points=max_points, tol=tol,
-                               accept=accept, callback=show, max_time=max_time, natural_fallback=False,
-                               kink_crossing=False, lam_limits=(min(lam0, lam1) - 1.0, max(lam0, lam1) + 1.0))
+            y0 = prob.start(a0)
+            res = trace(y0, lam0, max_points)
+            found = [(p.x, p.lam, p.payload) for p in res.points]
+            bridged = []
+            # shooting, MS-HBM: a corner where a reverses (a grazing impact): restart beyond it from the harmonic-balance
+            # mode, trace back from there to the corner (the fold between) and on to a_end
+            while (flow and not res.success and res.message.startswith("step size below ds_min") and found
+                   and len(bridged) < 3 and len(found) < max_points):
+                if max_time is not None:
+                    opts["max_time"] = max_time - (time.perf_counter() - t0)
+                lam_c = found[-1][1]
+                hop = prob.restart_past_corner(lam_c, lam1, tol=tol)
+                if hop is None:
+                    break
+                bridged.append(prob.a_ref * math.exp(lam_c))
+                # back from the restart over the fold to the corner: the points on the restart's smooth piece
+                # (the same event sequence; past the corner the trace would go on down the other piece)
+                show.offset = len(found)
+                back = continuation(prob.residual, prob.d_lam, hop[0], hop[1], lam_c - 1.0,
+                                    **{**opts, "max_points": max(10, max_points - len(found)) // 2, "ds0": ds_max / 2,
+                                       "ds_max": ds_max / 2})
+                piece = []
+                for p in back.points[1:]:
+                    if p.segment is None or p.segment != back.points[0].segment:
+                        break
+                    piece.append((p.x, p.lam, p.payload))
+                found += piece[::-1]
+                show.offset = len(found)
+                res = trace(hop[0], hop[1], max(2, max_points - len(found)))
+                found += [(p.x, p.lam, p.payload) for p in res.points]
     finally:
         show.close()
-    for p in res.points:
-        pt = p.payload if p.payload is not None else prob.point(p.x, p.lam, dofs)
+    for x, lam, payload in found:
+        pt = payload if payload is not None else accept(x, lam, None)[1]
         pt.setdefault("certified", False)
+        pt.setdefault("stable", None)
         pt.pop("q_hat", None)
         pts.append(pt)
     bad = [i for i, p in enumerate(pts) if not p["certified"]]
@@ -215,7 +311,12 @@ def backbone(system, amplitude_start, amplitude_end, mode=0, method="hbm", harmo
     msg = re.sub(r"lam_end = \S+ in", f"a_end = {a1:.6g} in", res.message)
     msg = re.sub(r"lam(?:_end)? = (-?[0-9.e+-]+)", lambda m: f"a = {prob.a_ref * math.exp(float(m.group(1))):.6g}",
                  msg).replace("lam", "ln a")
+    if bridged:
+        msg = re.sub(r" in \d+ points", f" in {len(found)} points", msg)
+        msg += f" (after {len(bridged)} corner(s) passed by a restart from the DLFT mode, at a = " + \
+            ", ".join(f"{a:.6g}" for a in bridged) + ")"
     msg = msg if not bad else f"{msg}; {len(bad)} point(s) not certified (first: {bad[0]})"
     return Backbone(success=success, message=msg, mode=int(mode), method=method, harmonics=int(harmonics),
-                    steps=int(steps), dofs=dofs, omega_linear=prob.omega0, points=pts,
+                    steps=int(steps), dofs=dofs, omega_linear=prob.omega0,
+                    conservative=bool(getattr(prob, "conservative", False)), points=pts,
                     wall_time=time.perf_counter() - t0, cpu_time=time.process_time() - c0)

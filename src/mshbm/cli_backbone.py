@@ -1,6 +1,8 @@
-"""Command line ``mshbm backbone``: the backbone (nonlinear mode) of a case file by EPMC (:func:`mshbm.backbone`).
+"""Command line ``mshbm backbone``: the backbone (nonlinear mode) of a case file by EPMC with harmonic balance or
+by shooting with the exact event-driven flow (:func:`mshbm.backbone`; a conservative system's mode with
+``shooting``: damping ratio 0).
 
-``mshbm backbone CASE.yaml --method hbm|dlft --mode K --amplitude-start A --amplitude-end B [--harmonics N]
+``mshbm backbone CASE.yaml --method hbm|dlft|shooting|mshbm --mode K --amplitude-start A --amplitude-end B [--harmonics N]
 [--steps N] [--points N] [--max-points N] [--dofs D [D ...]] [--out b.json] [--plot b.png] [--quiet]``
 
 The case's forcing and frequency are ignored (the mode is an autonomous motion).  Exit codes as for
@@ -29,15 +31,18 @@ def add_parser(sub):
                        "extended periodic motion concept. Exit codes: 0 end reached, 1 stopped early, "
                        "2 invalid input, 3 internal error.")
     s.add_argument("case", metavar="CASE.yaml", help="case file (see examples/)")
-    s.add_argument("--method", choices=("hbm", "dlft"), default="hbm",
-                   help="harmonic balance: hbm (HBM-AFT, default) or dlft (set-valued friction and contact)")
+    s.add_argument("--method", choices=("hbm", "dlft", "shooting", "mshbm"), default="hbm",
+                   help="hbm (HBM-AFT, default), dlft (set-valued friction and contact), shooting (the exact "
+                   "event-driven flow: friction on the ground and impacts) or mshbm (the element DOFs by that flow, "
+                   "the others by harmonic balance)")
     s.add_argument("--mode", type=int, default=0, metavar="K", help="0-based mode of the linear system with "
                    "the Jenkins joints stuck (default 0)")
     s.add_argument("--amplitude-start", type=float, required=True, metavar="A",
                    help="first modal amplitude (mass-normalised, kg^1/2 m)")
     s.add_argument("--amplitude-end", type=float, required=True, metavar="B", help="last modal amplitude")
     s.add_argument("--harmonics", type=int, default=5, metavar="N", help="number of harmonics n_h (default 5)")
-    s.add_argument("--steps", type=int, default=None, metavar="N", help="AFT samples per period")
+    s.add_argument("--steps", type=int, default=None, metavar="N", help="AFT samples per period (shooting: output "
+                   "samples per period, default 256)")
     s.add_argument("--points", type=int, default=50, metavar="N", help="aimed number of points (default 50)")
     s.add_argument("--max-points", type=int, default=None, metavar="N", help="most points (default 4 x points + 10)")
     s.add_argument("--dofs", type=int, nargs="+", default=None, metavar="D",

@@ -119,7 +119,7 @@ def test_jenkins_single_harmonic_closed_form():
 
 @pytest.mark.parametrize("kw,key", [(dict(amplitude_start=-1.0), "amplitude_start"),
                                     (dict(amplitude_end=1e-3), "amplitude_end"),
-                                    (dict(mode=3), "mode"), (dict(method="shooting"), "method"),
+                                    (dict(mode=3), "mode"), (dict(method="exact"), "method"),
                                     (dict(harmonics=0), "harmonics"), (dict(dofs=[7]), "dofs"),
                                     (dict(points=1), "points")])
 def test_bad_input(kw, key):

@@ -60,3 +60,34 @@ def test_backbone_cli_stopped_early_exits_1_and_writes_points(tmp_path, capsys):
     d = json.loads(out.read_text())
     assert not d["success"] and len(d["omega"]) == 3 and "max_points" in d["message"]
     assert capsys.readouterr().err.startswith("error: backbone stopped early:")
+
+
+IMPACT = """name: stop1
+masses: [2]
+stiffness: 3
+damping: 0
+omega: 1.0
+forcing:
+  - {dof: 0, amplitude: 0}
+contact: {dof: 0, gap: 0.5, restitution: 1}
+"""
+
+
+def test_backbone_cli_shooting_conservative_impact(tmp_path, capsys):
+    """--method shooting on an undamped oscillator with an elastic stop: exit 0, D = 0, the shooting
+    certificate in the JSON, the period against the closed form 2 (pi - arccos(g / A)) / omega_0."""
+    case = tmp_path / "stop1.yaml"
+    case.write_text(IMPACT)
+    out = tmp_path / "b.json"
+    code = main(["backbone", str(case), "--method", "shooting", "--amplitude-start", "0.3",
+                 "--amplitude-end", "2", "--points", "4", "--out", str(out)])
+    assert code == 0
+    d = json.loads(out.read_text())
+    assert d["success"] and d["method"] == "shooting" and d["conservative"] and all(d["certified"])
+    assert all(d["stable"]) and max(abs(np.array(d["damping_ratio"]))) < 1e-7 and max(d["energy_drift"]) < 1e-7
+    A = np.sqrt(2 * np.array(d["energy"]) / 3.0)
+    T = 2 * (np.pi - np.arccos(np.minimum(0.5 / A, 1.0))) / np.sqrt(1.5)
+    hit = np.array(d["impacts"]) == 1
+    assert hit.sum() >= 3 and np.all(A[~hit] < 0.5) and np.all(A[hit] > 0.5)
+    assert np.max(np.abs(2 * np.pi / np.array(d["omega"]) / T - 1)) < 1e-6
+    assert "[backbone mode 0] points" in capsys.readouterr().err

@@ -60,7 +60,10 @@ def locate(flow, md, z, zb, W, h, thr, est, a):
                 if W is None:
                     W = flow.powers(md, z)
                 coef = C_ev[i] @ W
-                s_i = brentq(lambda s: _poly(coef, s), 0.0, h, xtol=1e-15, rtol=8.9e-16)
+                # the end value from the exponential and from the Taylor polynomial may differ in sign by
+                # rounding when the event falls on the sub-step's end: the event is then there
+                s_i = h if _poly(coef, h) > 0.0 else brentq(lambda s: _poly(coef, s), 0.0, h, xtol=1e-15,
+                                                              rtol=8.9e-16)
             elif da[i] < 0.0 < db[i]:
                 if W is None:
                     W = flow.powers(md, z)
