@@ -14,16 +14,16 @@ from .backbone import Backbone, backbone
 from .branch import Branch, continue_forcing, sweep
 from .parameter import continue_parameter
 from .switching import switch_period_doubling
-from .elements import Contact, Element, Friction, Jenkins
+from .elements import Contact, Element, Friction, Jenkins, frictional_contact
 from .errors import ConvergenceError, InputError
 from .methods.exact import exact_periodic
 from .result import PeriodicSolution
 from .system import System, chain
 
 __all__ = ["solve", "build_problem", "residual_omega_derivative", "METHODS", "System", "Element", "Friction",
-           "Jenkins", "Contact", "chain", "PeriodicSolution", "InputError", "ConvergenceError", "load_case",
-           "exact_periodic", "sweep", "Branch", "continue_forcing", "continue_parameter", "switch_period_doubling",
-           "backbone", "Backbone"]
+           "Jenkins", "Contact", "frictional_contact", "chain", "PeriodicSolution", "InputError", "ConvergenceError",
+           "load_case", "exact_periodic", "sweep", "Branch", "continue_forcing", "continue_parameter",
+           "switch_period_doubling", "backbone", "Backbone"]
 __version__ = "0.1.0"
 
 

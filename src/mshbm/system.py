@@ -27,6 +27,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .elements import Contact, Element, Friction, _dof, _finite_number
+from .elements.cone import check_cone_pairs
 from .errors import InputError
 
 __all__ = ["Friction", "Contact", "System", "chain"]
@@ -188,6 +189,7 @@ class System:
             if int(self.elements[c].dof) == int(el.dof):
                 raise InputError(f"{el.kind}.normal_contact", f"contact {c} acts on the friction's own DOF "
                                  f"{el.dof}: the normal direction must be another DOF")
+        check_cone_pairs(self.elements)
         self.name = str(name)
 
     # ------------------------------------------------------------------ basics

@@ -47,6 +47,44 @@ from .local_problem import (KIND_CONTACT, KIND_FRICTION, STATUS_CLOSED, STATUS_O
 
 
 @njit(cache=True)
+def _disk_slip_row(a, j, k, idx, where, n_eq, status, P, r, Del, dof, dof2, sign, nsrc, mu_n, dUf, A, R):
+    """Sensitivity row ``a`` of friction ``j`` slipping on the disk it shares with its cone partner ``k``.
+
+    With ``P_T = b d`` (``d`` the unit slip direction, ``gamma_T = -||gamma_T|| d``)::
+
+        dP_T = d db - (b / ||gamma_T||) (I - d d^T) dgamma_T,   dgamma_T = dr_T + D_T. dP,  db = mu_n dP_c
+
+    (``db`` only while the loading contact ``c`` is closed).  Fills ``A[a]``, ``R[a]`` and returns True; False
+    (the caller writes the stick row ``dgamma_j = 0``) where ``gamma_T`` vanishes to rounding (slip onset).
+    """
+    g1 = r[j]
+    g2 = r[k]
+    for i in range(P.shape[0]):
+        g1 += Del[j, i] * P[i]
+        g2 += Del[k, i] * P[i]
+    gn = np.sqrt(g1 * g1 + g2 * g2)
+    b = np.sqrt(P[j] * P[j] + P[k] * P[k])
+    if b <= 0.0 or gn <= 1e-13 * (abs(r[j]) + abs(r[k])):
+        return False
+    inv = b / gn
+    dj = P[j] / b
+    dk = P[k] / b
+    pj = 1.0 - dj * dj  # row j of I - d d^T
+    pk = -dj * dk
+    for bb in range(n_eq):
+        A[a, bb] = inv * (pj * Del[j, idx[bb]] + pk * Del[k, idx[bb]])
+    A[a, a] += 1.0
+    c = nsrc[j]
+    if c >= 0 and (status[c] & 3) == STATUS_CLOSED:
+        A[a, where[c]] -= dj * mu_n[j]
+    for cc in range(R.shape[1]):
+        drj = _rel(dUf[:, cc], dof[j], dof2[j], sign[j])
+        drk = _rel(dUf[:, cc], dof[k], dof2[k], sign[k])
+        R[a, cc] = -inv * (pj * drj + pk * drk)
+    return True
+
+
+@njit(cache=True)
 def _moreau_jean_scalar(q0, u0, aq, au, wg, dl, minvg, B, dB, theta, h, kind, sign, bound, gap, e, project,
                         want_sens, store_q_sens):
     """:func:`moreau_jean` for one DOF and one element, in scalar arithmetic (same results)."""
@@ -139,7 +177,7 @@ def _moreau_jean_scalar(q0, u0, aq, au, wg, dl, minvg, B, dB, theta, h, kind, si
 
 @njit(cache=True)
 def moreau_jean(q0, u0, Aq, Au, WG, Del, MinvG, B, dB, theta, h,
-                kind, dof, dof2, sign, bound, gap, e, nsrc, mu_n, project,
+                kind, dof, dof2, sign, bound, gap, e, nsrc, mu_n, tpair, project,
                 want_sens, store_q_sens, tol, max_iter, n_slider):
     """Integrate ``N = B.shape[0]`` Moreau-Jean steps.
 
@@ -154,6 +192,8 @@ def moreau_jean(q0, u0, Aq, Au, WG, Del, MinvG, B, dB, theta, h,
         for an element on one DOF, else the second DOF of a relative element.
     nsrc, mu_n : (m,) normal-load coupling of friction elements: ``nsrc[j]`` the index of the contact
         whose impulse loads friction ``j`` (bound ``bound[j] + mu_n[j] P[nsrc[j]]``), ``-1``: none.
+    tpair : (m,) cone partner of friction ``j`` (the other tangential direction of a 3-D contact: the two
+        impulses share the disk ``||(P_j, P_tpair[j])|| <= bound``), ``-1``: none.
     project : bool, project penetrating contacts back to ``g = 0``.
     want_sens : bool, propagate sensitivities w.r.t. ``(q0, u0, p)``.
     store_q_sens : bool, also store ``dq_k/d(q0,u0,p)`` at every step.
@@ -235,7 +275,7 @@ def moreau_jean(q0, u0, Aq, Au, WG, Del, MinvG, B, dB, theta, h,
             else:
                 fgap[j] = 0.0
         if m > 0:
-            it = _local_solve(uf, u, fgap, kind, dof, dof2, sign, bound, e, nsrc, mu_n, Del, P, status, tol,
+            it = _local_solve(uf, u, fgap, kind, dof, dof2, sign, bound, e, nsrc, mu_n, tpair, Del, P, status, tol,
                               max_iter, rwork, awork)
             if it > used:
                 used = it
@@ -264,7 +304,7 @@ def moreau_jean(q0, u0, Aq, Au, WG, Del, MinvG, B, dB, theta, h,
             # bound follows a closed contact (dP_T = sign(P_T) mu dP_N)
             n_eq = 0
             for j in range(m):
-                if _sens_row(j, status, nsrc):
+                if _sens_row(j, status, nsrc, tpair):
                     n_eq += 1
             for j in range(m):
                 for c in range(n_s):
@@ -274,7 +314,7 @@ def moreau_jean(q0, u0, Aq, Au, WG, Del, MinvG, B, dB, theta, h,
                 where = np.full(m, -1, dtype=np.int64)
                 t = 0
                 for j in range(m):
-                    if _sens_row(j, status, nsrc):
+                    if _sens_row(j, status, nsrc, tpair):
                         idx[t] = j
                         where[j] = t
                         t += 1
@@ -282,7 +322,11 @@ def moreau_jean(q0, u0, Aq, Au, WG, Del, MinvG, B, dB, theta, h,
                 R = np.empty((n_eq, n_s))
                 for a in range(n_eq):
                     ja = idx[a]
-                    if status[ja] == STATUS_SLIP:  # coupled slip: dP_T - sign(P_T) mu dP_N = 0
+                    if (status[ja] & 3) == STATUS_SLIP and tpair[ja] >= 0 and _disk_slip_row(
+                            a, ja, tpair[ja], idx, where, n_eq, status, P, rwork, Del, dof, dof2, sign, nsrc, mu_n,
+                            dUf, A, R):
+                        continue
+                    if status[ja] == STATUS_SLIP and tpair[ja] < 0:  # coupled slip: dP_T - sign(P_T) mu dP_N = 0
                         for b in range(n_eq):
                             A[a, b] = 0.0
                         A[a, a] = 1.0
@@ -347,19 +391,46 @@ def moreau_jean(q0, u0, Aq, Au, WG, Del, MinvG, B, dB, theta, h,
     return qt, ut, Pt, st, Sq, Su, Sqt, used
 
 
+def _disk_numpy(P, j, k, r, Del, b):
+    """The impulses of cone partners ``j, k`` with the others fixed: the minimiser of the Delassus block's
+    quadratic form on the disk ``||P|| <= b``, ``P = -(A + lam I)^-1 g``, ``lam`` by bisection."""
+    jk = [j, k]
+    others = [i for i in range(P.size) if i not in jk]
+    g = r[jk] + Del[np.ix_(jk, others)] @ P[others]
+    A = Del[np.ix_(jk, jk)]
+    if b <= 0.0:
+        return np.zeros(2)
+    p = np.linalg.solve(A, -g)
+    if np.linalg.norm(p) <= b:
+        return p
+    lo, hi = 0.0, np.linalg.norm(g) / b  # ||(A + hi I)^-1 g|| <= ||g|| / hi = b
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        if np.linalg.norm(np.linalg.solve(A + mid * np.eye(2), g)) > b:
+            lo = mid
+        else:
+            hi = mid
+    p = -np.linalg.solve(A + hi * np.eye(2), g)
+    return p * (b / np.linalg.norm(p))
+
+
 def moreau_jean_numpy(q0, u0, Aq, Au, WG, Del, MinvG, B, theta, h,
-                      kind, dof, sign, bound, gap, e, project=True, dof2=None, n_slider=0, nsrc=None, mu_n=None):
+                      kind, dof, sign, bound, gap, e, project=True, dof2=None, n_slider=0, nsrc=None, mu_n=None,
+                      tpair=None):
     """Plain NumPy version of :func:`moreau_jean` (no sensitivities), for testing.
 
     One element per step is solved in closed form; several by PGS as in the kernel.
     ``dof2``: second DOF of relative elements (-1: ground; default: all on one DOF).
     ``nsrc, mu_n``: normal-load coupling of friction elements (default: none).
+    ``tpair``: cone partners (default: none); a pair's impulse is the minimiser of the Delassus block's
+    quadratic form on the disk, found here by bisection on the multiplier (the kernel: Newton's iteration).
     Returns ``q, u, P`` with the shapes of the kernel's outputs.
     """
     N, n, m = B.shape[0], q0.size, kind.size
     dof2 = -np.ones(m, dtype=np.int64) if dof2 is None else np.asarray(dof2)
     nsrc = -np.ones(m, dtype=np.int64) if nsrc is None else np.asarray(nsrc)
     mu_n = np.zeros(m) if mu_n is None else np.asarray(mu_n, dtype=float)
+    tpair = -np.ones(m, dtype=np.int64) if tpair is None else np.asarray(tpair)
     th = np.full(n, float(theta))
     th[n - n_slider:] = 1.0  # massless slider DOFs: theta = 1
     W = np.zeros((n, m))  # columns w_j
@@ -380,6 +451,11 @@ def moreau_jean_numpy(q0, u0, Aq, Au, WG, Del, MinvG, B, theta, h,
         for _ in range(1 if m == 1 else 1000):
             Pold = P.copy()
             for j in np.flatnonzero(active):
+                if tpair[j] >= 0:
+                    if tpair[j] > j:
+                        P[[j, tpair[j]]] = _disk_numpy(P, j, tpair[j], r, Del, bound[j] + (
+                            mu_n[j] * P[nsrc[j]] if nsrc[j] >= 0 else 0.0))
+                    continue
                 p = P[j] - (r[j] + Del[j] @ P) / Del[j, j]
                 if kind[j] == KIND_FRICTION:
                     b = bound[j] + (mu_n[j] * P[nsrc[j]] if nsrc[j] >= 0 else 0.0)

@@ -154,6 +154,8 @@ class MoreauJean:
         #: normal-load coupling: index of the contact loading friction ``j`` (-1: none) and its ``mu``
         self.nsrc = np.full(m, -1, dtype=np.int64)
         self.mu_n = np.zeros(m)
+        #: cone partners (the two tangential directions of a 3-D contact), -1: none
+        self.tpair = np.full(m, -1, dtype=np.int64)
         for j, el in enumerate(elements):
             for d, w in el.direction:
                 G[d, j] = w
@@ -162,6 +164,7 @@ class MoreauJean:
                 self.dof2[j] = el.relative_to
             self.kind[j], self.bound[j], self.gap[j], self.e[j] = el.kernel_parameters(h)
             self.nsrc[j], self.mu_n[j] = el.kernel_coupling()
+            self.tpair[j] = el.kernel_partner()
         for j in np.flatnonzero(self.nsrc >= 0):
             c = int(self.nsrc[j])
             if not (0 <= c < m and c != j and self.kind[c] == kernels.KIND_CONTACT):
@@ -255,7 +258,7 @@ class MoreauJean:
             self.Aq, self.Au, self.WG, self.Del, self.MinvG,
             np.ascontiguousarray(B, dtype=float), np.ascontiguousarray(dB, dtype=float),
             self.theta, self.h, self.kind, self.dof, self.dof2, self.sign, self.bound, self.gap, self.e,
-            self.nsrc, self.mu_n, self.project, bool(sensitivities or store_q_sensitivities), bool(store_q_sensitivities),
+            self.nsrc, self.mu_n, self.tpair, self.project, bool(sensitivities or store_q_sensitivities), bool(store_q_sensitivities),
             self.tol, self.max_iter, self.n - self.n_structure)
         return Trajectory(*out)
 
@@ -302,6 +305,11 @@ class MoreauJean:
                     raise ValueError("step_jacobian: a friction element slips with the bound of a closed "
                                      "contact; pass slip_sign (MoreauJean.slip_signs)")
                 slip[j] = True
+        for j in np.flatnonzero(self.tpair >= 0):
+            if base[j] == kernels.STATUS_SLIP:
+                raise InputError("friction.cone_partner", "the step Jacobian of a 3-D frictional contact in slip "
+                                 "depends on the slip direction, not on the active set alone: use the kernel's "
+                                 "sensitivities (run(..., sensitivities=True))")
         E = np.flatnonzero(eq | slip)
         dUn = dUf.copy()
         if E.size:

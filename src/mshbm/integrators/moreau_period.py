@@ -79,8 +79,15 @@ class MoreauJeanIntegrator(PeriodIntegrator):
 
     def run(self, q0, u0, p=None, sensitivities=False, record=False):
         if self.part is None:
-            tr = self.trajectory(q0, u0)
-            jac = self.stepper.monodromy(tr.status, tr.P) if sensitivities else None
+            if sensitivities and np.any(self.stepper.tpair >= 0):
+                # a 3-D frictional contact: the step Jacobian in slip depends on the slip direction (the
+                # kernel's sensitivities, not the active-set monodromy)
+                tr = self.stepper.run(q0, u0, self.B, sensitivities=True)
+                n = self.stepper.n
+                jac = np.vstack([tr.Sq[:, :2 * n], tr.Su[:, :2 * n]])
+            else:
+                tr = self.trajectory(q0, u0)
+                jac = self.stepper.monodromy(tr.status, tr.P) if sensitivities else None
             out = PeriodRun(end=np.concatenate([tr.q[-1], tr.u[-1]]), jacobian=jac, raw=tr)
         else:
             tr = self.part.run(q0, u0, p, sensitivities)

@@ -196,6 +196,9 @@ class DLFTProblem(HarmonicProblem):
         self.predictor = dlft_predictor
         n = system.n
         for el in system.elements:
+            if el.cone_partner is not None:
+                raise InputError("friction.cone_partner", "DLFT does not support the 3-D frictional contact (cone "
+                                 "partners); use method 'hbm' (regularised cone), 'shooting' or 'mshbm'")
             if el.normal_contact is not None and dlft_predictor != "velocity":
                 raise InputError("friction.normal_contact", "DLFT supports friction with a normal load from a "
                                  "contact with dlft_predictor 'velocity' only")

@@ -1,0 +1,161 @@
+"""3-D frictional contact: two :class:`~mshbm.elements.Friction` elements linked as *cone partners*.
+
+A contact point with two tangential DOFs ``t1, t2`` and one normal DOF ``n`` (each relative to a second
+DOF, or to the ground) is modelled by the existing elements, linked by indices into the system's element
+list:
+
+* ``Friction(t1, mu, N_0, cone_partner=j2, normal_contact=c)`` and ``Friction(t2, mu, N_0, cone_partner=j1,
+  normal_contact=c)``: the tangential force ``lambda_T = (lambda_T1, lambda_T2)`` obeys Coulomb's law with
+  the **circular cone** ``||lambda_T|| <= mu F_N`` and maximal dissipation,
+  ``-lambda_T in mu F_N d||gamma_T||`` (``gamma_T = (gamma_T1, gamma_T2)``, the slip direction rotates);
+* ``Contact(n, gap, e_N)`` (optional, index ``c``): the unilateral normal contact with Newton's restitution
+  whose force loads the friction, ``F_N = N_0 + lambda_N``; without it the normal load is the constant
+  ``N_0 = normal_force``.
+
+:func:`frictional_contact` builds the two or three elements with the indices filled in.
+
+Methods:
+
+* **Moreau-Jean** (shooting, both MS-HBM variants): the local problem projects the tangential impulse onto
+  the disk ``||P_T|| <= mu (h N_0 + P_N)`` -- the pair is one block of the projected Gauss-Seidel sweep,
+  solved exactly for the current bound (:func:`mshbm.integrators.local_problem._disk_solve`, the
+  trust-region subproblem of the 2x2 Delassus block); the sensitivities are exact for the active set,
+  with the rotation of the slip direction in slip (:mod:`mshbm.integrators.kernels`).
+* **HBM**: the regularised cone law (:func:`cone_law`)::
+
+      lambda_T = -mu F_N (2/pi) arctan(kappa ||gamma_T||) gamma_T / ||gamma_T||
+
+  smooth at ``gamma_T = 0`` (``arctan(x)/x`` is even and analytic) and, with the slip in one direction,
+  *exactly* the 1-D law of eq. (42); ``kappa`` is the friction's ``smoothing`` (default from the unit-free
+  rule of :mod:`mshbm.methods.hbm_regularisation`, one value per pair from the pair's larger velocity
+  scale).  With a normal contact ``F_N = N_0 + max(lambda_N, 0)`` with the penalty force (eq. 45).
+* **DLFT**, the **exact event-driven flow**, the backbone (EPMC), Hill's method and
+  ``penalty_quadrature="linear"``: not supported, a clear :class:`~mshbm.errors.InputError` naming
+  ``friction.cone_partner`` (time stepping: the Moreau-Jean integrator).
+* **Certificate**: ``friction_cone`` checks ``||lambda_T|| <= mu F_N`` per sample; ``cone_dissipation``
+  checks maximal dissipation, ``lambda_T . gamma_T = -||lambda_T|| ||gamma_T||`` wherever the pair slips.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import InputError
+
+__all__ = ["frictional_contact", "cone_law", "cone_pairs", "check_cone_pairs"]
+
+
+def frictional_contact(t1, t2, mu, normal_force=0.0, *, normal=None, gap=0.0, restitution=0.0, first=0,
+                       relative_to=None, smoothing=None, penalty_stiffness=None, penalty_damping=0.0):
+    """The elements of one 3-D frictional contact, to be placed at ``elements[first:first + 2 or 3]``.
+
+    Parameters
+    ----------
+    t1, t2 : int
+        Tangential DOFs.
+    mu : float
+        Friction coefficient.
+    normal_force : float
+        ``N_0`` (N): the constant normal load, or with ``normal`` the preload added to the contact force.
+    normal : int or None
+        Normal DOF of a unilateral contact (gap ``g_N = gap - q_n``, restitution ``e_N``) whose force loads
+        the friction; ``None``: the constant normal load ``normal_force``.
+    first : int
+        Index of the first returned element in the system's element list.
+    relative_to : None or tuple of (int or None)
+        Second DOFs ``(J1, J2, Jn)`` of a contact between two nodes (``None`` entries: the ground).
+    smoothing, penalty_stiffness, penalty_damping : as for :class:`Friction` and :class:`Contact` (HBM only).
+
+    Returns
+    -------
+    list of Element: ``[Friction(t1), Friction(t2)]`` and, with ``normal``, ``Contact(normal)``.
+    """
+    from .contact import Contact
+    from .friction import Friction
+
+    J = (None, None, None) if relative_to is None else tuple(relative_to)
+    if len(J) != 3:
+        raise InputError("frictional_contact.relative_to", f"must be three DOFs (J1, J2, Jn) or None, got {J!r}")
+    c = None if normal is None else first + 2
+    out = [Friction(t1, mu, normal_force, smoothing=smoothing, relative_to=J[0], normal_contact=c,
+                    cone_partner=first + 1),
+           Friction(t2, mu, normal_force, smoothing=smoothing, relative_to=J[1], normal_contact=c,
+                    cone_partner=first)]
+    if normal is not None:
+        out.append(Contact(normal, gap, restitution, penalty_stiffness=penalty_stiffness,
+                           penalty_damping=penalty_damping, relative_to=J[2]))
+    return out
+
+
+def cone_pairs(elements):
+    """``[(j, k)]`` with ``j < k``: the cone partners among ``elements``."""
+    return [(j, int(el.cone_partner)) for j, el in enumerate(elements)
+            if el.cone_partner is not None and j < el.cone_partner]
+
+
+def check_cone_pairs(elements):
+    """Clear errors for inconsistent cone partners (:class:`~mshbm.errors.InputError` naming
+    ``friction.cone_partner``)."""
+    m = len(elements)
+    for j, el in enumerate(elements):
+        k = el.cone_partner
+        if k is None:
+            continue
+        key = "friction.cone_partner"
+        if not 0 <= k < m or k == j:
+            raise InputError(key, f"friction {j}: no other element {k} (the system has {m})")
+        other = elements[k]
+        if not other.bounded or other.cone_partner != j:
+            raise InputError(key, f"friction {j} names element {k} as its cone partner, which must be a friction "
+                             f"naming {j} back (got a {other.kind} with cone_partner {other.cone_partner})")
+        if int(other.dof) == int(el.dof) and other.relative_to == el.relative_to:
+            raise InputError(key, f"frictions {j} and {k} act on the same DOF {el.dof}: the two tangential "
+                             "directions must be different DOFs")
+        for name in ("mu", "normal_force", "normal_contact", "smoothing"):
+            if getattr(el, name) != getattr(other, name):
+                raise InputError(key, f"cone partners {j} and {k} must have the same {name} (one contact point), "
+                                 f"got {getattr(el, name)!r} and {getattr(other, name)!r}")
+
+
+def _atan_ratio(x):
+    """``A(x) = arctan(x)/x`` and ``B(x) = (x/(1+x^2) - arctan(x))/x^3`` (``A'(x) = x B(x)``), with their
+    series at small ``x`` (``A -> 1``, ``B -> -2/3``)."""
+    x = np.asarray(x, dtype=float)
+    small = x < 1e-3
+    xs = np.where(small, 1.0, x)
+    at = np.arctan(xs)
+    x2 = x * x
+    A = np.where(small, 1.0 - x2 / 3.0 + x2 * x2 / 5.0, at / xs)
+    B = np.where(small, -2.0 / 3.0 + 0.8 * x2 - 6.0 / 7.0 * x2 * x2, (xs / (1.0 + xs * xs) - at) / xs ** 3)
+    return A, B
+
+
+def cone_law(el, g1, g2, lam_n=None, dn_ds=None, dn_dgamma=None):
+    """Regularised cone law of friction ``el`` (direction 1) given its slip ``g1`` and its partner's ``g2``::
+
+        lambda_1 = -mu F_N (2/pi) arctan(kappa r) g1 / r,    r = ||(g1, g2)||
+
+    ``F_N = N_0`` or, with the contact force samples ``lam_n`` (and its derivatives ``dn_ds``,
+    ``dn_dgamma`` with respect to the contact's own ``s_N``, ``gamma_N``), ``N_0 + max(lambda_N, 0)``.
+
+    Returns ``(lam, dlam_dg1, dlam_dg2, dlam_ds_N, dlam_dgamma_N)`` (``None`` for a vanishing term).
+    """
+    if el.smoothing is None:
+        raise TypeError("friction.smoothing is None (the default): HBM fills it in from the problem's scales "
+                        "(mshbm.methods.hbm_regularisation.resolve) before the law is evaluated")
+    kappa = float(el.smoothing)
+    g1, g2 = np.asarray(g1, dtype=float), np.asarray(g2, dtype=float)
+    x = kappa * np.hypot(g1, g2)
+    A, B = _atan_ratio(x)
+    c = (2.0 / np.pi) * kappa
+    phi = -c * A * g1  # lambda_1 / (mu F_N)
+    d11 = -c * (A + kappa * kappa * B * g1 * g1)
+    d12 = -c * kappa * kappa * B * g1 * g2
+    if lam_n is None:
+        b = el.mu * el.normal_force
+        return b * phi, b * d11, b * d12, None, None
+    pos = lam_n > 0.0
+    FN = el.normal_force + np.where(pos, lam_n, 0.0)
+    dsN = None if dn_ds is None else el.mu * phi * np.where(pos, dn_ds, 0.0)
+    dgN = None if dn_dgamma is None else el.mu * phi * np.where(pos, dn_dgamma, 0.0)
+    b = el.mu * FN
+    return b * phi, b * d11, b * d12, dsN, dgN
