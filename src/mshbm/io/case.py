@@ -210,6 +210,12 @@ def _elements(kind, value, n, contacts=()):
                     raise InputError(f"{key}.{name}", f"contact {i} acts on the friction's own DOF {vals['dof']}: "
                                      "the normal direction must be another DOF")
                 vals[name] = len(items) + i
+            elif name == "cone_partner":
+                i = _integer(f"{key}.{name}", item[name], minimum=0)
+                if i >= len(items) or i == len(out):
+                    raise InputError(f"{key}.{name}", f"must be the index of another friction entry (0..{len(items) - 1}, "
+                                     f"not its own {len(out)}), got {i}")
+                vals[name] = i
             else:
                 vals[name] = _number(f"{key}.{name}", item[name])
         if vals.get("relative_to") is not None and vals["relative_to"] == vals["dof"]:

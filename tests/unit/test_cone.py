@@ -1,0 +1,260 @@
+"""3-D frictional contact: two frictions linked as cone partners (circular cone ``||lambda_T|| <= mu F_N``,
+:mod:`mshbm.elements.cone`).
+
+Independent references:
+
+* **rotating force on an isotropic 2-DOF oscillator** (``m, c, k`` in both tangential directions) with a
+  constant normal load ``N``: the steady state is a circular orbit of radius ``r`` solving
+  ``|F|^2 = ((k - m w^2) r)^2 + (c w r + mu N)^2``.  Moreau-Jean's periodic orbit is a discrete circle too
+  (the scheme commutes with rotations): with ``rho = exp(i w h)``, ``a = 1 - theta + theta rho``,
+  ``D = m (rho - 1) + h c a + h^2 k a^2 / (rho - 1)`` its velocity modulus ``s`` solves
+  ``|s D + h mu N rho| = h F |a|`` and ``r_h = h |a| s / |rho - 1|`` -- the exact reference of shooting and
+  both MS-HBM variants at every step count; ``r_h - r = O(h)`` (the friction impulse acts with the velocity
+  at the step's end), shown by the error times ``N`` and by Richardson extrapolation of the solver's radii
+  to 1e-6.  HBM (regularised cone) lies within its own regularisation estimate;
+* **slip confined to one direction** (a force along ``q0`` only): the pair gives the 1-D friction element's
+  solution to 1e-12 (Moreau-Jean: the disk projection is the interval's; HBM: the regularised cone law
+  reduces to eq. 42 exactly);
+* **varying normal load** (``examples/cone3d.yaml``): Coulomb's cone on every step, no penetration,
+  maximal dissipation, shooting = MS-HBM, the kernel = its NumPy twin, sensitivities = central differences;
+* clear refusals (event flow, DLFT) and input errors (inconsistent partners, case files).
+"""
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import mshbm
+from mshbm import Friction, InputError, System, frictional_contact
+from mshbm.integrators import kernels
+from mshbm.integrators.moreau_jean import MoreauJean
+from tests import discretised
+
+ROOT = Path(__file__).resolve().parents[2]
+m, c, k, MU, N0, F = 1.0, 0.05, 1.0, 0.3, 1.0, 1.0
+W = 0.8
+
+
+def oscillator(direction="rotating", pair=True, smoothing=None):
+    """Isotropic 2-DOF oscillator with a 3-D friction contact at constant normal load ``N0`` (``pair=False``:
+    the 1-D friction element on q0 instead)."""
+    fh = np.zeros((3, 2))
+    fh[1, 0] = F
+    if direction == "rotating":
+        fh[2, 1] = F
+    els = frictional_contact(0, 1, MU, N0, smoothing=smoothing) if pair else [Friction(0, MU, N0, smoothing=smoothing)]
+    return System(m * np.eye(2), c * np.eye(2), k * np.eye(2), fh, els, name="cone2")
+
+
+def radius(w):
+    """The circular orbit's radius (closed form)."""
+    a, b = (k - m * w * w) ** 2 + (c * w) ** 2, 2 * c * w * MU * N0
+    return (-b + np.sqrt(b * b - 4 * a * ((MU * N0) ** 2 - F ** 2))) / (2 * a)
+
+
+def radius_discrete(w, N, theta=0.5):
+    """The Moreau-Jean orbit's radius with ``N`` steps per period (closed form, module docstring)."""
+    h = 2 * np.pi / w / N
+    rho = np.exp(1j * w * h)
+    a = 1 - theta + theta * rho
+    D = m * (rho - 1) + h * c * a + h * h * k * a * a / (rho - 1)
+    A, B = abs(D) ** 2, 2 * h * MU * N0 * (D * np.conj(rho)).real
+    C = (h * MU * N0) ** 2 - (h * F * abs(a)) ** 2
+    s = (-B + np.sqrt(B * B - 4 * A * C)) / (2 * A)
+    return h * abs(a) * s / abs(rho - 1)
+
+
+def _solve(system, method, **kw):
+    sol = discretised.solve(system, W, method, **kw)
+    assert sol.success, sol.message
+    return sol
+
+
+# ----------------------------------------------------------------------------- rotating force: closed forms
+@pytest.mark.parametrize("method", ["shooting", "mshbm", "mshbm-intermediate"])
+def test_rotating_force_moreau_jean_is_the_discrete_circle(method):
+    """Every step of the periodic orbit lies on the discrete closed form's circle (1e-9 relative), with the
+    friction force of full magnitude opposing the end-of-step slip (certificate: cone and dissipation)."""
+    for N in (512, 2048):
+        sol = _solve(oscillator(), method, steps=N, harmonics=3)
+        r = np.hypot(sol.q[:, 0], sol.q[:, 1])
+        rd = radius_discrete(W, N)
+        assert np.max(np.abs(r - rd)) <= 1e-9 * rd
+        cert = sol.certificate
+        assert cert["friction_cone"].value <= 1 + 1e-12
+        assert cert["cone_dissipation"].gating and cert["cone_dissipation"].value <= 1e-12
+        assert abs(np.hypot(sol.lam[:, 0], sol.lam[:, 1]) - MU * N0).max() <= 1e-12  # slips all the time
+
+
+def test_rotating_force_time_step_error_converges_to_closed_form():
+    """``r_h - r`` is first order in ``h`` (``N (r_h - r)`` constant to 2 % from N = 1024 to 65536), and two Richardson steps on the
+    shooting radii at N = 1024, 2048, 4096 reach the closed form to 1e-6."""
+    r = radius(W)
+    err = [N * (radius_discrete(W, N) - r) for N in (1024, 4096, 65536)]
+    assert err[0] > 0 and abs(err[1] / err[0] - 1) < 0.02 and abs(err[2] / err[0] - 1) < 0.02
+    rs = []
+    for N in (1024, 2048, 4096):
+        sol = _solve(oscillator(), "shooting", steps=N, harmonics=3)
+        rs.append(float(np.mean(np.hypot(sol.q[:, 0], sol.q[:, 1]))))
+    r1 = [2 * rs[1] - rs[0], 2 * rs[2] - rs[1]]
+    r2 = (4 * r1[1] - r1[0]) / 3
+    assert abs(rs[2] - r) > 1e-4 * r  # the raw error is the time step's
+    assert abs(r2 - r) <= 1e-6 * r
+
+
+def test_rotating_force_hbm_within_regularisation_error():
+    """HBM with the regularised cone (default kappa) and accuracy estimation off: the radius lies within the
+    certificate's regularisation estimate of the closed form (measured: 7e-7 against the estimate 3.8e-6),
+    and a 10x stiffer law comes 5x closer at least."""
+    r = radius(W)
+    sol = _solve(oscillator(), "hbm", harmonics=3)
+    rr = np.hypot(sol.q[:, 0], sol.q[:, 1])
+    est = sol.certificate["regularisation"].value
+    assert np.max(np.abs(rr - r)) / r <= est <= 1e-5
+    kappa = mshbm.methods.hbm_regularisation.resolve(oscillator(), W)[0].elements[0].smoothing
+    e1 = abs(np.mean(np.hypot(*_solve(oscillator(smoothing=kappa), "hbm", harmonics=3).q[:, :2].T)) - r)
+    e10 = abs(np.mean(np.hypot(*_solve(oscillator(smoothing=10 * kappa), "hbm", harmonics=3).q[:, :2].T)) - r)
+    assert e10 <= e1 / 5
+
+
+# ----------------------------------------------------------------------------- slip confined to one direction
+@pytest.mark.parametrize("method, kw", [("shooting", dict(steps=1024)), ("mshbm", dict(steps=1024, harmonics=5)),
+                                        ("hbm", dict(harmonics=5))])
+def test_slip_in_one_direction_is_the_1d_element(method, kw):
+    """A force along q0 only: the 3-D contact's solution is the 1-D friction element's to 1e-12."""
+    a = _solve(oscillator("q0", pair=True, smoothing=50.0), method, **kw)
+    b = _solve(oscillator("q0", pair=False, smoothing=50.0), method, **kw)
+    scale = float(np.abs(b.q[:, 0]).max())
+    assert np.max(np.abs(a.q[:, 0] - b.q[:, 0])) <= 1e-12 * scale
+    assert np.max(np.abs(a.q[:, 1])) <= 1e-12 * scale
+    assert np.max(np.abs(a.lam[:, 0] - b.lam[:, 0])) <= 1e-12 * MU * N0
+
+
+def test_kernel_one_direction_equals_1d_kernel_stepwise():
+    """Trajectories of the kernel from one state: the pair under a force along q0 equals the 1-D element."""
+    h = 2 * np.pi / W / 256
+    out = []
+    for pair in (True, False):
+        s = oscillator("q0", pair=pair)
+        st = MoreauJean(s.M, s.C, s.K, list(s.elements), h, 0.5, True)
+        t = np.linspace(0, 2 * np.pi / W, 257)
+        B = st.increments(s.forcing(t, W))
+        out.append(st.run(np.array([0.3, 0.0]), np.array([0.0, 0.0]), B))
+    assert np.max(np.abs(out[0].q - out[1].q)) <= 1e-13
+    assert np.max(np.abs(out[0].P[:, 0] - out[1].P[:, 0])) <= 1e-15
+
+
+# ----------------------------------------------------------------------------- varying normal load
+def _cone3d():
+    case = mshbm.load_case(ROOT / "examples" / "cone3d.yaml")
+    return case.system, case.omega
+
+
+def test_varying_normal_load_cone_and_non_penetration():
+    """examples/cone3d.yaml: the normal load varies (0.43..1.53 N), the contact stays closed; on every step
+    ``||P_T|| <= mu P_N`` (attained while slipping), the normal DOF never penetrates, the certificate's cone,
+    dissipation and energy checks pass; shooting and MS-HBM agree to Newton's tolerance (same scheme)."""
+    S, w = _cone3d()
+    a = discretised.solve(S, w, "shooting", steps=2048)
+    b = discretised.solve(S, w, "mshbm", steps=2048, harmonics=15)
+    for sol in (a, b):
+        assert sol.success, sol.message
+        P = sol.impulses
+        PT, PN = np.hypot(P[:, 0], P[:, 1]), P[:, 2]
+        assert np.all(PT <= 0.5 * PN * (1 + 1e-12))
+        assert np.min(sol.q[:, 2]) >= -1e-7  # gap 0 (MS-HBM: the Newton tolerance of the closed contact)
+        for name in ("friction_cone", "non_penetration", "cone_dissipation", "energy_balance"):
+            assert sol.certificate[name].passed, name
+    lamN = a.impulses[:, 2] / (2 * np.pi / w / 2048)
+    assert lamN.min() < 0.5 and lamN.max() > 1.5  # the load varies
+    assert np.max(np.abs(a.q - b.q)) <= 1e-6 * np.abs(a.q).max()
+
+
+def test_varying_normal_load_hbm_agrees_with_shooting():
+    """HBM (regularised cone, penalty contact) agrees with shooting to the sum of the Moreau-Jean step error
+    (O(h), measured 2e-4 at 2048 steps) and the regularisation's (measured 6e-5): 1e-3 of the amplitude."""
+    S, w = _cone3d()
+    a = discretised.solve(S, w, "shooting", steps=2048)
+    hb = discretised.solve(S, w, "hbm", harmonics=15)
+    assert a.success and hb.success, hb.message
+    amp = np.abs(a.amplitude[:2])
+    assert np.max(np.abs(hb.amplitude[:2] - amp)) <= 1e-3 * amp.max()
+    assert hb.certificate["friction_cone"].value <= 1.0
+
+
+def _stepper(h):
+    S, w = _cone3d()
+    st = MoreauJean(np.asarray(S.M), np.asarray(S.C), np.asarray(S.K), list(S.elements), h, 0.5, True)
+    t = np.arange(401) * h
+    return st, st.increments(S.forcing(t, w))
+
+
+def test_kernel_equals_numpy_twin_with_rotating_slip():
+    """The compiled kernel and its NumPy twin (the disk by bisection instead of Newton's iteration) agree on
+    400 steps of rotating slip with a varying normal load."""
+    h = 2 * np.pi / 0.8 / 512
+    st, B = _stepper(h)
+    q0, u0 = np.array([0.5, -0.8, 0.0]), np.array([0.3, 0.9, 0.0])
+    tr = st.run(q0, u0, B)
+    assert np.any((tr.status[:, 0] & 3) == kernels.STATUS_SLIP) and np.any(np.abs(tr.P[:, 1]) > 1e-3)
+    q, u, P = kernels.moreau_jean_numpy(q0, u0, st.Aq, st.Au, st.WG, st.Del, st.MinvG, B, st.theta, st.h, st.kind,
+                                        st.dof, st.sign, st.bound, st.gap, st.e, dof2=st.dof2, nsrc=st.nsrc,
+                                        mu_n=st.mu_n, tpair=st.tpair)
+    assert np.max(np.abs(q - tr.q)) <= 1e-10 and np.max(np.abs(P - tr.P)) <= 1e-12
+
+
+def test_kernel_sensitivities_with_rotating_slip_equal_central_differences():
+    """``d(q_N, u_N)/d(q_0, u_0)`` of the kernel (rotating slip, closed contact) = central differences."""
+    h = 2 * np.pi / 0.8 / 512
+    st, B = _stepper(h)
+    B = B[:120]
+    x0 = np.array([0.5, -0.8, 0.0, 0.3, 0.9, 0.0])
+    tr = st.run(x0[:3], x0[3:], B, sensitivities=True)
+    J = np.vstack([tr.Sq[:, :6], tr.Su[:, :6]])
+    Jfd = np.zeros((6, 6))
+    eps = 1e-7
+    for i in range(6):
+        if i in (2, 5):  # the normal DOF on the stop: one-sided (a closed contact), skip its columns
+            continue
+        d = np.zeros(6)
+        d[i] = eps
+        e = [st.run((x0 + s * d)[:3], (x0 + s * d)[3:], B) for s in (1, -1)]
+        Jfd[:, i] = (np.concatenate([e[0].q[-1], e[0].u[-1]]) - np.concatenate([e[1].q[-1], e[1].u[-1]])) / (2 * eps)
+    cols = [0, 1, 3, 4]
+    assert np.max(np.abs(J[:, cols] - Jfd[:, cols])) <= 1e-6 * max(1.0, np.abs(J[:, cols]).max())
+
+
+# ----------------------------------------------------------------------------- refusals and input errors
+def test_event_flow_refuses_with_the_element_named():
+    with pytest.raises(InputError) as exc:
+        mshbm.solve(oscillator(), W, "shooting", integrator="event", steps=256)
+    assert exc.value.key == "friction.cone_partner" and "moreau" in str(exc.value)
+
+
+def test_dlft_refuses():
+    with pytest.raises(InputError) as exc:
+        mshbm.solve(oscillator(), W, "dlft", harmonics=3)
+    assert exc.value.key == "friction.cone_partner"
+
+
+@pytest.mark.parametrize("els, what", [
+    (lambda: [Friction(0, MU, N0, cone_partner=1), Friction(1, MU, N0)], "naming 0 back"),
+    (lambda: [Friction(0, MU, N0, cone_partner=1), Friction(1, 2 * MU, N0, cone_partner=0)], "same mu"),
+    (lambda: [Friction(0, MU, N0, cone_partner=5), Friction(1, MU, N0, cone_partner=0)], "no other element"),
+])
+def test_inconsistent_partners_are_input_errors(els, what):
+    with pytest.raises(InputError) as exc:
+        System(np.eye(2), np.zeros((2, 2)), np.eye(2), np.zeros((3, 2)), els())
+    assert exc.value.key == "friction.cone_partner" and what in str(exc.value)
+
+
+def test_case_file_cone_partner(tmp_path):
+    S, _ = _cone3d()
+    assert S.elements[0].cone_partner == 1 and S.elements[1].cone_partner == 0
+    assert S.elements[0].normal_contact == 2
+    bad = (ROOT / "examples" / "cone3d.yaml").read_text().replace("cone_partner: 0}", "cone_partner: 1}")
+    p = tmp_path / "bad.yaml"
+    p.write_text(bad)
+    with pytest.raises(InputError) as exc:
+        mshbm.load_case(p)
+    assert "cone_partner" in exc.value.key
