@@ -380,7 +380,10 @@ def _step_map(system, sol, steps, theta, prefix, t0):
         prob = ShootingProblem(system, sol.omega, N, theta=theta)
         x = np.concatenate([sol.q[0], sol.u[0]])
         tr = prob.simulate(x)
-        Phi = prob.stepper.monodromy(tr.status, tr.P)
+        if np.any(prob.stepper.tpair >= 0):  # 3-D contact: the slip direction rotates, the kernel's sensitivities
+            Phi = prob._run(x, sensitivities=True).jacobian
+        else:
+            Phi = prob.stepper.monodromy(tr.status, tr.P)
         if not np.all(np.isfinite(Phi)):
             raise np.linalg.LinAlgError("non-finite monodromy matrix")
         mult = np.linalg.eigvals(Phi)
