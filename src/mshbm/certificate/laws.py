@@ -18,8 +18,9 @@
     Maximal dissipation where a cone pair slips: ``max (mu F_N ||gamma_T|| + lambda_T . gamma_T) /
     (mu F_N ||gamma_T||)`` over the samples with ``||gamma_T|| > 1e-6 V`` (0: the force opposes the slip with
     the full bound).  Time stepping (gating, bound ``1e-8``): the impulse of step ``k`` against the slip velocity
-    at its end, ``gamma_T(t_k+1)`` (the law of the local problem); HBM (reported): the regularised law's
-    deficit ``1 - (2/pi) arctan(kappa ||gamma_T||)`` by construction.  ``friction_cone`` takes the pair's
+    at its end, ``gamma_T(t_k+1)`` (the law of the local problem); HBM and DLFT (reported): HBM's regularised
+    law has the deficit ``1 - (2/pi) arctan(kappa ||gamma_T||)`` by construction, DLFT's law holds on its
+    Lagrangian velocity, not on the series.  ``friction_cone`` takes the pair's
     ``||lambda_T||`` per sample.
 """
 from __future__ import annotations
@@ -208,5 +209,6 @@ def cone_check(problem, sol, system, lam, V, stepper, cert):
     else:
         cert.checks.append(Check("cone_dissipation", val, None, True, False,
                                  note="max (mu F_N ||gamma_T|| + lambda_T . gamma_T) / (mu F_N ||gamma_T||) where a "
-                                 "3-D contact slips; the regularised cone law's deficit 1 - (2/pi) arctan(kappa "
-                                 "||gamma_T||) by construction (reported, not gating)"))
+                                 "3-D contact slips; HBM: the regularised cone law's deficit 1 - (2/pi) arctan(kappa "
+                                 "||gamma_T||) by construction; DLFT: the law holds on the Lagrangian velocity, not "
+                                 "the series (reported, not gating)"))

@@ -29,9 +29,13 @@ Methods:
   *exactly* the 1-D law of eq. (42); ``kappa`` is the friction's ``smoothing`` (default from the unit-free
   rule of :mod:`mshbm.methods.hbm_regularisation`, one value per pair from the pair's larger velocity
   scale).  With a normal contact ``F_N = N_0 + max(lambda_N, 0)`` with the penalty force (eq. 45).
-* **DLFT**, the **exact event-driven flow**, the backbone (EPMC), Hill's method and
+* **DLFT** (velocity predictor): the pair's prediction ``y_T`` projected onto the disk, one penalty per pair
+  (:mod:`mshbm.methods.dlft`).
+* The **exact event-driven flow**, DLFT's displacement predictor, the backbone (EPMC) and
   ``penalty_quadrature="linear"``: not supported, a clear :class:`~mshbm.errors.InputError` naming
-  ``friction.cone_partner`` (time stepping: the Moreau-Jean integrator).
+  ``friction.cone_partner`` (time stepping: the Moreau-Jean integrator).  Hill's method (HBM stability)
+  reports that it cannot take the pair's coupling terms; the step map's multipliers come from the kernel's
+  sensitivities.
 * **Certificate**: ``friction_cone`` checks ``||lambda_T|| <= mu F_N`` per sample; ``cone_dissipation``
   checks maximal dissipation, ``lambda_T . gamma_T = -||lambda_T|| ||gamma_T||`` wherever the pair slips.
 """

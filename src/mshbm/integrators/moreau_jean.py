@@ -258,7 +258,8 @@ class MoreauJean:
             self.Aq, self.Au, self.WG, self.Del, self.MinvG,
             np.ascontiguousarray(B, dtype=float), np.ascontiguousarray(dB, dtype=float),
             self.theta, self.h, self.kind, self.dof, self.dof2, self.sign, self.bound, self.gap, self.e,
-            self.nsrc, self.mu_n, self.tpair, self.project, bool(sensitivities or store_q_sensitivities), bool(store_q_sensitivities),
+            self.nsrc, self.mu_n, self.tpair, self.project, bool(sensitivities or store_q_sensitivities),
+            bool(store_q_sensitivities),
             self.tol, self.max_iter, self.n - self.n_structure)
         return Trajectory(*out)
 

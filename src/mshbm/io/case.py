@@ -213,7 +213,8 @@ def _elements(kind, value, n, contacts=()):
             elif name == "cone_partner":
                 i = _integer(f"{key}.{name}", item[name], minimum=0)
                 if i >= len(items) or i == len(out):
-                    raise InputError(f"{key}.{name}", f"must be the index of another friction entry (0..{len(items) - 1}, "
+                    raise InputError(f"{key}.{name}", "must be the index of another friction entry "
+                                     f"(0..{len(items) - 1}, "
                                      f"not its own {len(out)}), got {i}")
                 vals[name] = i
             else:
