@@ -27,7 +27,7 @@ import numpy as np
 import pytest
 
 import mshbm
-from mshbm import Friction, InputError, System, frictional_contact
+from mshbm import Friction, InputError, Jenkins, System, frictional_contact
 from mshbm.integrators import kernels
 from mshbm.integrators.moreau_jean import MoreauJean
 from tests import discretised
@@ -169,6 +169,80 @@ def test_kernel_one_direction_equals_1d_kernel_stepwise():
         out.append(st.run(np.array([0.3, 0.0]), np.array([0.0, 0.0]), B))
     assert np.max(np.abs(out[0].q - out[1].q)) <= 1e-13
     assert np.max(np.abs(out[0].P[:, 0] - out[1].P[:, 0])) <= 1e-15
+
+
+# ----------------------------------------------------------------------------- 3-D Jenkins (tangential stiffness)
+KT = 2.0
+
+
+def jenkins_oscillator(direction="rotating", pair=True):
+    fh = np.zeros((3, 2))
+    fh[1, 0] = F
+    if direction == "rotating":
+        fh[2, 1] = F
+    els = frictional_contact(0, 1, MU, N0, tangential_stiffness=KT) if pair else [Jenkins(0, MU, N0,
+                                                                                          tangential_stiffness=KT)]
+    return System(m * np.eye(2), c * np.eye(2), k * np.eye(2), fh, els, name="jenkins2")
+
+
+def radius_jenkins(w):
+    """Rotating force, 3-D Jenkins in steady slip: the slider circles at radius ``rho`` behind the mass by the
+    spring's stretch ``beta = mu N / k_t`` (the force ``mu N`` opposes the slider's velocity); with
+    ``D = k - m w^2 + i c w``: ``|D (rho + i beta) + i mu N| = F`` and ``r = sqrt(rho^2 + beta^2)``."""
+    D, beta = k - m * w * w + 1j * c * w, MU * N0 / KT
+    z0 = 1j * (D * beta + MU * N0)
+    a, B, C = abs(D) ** 2, 2 * (z0 * np.conj(D)).real, abs(z0) ** 2 - F ** 2
+    rho = (-B + np.sqrt(B * B - 4 * a * C)) / (2 * a)
+    return float(np.hypot(rho, beta))
+
+
+@pytest.mark.parametrize("method, key, sizes", [("shooting", "steps", (1024, 2048, 4096)),
+                                                ("hbm", "steps", (256, 512, 1024))])
+def test_rotating_force_jenkins_converges_to_closed_form(method, key, sizes):
+    """3-D Jenkins under the rotating force: Moreau-Jean (slider DOFs with the disk) and HBM (return mapping on
+    the disk over the AFT samples) are first order in the step / sample spacing (raw errors 1e-3); two
+    Richardson steps reach the closed form to 1e-6."""
+    r = radius_jenkins(W)
+    rs = []
+    for N in sizes:
+        sol = _solve(jenkins_oscillator(), method, harmonics=3, **{key: N})
+        rs.append(float(np.mean(np.hypot(sol.q[:, 0], sol.q[:, 1]))))
+        assert sol.certificate["friction_cone"].value <= 1 + 1e-12
+    r1 = [2 * rs[1] - rs[0], 2 * rs[2] - rs[1]]
+    r2 = (4 * r1[1] - r1[0]) / 3
+    assert abs(rs[2] - r) > 1e-4 * r
+    assert abs(r2 - r) <= 1e-6 * r
+
+
+def test_cone_history_law_derivative_equals_central_differences():
+    """The 3-D Jenkins law's derivative with respect to Fourier coefficients (stick and rotating slip)."""
+    from mshbm import fourier
+    from mshbm.elements.cone import cone_history_law
+
+    el = jenkins_oscillator().elements[0]
+    V = fourier.idft_matrix(64, 3)
+    rng = np.random.default_rng(1)
+    c = rng.standard_normal((7, 2)) * 0.5
+    lam, D = cone_history_law(el, V @ c[:, 0], V @ c[:, 1], V)
+    assert np.any(np.hypot(lam[:, 0], lam[:, 1]) >= el.bound * (1 - 1e-12))  # slips
+    assert np.any(np.hypot(lam[:, 0], lam[:, 1]) < 0.99 * el.bound)  # and sticks
+    eps = 1e-7
+    for b in range(2):
+        for n in range(7):
+            dc = np.zeros_like(c)
+            dc[n, b] = eps
+            lp = cone_history_law(el, *(V @ (c + dc)).T)[0]
+            lm = cone_history_law(el, *(V @ (c - dc)).T)[0]
+            assert np.max(np.abs((lp - lm) / (2 * eps) - D[:, :, b, n])) <= 1e-6
+
+
+@pytest.mark.parametrize("method, kw", [("shooting", dict(steps=512)), ("hbm", dict(harmonics=5, steps=256))])
+def test_jenkins_slip_in_one_direction_is_the_1d_jenkins(method, kw):
+    a = _solve(jenkins_oscillator("q0", pair=True), method, **kw)
+    b = _solve(jenkins_oscillator("q0", pair=False), method, **kw)
+    scale = float(np.abs(b.q[:, 0]).max())
+    assert np.max(np.abs(a.q[:, 0] - b.q[:, 0])) <= 1e-12 * scale
+    assert np.max(np.abs(a.q[:, 1])) <= 1e-12 * scale
 
 
 # ----------------------------------------------------------------------------- varying normal load

@@ -184,7 +184,7 @@ def cone_check(problem, sol, system, lam, V, stepper, cert):
     """Append ``cone_dissipation`` (module docstring) for the cone pairs of ``system``; ``lam`` the element forces
     (N+1, m), ``V`` the velocity scale (m/s), ``stepper`` the Moreau-Jean stepper (``None``: HBM)."""
     pairs = [(j, int(e.cone_partner)) for j, e in enumerate(system.elements)
-             if e.cone_partner is not None and j < e.cone_partner]
+             if e.cone_partner is not None and j < e.cone_partner and not e.history]  # Jenkins: the slider slips
     if not pairs:
         return
     N = lam.shape[0] - 1

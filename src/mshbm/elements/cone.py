@@ -14,6 +14,13 @@ list:
 
 :func:`frictional_contact` builds the two or three elements with the indices filled in.
 
+**3-D Jenkins** (``tangential_stiffness=k_t`` on both, :class:`~mshbm.elements.Jenkins`; constant normal load,
+preload ``N_0``): a tangential spring ``k_t`` in each direction in series with one slider on the disk.
+Moreau-Jean integrates the two massless slider DOFs with rigid friction that are cone partners
+(:func:`mshbm.integrators.moreau_jean._with_sliders`); HBM marches the return mapping on the disk
+(:func:`cone_history_law`, exact derivative).  A normal stiffness (a compliant normal contact) and Jenkins
+partners loaded by a contact are not supported (:class:`~mshbm.errors.InputError`).
+
 Methods:
 
 * **Moreau-Jean** (shooting, both MS-HBM variants): the local problem projects the tangential impulse onto
@@ -45,11 +52,12 @@ import numpy as np
 
 from ..errors import InputError
 
-__all__ = ["frictional_contact", "cone_law", "cone_pairs", "check_cone_pairs"]
+__all__ = ["frictional_contact", "cone_law", "cone_history_law", "cone_pairs", "check_cone_pairs"]
 
 
 def frictional_contact(t1, t2, mu, normal_force=0.0, *, normal=None, gap=0.0, restitution=0.0, first=0,
-                       relative_to=None, smoothing=None, penalty_stiffness=None, penalty_damping=0.0):
+                       relative_to=None, smoothing=None, penalty_stiffness=None, penalty_damping=0.0,
+                       tangential_stiffness=None):
     """The elements of one 3-D frictional contact, to be placed at ``elements[first:first + 2 or 3]``.
 
     Parameters
@@ -68,18 +76,25 @@ def frictional_contact(t1, t2, mu, normal_force=0.0, *, normal=None, gap=0.0, re
     relative_to : None or tuple of (int or None)
         Second DOFs ``(J1, J2, Jn)`` of a contact between two nodes (``None`` entries: the ground).
     smoothing, penalty_stiffness, penalty_damping : as for :class:`Friction` and :class:`Contact` (HBM only).
+    tangential_stiffness : float or None
+        ``k_t`` (N/m): the 3-D Jenkins element (a tangential spring in both directions in series with the
+        slider on the disk, :func:`cone_history_law`); constant normal load only.
 
     Returns
     -------
     list of Element: ``[Friction(t1), Friction(t2)]`` and, with ``normal``, ``Contact(normal)``.
     """
+    from functools import partial
+
     from .contact import Contact
-    from .friction import Friction
+    from .friction import Friction, Jenkins
 
     J = (None, None, None) if relative_to is None else tuple(relative_to)
     if len(J) != 3:
         raise InputError("frictional_contact.relative_to", f"must be three DOFs (J1, J2, Jn) or None, got {J!r}")
     c = None if normal is None else first + 2
+    if tangential_stiffness is not None:
+        Friction = partial(Jenkins, tangential_stiffness=tangential_stiffness)  # noqa: N806
     out = [Friction(t1, mu, normal_force, smoothing=smoothing, relative_to=J[0], normal_contact=c,
                     cone_partner=first + 1),
            Friction(t2, mu, normal_force, smoothing=smoothing, relative_to=J[1], normal_contact=c,
@@ -114,8 +129,10 @@ def check_cone_pairs(elements):
         if int(other.dof) == int(el.dof) and other.relative_to == el.relative_to:
             raise InputError(key, f"frictions {j} and {k} act on the same DOF {el.dof}: the two tangential "
                              "directions must be different DOFs")
-        for name in ("mu", "normal_force", "normal_contact", "smoothing"):
-            if getattr(el, name) != getattr(other, name):
+        if el.history != other.history:
+            raise InputError(key, f"cone partners {j} and {k}: both elastic (tangential_stiffness) or both rigid")
+        for name in ("mu", "normal_force", "normal_contact", "smoothing", "tangential_stiffness"):
+            if getattr(el, name, None) != getattr(other, name, None):
                 raise InputError(key, f"cone partners {j} and {k} must have the same {name} (one contact point), "
                                  f"got {getattr(el, name)!r} and {getattr(other, name)!r}")
 
@@ -163,3 +180,42 @@ def cone_law(el, g1, g2, lam_n=None, dn_ds=None, dn_dgamma=None):
     dgN = None if dn_dgamma is None else el.mu * phi * np.where(pos, dn_dgamma, 0.0)
     b = el.mu * FN
     return b * phi, b * d11, b * d12, dsN, dgN
+
+
+def cone_history_law(el, s1, s2, basis=None):
+    """3-D Jenkins law of cone partners (``el`` the first; both with ``k_t = tangential_stiffness`` and the bound
+    ``b = mu N_0``) at the periodic samples of their ``s = w^T q``, ``s1`` and ``s2`` (shape (N_s,) each).
+
+    Return mapping on the disk over two periods from ``lambda = 0`` at the last sample (the second is returned;
+    the 1-D :meth:`~mshbm.elements.Jenkins.history_law` on each direction when the motion keeps one)::
+
+        t_k = lambda_{k-1} - k_t (s_k - s_{k-1}),   lambda_k = t_k if ||t_k|| <= b else b t_k / ||t_k||
+
+    Returns ``lam`` (N_s, 2) and ``D`` (N_s, 2, 2, n_b): ``d lambda_a(t_k) / d c_b`` for the coefficients
+    ``s_b = basis @ c_b`` (``basis=None``: the samples themselves, ``n_b = N_s``); in slip
+    ``d lambda = (b / ||t||) (I - d d^T) d t``.
+    """
+    s = np.stack([np.asarray(s1, dtype=float), np.asarray(s2, dtype=float)], axis=1)
+    Ns = s.shape[0]
+    V = np.eye(Ns) if basis is None else np.asarray(basis, dtype=float)
+    nb = V.shape[1]
+    kt, b = float(el.tangential_stiffness), float(el.bound)
+    lam = np.zeros((Ns, 2))
+    D = np.zeros((Ns, 2, 2, nb))
+    prev_l, prev_D, prev_k = np.zeros(2), np.zeros((2, 2, nb)), Ns - 1
+    for _ in range(2):
+        for k in range(Ns):
+            t = prev_l - kt * (s[k] - s[prev_k])
+            Dt = prev_D.copy()
+            dV = kt * (V[k] - V[prev_k])
+            Dt[0, 0] -= dV
+            Dt[1, 1] -= dV
+            nt = float(np.hypot(t[0], t[1]))
+            if nt > b:
+                d = t / nt
+                P = (b / nt) * (np.eye(2) - np.outer(d, d))
+                t = b * d
+                Dt = np.einsum("ac,cbn->abn", P, Dt)
+            lam[k], D[k] = t, Dt
+            prev_l, prev_D, prev_k = t, Dt, k
+    return lam, D

@@ -243,9 +243,6 @@ class Jenkins(Friction):
         if self.normal_contact is not None:
             raise InputError("friction.normal_contact", "elastic friction (tangential_stiffness, Jenkins) with a "
                              "normal load from a contact is not supported")
-        if self.cone_partner is not None:
-            raise InputError("friction.cone_partner", "elastic friction (tangential_stiffness, Jenkins) in a 3-D "
-                             "frictional contact (cone_partner) is not supported; use rigid Coulomb friction")
 
     history: ClassVar[bool] = True
 

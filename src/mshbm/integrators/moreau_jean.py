@@ -92,7 +92,7 @@ def _with_sliders(M, C, K, elements):
             v[d] = w
         v[z] = -1.0
         Ka += el.tangential_stiffness * np.outer(v, v)
-        out[j] = Friction(z, el.mu, el.normal_force, el.smoothing)
+        out[j] = Friction(z, el.mu, el.normal_force, el.smoothing, cone_partner=el.cone_partner)  # 3-D: a disk
         sliders.append((j, z))
     return Ma, Ca, Ka, out, sliders
 
