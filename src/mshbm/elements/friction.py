@@ -37,6 +37,10 @@ sensitivities are exact for the active set, a sliding friction on a closed conta
 friction (``tangential_stiffness``) with a normal contact.  A Moreau-Jean caveat (``e_N = 0``): the
 velocity-level contact law keeps a closed contact closed anywhere within ``O(h^2 F / m)`` of the stop, and
 the normal load then differs by the normal stiffness times that offset.
+
+Two frictions on the two tangential directions of one contact point that name each other as
+``cone_partner`` form a 3-D frictional contact with the circular cone ``||lambda_T|| <= mu F_N``
+(:mod:`mshbm.elements.cone`; with ``tangential_stiffness`` a 3-D Jenkins element).
 """
 from __future__ import annotations
 
