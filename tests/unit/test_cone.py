@@ -404,3 +404,13 @@ def test_case_file_cone_partner(tmp_path):
     with pytest.raises(InputError) as exc:
         mshbm.load_case(p)
     assert "cone_partner" in exc.value.key
+    # the second entry states only dof and cone_partner: it takes mu and normal_contact from its partner, so
+    # one value (and a --set or a parameter sweep of friction.0.mu) sets the cone's
+    p.write_text((ROOT / "examples" / "cone3d.yaml").read_text().replace("mu: 0.5", "mu: 0.4"))
+    els = mshbm.load_case(p).system.elements
+    assert els[0].mu == els[1].mu == 0.4 and els[1].normal_contact == 2
+    p.write_text((ROOT / "examples" / "cone3d.yaml").read_text().replace("{dof: 1, cone_partner: 0}",
+                                                                          "{dof: 1, cone_partner: 0, mu: 0.3}"))
+    with pytest.raises(InputError) as exc:  # stated differently: refused
+        mshbm.load_case(p)
+    assert "same mu" in str(exc.value)
