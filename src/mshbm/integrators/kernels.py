@@ -15,6 +15,9 @@ DOFs, ``w_j = sign[j] (e_dof[j] - e_dof2[j])`` and ``gamma_j = sign[j] (u[dof[j]
 ``dof2[j] = -1`` is the ground (the one-DOF arithmetic is unchanged).  The local problem, with the Delassus matrix
 ``D = G^T W G``, is:
 
+* cone partners (``tpair``, the two tangential directions of a 3-D contact): the disk
+  ``||(P_j, P_k)|| <= bound_j (+ mu_n[j] P_c)``, stick ``gamma_T+ = 0`` inside, else
+  ``gamma_T+ = -alpha P_T`` (maximal dissipation);
 * friction (kind 0): ``gamma_j+ = 0`` if ``|P_j| < bound_j = h mu F_N`` else
   ``P_j = -bound_j sign(gamma_j+)``; a friction whose normal load comes from a contact
   (``nsrc[j] = c >= 0``, coefficient ``mu_n[j]``) has the bound ``bound_j + mu_n[j] P_c``

@@ -9,8 +9,9 @@ element is solved in closed form, several by projected Gauss-Seidel on ``D``, a 
 together with it as one exactly solved 2x2 block (:func:`_pair_solve`).  Two frictions that are *cone
 partners* (``tpair[j] = k``, ``tpair[k] = j``: the tangential directions of a 3-D contact,
 :mod:`mshbm.elements.cone`) share the disk ``||(P_j, P_k)|| <= b`` (``b = bound_j + mu_n[j] P_c``) and are one
-block of the sweep, solved exactly for the current ``b`` (:func:`_disk_solve`); their contact, if any, is
-updated as a scalar in the same sweep.  Element kinds and status codes are the constants of this module.
+block of the sweep, solved exactly for the current ``b`` (:func:`_disk_solve`); with the contact that loads
+them (and no other friction) the three are one exactly solved block (:func:`_triple_solve`: the normal
+impulse by bisection on ``gamma_N``, the disk's tangential impulse for each).  Element kinds and status codes are the constants of this module.
 """
 from __future__ import annotations
 
@@ -83,6 +84,19 @@ def _local_solve(uf, u, q_free_gap, kind, dof, dof2, sign, bound, e, nsrc, mu_n,
         for c in range(m):
             if pair[c] == -3:
                 pair[c] = -1
+        # a contact loading exactly the two frictions of one cone: the three solved exactly as one block
+        # (:func:`_triple_solve`) at the cone's first friction; the contact is then skipped (pair -2)
+        tri = np.zeros(m, dtype=np.bool_)
+        for j in range(m):
+            k = tpair[j]
+            if k > j and nsrc[j] >= 0 and nsrc[k] == nsrc[j]:
+                n_load = 0
+                for i in range(m):
+                    if nsrc[i] == nsrc[j]:
+                        n_load += 1
+                if n_load == 2:
+                    tri[j] = True
+                    pair[nsrc[j]] = -2
         for it in range(1, max_iter + 1):
             change = 0.0
             scale = 0.0
@@ -99,6 +113,32 @@ def _local_solve(uf, u, q_free_gap, kind, dof, dof2, sign, bound, e, nsrc, mu_n,
                         if i != j and i != k:
                             g1 += Del[j, i] * P[i]
                             g2 += Del[k, i] * P[i]
+                    if tri[j]:
+                        c = nsrc[j]
+                        gn = r[c]
+                        for i in range(m):
+                            if i != c and i != j and i != k:
+                                gn += Del[c, i] * P[i]
+                        g1 -= Del[j, c] * P[c]  # the block's own normal impulse is an unknown of the block
+                        g2 -= Del[k, c] * P[c]
+                        p1, p2, pn, ok = _triple_solve(g1, g2, gn, Del[j, j], Del[j, k], Del[k, k], Del[j, c],
+                                                       Del[k, c], Del[c, j], Del[c, k], Del[c, c], bound[j],
+                                                       mu_n[j], active[c])
+                        if not ok:  # no consistent case (none found in the measurements): the disk, then N
+                            p1, p2, lam = _disk_solve(g1 + Del[j, c] * P[c], g2 + Del[k, c] * P[c], Del[j, j],
+                                                      Del[j, k], Del[k, k], bound[j] + mu_n[j] * P[c])
+                            pn = 0.0
+                            if active[c]:
+                                pn = -(gn + Del[c, j] * p1 + Del[c, k] * p2) / Del[c, c]
+                                pn = pn if pn > 0.0 else 0.0
+                        for i, v in ((j, p1), (k, p2), (c, pn)):
+                            d = abs(v - P[i])
+                            if d > change:
+                                change = d
+                            if abs(v) > scale:
+                                scale = abs(v)
+                            P[i] = v
+                        continue
                     b = bound[j]
                     if nsrc[j] >= 0:
                         b += mu_n[j] * P[nsrc[j]]
@@ -252,6 +292,49 @@ def _disk_solve(g1, g2, a11, a12, a22, b):
     p2 = -(s * e1 + c * e2)
     f = b / np.sqrt(p1 * p1 + p2 * p2)  # on the circle to rounding
     return p1 * f, p2 * f, lam
+
+
+@njit(cache=True)
+def _triple_solve(g1, g2, gn, a11, a12, a22, a1n, a2n, an1, an2, ann, bT, mu, closable):
+    """Exact solution of a cone (frictions 1, 2 on the disk ``||P_T|| <= bT + mu P_N``) and the contact ``N``
+    that loads it, the other impulses fixed: ``gamma_T = g_T + A_TT P_T + a_TN P_N``, ``gamma_N = gn + a_NT . P_T
+    + ann P_N`` (``gamma_N`` including ``e gamma_N-``).
+
+    For a normal impulse ``P_N >= 0`` the tangential one is the disk's, ``P_T(P_N)`` (:func:`_disk_solve` with
+    ``g_T + a_TN P_N`` and the bound ``bT + mu P_N``), continuous in ``P_N``; so is ``h(P_N) = gamma_N``.  Open
+    if ``h(0) >= 0``; else ``P_N`` is a root of ``h``, bracketed by doubling and found by bisection (a root
+    exists where ``ann > mu ||a_NT||``: ``h -> +inf``).  ``closable``: the contact is active in this step.
+    Returns ``(P_1, P_2, P_N, ok)``; ``ok`` False: no bracket found (``h`` stays negative).
+    """
+    q1, q2, lam = _disk_solve(g1, g2, a11, a12, a22, bT)
+    if not closable:
+        return q1, q2, 0.0, True
+    h0 = gn + an1 * q1 + an2 * q2
+    if h0 >= -1e-14 * (abs(gn) + abs(an1 * q1) + abs(an2 * q2)):
+        return q1, q2, 0.0, True
+    lo = 0.0
+    hi = -h0 / ann
+    found = False
+    for _ in range(200):
+        p1, p2, lam = _disk_solve(g1 + a1n * hi, g2 + a2n * hi, a11, a12, a22, bT + mu * hi)
+        if gn + an1 * p1 + an2 * p2 + ann * hi >= 0.0:
+            found = True
+            break
+        lo = hi
+        hi *= 2.0
+    if not found:
+        return 0.0, 0.0, 0.0, False
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        if mid <= lo or mid >= hi:
+            break
+        p1, p2, lam = _disk_solve(g1 + a1n * mid, g2 + a2n * mid, a11, a12, a22, bT + mu * mid)
+        if gn + an1 * p1 + an2 * p2 + ann * mid >= 0.0:
+            hi = mid
+        else:
+            lo = mid
+    p1, p2, lam = _disk_solve(g1 + a1n * hi, g2 + a2n * hi, a11, a12, a22, bT + mu * hi)
+    return p1, p2, hi, True
 
 
 @njit(cache=True)
