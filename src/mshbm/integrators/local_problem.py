@@ -11,7 +11,8 @@ partners* (``tpair[j] = k``, ``tpair[k] = j``: the tangential directions of a 3-
 :mod:`mshbm.elements.cone`) share the disk ``||(P_j, P_k)|| <= b`` (``b = bound_j + mu_n[j] P_c``) and are one
 block of the sweep, solved exactly for the current ``b`` (:func:`_disk_solve`); with the contact that loads
 them (and no other friction) the three are one exactly solved block (:func:`_triple_solve`: the normal
-impulse by bisection on ``gamma_N``, the disk's tangential impulse for each).  Element kinds and status codes are the constants of this module.
+impulse by bisection on ``gamma_N``, the disk's tangential impulse for each).  Element kinds and status
+codes are the constants of this module.
 """
 from __future__ import annotations
 
