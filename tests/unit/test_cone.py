@@ -328,16 +328,36 @@ def test_varying_normal_load_dlft():
     assert np.max(np.abs(np.asarray(J) - Jfd)) <= 1e-7 * np.abs(Jfd).max()
 
 
+@pytest.mark.parametrize("jenkins", [False, True])
+def test_hbm_jacobian_equals_central_differences(jenkins):
+    """HBM's residual Jacobian with the regularised cone, its penalty contact and the varying bound (cone3d), and
+    with the 3-D Jenkins law: central differences of the residual (off the solution)."""
+    from mshbm.methods.base import central_difference_jacobian
+    from mshbm.methods.hbm import HBMProblem
+    from mshbm.methods.hbm_regularisation import resolve
+
+    if jenkins:
+        S, w = jenkins_oscillator(), W
+    else:
+        S, w = _cone3d()
+        S = resolve(S, w)[0]
+    prob = HBMProblem(S, w, 5, 64)
+    x = prob.initial_guess("linear") + 0.05 * np.random.default_rng(2).standard_normal(prob.n_unknowns)
+    R, J = prob.residual(x)
+    Jfd = central_difference_jacobian(lambda z: prob.residual(z, jac=False)[0], x, 1e-7)
+    assert np.max(np.abs(np.asarray(J) - Jfd)) <= 1e-6 * np.abs(Jfd).max()
+
+
 def _stepper(h):
     S, w = _cone3d()
     st = MoreauJean(np.asarray(S.M), np.asarray(S.C), np.asarray(S.K), list(S.elements), h, 0.5, True)
-    t = np.arange(401) * h
+    t = np.arange(151) * h
     return st, st.increments(S.forcing(t, w))
 
 
 def test_kernel_equals_numpy_twin_with_rotating_slip():
     """The compiled kernel and its NumPy twin (the disk by bisection instead of Newton's iteration) agree on
-    400 steps of rotating slip with a varying normal load."""
+    150 steps of rotating slip with a varying normal load."""
     h = 2 * np.pi / 0.8 / 512
     st, B = _stepper(h)
     q0, u0 = np.array([0.5, -0.8, 0.0]), np.array([0.3, 0.9, 0.0])
@@ -424,6 +444,11 @@ def test_strong_normal_tangential_coupling_converges_in_one_block_sweep():
     assert tr.pgs_iterations <= 2
     assert np.all(np.hypot(tr.P[:, 0], tr.P[:, 1]) <= mu * tr.P[:, 2] * (1 + 1e-12))
     assert np.any((tr.status[:, 0] & 3) == kernels.STATUS_SLIP) and np.any(tr.P[:, 2] > 0)
+    B = st.increments(S.forcing(np.linspace(0, 2 * np.pi / W, 1025), W))  # the NumPy twin (bisections)
+    q, u, P = kernels.moreau_jean_numpy(np.array([0.5, -0.8, 0.0]), np.array([0.3, 0.9, 0.0]), st.Aq, st.Au, st.WG,
+                                        st.Del, st.MinvG, B[:40], st.theta, st.h, st.kind, st.dof, st.sign, st.bound,
+                                        st.gap, st.e, dof2=st.dof2, nsrc=st.nsrc, mu_n=st.mu_n, tpair=st.tpair)
+    assert np.max(np.abs(q - tr.q[:41])) <= 1e-10 and np.max(np.abs(P - tr.P[:40])) <= 1e-12
 
 
 # ----------------------------------------------------------------------------- refusals and input errors

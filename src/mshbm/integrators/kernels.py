@@ -44,6 +44,7 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit
+from scipy.optimize import brentq
 
 from .local_problem import (KIND_CONTACT, KIND_FRICTION, STATUS_CLOSED, STATUS_OPEN, STATUS_PROJECTED,  # noqa: F401
                             STATUS_SLIP, STATUS_STICK, _local_solve, _rel, _sens_row, _solve_small)
@@ -399,22 +400,42 @@ def _disk_numpy(P, j, k, r, Del, b):
     quadratic form on the disk ``||P|| <= b``, ``P = -(A + lam I)^-1 g``, ``lam`` by bisection."""
     jk = [j, k]
     others = [i for i in range(P.size) if i not in jk]
-    g = r[jk] + Del[np.ix_(jk, others)] @ P[others]
-    A = Del[np.ix_(jk, jk)]
+    return _disk_qp(r[jk] + Del[np.ix_(jk, others)] @ P[others], Del[np.ix_(jk, jk)], b)
+
+
+def _disk_qp(g, A, b):
+    """``argmin P^T A P / 2 + g^T P`` on the disk ``||P|| <= b`` (Brent's method on the multiplier)."""
     if b <= 0.0:
         return np.zeros(2)
     p = np.linalg.solve(A, -g)
     if np.linalg.norm(p) <= b:
         return p
-    lo, hi = 0.0, np.linalg.norm(g) / b  # ||(A + hi I)^-1 g|| <= ||g|| / hi = b
-    for _ in range(200):
-        mid = 0.5 * (lo + hi)
-        if np.linalg.norm(np.linalg.solve(A + mid * np.eye(2), g)) > b:
-            lo = mid
-        else:
-            hi = mid
-    p = -np.linalg.solve(A + hi * np.eye(2), g)
+    # ||(A + lam I)^-1 g|| = b: decreasing in lam, and <= b at ||g|| / b (Brent's method, to rounding)
+    lam = brentq(lambda s: np.linalg.norm(np.linalg.solve(A + s * np.eye(2), g)) - b, 0.0, np.linalg.norm(g) / b,
+                 xtol=1e-300, rtol=8.9e-16)
+    p = -np.linalg.solve(A + lam * np.eye(2), g)
     return p * (b / np.linalg.norm(p))
+
+
+def _triple_numpy(P, j, k, c, r, Del, bT, mu, closable):
+    """Cone partners ``j, k`` and the contact ``c`` that loads them, the others fixed: for ``P_N >= 0`` the
+    disk's ``P_T``; ``P_N = 0`` if then ``gamma_N >= 0``, else the root of ``gamma_N(P_N)`` (Brent's method)."""
+    jk = [j, k]
+    others = [i for i in range(P.size) if i not in (j, k, c)]
+    gT = r[jk] + Del[np.ix_(jk, others)] @ P[others]
+    gN = r[c] + Del[c, others] @ P[others]
+    A, aTN, aNT = Del[np.ix_(jk, jk)], Del[jk, c], Del[c, jk]
+    disk = lambda pn: _disk_qp(gT + aTN * pn, A, bT + mu * pn)
+    gamma_n = lambda pn: gN + aNT @ disk(pn) + Del[c, c] * pn
+    if not closable or gamma_n(0.0) >= 0.0:
+        return np.append(disk(0.0), 0.0)
+    hi = 1.0
+    for _ in range(2000):
+        if gamma_n(hi) >= 0.0:
+            break
+        hi *= 2.0
+    pn = brentq(gamma_n, 0.0, hi, xtol=1e-300, rtol=8.9e-16)
+    return np.append(disk(pn), pn)
 
 
 def moreau_jean_numpy(q0, u0, Aq, Au, WG, Del, MinvG, B, theta, h,
@@ -426,7 +447,8 @@ def moreau_jean_numpy(q0, u0, Aq, Au, WG, Del, MinvG, B, theta, h,
     ``dof2``: second DOF of relative elements (-1: ground; default: all on one DOF).
     ``nsrc, mu_n``: normal-load coupling of friction elements (default: none).
     ``tpair``: cone partners (default: none); a pair's impulse is the minimiser of the Delassus block's
-    quadratic form on the disk, found here by bisection on the multiplier (the kernel: Newton's iteration).
+    quadratic form on the disk, found here by Brent's method on the multiplier (the kernel: Newton's iteration);
+    with the contact that loads them, the normal impulse by Brent's method on ``gamma_N`` (the kernel: bisection).
     Returns ``q, u, P`` with the shapes of the kernel's outputs.
     """
     N, n, m = B.shape[0], q0.size, kind.size
@@ -451,9 +473,18 @@ def moreau_jean_numpy(q0, u0, Aq, Au, WG, Del, MinvG, B, theta, h,
                            else gap[j] + W[:, j] @ qfree <= 0 for j in range(m)], dtype=bool)
         r = np.array([W[:, j] @ uf + (e[j] * (W[:, j] @ u) if kind[j] == KIND_CONTACT else 0.0)
                       for j in range(m)])
+        # a contact loading exactly the two frictions of one cone: solved with them as one block
+        tri = {j: nsrc[j] for j in range(m) if tpair[j] > j and nsrc[j] >= 0 and nsrc[tpair[j]] == nsrc[j]
+               and np.count_nonzero(nsrc == nsrc[j]) == 2}
         for _ in range(1 if m == 1 else 1000):
             Pold = P.copy()
             for j in np.flatnonzero(active):
+                if j in tri.values():
+                    continue
+                if j in tri:
+                    c = tri[j]
+                    P[[j, tpair[j], c]] = _triple_numpy(P, j, tpair[j], c, r, Del, bound[j], mu_n[j], active[c])
+                    continue
                 if tpair[j] >= 0:
                     if tpair[j] > j:
                         P[[j, tpair[j]]] = _disk_numpy(P, j, tpair[j], r, Del, bound[j] + (
