@@ -14,7 +14,7 @@ from .backbone import Backbone, backbone
 from .branch import Branch, continue_forcing, sweep
 from .parameter import continue_parameter
 from .switching import switch_period_doubling
-from .elements import Contact, Element, Friction, Jenkins, Polynomial
+from .elements import Contact, Element, Friction, Jenkins, Polynomial, frictional_contact
 from .errors import ConvergenceError, InputError
 from .methods.exact import exact_periodic
 from .result import PeriodicSolution
@@ -22,10 +22,9 @@ from .support import BaseMotion, base_excitation
 from .system import System, chain
 
 __all__ = ["solve", "build_problem", "residual_omega_derivative", "METHODS", "System", "Element", "Friction",
-           "Jenkins", "Contact", "Polynomial", "chain", "PeriodicSolution", "InputError", "ConvergenceError",
-           "load_case",
-           "exact_periodic", "sweep", "Branch", "continue_forcing", "continue_parameter", "switch_period_doubling",
-           "backbone", "Backbone", "base_excitation", "BaseMotion"]
+           "Jenkins", "Contact", "Polynomial", "frictional_contact", "chain", "PeriodicSolution", "InputError",
+           "ConvergenceError", "load_case", "exact_periodic", "sweep", "Branch", "continue_forcing",
+           "continue_parameter", "switch_period_doubling", "backbone", "Backbone", "base_excitation", "BaseMotion"]
 __version__ = "0.1.0"
 
 

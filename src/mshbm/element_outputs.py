@@ -136,7 +136,8 @@ def element_outputs(sol, system):
                              float(0.5 * (s.max() - s.min())), diss, src)
         if e.bounded:
             bound = e.bound_samples(lam)[:N] if e.normal_contact is not None else np.full(N, float(e.bound))
-            item.stick_fraction = _fraction(np.abs(f[:N]) < (1.0 - STICK_MARGIN) * bound)
+            ft = np.abs(f[:N]) if e.cone_partner is None else np.hypot(f[:N], lam[:N, e.cone_partner])  # ||lambda_T||
+            item.stick_fraction = _fraction(ft < (1.0 - STICK_MARGIN) * bound)
         if e.unilateral:
             big = float(np.abs(f).max(initial=0.0))
             closed = f[:N] > 1e-12 * big if big > 0 else np.zeros(N, dtype=bool)

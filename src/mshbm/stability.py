@@ -382,11 +382,12 @@ def _step_map(system, sol, steps, theta, prefix, t0):
     try:
         prob = ShootingProblem(system, sol.omega, N, theta=theta)
         x = np.concatenate([sol.q[0], sol.u[0]])
-        if prob.stepper.smooth:  # state-dependent step Jacobians (polynomial springs): forward sensitivities
-            tr = prob.stepper.run(sol.q[0], sol.u[0], prob.B, sensitivities=True)
-            Phi = np.vstack([tr.Sq, tr.Su])
+        tr = prob.simulate(x)
+        if prob.stepper.smooth or np.any(prob.stepper.tpair >= 0):
+            # state-dependent step Jacobians (polynomial springs; a 3-D contact, whose slip direction rotates):
+            # the kernel's forward sensitivities
+            Phi = prob._run(x, sensitivities=True).jacobian
         else:
-            tr = prob.simulate(x)
             Phi = prob.stepper.monodromy(tr.status, tr.P)
         if not np.all(np.isfinite(Phi)):
             raise np.linalg.LinAlgError("non-finite monodromy matrix")

@@ -34,6 +34,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .elements import Contact, Element, Friction, _dof, _finite_number
+from .elements.cone import check_cone_pairs
 from .errors import InputError
 
 __all__ = ["Friction", "Contact", "System", "chain"]
@@ -201,6 +202,7 @@ class System:
             if int(self.elements[c].dof) == int(el.dof):
                 raise InputError(f"{el.kind}.normal_contact", f"contact {c} acts on the friction's own DOF "
                                  f"{el.dof}: the normal direction must be another DOF")
+        check_cone_pairs(self.elements)
         self.name = str(name)
         # instance attributes set by with_omega_forcing / at / mshbm.support.base_excitation (class defaults
         # above): ``forcing_parts`` (F0, F1, F2) of an omega-dependent forcing (``()``: none), ``forcing_omega``

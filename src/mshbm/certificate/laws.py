@@ -19,6 +19,14 @@
     the local displacement ``s = w^T q`` -- at the samples ``t_k`` (HBM, DLFT), at Moreau's midpoint
     ``q_k + h/2 u_k`` of each step (time stepping, where the force is the step's impulse over ``h``); bound
     ``1e-9`` (rounding).
+``cone_dissipation`` (3-D frictional contact, :mod:`mshbm.elements.cone`)
+    Maximal dissipation where a cone pair slips: ``max (mu F_N ||gamma_T|| + lambda_T . gamma_T) /
+    (mu F_N ||gamma_T||)`` over the samples with ``||gamma_T|| > 1e-6 V`` (0: the force opposes the slip with
+    the full bound).  Time stepping (gating, bound ``1e-8``): the impulse of step ``k`` against the slip velocity
+    at its end, ``gamma_T(t_k+1)`` (the law of the local problem); HBM and DLFT (reported): HBM's regularised
+    law has the deficit ``1 - (2/pi) arctan(kappa ||gamma_T||)`` by construction, DLFT's law holds on its
+    Lagrangian velocity, not on the series.  ``friction_cone`` takes the pair's
+    ``||lambda_T||`` per sample.
 """
 from __future__ import annotations
 
@@ -28,8 +36,8 @@ from .. import fourier
 from .kernels import LAM_ABS, LAM_MAX, LAM_MIN, S_MIN, WU_MAX, element_terms, element_terms_fourier
 from .record import Check
 
-__all__ = ["element_tables", "el_dofs_each", "element_series", "element_terms_table", "law_checks", "max_abs",
-           "spring_law_check"]
+__all__ = ["element_tables", "el_dofs_each", "element_series", "element_terms_table", "law_checks", "cone_check",
+           "max_abs", "spring_law_check"]
 
 
 def max_abs(a):
@@ -121,6 +129,13 @@ def law_checks(problem, system, terms, lam, F, D, h, stepper, cert):
     if fr:
         ratios = []
         for j, e in fr:
+            if e.cone_partner is not None:  # 3-D contact: ||lambda_T|| of the pair per sample
+                b, lt = e.bound_samples(lam), np.hypot(lam[:, j], lam[:, e.cone_partner])
+                big = float(np.max(b, initial=0.0))
+                r = np.where(b > 1e-12 * big, lt / np.where(b > 0, b, 1.0),
+                             np.where(lt <= 1e-12 * big, 0.0, np.inf))
+                ratios.append(float(np.max(r, initial=0.0)))
+                continue
             if e.normal_contact is None:
                 lmax = float(terms[j, LAM_ABS])  # max |lambda_j|
                 ratios.append(lmax / e.bound if e.bound > 0 else (0.0 if lmax == 0 else np.inf))
@@ -191,3 +206,37 @@ def spring_law_check(system, sol, lam, F, h, stepper, cert):
     cert.checks.append(Check("spring_law", worst, 1e-9, bool(worst <= 1e-9),
                              note="max |lambda - lambda(w^T q)| / max(F, max |lambda|) of the polynomial springs, "
                                   + where))
+
+
+def cone_check(problem, sol, system, lam, V, stepper, cert):
+    """Append ``cone_dissipation`` (module docstring) for the cone pairs of ``system``; ``lam`` the element forces
+    (N+1, m), ``V`` the velocity scale (m/s), ``stepper`` the Moreau-Jean stepper (``None``: HBM)."""
+    pairs = [(j, int(e.cone_partner)) for j, e in enumerate(system.elements)
+             if e.cone_partner is not None and j < e.cone_partner and not e.history]  # Jenkins: the slider slips
+    if not pairs:
+        return
+    N = lam.shape[0] - 1
+    dofs = np.array(sorted({int(d) for j, k in pairs for i in (j, k) for d in system.elements[i].dofs}))
+    _, u = element_series(sol, dofs, N)
+    col = {int(d): i for i, d in enumerate(dofs)}
+    val = 0.0
+    for j, k in pairs:
+        g = np.stack([system.elements[i].local(u, col) for i in (j, k)], axis=1)  # (N+1, 2)
+        g = g[1:] if stepper is not None else g[:-1]  # the step's end velocity (time stepping) / the sample's
+        L = lam[:-1][:, [j, k]]
+        b = system.elements[j].bound_samples(lam)[:-1]
+        gn = np.linalg.norm(g, axis=1)
+        slip = (gn > 1e-6 * V) & (b > 0)
+        if slip.any():
+            dev = (b[slip] * gn[slip] + np.einsum("ij,ij->i", L[slip], g[slip])) / (b[slip] * gn[slip])
+            val = max(val, float(dev.max()))
+    if stepper is not None:
+        cert.checks.append(Check("cone_dissipation", val, 1e-8, bool(val <= 1e-8),
+                                 note="max (mu F_N ||gamma_T|| + lambda_T . gamma_T) / (mu F_N ||gamma_T||) where a "
+                                 "3-D contact slips (maximal dissipation; impulse against the end-of-step slip)"))
+    else:
+        cert.checks.append(Check("cone_dissipation", val, None, True, False,
+                                 note="max (mu F_N ||gamma_T|| + lambda_T . gamma_T) / (mu F_N ||gamma_T||) where a "
+                                 "3-D contact slips; HBM: the regularised cone law's deficit 1 - (2/pi) arctan(kappa "
+                                 "||gamma_T||) by construction; DLFT: the law holds on the Lagrangian velocity, not "
+                                 "the series (reported, not gating)"))

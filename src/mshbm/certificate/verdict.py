@@ -7,7 +7,7 @@ import numpy as np
 from ..scaling import displacement_floor, force_scale
 from .accuracy import periodicity_check, residual_check, step_accuracy_size_check
 from .energy import energy_checks
-from .laws import element_terms_table, law_checks, max_abs, spring_law_check
+from .laws import cone_check, element_terms_table, law_checks, max_abs, spring_law_check
 from .linear import time_discretisation, undamped_resonance
 from .record import Certificate, Check
 from .substitution import model_substitution_check
@@ -91,6 +91,7 @@ def _certify(problem, sol, tol, cert, step_accuracy=None, step_size_gating=True)
     terms, ue_max = element_terms_table(sol, system, omega, N, lam)
     law_checks(problem, system, terms, lam, F, D, h, stepper, cert)
     spring_law_check(system, sol, lam, F, h, stepper, cert)
+    cone_check(problem, sol, system, lam, V, stepper, cert)
 
     # 4. energy balance
     energy_checks(problem, sol, system, omega, h, N, stepper, els, ue_max, cert, terms, R)

@@ -40,7 +40,9 @@ the exact event-driven flow and hence exact Floquet multipliers handle elements 
 InputError; stability falls back to the step map with the reason).
 
 Elements with an internal state (:class:`Jenkins`) and friction whose normal load comes from a contact
-(``Friction(..., normal_contact=c)``) are described in :mod:`mshbm.elements.friction`.
+(``Friction(..., normal_contact=c)``) are described in :mod:`mshbm.elements.friction`; the 3-D frictional
+contact (two frictions linked as ``cone_partner``, circular cone ``||lambda_T|| <= mu F_N``) in
+:mod:`mshbm.elements.cone`.
 
 The smooth polynomial spring :class:`Polynomial` (``lambda = -sum_p k_p s^p``, :attr:`Element.smooth`; cubic
 springs, Duffing) is described in :mod:`mshbm.elements.polynomial`: exact in HBM and DLFT, explicit at the
@@ -50,12 +52,14 @@ Modules: :mod:`~mshbm.elements.base` (the contract), :mod:`~mshbm.elements.frict
 :mod:`~mshbm.elements.contact`, :mod:`~mshbm.elements.regularised` (the laws assembled on samples).
 """
 from .base import Element, _dof, _finite_number  # noqa: F401 -- the parameter checks, shared with mshbm.system
+from .cone import frictional_contact
 from .contact import Contact
 from .friction import Friction, Jenkins
 from .polynomial import Polynomial
 from .regularised import regularised_forces
 
-__all__ = ["Element", "Friction", "Contact", "Jenkins", "Polynomial", "regularised_forces", "ELEMENT_TYPES"]
+__all__ = ["Element", "Friction", "Contact", "Jenkins", "Polynomial", "frictional_contact", "regularised_forces",
+           "ELEMENT_TYPES"]
 
 #: element classes by their ``kind`` (the case-file keys)
 ELEMENT_TYPES = {"friction": Friction, "contact": Contact, "polynomial": Polynomial}

@@ -140,6 +140,14 @@ class Element:
     #: normal load (friction with ``normal_contact``); ``None``: no such coupling
     normal_contact = None
 
+    #: index (into the system's element list) of the friction on the second tangential direction of a 3-D
+    #: frictional contact (circular cone, :mod:`mshbm.elements.cone`); ``None``: none
+    cone_partner = None
+
+    def kernel_partner(self):
+        """Index of the Moreau-Jean kernel's disk partner (``-1``: none)."""
+        return -1
+
     def kernel_coupling(self):
         """``(c, mu)``: the Moreau-Jean kernel's normal-load coupling (``-1, 0``: none)."""
         return -1, 0.0

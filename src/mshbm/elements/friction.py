@@ -37,6 +37,10 @@ sensitivities are exact for the active set, a sliding friction on a closed conta
 friction (``tangential_stiffness``) with a normal contact.  A Moreau-Jean caveat (``e_N = 0``): the
 velocity-level contact law keeps a closed contact closed anywhere within ``O(h^2 F / m)`` of the stop, and
 the normal load then differs by the normal stiffness times that offset.
+
+Two frictions on the two tangential directions of one contact point that name each other as
+``cone_partner`` form a 3-D frictional contact with the circular cone ``||lambda_T|| <= mu F_N``
+(:mod:`mshbm.elements.cone`; with ``tangential_stiffness`` a 3-D Jenkins element).
 """
 from __future__ import annotations
 
@@ -78,6 +82,12 @@ class Friction(Element):
         this friction: the bound is then ``mu (N_0 + lambda_N(t))``, ``N_0 = normal_force`` (see the
         module docstring).  The contact must act on other DOFs (the normal direction).  ``None``
         (default): the constant normal force ``normal_force``.
+    cone_partner : int or None
+        Index (into the system's element list) of the friction on the second tangential direction of the
+        same contact point: the two form one 3-D frictional contact with the circular cone
+        ``||(lambda_T1, lambda_T2)|| <= mu F_N`` (the slip direction rotates; :mod:`mshbm.elements.cone`).
+        Both must name each other and have the same ``mu``, ``normal_force``, ``normal_contact`` and
+        ``smoothing``.  ``None`` (default): 1-D friction.
     """
 
     dof: int
@@ -86,6 +96,7 @@ class Friction(Element):
     smoothing: float | None = None
     relative_to: int | None = None
     normal_contact: int | None = None
+    cone_partner: int | None = None
     kind: str = field(default="friction", init=False)
 
     kernel_code: ClassVar[int] = KIND_FRICTION
@@ -106,6 +117,12 @@ class Friction(Element):
                 raise InputError("friction.normal_contact", f"must be the index (>= 0) of a contact element, "
                                  f"got {c!r}")
             object.__setattr__(self, "normal_contact", int(c))
+        if self.cone_partner is not None:
+            c = self.cone_partner
+            if isinstance(c, bool) or not isinstance(c, (int, np.integer)) or c < 0:
+                raise InputError("friction.cone_partner", f"must be the index (>= 0) of the friction element on "
+                                 f"the second tangential direction, got {c!r}")
+            object.__setattr__(self, "cone_partner", int(c))
 
     @property
     def sign(self):
@@ -153,6 +170,10 @@ class Friction(Element):
         dgN = None if dn_dgamma is None else self.mu * phi * np.where(pos, dn_dgamma, 0.0)
         return self.mu * FN * phi, self.mu * FN * dphi, dsN, dgN
 
+    def kernel_partner(self):
+        """Index of the cone partner (the second tangential direction of a 3-D contact), ``-1``: none."""
+        return -1 if self.cone_partner is None else self.cone_partner
+
     def project(self, p, h):
         """``-lambda_T in mu F_N Sign(gamma_T)``: the impulse lies in ``[-h mu F_N, h mu F_N]``."""
         b = h * self.bound
@@ -164,8 +185,9 @@ class Friction(Element):
     def regularised_law(self, s, gamma):
         """Eq. (42): ``lambda_T = -mu F_N (2/pi) arctan(kappa gamma_T)`` (constant ``F_N``; with a normal
         contact: :meth:`coupled_law`)."""
-        if self.normal_contact is not None:
-            raise TypeError("friction with a normal contact: its law depends on the contact force (coupled_law)")
+        if self.normal_contact is not None or self.cone_partner is not None:
+            raise TypeError("friction with a normal contact or a cone partner: its law depends on the contact force "
+                            "or the partner's slip (coupled_law, mshbm.elements.cone.cone_law)")
         self._resolved()
         a = self.bound * 2.0 / np.pi
         ku = self.smoothing * gamma

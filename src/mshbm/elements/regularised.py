@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputError
+from .cone import cone_history_law, cone_law
 
 __all__ = ["regularised_forces"]
 
@@ -79,8 +80,23 @@ def regularised_forces(elements, local_dof, q, u, coupling=False, basis=None):
 
     for j, (el, d) in enumerate(zip(elements, local_dof)):
         w = el.sign
-        if el.normal_contact is not None:
+        if (el.normal_contact is not None or el.cone_partner is not None) and not el.history:
             continue  # after the contacts (second pass)
+        if el.history and el.cone_partner is not None:  # 3-D Jenkins: the pair's return mapping on the disk
+            p = el.cone_partner
+            if p < j:
+                continue  # done with its partner
+            wcs = [[(c, wi) for c, (_, wi) in zip(cols_of(local_dof[i]), elements[i].direction)] for i in (j, p)]
+            ss = [sum(wi * q[:, c] for c, wi in wc) for wc in wcs]
+            lam2, D = cone_history_law(el, ss[0], ss[1], basis)
+            for a, (ja, wa) in enumerate(((j, wcs[0]), (p, wcs[1]))):
+                lam[:, ja] = lam2[:, a]
+                for i, wi in wa:
+                    f[:, i] += wi * lam2[:, a]
+                    for bb, wb in enumerate(wcs):
+                        for kk, wk in wb:
+                            offdiag.append((i, kk, (wi * wk) * D[:, a, bb], None))
+            continue
         if el.history:  # dense in time: d lambda_k / d s_l, into the coupling terms as (N_s, N_s) matrices
             cols = (d,) if isinstance(d, (int, np.integer)) else tuple(d)
             wc = [(c, wi) for c, (_, wi) in zip(cols, el.direction)]
@@ -113,16 +129,29 @@ def regularised_forces(elements, local_dof, q, u, coupling=False, basis=None):
                 add(i, k, None if dl_ds is None else (wi * wk) * dl_ds, None if dl_dg is None else (wi * wk) * dl_dg)
     # friction loaded by a contact: lambda_T = mu (N_0 + lambda_N) phi(gamma_T); d f / d (q, u) of the
     # tangential DOFs (through gamma_T) and of the contact's DOFs (through lambda_N)
+    # (3-D frictional contact: lambda_T = -mu F_N (2/pi) arctan(kappa ||gamma_T||) gamma_T / ||gamma_T||, its
+    # partner's slip entering through ||gamma_T||, mshbm.elements.cone.cone_law)
     for j, (el, d) in enumerate(zip(elements, local_dof)):
-        if el.normal_contact is None:
+        if (el.normal_contact is None and el.cone_partner is None) or el.history:
             continue
         c = el.normal_contact
-        if c not in laws:
+        if c is not None and c not in laws:
             raise InputError("friction.normal_contact", f"element {c} is not a contact element")
         wt = [(col, wi) for col, (_, wi) in zip(cols_of(d), el.direction)]
-        wn = [(col, wi) for col, (_, wi) in zip(cols_of(local_dof[c]), elements[c].direction)]
+        wn = [] if c is None else [(col, wi) for col, (_, wi) in zip(cols_of(local_dof[c]), elements[c].direction)]
         gam = sum(wi * u[:, col] for col, wi in wt)
-        lam[:, j], dl_dgt, dl_dsn, dl_dgn = el.coupled_law(gam, *laws[c])
+        if el.cone_partner is None:
+            lam[:, j], dl_dgt, dl_dsn, dl_dgn = el.coupled_law(gam, *laws[c])
+        else:
+            p = el.cone_partner
+            if not 0 <= p < len(elements) or elements[p].cone_partner != j:
+                raise InputError("friction.cone_partner", f"element {p} is not the cone partner of friction {j}")
+            wp = [(col, wi) for col, (_, wi) in zip(cols_of(local_dof[p]), elements[p].direction)]
+            gp = sum(wi * u[:, col] for col, wi in wp)
+            lam[:, j], dl_dgt, dl_dgp, dl_dsn, dl_dgn = cone_law(el, gam, gp, *(laws[c] if c is not None else ()))
+            for i, wi in wt:
+                for k, wk in wp:
+                    add(i, k, None, (wi * wk) * dl_dgp)
         for i, wi in wt:
             f[:, i] += wi * lam[:, j]
             for k, wk in wt:

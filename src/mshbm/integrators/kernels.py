@@ -15,6 +15,9 @@ DOFs, ``w_j = sign[j] (e_dof[j] - e_dof2[j])`` and ``gamma_j = sign[j] (u[dof[j]
 ``dof2[j] = -1`` is the ground (the one-DOF arithmetic is unchanged).  The local problem, with the Delassus matrix
 ``D = G^T W G``, is:
 
+* cone partners (``tpair``, the two tangential directions of a 3-D contact): the disk
+  ``||(P_j, P_k)|| <= bound_j (+ mu_n[j] P_c)``, stick ``gamma_T+ = 0`` inside, else
+  ``gamma_T+ = -alpha P_T`` (maximal dissipation);
 * friction (kind 0): ``gamma_j+ = 0`` if ``|P_j| < bound_j = h mu F_N`` else
   ``P_j = -bound_j sign(gamma_j+)``; a friction whose normal load comes from a contact
   (``nsrc[j] = c >= 0``, coefficient ``mu_n[j]``) has the bound ``bound_j + mu_n[j] P_c``
@@ -47,9 +50,48 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit
+from scipy.optimize import brentq
 
 from .local_problem import (KIND_CONTACT, KIND_FRICTION, KIND_SMOOTH, STATUS_CLOSED, STATUS_OPEN,  # noqa: F401
                             STATUS_PROJECTED, STATUS_SLIP, STATUS_STICK, _local_solve, _rel, _sens_row, _solve_small)
+
+
+@njit(cache=True)
+def _disk_slip_row(a, j, k, idx, where, n_eq, status, P, r, Del, dof, dof2, sign, nsrc, mu_n, dUf, A, R):
+    """Sensitivity row ``a`` of friction ``j`` slipping on the disk it shares with its cone partner ``k``.
+
+    With ``P_T = b d`` (``d`` the unit slip direction, ``gamma_T = -||gamma_T|| d``)::
+
+        dP_T = d db - (b / ||gamma_T||) (I - d d^T) dgamma_T,   dgamma_T = dr_T + D_T. dP,  db = mu_n dP_c
+
+    (``db`` only while the loading contact ``c`` is closed).  Fills ``A[a]``, ``R[a]`` and returns True; False
+    (the caller writes the stick row ``dgamma_j = 0``) where ``gamma_T`` vanishes to rounding (slip onset).
+    """
+    g1 = r[j]
+    g2 = r[k]
+    for i in range(P.shape[0]):
+        g1 += Del[j, i] * P[i]
+        g2 += Del[k, i] * P[i]
+    gn = np.sqrt(g1 * g1 + g2 * g2)
+    b = np.sqrt(P[j] * P[j] + P[k] * P[k])
+    if b <= 0.0 or gn <= 1e-13 * (abs(r[j]) + abs(r[k])):
+        return False
+    inv = b / gn
+    dj = P[j] / b
+    dk = P[k] / b
+    pj = 1.0 - dj * dj  # row j of I - d d^T
+    pk = -dj * dk
+    for bb in range(n_eq):
+        A[a, bb] = inv * (pj * Del[j, idx[bb]] + pk * Del[k, idx[bb]])
+    A[a, a] += 1.0
+    c = nsrc[j]
+    if c >= 0 and (status[c] & 3) == STATUS_CLOSED:
+        A[a, where[c]] -= dj * mu_n[j]
+    for cc in range(R.shape[1]):
+        drj = _rel(dUf[:, cc], dof[j], dof2[j], sign[j])
+        drk = _rel(dUf[:, cc], dof[k], dof2[k], sign[k])
+        R[a, cc] = -inv * (pj * drj + pk * drk)
+    return True
 
 
 @njit(cache=True)
@@ -145,7 +187,7 @@ def _moreau_jean_scalar(q0, u0, aq, au, wg, dl, minvg, B, dB, theta, h, kind, si
 
 @njit(cache=True)
 def moreau_jean(q0, u0, Aq, Au, WG, Del, MinvG, B, dB, theta, h,
-                kind, dof, dof2, sign, bound, gap, e, nsrc, mu_n, project,
+                kind, dof, dof2, sign, bound, gap, e, nsrc, mu_n, tpair, project,
                 want_sens, store_q_sens, tol, max_iter, n_slider, poly):
     """Integrate ``N = B.shape[0]`` Moreau-Jean steps.
 
@@ -160,6 +202,8 @@ def moreau_jean(q0, u0, Aq, Au, WG, Del, MinvG, B, dB, theta, h,
         for an element on one DOF, else the second DOF of a relative element.
     nsrc, mu_n : (m,) normal-load coupling of friction elements: ``nsrc[j]`` the index of the contact
         whose impulse loads friction ``j`` (bound ``bound[j] + mu_n[j] P[nsrc[j]]``), ``-1``: none.
+    tpair : (m,) cone partner of friction ``j`` (the other tangential direction of a 3-D contact: the two
+        impulses share the disk ``||(P_j, P_tpair[j])|| <= bound``), ``-1``: none.
     project : bool, project penetrating contacts back to ``g = 0``.
     want_sens : bool, propagate sensitivities w.r.t. ``(q0, u0, p)``.
     store_q_sens : bool, also store ``dq_k/d(q0,u0,p)`` at every step.
@@ -269,7 +313,7 @@ def moreau_jean(q0, u0, Aq, Au, WG, Del, MinvG, B, dB, theta, h,
             else:
                 fgap[j] = 0.0
         if m > 0:
-            it = _local_solve(uf, u, fgap, kind, dof, dof2, sign, bound, e, nsrc, mu_n, Del, P, status, tol,
+            it = _local_solve(uf, u, fgap, kind, dof, dof2, sign, bound, e, nsrc, mu_n, tpair, Del, P, status, tol,
                               max_iter, rwork, awork)
             if it > used:
                 used = it
@@ -311,7 +355,7 @@ def moreau_jean(q0, u0, Aq, Au, WG, Del, MinvG, B, dB, theta, h,
             # bound follows a closed contact (dP_T = sign(P_T) mu dP_N)
             n_eq = 0
             for j in range(m):
-                if _sens_row(j, status, nsrc):
+                if _sens_row(j, status, nsrc, tpair):
                     n_eq += 1
             for j in range(m):
                 for c in range(n_s):
@@ -321,7 +365,7 @@ def moreau_jean(q0, u0, Aq, Au, WG, Del, MinvG, B, dB, theta, h,
                 where = np.full(m, -1, dtype=np.int64)
                 t = 0
                 for j in range(m):
-                    if _sens_row(j, status, nsrc):
+                    if _sens_row(j, status, nsrc, tpair):
                         idx[t] = j
                         where[j] = t
                         t += 1
@@ -329,7 +373,11 @@ def moreau_jean(q0, u0, Aq, Au, WG, Del, MinvG, B, dB, theta, h,
                 R = np.empty((n_eq, n_s))
                 for a in range(n_eq):
                     ja = idx[a]
-                    if status[ja] == STATUS_SLIP:  # coupled slip: dP_T - sign(P_T) mu dP_N = 0
+                    if (status[ja] & 3) == STATUS_SLIP and tpair[ja] >= 0 and _disk_slip_row(
+                            a, ja, tpair[ja], idx, where, n_eq, status, P, rwork, Del, dof, dof2, sign, nsrc, mu_n,
+                            dUf, A, R):
+                        continue
+                    if status[ja] == STATUS_SLIP and tpair[ja] < 0:  # coupled slip: dP_T - sign(P_T) mu dP_N = 0
                         for b in range(n_eq):
                             A[a, b] = 0.0
                         A[a, a] = 1.0
@@ -394,14 +442,60 @@ def moreau_jean(q0, u0, Aq, Au, WG, Del, MinvG, B, dB, theta, h,
     return qt, ut, Pt, st, Sq, Su, Sqt, used
 
 
+def _disk_numpy(P, j, k, r, Del, b):
+    """The impulses of cone partners ``j, k`` with the others fixed: the minimiser of the Delassus block's
+    quadratic form on the disk ``||P|| <= b``, ``P = -(A + lam I)^-1 g``, ``lam`` by bisection."""
+    jk = [j, k]
+    others = [i for i in range(P.size) if i not in jk]
+    return _disk_qp(r[jk] + Del[np.ix_(jk, others)] @ P[others], Del[np.ix_(jk, jk)], b)
+
+
+def _disk_qp(g, A, b):
+    """``argmin P^T A P / 2 + g^T P`` on the disk ``||P|| <= b`` (Brent's method on the multiplier)."""
+    if b <= 0.0:
+        return np.zeros(2)
+    p = np.linalg.solve(A, -g)
+    if np.linalg.norm(p) <= b:
+        return p
+    # ||(A + lam I)^-1 g|| = b: decreasing in lam, and <= b at ||g|| / b (Brent's method, to rounding)
+    lam = brentq(lambda s: np.linalg.norm(np.linalg.solve(A + s * np.eye(2), g)) - b, 0.0, np.linalg.norm(g) / b,
+                 xtol=1e-300, rtol=8.9e-16)
+    p = -np.linalg.solve(A + lam * np.eye(2), g)
+    return p * (b / np.linalg.norm(p))
+
+
+def _triple_numpy(P, j, k, c, r, Del, bT, mu, closable):
+    """Cone partners ``j, k`` and the contact ``c`` that loads them, the others fixed: for ``P_N >= 0`` the
+    disk's ``P_T``; ``P_N = 0`` if then ``gamma_N >= 0``, else the root of ``gamma_N(P_N)`` (Brent's method)."""
+    jk = [j, k]
+    others = [i for i in range(P.size) if i not in (j, k, c)]
+    gT = r[jk] + Del[np.ix_(jk, others)] @ P[others]
+    gN = r[c] + Del[c, others] @ P[others]
+    A, aTN, aNT = Del[np.ix_(jk, jk)], Del[jk, c], Del[c, jk]
+    disk = lambda pn: _disk_qp(gT + aTN * pn, A, bT + mu * pn)
+    gamma_n = lambda pn: gN + aNT @ disk(pn) + Del[c, c] * pn
+    if not closable or gamma_n(0.0) >= 0.0:
+        return np.append(disk(0.0), 0.0)
+    hi = 1.0
+    for _ in range(2000):
+        if gamma_n(hi) >= 0.0:
+            break
+        hi *= 2.0
+    pn = brentq(gamma_n, 0.0, hi, xtol=1e-300, rtol=8.9e-16)
+    return np.append(disk(pn), pn)
+
+
 def moreau_jean_numpy(q0, u0, Aq, Au, WG, Del, MinvG, B, theta, h,
                       kind, dof, sign, bound, gap, e, project=True, dof2=None, n_slider=0, nsrc=None, mu_n=None,
-                      poly=None):
+                      tpair=None, poly=None):
     """Plain NumPy version of :func:`moreau_jean` (no sensitivities), for testing.
 
     One element per step is solved in closed form; several by PGS as in the kernel.
     ``dof2``: second DOF of relative elements (-1: ground; default: all on one DOF).
     ``nsrc, mu_n``: normal-load coupling of friction elements (default: none).
+    ``tpair``: cone partners (default: none); a pair's impulse is the minimiser of the Delassus block's
+    quadratic form on the disk, found here by Brent's method on the multiplier (the kernel: Newton's iteration);
+    with the contact that loads them, the normal impulse by Brent's method on ``gamma_N`` (the kernel: bisection).
     ``poly``: (m, n_c) coefficients of the smooth elements (kind 2), explicit at ``q + h/2 u``.
     Returns ``q, u, P`` with the shapes of the kernel's outputs.
     """
@@ -409,6 +503,7 @@ def moreau_jean_numpy(q0, u0, Aq, Au, WG, Del, MinvG, B, theta, h,
     dof2 = -np.ones(m, dtype=np.int64) if dof2 is None else np.asarray(dof2)
     nsrc = -np.ones(m, dtype=np.int64) if nsrc is None else np.asarray(nsrc)
     mu_n = np.zeros(m) if mu_n is None else np.asarray(mu_n, dtype=float)
+    tpair = -np.ones(m, dtype=np.int64) if tpair is None else np.asarray(tpair)
     th = np.full(n, float(theta))
     th[n - n_slider:] = 1.0  # massless slider DOFs: theta = 1
     W = np.zeros((n, m))  # columns w_j
@@ -432,9 +527,23 @@ def moreau_jean_numpy(q0, u0, Aq, Au, WG, Del, MinvG, B, theta, h,
                            for j in range(m)], dtype=bool)
         r = np.array([W[:, j] @ uf + (e[j] * (W[:, j] @ u) if kind[j] == KIND_CONTACT else 0.0)
                       for j in range(m)])
+        # a contact loading exactly the two frictions of one cone: solved with them as one block
+        tri = {j: nsrc[j] for j in range(m) if tpair[j] > j and nsrc[j] >= 0 and nsrc[tpair[j]] == nsrc[j]
+               and np.count_nonzero(nsrc == nsrc[j]) == 2}
         for _ in range(1 if m == 1 else 1000):
             Pold = P.copy()
             for j in np.flatnonzero(active):
+                if j in tri.values():
+                    continue
+                if j in tri:
+                    c = tri[j]
+                    P[[j, tpair[j], c]] = _triple_numpy(P, j, tpair[j], c, r, Del, bound[j], mu_n[j], active[c])
+                    continue
+                if tpair[j] >= 0:
+                    if tpair[j] > j:
+                        P[[j, tpair[j]]] = _disk_numpy(P, j, tpair[j], r, Del, bound[j] + (
+                            mu_n[j] * P[nsrc[j]] if nsrc[j] >= 0 else 0.0))
+                    continue
                 p = P[j] - (r[j] + Del[j] @ P) / Del[j, j]
                 if kind[j] == KIND_FRICTION:
                     b = bound[j] + (mu_n[j] * P[nsrc[j]] if nsrc[j] >= 0 else 0.0)

@@ -92,7 +92,7 @@ def _with_sliders(M, C, K, elements):
             v[d] = w
         v[z] = -1.0
         Ka += el.tangential_stiffness * np.outer(v, v)
-        out[j] = Friction(z, el.mu, el.normal_force, el.smoothing)
+        out[j] = Friction(z, el.mu, el.normal_force, el.smoothing, cone_partner=el.cone_partner)  # 3-D: a disk
         sliders.append((j, z))
     return Ma, Ca, Ka, out, sliders
 
@@ -157,6 +157,8 @@ class MoreauJean:
         #: coefficients of the smooth elements (polynomial springs, kind 2): ``lambda_j = sum_p poly[j, p] s^p``
         order = max([max(el.powers) for el in elements if getattr(el, "smooth", False)], default=0)
         self.poly = np.zeros((m, order + 1))
+        #: cone partners (the two tangential directions of a 3-D contact), -1: none
+        self.tpair = np.full(m, -1, dtype=np.int64)
         for j, el in enumerate(elements):
             for d, w in el.direction:
                 G[d, j] = w
@@ -167,6 +169,7 @@ class MoreauJean:
             self.nsrc[j], self.mu_n[j] = el.kernel_coupling()
             if getattr(el, "smooth", False):
                 self.poly[j] = el.kernel_polynomial(order)
+            self.tpair[j] = el.kernel_partner()
         for j in np.flatnonzero(self.nsrc >= 0):
             c = int(self.nsrc[j])
             if not (0 <= c < m and c != j and self.kind[c] == kernels.KIND_CONTACT):
@@ -268,8 +271,8 @@ class MoreauJean:
             self.Aq, self.Au, self.WG, self.Del, self.MinvG,
             np.ascontiguousarray(B, dtype=float), np.ascontiguousarray(dB, dtype=float),
             self.theta, self.h, self.kind, self.dof, self.dof2, self.sign, self.bound, self.gap, self.e,
-            self.nsrc, self.mu_n, self.project, bool(sensitivities or store_q_sensitivities), bool(store_q_sensitivities),
-            self.tol, self.max_iter, self.n - self.n_structure, self.poly)
+            self.nsrc, self.mu_n, self.tpair, self.project, bool(sensitivities or store_q_sensitivities),
+            bool(store_q_sensitivities), self.tol, self.max_iter, self.n - self.n_structure, self.poly)
         return Trajectory(*out)
 
     @property
@@ -315,6 +318,11 @@ class MoreauJean:
                     raise ValueError("step_jacobian: a friction element slips with the bound of a closed "
                                      "contact; pass slip_sign (MoreauJean.slip_signs)")
                 slip[j] = True
+        for j in np.flatnonzero(self.tpair >= 0):
+            if base[j] == kernels.STATUS_SLIP:
+                raise InputError("friction.cone_partner", "the step Jacobian of a 3-D frictional contact in slip "
+                                 "depends on the slip direction, not on the active set alone: use the kernel's "
+                                 "sensitivities (run(..., sensitivities=True))")
         E = np.flatnonzero(eq | slip)
         dUn = dUf.copy()
         if E.size:

@@ -79,9 +79,13 @@ class MoreauJeanIntegrator(PeriodIntegrator):
 
     def run(self, q0, u0, p=None, sensitivities=False, record=False):
         if self.part is None:
-            if sensitivities and self.stepper.smooth:  # state-dependent step Jacobians: forward sensitivities
+            if sensitivities and (self.stepper.smooth or np.any(self.stepper.tpair >= 0)):
+                # state-dependent step Jacobians (polynomial springs; a 3-D frictional contact, whose step
+                # Jacobian in slip depends on the slip direction): the kernel's forward sensitivities, not the
+                # active-set monodromy
                 tr = self.stepper.run(q0, u0, self.B, sensitivities=True)
-                jac = np.vstack([tr.Sq, tr.Su])
+                n = self.stepper.n
+                jac = np.vstack([tr.Sq[:, :2 * n], tr.Su[:, :2 * n]])
             else:
                 tr = self.trajectory(q0, u0)
                 jac = self.stepper.monodromy(tr.status, tr.P) if sensitivities else None

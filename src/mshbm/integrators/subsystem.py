@@ -54,8 +54,8 @@ def _blocks(M, C, K, elements):
     n = M.shape[0]
     if n < 2 or any(type(el) not in (Friction, Contact, Jenkins, Polynomial) for el in elements):
         return None
-    if any(getattr(el, "normal_contact", None) is not None for el in elements):
-        return None  # a friction loaded by a contact couples the two elements' DOFs: one block
+    if any(el.normal_contact is not None or el.cone_partner is not None for el in elements):
+        return None  # a friction loaded by a contact or a cone pair couples the elements' DOFs: one block
     A = (np.abs(M) + np.abs(C) + np.abs(K)) > 0
     rows, cols = np.nonzero(A)
     for el in elements:

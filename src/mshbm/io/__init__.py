@@ -18,6 +18,12 @@ A case file is a top-level mapping.  A wall-spring-mass chain (see
     #   friction: {dof: 1, mu: 0.5, normal_contact: 0}   # bound mu (normal_force + lambda_N(t)),
     #   contact: {dof: 2, gap: 0, restitution: 0}        # normal_contact indexes the contact list;
     #                                                    # normal_force (the preload) defaults to 0
+    # a 3-D frictional contact (circular cone ||lambda_T|| <= mu F_N, examples/cone3d.yaml): two friction
+    # entries naming each other by their index in the friction list; the keys mu, normal_force,
+    # normal_contact, smoothing, tangential_stiffness left out of one are its partner's (stated in both:
+    # they must be equal):
+    #   friction: [{dof: 0, mu: 0.3, normal_force: 1, cone_partner: 1},   # + normal_contact: i (optional)
+    #              {dof: 1, cone_partner: 0}]
     # a forcing harmonic k needs harmonics >= k (HBM; the harmonic DOFs of MS-HBM) and steps > 2k
     # (time-stepped DOFs): otherwise the case is refused, never truncated (README: "What mshbm refuses")
     solver: {method: mshbm, harmonics: 3, steps: 4096}   # optional defaults for solve

@@ -205,6 +205,29 @@ def _base(value, system, n, name):
                            elements=system.elements, frame=frame, name=name)
 
 
+#: keys a friction entry with ``cone_partner`` may leave out: it takes its partner's (one contact point)
+CONE_SHARED = ("mu", "normal_force", "normal_contact", "smoothing", "tangential_stiffness")
+
+
+def _cone_inherit(items):
+    """Friction entries with the keys of :data:`CONE_SHARED` they leave out taken from their cone partner's
+    entry (copies; the partner's own values, not inherited ones: one of the two states them)."""
+    out = []
+    for i, (key, item) in enumerate(items):
+        if item.get("cone_partner") is None:
+            out.append((key, item))
+            continue
+        p = _integer(f"{key}.cone_partner", item["cone_partner"], minimum=0)
+        if p >= len(items) or p == i:
+            raise InputError(f"{key}.cone_partner", f"must be the index of another friction entry "
+                             f"(0..{len(items) - 1}, not its own {i}), got {p}")
+        other = items[p][1]
+        if isinstance(other, dict):
+            item = dict(item, **{k: other[k] for k in CONE_SHARED if k not in item and k in other})
+        out.append((key, item))
+    return out
+
+
 def _elements(kind, value, n, contacts=()):
     """Elements of one section; ``contacts``: the parsed ``contact`` entries (for ``normal_contact``, which
     becomes an index into the system's element list: the friction entries come first)."""
@@ -213,6 +236,8 @@ def _elements(kind, value, n, contacts=()):
     cls, spec = (Friction, FRICTION_KEYS) if kind == "friction" else (Contact, CONTACT_KEYS)
     out, seen = [], {}
     items = _items(kind, value)
+    if kind == "friction":
+        items = _cone_inherit(items)
     for key, item in items:
         _check_keys(key, item, tuple(spec))
         vals = {}
@@ -232,6 +257,8 @@ def _elements(kind, value, n, contacts=()):
                     raise InputError(f"{key}.{name}", f"contact {i} acts on the friction's own DOF {vals['dof']}: "
                                      "the normal direction must be another DOF")
                 vals[name] = len(items) + i
+            elif name == "cone_partner":  # checked by _cone_inherit: the friction entries come first
+                vals[name] = _integer(f"{key}.{name}", item[name], minimum=0)
             else:
                 vals[name] = _number(f"{key}.{name}", item[name])
         if vals.get("relative_to") is not None and vals["relative_to"] == vals["dof"]:

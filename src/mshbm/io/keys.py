@@ -14,8 +14,10 @@ FORCING_KEYS = ("dof", "amplitude", "sin", "harmonic", "constant")
 #: (``tangential_stiffness: k_t``: elastic friction, a Jenkins element, :class:`mshbm.elements.Jenkins`)
 #: (``normal_contact: i``: the normal load is ``normal_force`` (the preload N_0, default 0 then) plus the force
 #: of the ``contact`` entry ``i`` (0-based index into the ``contact`` list), :class:`mshbm.elements.Friction`)
+#: (``cone_partner: i``: the ``friction`` entry ``i`` (0-based) is the second tangential direction of the same
+#: contact point: a 3-D frictional contact with the circular cone, :mod:`mshbm.elements.cone`)
 FRICTION_KEYS = {"dof": ..., "mu": ..., "normal_force": ..., "smoothing": None, "relative_to": None,
-                 "tangential_stiffness": None, "normal_contact": None}
+                 "tangential_stiffness": None, "normal_contact": None, "cone_partner": None}
 CONTACT_KEYS = {"dof": ..., "gap": ..., "restitution": 1.0, "penalty_stiffness": None,
                 "penalty_damping": 0.0, "relative_to": None}
 #: polynomial springs ``lambda = -sum_p k_p s^p`` (:class:`mshbm.elements.Polynomial`): ``coefficients`` a mapping

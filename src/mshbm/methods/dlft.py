@@ -31,6 +31,10 @@ corrects the prediction in the time domain, on the ``N_s`` AFT samples:
   (``normal_contact``, :class:`mshbm.elements.Friction`) has the per-sample bound
   ``mu (N_0 + lambda_N(t_n))`` with the contact's corrected force (the contacts are corrected first);
   while it slips on a closed sample, ``d lambda = sign(lambda) mu d lambda_N`` (velocity predictor only).
+  A 3-D frictional contact (cone partners ``j, k``, :mod:`mshbm.elements.cone`; velocity predictor only) is
+  predicted as a pair, ``y_T = (y_j, y_k)`` with one ``eps_v`` (the mean of the two), and projected onto the
+  disk: stick ``lambda_T = y_T`` while ``||y_T|| <= mu F_N``, else ``lambda_T = mu F_N y_T / ||y_T||``, with
+  ``d lambda_T = (mu F_N / ||y_T||) (I - d d^T) dy_T + d mu d lambda_N`` (``d = lambda_T / (mu F_N)``).
 * **Coulomb friction, displacement predictor** (``dlft_predictor="displacement"``; slip
   displacement ``xi = w q``): the incremental stick prediction ``lambda_pred(t_n) = lambda(t_{n-1})
   + lambda_L(t_n) - lambda_L(t_{n-1}) - eps (xi(t_n) - xi(t_{n-1}))``, written with the Lagrangian
@@ -138,6 +142,7 @@ import scipy.sparse.linalg as spla
 
 from .. import condensation, fourier
 from ..condensation import Condensation
+from ..elements.cone import cone_pairs
 from ..errors import InputError
 from .base import HarmonicProblem
 from .common import guess_parts
@@ -205,6 +210,9 @@ class DLFTProblem(HarmonicProblem):
         for el in system.elements:
             if el.smooth:
                 continue
+            if el.cone_partner is not None and dlft_predictor != "velocity":
+                raise InputError("friction.cone_partner", "DLFT supports the 3-D frictional contact (cone partners) "
+                                 "with dlft_predictor 'velocity' only")
             if el.normal_contact is not None and dlft_predictor != "velocity":
                 raise InputError("friction.normal_contact", "DLFT supports friction with a normal load from a "
                                  "contact with dlft_predictor 'velocity' only")
@@ -238,6 +246,9 @@ class DLFTProblem(HarmonicProblem):
             self.eps = np.full(len(system.elements), float(dlft_penalty))
         # velocity predictor: eps_v = eps / (n_h omega) (N s/m), the impedance at the resolution of the series
         self.eps_v = self.eps / (self.n_h * self.omega)
+        for j, k in cone_pairs(system.elements):  # one penalty per cone: the disk projection stays Euclidean
+            self.eps_v[j] = self.eps_v[k] = 0.5 * (self.eps_v[j] + self.eps_v[k])
+        self._cone_ny = {}  # cone pairs: ||y_T|| per sample of the last march (the slip Jacobian)
         # d/dt of the series on the samples, Vs Om = -(Om Vs^T)^T (Om is antisymmetric), O(N_s n_h)
         VsOm = -fourier.derivative(self.Vs.T, self.omega).T if any(map(self._velocity, system.elements)) else None
         # per element: rows of its DOF in the unknowns, the columns its demanded force depends on,
@@ -336,8 +347,23 @@ class DLFTProblem(HarmonicProblem):
             el, j, rows, cols, sel, w, Q = self._el[k]
             lamL = w * (self.Vs @ linear[rows])
             if self._velocity(el):
+                if out[k] is not None:
+                    continue  # the cone partner of an element done
                 y = lamL - self.eps_v[j] * (w * (self.Vs @ (self.Om @ x[rows])))
                 b = el.bound_samples(self._element_columns(out)) if el.normal_contact is not None else float(el.bound)
+                if el.cone_partner is not None:  # the disk: stick inside, else b y_T / ||y_T||
+                    p = el.cone_partner
+                    kp = self._pos[p]
+                    _, _, rows_p, _, _, w_p, _ = self._el[kp]
+                    lamL_p = w_p * (self.Vs @ linear[rows_p])
+                    y_p = lamL_p - self.eps_v[p] * (w_p * (self.Vs @ (self.Om @ x[rows_p])))
+                    ny = np.hypot(y, y_p)
+                    stick = ny <= b
+                    f = np.where(stick, 1.0, b / np.where(stick, 1.0, ny))
+                    self._cone_ny[j] = self._cone_ny[p] = ny
+                    out[k] = (y * f, stick.astype(np.int8), None, lamL)
+                    out[kp] = (y_p * f, stick.astype(np.int8), None, lamL_p)
+                    continue
                 stick = np.abs(y) <= b
                 out[k] = (np.clip(y, -b, b), stick.astype(np.int8), None, lamL)
                 continue
@@ -404,17 +430,30 @@ class DLFTProblem(HarmonicProblem):
                     mem[~has] = -d0
                 dlam -= mem
             blocks.append((rows, cols, w * (self.E[:, act] @ dlam)))
+            direction = np.sign(lam)
+            p = el.cone_partner
+            if p is not None:  # disk slip: d lambda_T = (b / ||y_T||) (I - d d^T) dy_T + d db, d = lambda_T / b
+                sl = np.flatnonzero(state == 0)
+                lam_p = marched[self._pos[p]][0]
+                bs = np.hypot(lam, lam_p)
+                direction = lam / np.where(bs > 0, bs, 1.0)
+                if sl.size:
+                    _, _, _, cols_p, _, _, Q_p = self._el[self._pos[p]]
+                    d_j, d_p = direction[sl], lam_p[sl] / np.where(bs[sl] > 0, bs[sl], 1.0)
+                    cfac = bs[sl] / self._cone_ny[j][sl]
+                    blocks.append((rows, cols, w * (self.E[:, sl] @ ((cfac * (1.0 - d_j * d_j))[:, None] * Q[sl]))))
+                    blocks.append((rows, cols_p, w * (self.E[:, sl] @ ((-cfac * d_j * d_p)[:, None] * Q_p[sl]))))
             c = el.normal_contact
-            if c is not None:  # slip on a closed contact: d lambda_T = sign(lambda_T) mu d lambda_N
+            if c is not None:  # slip on a closed contact: d lambda_T = d mu d lambda_N (d = sign, or on the disk)
                 c = self._pos[c]
                 _, _, rows_c, cols_c, _, w_c, Q_c = self._el[c]
                 sl = np.flatnonzero((state == 0) & (marched[c][1] == 1))
                 if sl.size:
-                    g = (el.mu * np.sign(lam[sl]))[:, None] * Q_c[sl]
+                    g = (el.mu * direction[sl])[:, None] * Q_c[sl]
                     blocks.append((rows, cols_c, w * (self.E[:, sl] @ g)))
                     if smooth is not None:
                         for k, Y in self._smooth_extra(smooth[1], int(rows_c[0]), w_c):
-                            g = (el.mu * np.sign(lam[sl]))[:, None] * Y[sl]
+                            g = (el.mu * direction[sl])[:, None] * Y[sl]
                             blocks.append((rows, np.arange(nc) * nR + k, w * (self.E[:, sl] @ g)))
         if sp.issparse(self.A):
             rr = [np.repeat(rows, cols.size) for rows, cols, _ in blocks]

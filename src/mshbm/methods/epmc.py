@@ -133,6 +133,8 @@ class EPMCProblem:
             if el.normal_contact is not None:
                 raise InputError(f"{el.kind}.normal_contact", "backbone: friction loaded by a contact is not "
                                  "supported")
+            if el.cone_partner is not None:
+                raise InputError(f"{el.kind}.cone_partner", "backbone: the 3-D frictional contact is not supported")
         self.system, self.mode, self.n_h, self.Ns = system, int(mode), int(harmonics), int(steps)
         omegas, Phi = linear_modes(system, self.mode + 1)
         self.omega0, self.phi = float(omegas[-1]), Phi[:, -1]

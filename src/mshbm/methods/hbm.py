@@ -57,7 +57,7 @@ def _fast_laws(elements, nl_cols, pos):
     rows = []
     for el in elements:
         law = type(el).regularised_law
-        if el.relative_to is not None or el.history or el.normal_contact is not None:
+        if el.relative_to is not None or el.history or el.normal_contact is not None or el.cone_partner is not None:
             return None
         if law is Friction.regularised_law:
             rows.append((hbm_kernels.KIND_FRICTION, cols[pos[el.dof]], el.sign, el.bound * 2.0 / np.pi,

@@ -61,6 +61,8 @@ def linear_quadrature_unsupported(elements):
             return f"'linear' needs contacts without penalty damping (d_c = 0), got d_c = {el.penalty_damping:g}"
         if el.normal_contact is not None:
             return "'linear' does not support friction loaded by a contact (normal_contact)"
+        if el.cone_partner is not None:
+            return "'linear' does not support the 3-D frictional contact (cone_partner)"
     return None
 
 

@@ -49,6 +49,7 @@ import time
 
 import numpy as np
 
+from ..elements.cone import cone_pairs
 from ..scaling import force_scale
 
 __all__ = ["SMOOTHING_FACTOR", "PENALTY_FACTOR", "STIFFENING", "ORDER", "REGULARISATION_BOUND", "resolve",
@@ -161,6 +162,12 @@ def _compute(system, omega):
             entry.update(penalty_stiffness=float(el.penalty_stiffness), default=False)
         els.append(el)
         record.append(entry)
+    for j, k in cone_pairs(system.elements):  # one contact point: one kappa, from the larger velocity scale
+        if j in smooth and k in smooth:
+            kappa = min(els[j].smoothing, els[k].smoothing)
+            for i in (j, k):
+                els[i] = _replace(els[i], smoothing=kappa)
+                record[i].update(smoothing=kappa, rule=record[i]["rule"] + "; cone partners: the smaller kappa")
     return els, record
 
 
@@ -221,6 +228,17 @@ def law_distance(system, sol):
         if el.bounded:
             gam = el.local(np.asarray(sol.u))[:-1]
             W0 = float(np.sum(el.bound_samples(lam)[:-1] * np.abs(gam) * dt))
+            if el.cone_partner is not None:  # the pair's work against mu F_N ||gamma_T||, at its first element
+                p = el.cone_partner
+                if p < j:
+                    continue
+                gp = system.elements[p].local(np.asarray(sol.u))[:-1]
+                W0 = float(np.sum(el.bound_samples(lam)[:-1] * np.hypot(gam, gp) * dt))
+                Wl = float(-np.sum((lam[:-1, j] * gam + lam[:-1, p] * gp) * dt))
+                weight = min(1.0, float(np.max(np.hypot(gam, gp), initial=0.0)) / V) if V > 0 else 1.0
+                if W0 > 0.0:
+                    out = max(out, weight * (W0 - Wl) / max(W0, W_in))
+                continue
             if W0 > 0.0:
                 # the work deficit relative to the energy the orbit dissipates per period (at least W_0): an
                 # element that creeps where Coulomb's would stick has a deficit near W_0 but W_0 is then a

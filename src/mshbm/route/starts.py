@@ -171,7 +171,8 @@ def event_steps(parts, system):
         if el.unilateral:
             act = P[:, j] > 1e-12 * float(np.max(np.abs(P[:, j]), initial=0.0))  # not rounding-level impulses
         else:
-            act = np.abs(P[:, j]) < (1.0 - 1e-9) * h * el.bound_samples(P / h)  # sticking
+            PT = np.abs(P[:, j]) if el.cone_partner is None else np.hypot(P[:, j], P[:, el.cone_partner])
+            act = PT < (1.0 - 1e-9) * h * el.bound_samples(P / h)  # sticking (3-D contact: ||P_T||)
         change = np.nonzero(act != np.roll(act, 1))[0]
         ev.extend(change.tolist())
         if el.unilateral:

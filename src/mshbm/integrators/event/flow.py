@@ -216,6 +216,10 @@ class EventFlow(ModeCatalogue, Transitions, FourierQuadrature, MoreauFallback):
                 raise InputError(f"{el.kind}.relative_to", "the event-driven flow supports elements between a "
                                  "DOF and the ground; relative elements are not supported (use shooting, "
                                  "mshbm or hbm with the Moreau-Jean integrator)")
+            if getattr(el, "cone_partner", None) is not None:
+                raise InputError("friction.cone_partner", f"the event-driven flow does not support the 3-D "
+                                 f"frictional contact (friction on DOF {el.dof} with a cone partner: the slip "
+                                 "direction rotates); use integrator 'moreau' (shooting or mshbm) or method 'hbm'")
             if getattr(el, "normal_contact", None) is not None:
                 raise InputError("friction.normal_contact", "the event-driven flow does not support friction "
                                  "whose normal load comes from a contact; use the Moreau-Jean integrator "

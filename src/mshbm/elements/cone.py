@@ -1,0 +1,221 @@
+"""3-D frictional contact: two :class:`~mshbm.elements.Friction` elements linked as *cone partners*.
+
+A contact point with two tangential DOFs ``t1, t2`` and one normal DOF ``n`` (each relative to a second
+DOF, or to the ground) is modelled by the existing elements, linked by indices into the system's element
+list:
+
+* ``Friction(t1, mu, N_0, cone_partner=j2, normal_contact=c)`` and ``Friction(t2, mu, N_0, cone_partner=j1,
+  normal_contact=c)``: the tangential force ``lambda_T = (lambda_T1, lambda_T2)`` obeys Coulomb's law with
+  the **circular cone** ``||lambda_T|| <= mu F_N`` and maximal dissipation,
+  ``-lambda_T in mu F_N d||gamma_T||`` (``gamma_T = (gamma_T1, gamma_T2)``, the slip direction rotates);
+* ``Contact(n, gap, e_N)`` (optional, index ``c``): the unilateral normal contact with Newton's restitution
+  whose force loads the friction, ``F_N = N_0 + lambda_N``; without it the normal load is the constant
+  ``N_0 = normal_force``.
+
+:func:`frictional_contact` builds the two or three elements with the indices filled in.
+
+**3-D Jenkins** (``tangential_stiffness=k_t`` on both, :class:`~mshbm.elements.Jenkins`; constant normal load,
+preload ``N_0``): a tangential spring ``k_t`` in each direction in series with one slider on the disk.
+Moreau-Jean integrates the two massless slider DOFs with rigid friction that are cone partners
+(:func:`mshbm.integrators.moreau_jean._with_sliders`); HBM marches the return mapping on the disk
+(:func:`cone_history_law`, exact derivative).  A normal stiffness (a compliant normal contact) and Jenkins
+partners loaded by a contact are not supported (:class:`~mshbm.errors.InputError`).
+
+Methods:
+
+* **Moreau-Jean** (shooting, both MS-HBM variants): the local problem projects the tangential impulse onto
+  the disk ``||P_T|| <= mu (h N_0 + P_N)`` -- the pair is one block of the projected Gauss-Seidel sweep,
+  solved exactly for the current bound (:func:`mshbm.integrators.local_problem._disk_solve`, the
+  trust-region subproblem of the 2x2 Delassus block); the sensitivities are exact for the active set,
+  with the rotation of the slip direction in slip (:mod:`mshbm.integrators.kernels`).
+* **HBM**: the regularised cone law (:func:`cone_law`)::
+
+      lambda_T = -mu F_N (2/pi) arctan(kappa ||gamma_T||) gamma_T / ||gamma_T||
+
+  smooth at ``gamma_T = 0`` (``arctan(x)/x`` is even and analytic) and, with the slip in one direction,
+  *exactly* the 1-D law of eq. (42); ``kappa`` is the friction's ``smoothing`` (default from the unit-free
+  rule of :mod:`mshbm.methods.hbm_regularisation`, one value per pair from the pair's larger velocity
+  scale).  With a normal contact ``F_N = N_0 + max(lambda_N, 0)`` with the penalty force (eq. 45).
+* **DLFT** (velocity predictor): the pair's prediction ``y_T`` projected onto the disk, one penalty per pair
+  (:mod:`mshbm.methods.dlft`).
+* The **exact event-driven flow**, DLFT's displacement predictor, the backbone (EPMC) and
+  ``penalty_quadrature="linear"``: not supported, a clear :class:`~mshbm.errors.InputError` naming
+  ``friction.cone_partner`` (time stepping: the Moreau-Jean integrator).  Hill's method (HBM stability)
+  reports that it cannot take the pair's coupling terms; the step map's multipliers come from the kernel's
+  sensitivities.
+* **Certificate**: ``friction_cone`` checks ``||lambda_T|| <= mu F_N`` per sample; ``cone_dissipation``
+  checks maximal dissipation, ``lambda_T . gamma_T = -||lambda_T|| ||gamma_T||`` wherever the pair slips.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import InputError
+
+__all__ = ["frictional_contact", "cone_law", "cone_history_law", "cone_pairs", "check_cone_pairs"]
+
+
+def frictional_contact(t1, t2, mu, normal_force=0.0, *, normal=None, gap=0.0, restitution=0.0, first=0,
+                       relative_to=None, smoothing=None, penalty_stiffness=None, penalty_damping=0.0,
+                       tangential_stiffness=None):
+    """The elements of one 3-D frictional contact, to be placed at ``elements[first:first + 2 or 3]``.
+
+    Parameters
+    ----------
+    t1, t2 : int
+        Tangential DOFs.
+    mu : float
+        Friction coefficient.
+    normal_force : float
+        ``N_0`` (N): the constant normal load, or with ``normal`` the preload added to the contact force.
+    normal : int or None
+        Normal DOF of a unilateral contact (gap ``g_N = gap - q_n``, restitution ``e_N``) whose force loads
+        the friction; ``None``: the constant normal load ``normal_force``.
+    first : int
+        Index of the first returned element in the system's element list.
+    relative_to : None or tuple of (int or None)
+        Second DOFs ``(J1, J2, Jn)`` of a contact between two nodes (``None`` entries: the ground).
+    smoothing, penalty_stiffness, penalty_damping : as for :class:`Friction` and :class:`Contact` (HBM only).
+    tangential_stiffness : float or None
+        ``k_t`` (N/m): the 3-D Jenkins element (a tangential spring in both directions in series with the
+        slider on the disk, :func:`cone_history_law`); constant normal load only.
+
+    Returns
+    -------
+    list of Element: ``[Friction(t1), Friction(t2)]`` and, with ``normal``, ``Contact(normal)``.
+    """
+    from functools import partial
+
+    from .contact import Contact
+    from .friction import Friction, Jenkins
+
+    J = (None, None, None) if relative_to is None else tuple(relative_to)
+    if len(J) != 3:
+        raise InputError("frictional_contact.relative_to", f"must be three DOFs (J1, J2, Jn) or None, got {J!r}")
+    c = None if normal is None else first + 2
+    if tangential_stiffness is not None:
+        Friction = partial(Jenkins, tangential_stiffness=tangential_stiffness)  # noqa: N806
+    out = [Friction(t1, mu, normal_force, smoothing=smoothing, relative_to=J[0], normal_contact=c,
+                    cone_partner=first + 1),
+           Friction(t2, mu, normal_force, smoothing=smoothing, relative_to=J[1], normal_contact=c,
+                    cone_partner=first)]
+    if normal is not None:
+        out.append(Contact(normal, gap, restitution, penalty_stiffness=penalty_stiffness,
+                           penalty_damping=penalty_damping, relative_to=J[2]))
+    return out
+
+
+def cone_pairs(elements):
+    """``[(j, k)]`` with ``j < k``: the cone partners among ``elements``."""
+    return [(j, int(el.cone_partner)) for j, el in enumerate(elements)
+            if el.cone_partner is not None and j < el.cone_partner]
+
+
+def check_cone_pairs(elements):
+    """Clear errors for inconsistent cone partners (:class:`~mshbm.errors.InputError` naming
+    ``friction.cone_partner``)."""
+    m = len(elements)
+    for j, el in enumerate(elements):
+        k = el.cone_partner
+        if k is None:
+            continue
+        key = "friction.cone_partner"
+        if not 0 <= k < m or k == j:
+            raise InputError(key, f"friction {j}: no other element {k} (the system has {m})")
+        other = elements[k]
+        if not other.bounded or other.cone_partner != j:
+            raise InputError(key, f"friction {j} names element {k} as its cone partner, which must be a friction "
+                             f"naming {j} back (got a {other.kind} with cone_partner {other.cone_partner})")
+        if int(other.dof) == int(el.dof) and other.relative_to == el.relative_to:
+            raise InputError(key, f"frictions {j} and {k} act on the same DOF {el.dof}: the two tangential "
+                             "directions must be different DOFs")
+        if el.history != other.history:
+            raise InputError(key, f"cone partners {j} and {k}: both elastic (tangential_stiffness) or both rigid")
+        for name in ("mu", "normal_force", "normal_contact", "smoothing", "tangential_stiffness"):
+            if getattr(el, name, None) != getattr(other, name, None):
+                raise InputError(key, f"cone partners {j} and {k} must have the same {name} (one contact point), "
+                                 f"got {getattr(el, name)!r} and {getattr(other, name)!r}")
+
+
+def _atan_ratio(x):
+    """``A(x) = arctan(x)/x`` and ``B(x) = (x/(1+x^2) - arctan(x))/x^3`` (``A'(x) = x B(x)``), with their
+    series at small ``x`` (``A -> 1``, ``B -> -2/3``)."""
+    x = np.asarray(x, dtype=float)
+    small = x < 1e-3
+    xs = np.where(small, 1.0, x)
+    at = np.arctan(xs)
+    x2 = x * x
+    A = np.where(small, 1.0 - x2 / 3.0 + x2 * x2 / 5.0, at / xs)
+    B = np.where(small, -2.0 / 3.0 + 0.8 * x2 - 6.0 / 7.0 * x2 * x2, (xs / (1.0 + xs * xs) - at) / xs ** 3)
+    return A, B
+
+
+def cone_law(el, g1, g2, lam_n=None, dn_ds=None, dn_dgamma=None):
+    """Regularised cone law of friction ``el`` (direction 1) given its slip ``g1`` and its partner's ``g2``::
+
+        lambda_1 = -mu F_N (2/pi) arctan(kappa r) g1 / r,    r = ||(g1, g2)||
+
+    ``F_N = N_0`` or, with the contact force samples ``lam_n`` (and its derivatives ``dn_ds``,
+    ``dn_dgamma`` with respect to the contact's own ``s_N``, ``gamma_N``), ``N_0 + max(lambda_N, 0)``.
+
+    Returns ``(lam, dlam_dg1, dlam_dg2, dlam_ds_N, dlam_dgamma_N)`` (``None`` for a vanishing term).
+    """
+    if el.smoothing is None:
+        raise TypeError("friction.smoothing is None (the default): HBM fills it in from the problem's scales "
+                        "(mshbm.methods.hbm_regularisation.resolve) before the law is evaluated")
+    kappa = float(el.smoothing)
+    g1, g2 = np.asarray(g1, dtype=float), np.asarray(g2, dtype=float)
+    x = kappa * np.hypot(g1, g2)
+    A, B = _atan_ratio(x)
+    c = (2.0 / np.pi) * kappa
+    phi = -c * A * g1  # lambda_1 / (mu F_N)
+    d11 = -c * (A + kappa * kappa * B * g1 * g1)
+    d12 = -c * kappa * kappa * B * g1 * g2
+    if lam_n is None:
+        b = el.mu * el.normal_force
+        return b * phi, b * d11, b * d12, None, None
+    pos = lam_n > 0.0
+    FN = el.normal_force + np.where(pos, lam_n, 0.0)
+    dsN = None if dn_ds is None else el.mu * phi * np.where(pos, dn_ds, 0.0)
+    dgN = None if dn_dgamma is None else el.mu * phi * np.where(pos, dn_dgamma, 0.0)
+    b = el.mu * FN
+    return b * phi, b * d11, b * d12, dsN, dgN
+
+
+def cone_history_law(el, s1, s2, basis=None):
+    """3-D Jenkins law of cone partners (``el`` the first; both with ``k_t = tangential_stiffness`` and the bound
+    ``b = mu N_0``) at the periodic samples of their ``s = w^T q``, ``s1`` and ``s2`` (shape (N_s,) each).
+
+    Return mapping on the disk over two periods from ``lambda = 0`` at the last sample (the second is returned;
+    the 1-D :meth:`~mshbm.elements.Jenkins.history_law` on each direction when the motion keeps one)::
+
+        t_k = lambda_{k-1} - k_t (s_k - s_{k-1}),   lambda_k = t_k if ||t_k|| <= b else b t_k / ||t_k||
+
+    Returns ``lam`` (N_s, 2) and ``D`` (N_s, 2, 2, n_b): ``d lambda_a(t_k) / d c_b`` for the coefficients
+    ``s_b = basis @ c_b`` (``basis=None``: the samples themselves, ``n_b = N_s``); in slip
+    ``d lambda = (b / ||t||) (I - d d^T) d t``.
+    """
+    s = np.stack([np.asarray(s1, dtype=float), np.asarray(s2, dtype=float)], axis=1)
+    Ns = s.shape[0]
+    V = np.eye(Ns) if basis is None else np.asarray(basis, dtype=float)
+    nb = V.shape[1]
+    kt, b = float(el.tangential_stiffness), float(el.bound)
+    lam = np.zeros((Ns, 2))
+    D = np.zeros((Ns, 2, 2, nb))
+    prev_l, prev_D, prev_k = np.zeros(2), np.zeros((2, 2, nb)), Ns - 1
+    for _ in range(2):
+        for k in range(Ns):
+            t = prev_l - kt * (s[k] - s[prev_k])
+            Dt = prev_D.copy()
+            dV = kt * (V[k] - V[prev_k])
+            Dt[0, 0] -= dV
+            Dt[1, 1] -= dV
+            nt = float(np.hypot(t[0], t[1]))
+            if nt > b:
+                d = t / nt
+                P = (b / nt) * (np.eye(2) - np.outer(d, d))
+                t = b * d
+                Dt = np.einsum("ac,cbn->abn", P, Dt)
+            lam[k], D[k] = t, Dt
+            prev_l, prev_D, prev_k = t, Dt, k
+    return lam, D
