@@ -12,8 +12,9 @@ independent of the sweep; when that is not certified or lands elsewhere, from th
   the amplitude per DOF, ``(max - min) / 2``) over the checks whose solve was certified; ``checks`` per
   check ``{omega, deviation, independent_deviation, start, success, message}``; ``independent_differs``
   counts the checks whose independent solve was certified but away from the point (coexisting solutions);
-* ``exact_deviation`` (cases with ``exact: linear``: an element that never acts) -- the same measure against
-  the closed-form linear response at every point of the branch.
+* ``exact_deviation`` (cases with ``exact: linear``, an element that never acts, or ``exact: stuck``, friction
+  that never slips) -- the same measure against the closed-form linear response at every point of the branch
+  (:func:`linear_reference`).
 
 The CPU limit (:func:`cpu_limit`) is a profiling timer (``ITIMER_PROF``: the process's user + system time)
 whose signal raises :class:`CpuLimit`, a :class:`KeyboardInterrupt`: the sweep then ends like after Ctrl-C and
@@ -87,15 +88,36 @@ def check_indices(omegas, count):
     return sorted(chosen)
 
 
-def linear_reference(system, omega):
-    """Amplitude per DOF of the linear response (elements removed) to the forcing's first harmonic."""
+def linear_reference(system, omega, stuck=False):
+    """Amplitude per DOF of the linear response to the forcing's first harmonic: with the elements removed,
+    or (``stuck``) with every friction element stuck for good -- a Jenkins element then is its spring ``k_t``
+    (on ``w^T q``), a Coulomb element between a DOF and the ground holds that DOF at rest."""
     import scipy.sparse as sp
 
-    M, C, K = (A.toarray() if sp.issparse(A) else np.asarray(A, float) for A in (system.M, system.C, system.K))
+    M, C, K = (A.toarray() if sp.issparse(A) else np.array(A, float) for A in (system.M, system.C, system.K))
     f = np.asarray(system.f_hat, float)
     if f.shape[0] != 3 or np.any(f[0] != 0.0):
-        raise ValueError("exact: linear needs a first-harmonic forcing without constant load")
-    Q = np.linalg.solve(K - omega ** 2 * M + 1j * omega * C, f[1] - 1j * f[2])
+        raise ValueError("an exact linear reference needs a first-harmonic forcing without constant load")
+    F = f[1] - 1j * f[2]
+    free = np.ones(system.n, bool)
+    if stuck:
+        for e in system.elements:
+            if e.kind != "friction":
+                raise ValueError(f"exact: stuck needs friction elements only, got {e.kind}")
+            if isinstance(e, mshbm.Jenkins):
+                w = np.zeros(system.n)
+                w[e.dof] = 1.0
+                if e.relative_to is not None:
+                    w[e.relative_to] = -1.0
+                K = K + e.tangential_stiffness * np.outer(w, w)
+            elif e.relative_to is None:
+                free[e.dof] = False
+            else:
+                raise ValueError("exact: stuck with a relative Coulomb element is not implemented")
+    Q = np.zeros(system.n, complex)
+    idx = np.flatnonzero(free)
+    D = (K - omega ** 2 * M + 1j * omega * C)[np.ix_(idx, idx)]
+    Q[idx] = np.linalg.solve(D, F[idx])
     return np.abs(Q)
 
 
@@ -202,7 +224,8 @@ def run_case(case, system, suite):
            "omega_start": float(w0), "omega_end": float(w1), "dofs": int(system.n),
            "cpu_limit_s": cpu_s, "cpu_s": cpu, "wall_s": wall, "stop": stop, "error": error}
     if branch is None:
-        row.update(success=False, reached=False, points=0, message=error or stop, omega_last=None,
+        msg = error or (f"CPU limit of {cpu_s:g} s reached before the first point" if stop == "cpu-limit" else stop)
+        row.update(success=False, reached=False, points=0, message=msg, omega_last=None,
                    bifurcations=[], checks=[], max_deviation=None, checks_certified=0, within=False)
         return row
     pts = len(branch)
@@ -214,8 +237,9 @@ def run_case(case, system, suite):
                bifurcations=bifurcations(branch), counters=_plain(branch.counters))
     if stop == "cpu-limit":
         row["message"] = f"CPU limit of {cpu_s:g} s reached ({row['message']})"
-    if case.get("exact") == "linear" and pts:
-        row["exact_deviation"] = max(deviation(p.amplitude, linear_reference(system, p.omega))
+    if case.get("exact") in ("linear", "stuck") and pts:
+        stuck = case["exact"] == "stuck"
+        row["exact_deviation"] = max(deviation(p.amplitude, linear_reference(system, p.omega, stuck))
                                      for p in branch.points)
     tol = float(case.get("tolerance", suite["tolerance"]))
     checks = run_checks(system, case, branch, int(suite["checks"]), float(suite["check_cpu_s"]),

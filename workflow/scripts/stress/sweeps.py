@@ -248,6 +248,7 @@ def main(argv=None):
     p.add_argument("--cases", default=None, help="comma-separated case names (instead of the profile's)")
     p.add_argument("--cpu-limit", type=float, default=None, help="CPU-time limit of each sweep (s), overrides "
                                                                  "cpu_limit_s")
+    p.add_argument("--no-warmup", action="store_true", help="skip the warm-up solves (config warmup)")
     p.add_argument("--out", required=True)
     args = p.parse_args(argv)
     try:
@@ -267,7 +268,7 @@ def main(argv=None):
     meta = {"profile": args.profile if not args.cases else "selected cases", "config": str(args.config),
             "cases": [c["name"] for c in cases], **suite, "warmup_cpu_s": 0.0}
     out = Path(args.out)
-    if cfg.get("warmup", True):
+    if cfg.get("warmup", True) and not args.no_warmup:
         meta["warmup_cpu_s"] = warmup(cfg)
         print(f"warm-up: {meta['warmup_cpu_s']:.1f} s CPU", flush=True)
     rows = []
