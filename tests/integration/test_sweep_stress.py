@@ -5,19 +5,20 @@ solve checks, the JSON and Markdown report.
 Both cases have closed forms: ``chain2-open/hbm`` never reaches its stop (the linear response of the 2-DOF
 chain), ``chain3-jenkins-stuck/mshbm`` never slips (the chain with the Jenkins spring ``k_t`` added).
 """
+import importlib.util
 import json
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-ROOT = Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(ROOT / "workflow" / "scripts" / "stress"))
+from mshbm_workflow import sweep_runner, sweep_systems
 
-import sweeps  # noqa: E402
-from mshbm_workflow import sweep_runner, sweep_systems  # noqa: E402
+ROOT = Path(__file__).resolve().parents[2]
+_spec = importlib.util.spec_from_file_location("sweeps", ROOT / "workflow" / "scripts" / "stress" / "sweeps.py")
+sweeps = importlib.util.module_from_spec(_spec)  # the script's main(argv), as workflow/scripts/cli_job.py runs it
+_spec.loader.exec_module(sweeps)
 
 CONFIG = ROOT / "workflow" / "sweeps.yaml"
 CASES = ["chain2-open/hbm", "chain3-jenkins-stuck/mshbm"]

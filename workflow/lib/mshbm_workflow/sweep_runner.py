@@ -170,7 +170,8 @@ def run_checks(system, case, branch, count, cpu_s, budget_s, tol):
     At each point, :func:`mshbm.solve` from its default start (independent of the sweep); when that is not
     certified or deviates by more than ``tol`` (another of coexisting solutions, or a wrong point), again from
     the sweep point's solution.  The check's ``deviation`` is the smaller certified one (``start`` says which);
-    ``independent_deviation`` keeps the first.  Checks stop once ``budget_s`` CPU seconds are spent."""
+    ``independent_deviation`` keeps the first, ``point_deviation`` and ``point_message`` the second
+    (``message`` is the first's).  Checks stop once ``budget_s`` CPU seconds are spent."""
     method = case["method"]
     opts = {k: v for k, v in (case.get("options") or {}).items() if k not in SWEEP_ONLY}
     opts["stability"] = False
@@ -192,12 +193,14 @@ def run_checks(system, case, branch, count, cpu_s, budget_s, tol):
             rec["independent_deviation"] = rec["deviation"]
         if (rec["deviation"] is None or rec["deviation"] > tol) and p.solution is not None:
             sol, msg = _solve(system, p.omega, method, opts, p.solution, cpu_s)
+            rec["point_message"] = msg
             if sol is not None and sol.success:
                 d = deviation(p.amplitude, sol.amplitude)
+                rec["point_deviation"] = d
                 if rec["deviation"] is None or d < rec["deviation"]:
-                    rec.update(start="sweep point", success=True, deviation=d, message=msg)
+                    rec.update(start="sweep point", success=True, deviation=d)
             elif rec["deviation"] is None:
-                rec.update(start="sweep point", message=msg)
+                rec["start"] = "sweep point"
         rec["cpu_s"] = time.process_time() - t0
         out.append(rec)
     return out

@@ -229,7 +229,23 @@ def markdown(rows, s, meta):
         lines.append(f"| {r['name']} | {r.get('dofs', '–')} | {rng} | {'yes' if r.get('reached') else '**no**'} | "
                      f"{r.get('points', 0)} | {_fmt(r.get('cpu_s'), '.1f')} | {dev} | {checks} | "
                      f"{r.get('stop')}: {msg} |")
+    lines += ["", "## Checks outside the tolerance or not certified", ""]
+    for r in rows:
+        tol = r.get("tolerance", meta["tolerance"])
+        bad = [c for c in r.get("checks") or [] if c.get("deviation") is None or c["deviation"] > tol]
+        for c in bad:
+            text = (f"- {r['name']} at omega = {c['omega']:.6g}: deviation {_fmt(c.get('deviation'), '.2e')}"
+                    f" (independent {_fmt(c.get('independent_deviation'), '.2e')}, from the sweep point "
+                    f"{_fmt(c.get('point_deviation'), '.2e')}); solve: {_short(c.get('message'))}")
+            if c.get("point_message"):
+                text += f"; from the sweep point: {_short(c['point_message'])}"
+            lines.append(text)
     return "\n".join(lines) + "\n"
+
+
+def _short(text, n=200):
+    text = str(text or "").replace("\n", " ")
+    return text if len(text) <= n else text[:n - 3] + "..."
 
 
 def write(out, rows, meta):
@@ -249,8 +265,14 @@ def main(argv=None):
     p.add_argument("--cpu-limit", type=float, default=None, help="CPU-time limit of each sweep (s), overrides "
                                                                  "cpu_limit_s")
     p.add_argument("--no-warmup", action="store_true", help="skip the warm-up solves (config warmup)")
+    p.add_argument("--render", default=None, metavar="SUMMARY_JSON",
+                   help="only rewrite the Markdown of an earlier run's summary.json into --out")
     p.add_argument("--out", required=True)
     args = p.parse_args(argv)
+    if args.render:
+        data = json.loads(Path(args.render).read_text(encoding="utf-8"))
+        write(Path(args.out), data["rows"], data["meta"])
+        return 0
     try:
         cfg = load_config(args.config)
         cases = select(cfg, args.profile, args.cases.split(",") if args.cases else None)
