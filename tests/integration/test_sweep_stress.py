@@ -49,7 +49,8 @@ def test_two_cases_reach_the_end_and_agree_with_closed_forms(report):
     for name, r in rows.items():
         assert r["stop"] == "end" and r["reached"] and r["success"], (name, r["message"])
         assert r["omega_last"] == pytest.approx(r["omega_end"], rel=1e-9)
-        assert r["points"] >= 10
+        assert r["points"] >= 10 and len(r["curve"]["omega"]) == len(r["curve"]["amplitude_max"]) == r["points"]
+        assert r["curve"]["omega"][0] == r["omega_start"] and r["curve"]["omega"][-1] == r["omega_last"]
         assert 0.0 < r["cpu_s"] < r["cpu_limit_s"]
         # every point against the closed form (the contact is never reached / the Jenkins element never slips)
         assert r["exact_deviation"] < EXACT_TOL[name], (name, r["exact_deviation"])

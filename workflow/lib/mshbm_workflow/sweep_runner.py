@@ -7,7 +7,8 @@ independent of the sweep; when that is not certified or lands elsewhere, from th
 
 * ``reached`` -- the last point lies at ``omega_end`` (relative 1e-9); ``success`` and ``message`` are the
   sweep's own; a sweep stopped by the time limit says so in ``stop``;
-* ``points``, ``cpu_s`` (process CPU time of the sweep, start solve included), ``wall_s``;
+* ``points``, ``cpu_s`` (process CPU time of the sweep, start solve included), ``wall_s``; ``curve``: the
+  branch as ``omega`` and the largest amplitude over the DOFs per point;
 * ``max_deviation`` -- the largest relative deviation ``max_i |A_i - A_solve,i| / max_i |A_solve,i|`` (``A``
   the amplitude per DOF, ``(max - min) / 2``) over the checks whose solve was certified; ``checks`` per
   check ``{omega, deviation, independent_deviation, start, success, message}``; ``independent_differs``
@@ -237,7 +238,9 @@ def run_case(case, system, suite):
                message=str(branch.message), omega_last=float(branch.omega[-1]) if pts else None,
                omega_min=float(branch.omega.min()) if pts else None,
                omega_max=float(branch.omega.max()) if pts else None,
-               bifurcations=bifurcations(branch), counters=_plain(branch.counters))
+               bifurcations=bifurcations(branch), counters=_plain(branch.counters),
+               curve={"omega": [float(w) for w in branch.omega],
+                      "amplitude_max": [float(np.max(p.amplitude)) for p in branch.points]})
     if stop == "cpu-limit":
         row["message"] = f"CPU limit of {cpu_s:g} s reached ({row['message']})"
     if case.get("exact") in ("linear", "stuck") and pts:
