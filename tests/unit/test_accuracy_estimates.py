@@ -114,3 +114,27 @@ def test_accuracy_false_makes_no_estimates_and_says_so(tmp_path):
     with pytest.raises(mshbm.InputError) as e:
         parse_case(data)
     assert e.value.key == "solver.accuracy"
+
+
+def test_a_missing_estimate_fails_accuracy_without_a_false_comparison():
+    """An estimate that could not be computed (value None) fails ``accuracy`` even when the others sum to less
+    than the bound; the message then says "<=" and names the missing estimate, never "0.0002 > bound 0.01"."""
+    from types import SimpleNamespace
+
+    from mshbm.certificate import Certificate, Check
+    from mshbm.certificate.combined import combined_check, gate
+
+    cert = Certificate([Check("residual", 1e-14, 1e-10, True, True, ""),
+                        Check("regularisation", 2.39e-4, 1e-2, True, False, ""),
+                        Check("truncation", None, 1e-2, True, False, "")])
+    chk = combined_check(cert, 1e-2, False)
+    assert not chk.passed and chk.value == pytest.approx(2.39e-4)
+    sol = gate(SimpleNamespace(success=True, message="converged"), chk)
+    assert not sol.success
+    assert "0.000239 <= bound 0.01 without the missing estimates" in sol.message
+    assert "not estimated: truncation" in sol.message and "> bound" not in sol.message
+    assert "accuracy (0.000239 <= bound 0.01" in cert.describe_failures()
+    # a sum above the bound still reads ">"
+    cert2 = Certificate([Check("truncation", 0.03, 1e-2, False, False, "")])
+    sol2 = gate(SimpleNamespace(success=True, message="converged"), combined_check(cert2, 1e-2, False))
+    assert "accuracy (0.03 > bound 0.01" in sol2.message
