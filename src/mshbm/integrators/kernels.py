@@ -48,11 +48,37 @@ equality, a slip/open one ``dP = 0``; a slipping friction with its normal load f
 """
 from __future__ import annotations
 
+import hashlib
+from pathlib import Path
+
 import numpy as np
 from numba import njit
 from scipy.optimize import brentq
 
-from .local_problem import (KIND_CONTACT, KIND_FRICTION, KIND_SMOOTH, STATUS_CLOSED, STATUS_OPEN,  # noqa: F401
+
+def _drop_stale_cache():
+    """Numba's on-disk cache of this module's kernels is keyed on this file only, but the kernels compile in the
+    jitted functions of :mod:`.local_problem`: an edit there alone would keep the old machine code.  A stamp of
+    both sources next to the cache drops this module's cache files when either changed."""
+    here = Path(__file__).resolve().parent
+    cache = here / "__pycache__"
+    try:
+        sources = (here / "local_problem.py", Path(__file__))
+        digest = hashlib.sha256(b"".join(f.read_bytes() for f in sources)).hexdigest()
+        stamp = cache / "kernels.sources.sha256"
+        if stamp.is_file() and stamp.read_text() == digest:
+            return
+        cache.mkdir(exist_ok=True)
+        for f in cache.glob("kernels.*.nb[ic]"):
+            f.unlink(missing_ok=True)
+        stamp.write_text(digest)
+    except OSError:  # a read-only installation: numba then keeps no cache of its own either
+        pass
+
+
+_drop_stale_cache()
+
+from .local_problem import (KIND_CONTACT, KIND_FRICTION, KIND_SMOOTH, STATUS_CLOSED, STATUS_OPEN,  # noqa: E402,F401
                             STATUS_PROJECTED, STATUS_SLIP, STATUS_STICK, _local_solve, _rel, _sens_row, _solve_small)
 
 
