@@ -223,9 +223,12 @@ def _contact_info(system, sol):
         force = lam[:, j] if lam.ndim == 2 and lam.shape[1] > j else np.zeros(1)
         rec = {"kind": el.kind, "dof": int(el.dof)}
         if el.kind == "contact":
-            q = sol.displacement([el.dof])[:, 0]
-            rec["min_gap"] = float(el.gap - np.max(q))
-            rec["active"] = bool(np.any(force > 0.0)) or rec["min_gap"] <= 0.0
+            q_max = sol.info.get("q_max")  # the exact flow's true extrema (samples miss the impact instants)
+            q_top = float(q_max[el.dof]) if q_max is not None else float(np.max(sol.displacement([el.dof])[:, 0]))
+            rec["min_gap"] = float(el.gap - q_top)
+            margins = (sol.info.get("contact_margins") or {}).get(j)
+            impacts = margins is not None and int(margins["impacts"]) > 0
+            rec["active"] = bool(np.any(force > 0.0)) or rec["min_gap"] <= 0.0 or impacts
         else:
             info = sol.info.get("stability", {})
             stick = info.get("stick_fraction")
@@ -280,6 +283,11 @@ class _Tracer:
         """The smooth piece of the residual at ``(x, lam)``: the event sequence of an event-driven flow
         (:meth:`PeriodicProblem.event_signature`), else ``None``."""
         return self.problem(lam).event_signature(np.asarray(x, dtype=float))
+
+    def restarts(self, x, lam):
+        """Newton starts across a jump of the unknowns where an event crosses the section ``t = 0``
+        (:meth:`PeriodicProblem.section_restarts`)."""
+        return self.problem(lam).section_restarts(np.asarray(x, dtype=float))
 
     def stall_accept(self, x, lam):
         """A stalled corrector on an impacting orbit of a time-stepping method is accepted when periodic to
@@ -398,32 +406,64 @@ def _detect_other(branch, system, locate=None):
 
 
 def _grazing_locator(tracer, system, tol):
-    """Bisection callback of :func:`mshbm.bifurcations.detect` for grazings between impacting orbits of the
-    exact event-driven flow (records with ``impacts``): the certified solution at the middle frequency,
-    by Newton at fixed omega from the linear interpolation of the bracketing points' unknowns (then from
-    each of them).  A solution farther from either end than ``1.5`` times the bracket (scaled units) is
-    another orbit, not the branch's, and ends the bisection (``None``); so does a failed solve.  Other
-    types and other records are located by interpolation (``None``)."""
+    """Bisection callback of :func:`mshbm.bifurcations.detect` for grazings of the exact event-driven flow
+    (records with ``impacts``), on the branch where the grazing happens: a new point on one side's own smooth
+    piece (the same impacts and contact state as that end of the bracket), by Newton at fixed omega from the
+    secant of the side's two nearest points (then from its end), at 0.9 of the way to the omega where the side's
+    test function (near-miss gap, impact velocity or gap, :func:`mshbm.bifurcations.point_from_solution`)
+    extrapolates to zero from those points (the middle of the bracket while the side has one point).
+
+    Not the middle frequency of the bracket: at a grazing the branch may turn back in omega (a corner: an
+    impacting branch that bends away from the non-impacting one), and then both ends lie on one side of it in
+    omega, and a solve at the middle frequency lands on either piece.  The sides take turns; a target whose
+    solve fails or lands on the other piece is moved half-way back to the side's end (at most 6 times), then the
+    other side is tried; ``None`` (end of the bisection) when both fail.  Other types and other records are
+    located by interpolation (``None``)."""
+    hist = []  # the points returned for the current event, in order
+
+    def same_piece(p, ref):
+        return p.impacts == ref.impacts and bool(p.contact_active) == bool(ref.contact_active)
+
     def locate(kind, a, b):
         if kind != "grazing" or a.impacts is None or b.impacts is None:
             return None
-        pa, pb = a.x, b.x  # the branch's points (their unknowns and forcing frequencies)
-        lam = 0.5 * (pa.omega + pb.omega)
-        problem = tracer.problem(lam)
-        w = np.asarray(tracer.unknown_scale(pa.x, lam), dtype=float)
-        span = float(np.linalg.norm(np.concatenate([(pb.x - pa.x) / w, [(pb.omega - pa.omega) / lam]])))
-        for x0 in (0.5 * (pa.x + pb.x), pa.x, pb.x):
-            res = newton(problem.residual, x0, tol=tol, max_iter=20, scale=problem.residual_scale)
-            if not res.success:
-                continue
-            far = max(float(np.linalg.norm(np.concatenate([(res.x - p.x) / w, [(lam - p.omega) / lam]])))
-                      for p in (pa, pb))
-            if far > 1.5 * span:
-                continue
-            pt = tracer.point(res.x, lam, res.nit, res.residual_norm)
-            if isinstance(pt, str):
-                continue
-            return bifurcations.point_from_solution(system, pt.solution, x=pt)
+        if not any(h is a or h is b for h in hist):
+            hist.clear()  # a new event
+        sides = [[a] + [h for h in hist if same_piece(h, a) and h is not a],
+                 [b] + [h for h in hist if same_piece(h, b) and h is not b]]
+        for side in sides:  # the side's points, nearest (latest) last; the bracket end is the nearest
+            side.sort(key=lambda h: hist.index(h) if h in hist else -1)
+        first = 0 if len(sides[0]) <= len(sides[1]) else 1
+        for k in (first, 1 - first):  # the other side when this one's solves fail
+            rec = side_point(sides[k], b if k == 0 else a)
+            if rec is not None:
+                hist.append(rec)
+                return rec
+        return None
+
+    def side_point(side, other):
+        end, prev = side[-1], (side[-2] if len(side) > 1 else None)
+        target = bifurcations.extrapolate_grazing(side, other)
+        # 0.9 of the way: a target just past the grazing has no orbit of this piece (its solve fails or lands on
+        # the other piece), one just short of it does
+        target = 0.5 * (end.omega + other.omega) if target is None else end.omega + 0.9 * (target - end.omega)
+        for _ in range(6):
+            lam = target * tracer.k  # the records' omega is the base frequency of kT-periodic orbits
+            problem = tracer.problem(lam)
+            starts = [end.x.x]
+            if prev is not None and prev.omega != end.omega:  # the secant of the side's two nearest points
+                starts.insert(0, end.x.x + (target - end.omega) / (end.omega - prev.omega) * (end.x.x - prev.x.x))
+            for x0 in starts:
+                res = newton(problem.residual, x0, tol=tol, max_iter=20, scale=problem.residual_scale)
+                if res.success:
+                    break
+            if res.success:
+                pt = tracer.point(res.x, lam, res.nit, res.residual_norm)
+                if not isinstance(pt, str):
+                    rec = bifurcations.point_from_solution(system, pt.solution, x=pt)
+                    if same_piece(rec, end):
+                        return rec
+            target = 0.5 * (target + end.omega)
         return None
 
     return locate
@@ -503,7 +543,7 @@ def _run(route, system, lam_start, lam_end, method, period, parameter, omega_fix
                 ds0=ds, ds_min=ds_min, ds_max=ds_max, max_points=int(max_points), tol=tol,
                 max_corrector_iter=min(12, int(rest.get("max_iter", 12))),
                 predictor=predictor, accept=accept, callback=seen, max_time=max_time,
-                stall_accept=tracer.stall_accept, segment=tracer.segment)
+                stall_accept=tracer.stall_accept, segment=tracer.segment, restarts=tracer.restarts)
     except KeyboardInterrupt as exc:
         interrupted, res = exc, interrupted_result(seen.points)
     else:

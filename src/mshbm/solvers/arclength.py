@@ -54,13 +54,12 @@ import numpy as np
 
 from .arclength_parts import (ContinuationPoint, ContinuationResult, Evaluator, Failed, backtrack, bordered_solve,
                               free_directions, locate_fold, orientation, stall_folds, tangent)
+from .arclength_kinks import KINK_STEPS, cross_kink, family_step
 
 #: a step whose tangents at its ends have ``|cos| <`` this is taken as a kink of the branch (see ``continuation``)
 KINK_COS = 0.9
 #: the corrector finishes at fixed lam once its scaled residual is below this (see ``_Trace.corrector``)
 POLISH_AT = 1e-6
-#: relative steps in lam tried, in this order, by a step at fixed lam across a kink (``kink_crossing``)
-KINK_STEPS = (1e-3, 1e-4, 1e-5)
 
 __all__ = ["ContinuationPoint", "ContinuationResult", "continuation", "tangent", "orientation"]
 
@@ -69,7 +68,8 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
                  ds0=0.02, ds_min=1e-5, ds_max=0.2, max_points=200, tol=1e-10, max_corrector_iter=12,
                  fast_iter=3, slow_iter=7, grow=1.6, shrink=0.5, predictor="tangent", accept=None,
                  callback=None, fold_rtol=1e-3, max_time=None, lam_limits=None, stall_accept=None, max_jump=3.0,
-                 stall_fold_rtol=5e-3, natural_fallback=True, kink_crossing=True, segment=None, max_turn=0.5):
+                 stall_fold_rtol=5e-3, natural_fallback=True, kink_crossing=True, segment=None, max_turn=0.5,
+                 restarts=None):
     """Trace the branch of ``R(x, lam) = 0`` from the converged point ``(x0, lam0)`` towards ``lam_end``.
 
     Parameters
@@ -117,6 +117,10 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
     kink_crossing : bool
         When the step falls below ``ds_min`` at a point solved exactly (not by ``stall_accept``), try one
         step at fixed ``lam`` across a kink (module docstring) before stopping, once per point.
+    restarts : callable, optional
+        ``restarts(x, lam) -> list of x``: other Newton starts for the step at fixed ``lam`` across a kink
+        (:func:`mshbm.solvers.arclength_kinks.cross_kink`) where the unknowns jump along the branch (a shooting
+        method's state at ``t = 0`` when an event crosses that section).
     natural_fallback : bool
         When the step falls below ``ds_min`` at a point accepted by ``stall_accept``, continue by
         natural-parameter steps (Newton at fixed ``lam`` from the last point, ``lam`` step adapted,
@@ -154,7 +158,8 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
         max_corrector_iter=max_corrector_iter, fast_iter=fast_iter, slow_iter=slow_iter, grow=grow, shrink=shrink,
         predictor=predictor, accept=accept, callback=callback, fold_rtol=fold_rtol, max_time=max_time,
         stall_accept=stall_accept, max_jump=max_jump, stall_fold_rtol=stall_fold_rtol,
-        natural_fallback=natural_fallback, kink_crossing=kink_crossing, segment=segment, max_turn=max_turn))
+        natural_fallback=natural_fallback, kink_crossing=kink_crossing, segment=segment, max_turn=max_turn,
+        restarts=restarts))
     return trace.run(x0)
 
 
@@ -347,74 +352,14 @@ class _Trace:
 
     # ------------------------------------------------------------------ kinks and the end of the range
     def cross_kink(self, p, w):
-        """A step at fixed ``lam`` from ``p`` in its direction of travel, across a kink of the branch that the
-        arclength corrector cannot turn: past a kink whose two pieces meet at more than 90 degrees the
-        hyperplane orthogonal to the incoming tangent misses the outgoing piece, and Newton on the
-        bordered system cycles between the two pieces.  Where the branch passes the kink monotonically in
-        ``lam`` a hyperplane ``lam = const`` meets it: Newton at fixed ``lam`` from ``p.x`` (relative
-        steps ``KINK_STEPS``, at most ``2 max_corrector_iter`` iterations, a jump guard of ``max_jump ds0``).
-        The new point keeps the orientation of the curve (sign det [A; t])."""
-        lsc, lam_end, direction = self.lsc, self.lam_end, self.direction
-        if p.dlam == 0.0:
-            raise Failed("no direction of travel in lam")
-        sgn = 1.0 if p.dlam > 0 else -1.0
-        last = "no step tried"
-        for rel in KINK_STEPS:
-            lam_n = p.lam + sgn * rel * lsc
-            if (lam_n - lam_end) * direction > 0 and (p.lam - lam_end) * direction < 0:
-                lam_n = lam_end
-            try:
-                x, it, r, data, _ = self.newton_fixed(p.x, lam_n, allow_stall=False,
-                                                      max_iter=2 * self.max_corrector_iter,
-                                                      free=self.free_units(p, w))
-            except Failed as exc:
-                last = str(exc)
-                continue
-            dist = float(np.linalg.norm(np.concatenate([(x - p.x) / w, [(lam_n - p.lam) / lsc]])))
-            if dist > self.max_jump * self.ds0:
-                last = f"the solution at lam = {lam_n:.6g} is {dist:.3g} away (another branch?)"
-                continue
-            q, tq, wq = self.make_point(x, lam_n, it, r, data, rel, self.scaled_t(p, w), None)
-            if p.orientation and q.orientation:
-                flip = q.orientation != p.orientation
-            else:
-                flip = q.dlam * sgn < 0
-            if flip:
-                q.dx, q.dlam, q.orientation = -q.dx, -q.dlam, -q.orientation
-            try:
-                self.judged(q)
-            except Failed as exc:
-                last = str(exc)
-                continue
-            self.kinks.append({"lam": float(p.lam), "lam_right": float(lam_n), "index": len(self.points),
-                               "cos_tangents": float(self.scaled_t(q, wq) @ self.scaled_t(p, wq)), "fixed_lam": True})
-            return q
-        raise Failed(last)
+        return cross_kink(self, p, w)
 
     def near_family(self, back=4):
         """A point among the last ``back`` has free directions (:func:`free_directions`)."""
         return any(p.free is not None for p in self.points[-back:])
 
     def family_step(self, p, w):
-        """A step at fixed ``lam`` onwards (by the ``lam`` part of ``min(ds, ds0)`` along the tangent, at least ``KINK_STEPS[0]``, in the direction of travel) where the branch would turn
-        back next to a family of solutions (a stuck element: its offset is free inside an interval that
-        shrinks as the amplitude grows).  The arclength corrector follows the family's edge, and where the
-        interval closes its tangent turns into the other edge, back in ``lam``: a corner of the solution set,
-        not a fold.  Newton at fixed ``lam`` from ``p`` (no free directions held) continues on the branch
-        beyond (slip); the point is oriented onwards and the corner recorded as a kink (``"family": True``)."""
-        sgn = 1.0 if p.dlam > 0 else -1.0 if p.dlam < 0 else self.direction
-        lam_n = p.lam + sgn * max(min(self.ds, self.ds0) * abs(self.scaled_t(p, w)[-1]), KINK_STEPS[0]) * self.lsc
-        if (lam_n - self.lam_end) * self.direction > 0 and (p.lam - self.lam_end) * self.direction < 0:
-            lam_n = self.lam_end
-        x, it, r, data, st = self.newton_fixed(p.x, lam_n, allow_stall=False, max_iter=2 * self.max_corrector_iter)
-        q, _, _ = self.make_point(x, lam_n, it, r, data, self.ds, self.scaled_t(p, w), st)
-        if q.dlam * sgn < 0:
-            q.dx, q.dlam, q.orientation = -q.dx, -q.dlam, -q.orientation
-        self.judged(q)
-        self.kinks.append({"lam": float(p.lam), "lam_right": float(lam_n), "index": len(self.points),
-                           "fixed_lam": True, "family": True})
-        self.counters["family_steps"] = self.counters.get("family_steps", 0) + 1
-        return q
+        return family_step(self, p, w)
 
     def finish_at_end(self, p, q):
         """Solve at ``lam_end`` from the interpolation between points ``p`` and ``q`` that bracket it."""
@@ -542,6 +487,12 @@ class _Trace:
         """A fold between the last point ``p`` and ``q`` (the ``lam`` component of the tangent changed sign),
         located by :func:`mshbm.solvers.arclength_parts.locate_fold`."""
         p, ds, fold_rtol = step_p, self.ds, self.fold_rtol
+        if p.dlam * q.dlam < 0 and p.segment is not None and q.segment is not None and p.segment != q.segment:
+            # the turn in lam comes with a change of the smooth piece: a corner (e.g. a grazing, where an impacting
+            # branch bends away from the non-impacting one), not a fold (whose tangent turns smoothly)
+            self.kinks.append({"lam": float(p.lam), "lam_right": float(q.lam), "index": len(self.points),
+                               "reversal": True})
+            return
         if p.dlam * q.dlam < 0 and p.stall is None and q.stall is None:
             try:
                 self.folds.append(locate_fold(self.step, p, w, ds, q, len(self.points), fold_rtol, self.lsc))
