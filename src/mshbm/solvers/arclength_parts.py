@@ -249,4 +249,3 @@ def point_tangent_lam(data, x, lam, p, w, lsc):
     t_prev /= np.linalg.norm(t_prev)
     t = tangent(J, g, s, w, lsc, previous=t_prev)
     return float(t[-1] * lsc)
-
