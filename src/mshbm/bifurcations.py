@@ -53,7 +53,12 @@ Location
    ``x`` the callback may use, e.g. a corrector from their mean), or ``None`` to stop.  The half
    bracket in which the test function changes sign is kept until the bracket spans at most
    ``rel_tol`` (default 1e-3, well below the required 1 %) of omega, then step 1 is applied to the
-   final bracket.
+   final bracket.  A grazing is different: the branch may turn back in omega there (a corner, e.g. an
+   impacting branch that bends away from the non-impacting one), so that both bracketing points lie on one
+   side of it in omega and no bracket in omega closes on it.  Its test function is extrapolated on each side
+   separately (linearly in omega, from that side's two nearest points), and the bisection ends when the side
+   nearest to its own estimate is within ``rel_tol`` of it and the other side's estimate agrees; the
+   callback then places new points on either side's own piece (:func:`mshbm.branch.sweep`'s locator).
 """
 from __future__ import annotations
 

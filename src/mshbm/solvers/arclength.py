@@ -55,6 +55,7 @@ import numpy as np
 from .arclength_parts import (ContinuationPoint, ContinuationResult, Evaluator, Failed, backtrack, bordered_solve,
                               free_directions, locate_fold, orientation, stall_folds, tangent)
 from .arclength_kinks import KINK_STEPS, cross_kink, family_step
+from .newton import newton
 
 #: a step whose tangents at its ends have ``|cos| <`` this is taken as a kink of the branch (see ``continuation``)
 KINK_COS = 0.9
@@ -183,7 +184,7 @@ class _Trace:
         self.counters = {"corrector_failures": 0, "rejected": 0, "corrector_iterations": 0}
         self.points, self.folds, self.kinks = [], [], []
         self.ds, self.message, self.success = self.ds0, "", False
-        self.natural, self.natural_reason = None, ""
+        self.natural, self.natural_reason, self.gap_from = None, "", None
         self.crossed_from = -1  # the point from which a step at fixed lam across a kink was last tried
 
     # ------------------------------------------------------------------ the corrector
@@ -319,12 +320,28 @@ class _Trace:
                 t = d / nd
         xp, lp = p.x + ds * t[:-1] * w, p.lam + ds * t[-1] * lsc
         if p.free is None:
-            return self.corrector(xp, lp, t, w, ds), t
-        try:
-            return self.corrector(xp, lp, t, w, ds, free=p.free), t
-        except Failed:
-            # the step left the family (a stuck element starts to slip: its offset is no longer free)
-            return self.corrector(xp, lp, t, w, ds), t
+            out = self.corrector(xp, lp, t, w, ds)
+        else:
+            try:
+                out = self.corrector(xp, lp, t, w, ds, free=p.free)
+            except Failed:
+                # the step left the family (a stuck element starts to slip: its offset is no longer free)
+                out = self.corrector(xp, lp, t, w, ds)
+        if out[-1] is not None and p.stall is None:
+            # accepted at step accuracy only (the iterate may lie off the curve by that much, ahead of it or behind):
+            # Newton with an Armijo line search at that lam from the last point often reaches the root the
+            # corrector missed (the exact solution's start of mshbm.solve)
+            lam = out[1]
+            res = newton(lambda xx, jac=True: self.ev.residual(xx, lam) if jac else (self.ev.residual(xx, lam)[0], None),
+                         p.x, tol=self.tol, max_iter=2 * self.max_corrector_iter,
+                         scale=lambda xx: self.ev.residual_scale(xx, lam))
+            if res.success and float(np.linalg.norm((res.x - out[0]) / w)) <= self.max_jump * max(ds, self.ds0):
+                R, s_, r, J, g = self.ev(res.x, lam)
+                self.counters["stall_solved"] = self.counters.get("stall_solved", 0) + 1
+                self.counters["stall_solve_iterations"] = self.counters.get("stall_solve_iterations", 0) + res.nit
+                # the step control sees the corrector's own count, as for an accepted stall
+                return (res.x, lam, out[2], r, (R, s_, J, g), None), t
+        return out, t
 
     def judged(self, q, what="point rejected", detail=True):
         """``q`` with the payload of ``accept`` (none without it); :class:`Failed` when it rejects ``q`` (its
@@ -378,13 +395,14 @@ class _Trace:
         adapted); returns True when the branch ends."""
         direction, lam_end, lsc = self.direction, self.lam_end, self.lsc
         natural = self.natural
+        sgn = direction if self.gap_from is None or p.dlam == 0 else float(np.sign(p.dlam))  # a gap: onwards
         try:
-            lam_n = p.lam + direction * natural
-            if (lam_n - lam_end) * direction > 0:
+            lam_n = p.lam + sgn * natural
+            if (lam_n - lam_end) * direction > 0 and (p.lam - lam_end) * direction < 0:
                 lam_n = lam_end
             x, it, r, data, st = self.newton_fixed(p.x, lam_n, free=self.free_units(p, w))
             q, _, _ = self.make_point(x, lam_n, it, r, data, natural / lsc, self.scaled_t(p, w), st)
-            q.dx, q.dlam = (x - p.x) / (natural / lsc), direction * lsc  # secant, not the (useless) tangent
+            q.dx, q.dlam = (x - p.x) / (natural / lsc), sgn * lsc  # secant, not the (useless) tangent
             self.judged(q)
         except Failed as exc:
             self.counters["natural_failures"] = self.counters.get("natural_failures", 0) + 1
@@ -396,6 +414,13 @@ class _Trace:
             return False
         self.counters["natural_points"] = self.counters.get("natural_points", 0) + 1
         self.add(q, natural / lsc)
+        if self.gap_from is not None:  # a gap bridged: back to arclength steps from the new point
+            self.kinks.append({"lam": float(p.lam), "lam_right": float(q.lam), "index": len(self.points) - 1,
+                               "gap": True, "reason": self.natural_reason})
+            self.counters["gaps"] = self.counters.get("gaps", 0) + 1
+            self.natural, self.gap_from, self.ds = None, None, self.ds0
+            if (q.lam - lam_end) * direction < 0:
+                return False
         if q.lam == lam_end:
             self.success, self.message = True, (
                 f"reached lam_end = {lam_end:.6g} in {len(self.points)} points (the last "
@@ -472,7 +497,7 @@ class _Trace:
             except Failed as exc2:
                 self.message = (f"step size below ds_min = {self.ds_min:g} at lam = {p.lam:.6g} ({exc}; a step at "
                                 f"fixed lam across a kink failed too: {exc2})")
-                return True
+                return self.start_gap(p, self.message)
             counters["kink_crossings"] = counters.get("kink_crossings", 0) + 1
             self.add(q, self.ds0)
             if q.lam == self.lam_end:
@@ -481,7 +506,17 @@ class _Trace:
             self.ds = self.ds0
             return False
         self.message = f"step size below ds_min = {self.ds_min:g} at lam = {p.lam:.6g} ({exc})"
-        return True
+        return self.start_gap(p, self.message)
+
+    def start_gap(self, p, why):
+        """Where the arclength corrector cannot pass an exactly solved point: one natural-parameter step onwards
+        (:meth:`natural_step`, Newton at fixed ``lam`` from ``p``), recorded as a gap of the curve (kink
+        ``"gap": True``; a fold inside it is not traced), then arclength steps again.  Returns True when the branch
+        ends (no fallback, or a gap already started at this point)."""
+        if not self.natural_fallback or self.gap_from == len(self.points):
+            return True
+        self.natural, self.natural_reason, self.gap_from = self.ds0 * self.lsc * 0.5, why, len(self.points)
+        return False
 
     def fold(self, step_p, w, q):
         """A fold between the last point ``p`` and ``q`` (the ``lam`` component of the tangent changed sign),
@@ -579,6 +614,11 @@ class _Trace:
                 turn = float(np.arccos(np.clip(self.scaled_t(q, wq) @ self.scaled_t(p, wq), -1.0, 1.0)))
                 if turn > 0.0:  # no growth past a turn of max_turn per step (never a shrink: the corrector's effort does)
                     self.ds = min(self.ds, max(ds, ds * self.max_turn / turn))
+        gaps = [k for k in self.kinks if k.get("gap")]
+        if gaps and self.success:
+            where = ", ".join(f"{k['lam']:.6g}" for k in gaps)
+            self.message += (f" ({len(gaps)} gap(s) bridged by a natural-parameter step where the arclength corrector "
+                             f"could not pass, from lam = {where}: a fold there is not traced)")
         folds = self.folds + stall_folds(points, self.stall_fold_rtol)
         folds.sort(key=lambda f: f["index"])
         self.counters.update(residual_evaluations=self.ev.n_res, parameter_derivatives=self.ev.n_dlam,
