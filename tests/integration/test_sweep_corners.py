@@ -135,11 +135,14 @@ def test_arclength_bridges_a_jump_of_the_branch_by_a_natural_parameter_step():
 
 def test_damper2d_sweep_reports_no_spurious_folds():
     """examples/damper2d.yaml with its MS-HBM settings (n_h = 15, 2048 Moreau-Jean steps) from 0.6: between 0.62
-    and 0.65 the corrector accepts some points at step accuracy that lie ahead of the curve (up to 1 % in omega),
-    so that the omega sequence goes back once and on again; that used to be reported as two folds (0.6406 and
-    0.6308), and the sweep could turn back there.  A reversal is a fold only when the next point keeps it: no
-    fold on 0.6 -> 0.7 (measured: 18 points, 8 s CPU; the whole 0.6 -> 1.2 in 102 points, 55 s CPU, no fold).
-    The points solved to the corrector's tolerance agree with pointwise solves (blade amplitude, 0.5 %)."""
+    and 0.65 the corrector accepted points at step accuracy only (residual up to 8e-3) that lay off the curve
+    (up to 1.2 % in the blade's amplitude, 1 % ahead in omega), so that the omega sequence went back once and
+    on again; that was reported as two folds (0.6406 and 0.6308).  Now such a point is first solved exactly at
+    its omega (Newton with a line search from the last point; counter ``stall_solved``), and a reversal at
+    step-accuracy points is a fold only when the next point keeps it: no fold, every point but the end point
+    exact (measured: 12 points on 0.6 -> 0.7; the whole 0.6 -> 1.2 in 88 points, 51 s CPU, no fold, within
+    0.41 % of pointwise solves from their default start).  The exact points agree with pointwise solves (blade
+    amplitude, 0.5 %: measured 0.16 % at most; a stuck damper's offset is not unique)."""
     from mshbm.io import load_case
 
     case = load_case(__import__("pathlib").Path(__file__).resolve().parents[2] / "examples" / "damper2d.yaml")
@@ -149,8 +152,9 @@ def test_damper2d_sweep_reports_no_spurious_folds():
     assert b.omega[-1] == pytest.approx(0.7)
     assert [f for f in b.bifurcations if f["type"] == "fold"] == []
     assert all(p.certificate["passed"] for p in b.points)
-    exact = [p for p in b.points if p.residual <= 1e-8 and 0.61 < p.omega < 0.69]
-    assert len(exact) >= 4
-    for p in exact[::2]:
+    exact = [p for p in b.points if p.residual <= 1e-8 and 0.6 < p.omega < 0.7]
+    assert b.counters.get("stall_solved", 0) >= 1 and len(exact) >= 6
+    assert sum(p.residual > 1e-8 for p in b.points) <= 2  # measured 1 (the end point, 5e-5)
+    for p in exact[1::2]:
         ref = mshbm.solve(case.model, p.omega, "mshbm", accuracy=False, **opts)
         assert ref.success and p.amplitude[0] == pytest.approx(ref.amplitude[0], rel=5e-3)

@@ -151,7 +151,8 @@ class ShootingProblem(PeriodicProblem):
         return self.integrator.event_signature(x[:self.n], x[self.n:])
 
     def section_restarts(self, x):
-        """``x`` with the state extrapolated to ``T`` from before and to ``0`` from after (:meth:`PeriodicProblem.section_restarts`)."""
+        """``x`` with the state extrapolated to ``T`` from before and to ``0`` from after
+        (:meth:`PeriodicProblem.section_restarts`)."""
         run = self._run(x, record=True)
         if run.failed:
             return []

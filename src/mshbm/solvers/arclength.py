@@ -332,8 +332,11 @@ class _Trace:
             # Newton with an Armijo line search at that lam from the last point often reaches the root the
             # corrector missed (the exact solution's start of mshbm.solve)
             lam = out[1]
-            res = newton(lambda xx, jac=True: self.ev.residual(xx, lam) if jac else (self.ev.residual(xx, lam)[0], None),
-                         p.x, tol=self.tol, max_iter=2 * self.max_corrector_iter,
+            def fun(xx, jac=True):
+                R, J = self.ev.residual(xx, lam)
+                return (R, J) if jac else (R, None)
+
+            res = newton(fun, p.x, tol=self.tol, max_iter=2 * self.max_corrector_iter,
                          scale=lambda xx: self.ev.residual_scale(xx, lam))
             if res.success and float(np.linalg.norm((res.x - out[0]) / w)) <= self.max_jump * max(ds, self.ds0):
                 R, s_, r, J, g = self.ev(res.x, lam)

@@ -26,10 +26,11 @@ def cross_kink(trace, p, w):
     steps ``KINK_STEPS``, at most ``2 max_corrector_iter`` iterations, a jump guard of ``max_jump ds0``).
     The new point keeps the orientation of the curve (sign det [A; t]).
 
-    Where Newton from ``p.x`` fails or lands beyond the jump guard, the starts of ``restarts(x, lam)`` are tried (e.g. the state of the orbit
-    just before and after the section ``t = 0`` of a shooting method: an event crossing the section makes
-    the unknowns jump while the orbit moves on continuously); the jump guard then measures from the start
-    used, the new point is oriented onwards in ``lam``, and the kink is marked ``"restart": True``."""
+    Where Newton from ``p.x`` fails or lands beyond the jump guard, the starts of ``restarts(x, lam)`` are
+    tried (e.g. the state of the orbit just before and after the section ``t = 0`` of a shooting method: an
+    event crossing the section makes the unknowns jump while the orbit moves on continuously); the jump guard
+    then measures from the start used, the new point is oriented onwards in ``lam``, and the kink is marked
+    ``"restart": True``."""
     lsc, lam_end, direction = trace.lsc, trace.lam_end, trace.direction
     if p.dlam == 0.0:
         raise Failed("no direction of travel in lam")
@@ -93,8 +94,8 @@ def _fixed_lam_solve(trace, p, w, lam_n):
 
 
 def family_step(trace, p, w):
-    """A step at fixed ``lam`` onwards (by the ``lam`` part of ``min(ds, ds0)`` along the tangent, at least ``KINK_STEPS[0]``, in the direction of travel) where the branch would turn
-    back next to a family of solutions (a stuck element: its offset is free inside an interval that
+    """A step at fixed ``lam`` onwards (by the ``lam`` part of ``min(ds, ds0)`` along the tangent, at least
+    ``KINK_STEPS[0]``, in the direction of travel) where the branch would turn back next to a family of solutions (a stuck element: its offset is free inside an interval that
     shrinks as the amplitude grows).  The arclength corrector follows the family's edge, and where the
     interval closes its tangent turns into the other edge, back in ``lam``: a corner of the solution set,
     not a fold.  Newton at fixed ``lam`` from ``p`` (no free directions held) continues on the branch
