@@ -53,7 +53,12 @@ Location
    ``x`` the callback may use, e.g. a corrector from their mean), or ``None`` to stop.  The half
    bracket in which the test function changes sign is kept until the bracket spans at most
    ``rel_tol`` (default 1e-3, well below the required 1 %) of omega, then step 1 is applied to the
-   final bracket.
+   final bracket.  A grazing is different: the branch may turn back in omega there (a corner, e.g. an
+   impacting branch that bends away from the non-impacting one), so that both bracketing points lie on one
+   side of it in omega and no bracket in omega closes on it.  Its test function is extrapolated on each side
+   separately (linearly in omega, from that side's two nearest points), and the bisection ends when the side
+   nearest to its own estimate is within ``rel_tol`` of it and the other side's estimate agrees; the
+   callback then places new points on either side's own piece (:func:`mshbm.branch.sweep`'s locator).
 """
 from __future__ import annotations
 
@@ -275,10 +280,53 @@ def detect(points: Sequence, locate: Optional[Callable] = None, rel_tol: float =
     return out
 
 
+def _side_value(kind, p, other):
+    """The grazing test function on ``p``'s side of a bracket ``(p, other)`` (module docstring), or ``None``."""
+    if bool(p.contact_active) == bool(other.contact_active) and _impacts_change(p, other):
+        v = p.impact_margin if p.impacts > other.impacts else p.miss_margin
+    else:
+        v = _tau(kind, p)
+    return None if v is None or not np.isfinite(v) else float(v)
+
+
+def extrapolate_grazing(side, other):
+    """omega where the grazing test function of the points ``side`` (one side of a grazing, nearest last; the
+    other side's end ``other``) vanishes, extrapolated linearly in omega from the two nearest; ``None``
+    without two usable points."""
+    vals = [(p.omega, _side_value("grazing", p, other)) for p in side[-2:]]
+    if len(vals) < 2 or any(v is None for _, v in vals) or vals[0][0] == vals[1][0] or vals[0][1] == vals[1][1]:
+        return None
+    (w0, f0), (w1, f1) = vals
+    return w1 - f1 * (w1 - w0) / (f1 - f0)
+
+
+def _estimate(kind, sides, a, b, tol):
+    """``(omega, done)``: omega of the event in the bracket ``(a, b)`` and whether the bracket locates it to
+    ``tol``.  For a grazing, the extrapolation of the side whose nearest point is nearest to its own
+    extrapolation (``sides``: the bracket ends so far, per side; the branch may turn back in omega at a
+    grazing, a corner: the event then lies outside ``[omega_a, omega_b]``, and one side's smooth piece may be
+    harder to approach than the other's); done when that point is within ``tol`` of it and the other side's
+    extrapolation, where it exists, agrees to ``tol`` (a short bracket is not enough: at a corner both ends may
+    be near each other and far from it).  Else :func:`_interpolate`, done when the bracket spans
+    at most ``tol``."""
+    span = abs(b.omega - a.omega) <= tol
+    if kind == "grazing":
+        est = [(abs(e - side[-1].omega), e) for side, other in ((sides[0], b), (sides[1], a))
+               for e in (extrapolate_grazing(side, other),) if e is not None]
+        if est:
+            near, w = min(est)
+            return float(w), near <= tol and max(abs(e - w) for _, e in est) <= tol
+    return _interpolate(kind, a, b), span
+
+
 def _locate(kind, i, j, a, b, locate, rel_tol):
     located, nb = "interpolation", 0
+    sides = ([a], [b])
     if locate is not None:
-        while nb < MAX_BISECTIONS and abs(b.omega - a.omega) > rel_tol * max(abs(a.omega), abs(b.omega)):
+        while nb < MAX_BISECTIONS:
+            w, done = _estimate(kind, sides, a, b, rel_tol * max(abs(a.omega), abs(b.omega)))
+            if done:
+                break
             m = locate(kind, a, b)
             if m is None:
                 break
@@ -288,12 +336,14 @@ def _locate(kind, i, j, a, b, locate, rel_tol):
                 break
             if _side(kind, a, m):
                 b = m
+                sides[1].append(m)
             elif _crosses(kind, m, b):
                 a = m
+                sides[0].append(m)
             else:  # the new point sees no crossing on either side: keep the old bracket, stop
                 break
             located = "bisection"
-    w = _interpolate(kind, a, b)
+    w = _estimate(kind, sides, a, b, 0.0)[0] if located == "bisection" else _interpolate(kind, a, b)
     return Bifurcation(kind, float(w), i, j, located, (a.omega, b.omega), nb)
 
 

@@ -62,7 +62,7 @@ from .route.driver import Route, assemble
 from .route.options import capabilities, only, without
 from .scaling import displacement_floor
 from .solvers.arclength import continuation
-from .solvers.newton import newton
+from .branch_grazing import grazing_locator
 from .subharmonic import PERIOD_K_TOL, check_period, period_options, subharmonic_content, subharmonic_system
 from .system import System
 
@@ -230,9 +230,12 @@ def _contact_info(system, sol):
         force = lam[:, j] if lam.ndim == 2 and lam.shape[1] > j else np.zeros(1)
         rec = {"kind": el.kind, "dof": int(el.dof)}
         if el.kind == "contact":
-            q = sol.displacement([el.dof])[:, 0]
-            rec["min_gap"] = float(el.gap - np.max(q))
-            rec["active"] = bool(np.any(force > 0.0)) or rec["min_gap"] <= 0.0
+            q_max = sol.info.get("q_max")  # the exact flow's true extrema (samples miss the impact instants)
+            q_top = float(q_max[el.dof]) if q_max is not None else float(np.max(sol.displacement([el.dof])[:, 0]))
+            rec["min_gap"] = float(el.gap - q_top)
+            margins = (sol.info.get("contact_margins") or {}).get(j)
+            impacts = margins is not None and int(margins["impacts"]) > 0
+            rec["active"] = bool(np.any(force > 0.0)) or rec["min_gap"] <= 0.0 or impacts
         else:
             info = sol.info.get("stability", {})
             stick = info.get("stick_fraction")
@@ -287,6 +290,11 @@ class _Tracer:
         """The smooth piece of the residual at ``(x, lam)``: the event sequence of an event-driven flow
         (:meth:`PeriodicProblem.event_signature`), else ``None``."""
         return self.problem(lam).event_signature(np.asarray(x, dtype=float))
+
+    def restarts(self, x, lam):
+        """Newton starts across a jump of the unknowns where an event crosses the section ``t = 0``
+        (:meth:`PeriodicProblem.section_restarts`)."""
+        return self.problem(lam).section_restarts(np.asarray(x, dtype=float))
 
     def stall_accept(self, x, lam):
         """A stalled corrector on an impacting orbit of a time-stepping method is accepted when periodic to
@@ -404,38 +412,6 @@ def _detect_other(branch, system, locate=None):
     return out, ""
 
 
-def _grazing_locator(tracer, system, tol):
-    """Bisection callback of :func:`mshbm.bifurcations.detect` for grazings between impacting orbits of the
-    exact event-driven flow (records with ``impacts``): the certified solution at the middle frequency,
-    by Newton at fixed omega from the linear interpolation of the bracketing points' unknowns (then from
-    each of them).  A solution farther from either end than ``1.5`` times the bracket (scaled units) is
-    another orbit, not the branch's, and ends the bisection (``None``); so does a failed solve.  Other
-    types and other records are located by interpolation (``None``)."""
-    def locate(kind, a, b):
-        if kind != "grazing" or a.impacts is None or b.impacts is None:
-            return None
-        pa, pb = a.x, b.x  # the branch's points (their unknowns and forcing frequencies)
-        lam = 0.5 * (pa.omega + pb.omega)
-        problem = tracer.problem(lam)
-        w = np.asarray(tracer.unknown_scale(pa.x, lam), dtype=float)
-        span = float(np.linalg.norm(np.concatenate([(pb.x - pa.x) / w, [(pb.omega - pa.omega) / lam]])))
-        for x0 in (0.5 * (pa.x + pb.x), pa.x, pb.x):
-            res = newton(problem.residual, x0, tol=tol, max_iter=20, scale=problem.residual_scale)
-            if not res.success:
-                continue
-            far = max(float(np.linalg.norm(np.concatenate([(res.x - p.x) / w, [(lam - p.omega) / lam]])))
-                      for p in (pa, pb))
-            if far > 1.5 * span:
-                continue
-            pt = tracer.point(res.x, lam, res.nit, res.residual_norm)
-            if isinstance(pt, str):
-                continue
-            return bifurcations.point_from_solution(system, pt.solution, x=pt)
-        return None
-
-    return locate
-
-
 def _run(route, system, lam_start, lam_end, method, period, parameter, omega_fixed, options, family=None):
     t0 = time.perf_counter()
     if not isinstance(system, System):
@@ -510,7 +486,7 @@ def _run(route, system, lam_start, lam_end, method, period, parameter, omega_fix
                 ds0=ds, ds_min=ds_min, ds_max=ds_max, max_points=int(max_points), tol=tol,
                 max_corrector_iter=min(12, int(rest.get("max_iter", 12))),
                 predictor=predictor, accept=accept, callback=seen, max_time=max_time,
-                stall_accept=tracer.stall_accept, segment=tracer.segment)
+                stall_accept=tracer.stall_accept, segment=tracer.segment, restarts=tracer.restarts)
     except KeyboardInterrupt as exc:
         interrupted, res = exc, interrupted_result(seen.points)
     else:
@@ -536,7 +512,7 @@ def _run(route, system, lam_start, lam_end, method, period, parameter, omega_fix
             rec["bracket"] = f["bracket"]
         folds.append(rec)
     others, note = ([], "") if not branch.points else _detect_other(
-        branch, system, _grazing_locator(tracer, system, tol) if parameter == "omega" and not interrupted else None)
+        branch, system, grazing_locator(tracer, system, tol) if parameter == "omega" and not interrupted else None)
     branch.bifurcations = sorted(folds + [dict(b) for b in others], key=lambda b: b.get("index", 0))
     branch.success = bool(res.success)
     branch.message = res.message + (f"; {note}" if note else "")

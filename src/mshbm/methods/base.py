@@ -118,7 +118,7 @@ from .. import condensation, fourier
 from ..condensation import Condensation
 
 __all__ = ["PeriodicProblem", "HarmonicProblem", "Partition", "forward_difference_jacobian",
-           "central_difference_jacobian"]
+           "central_difference_jacobian", "section_limits"]
 
 
 @dataclass(frozen=True)
@@ -294,6 +294,15 @@ class PeriodicProblem:
         capability of problems with an event-driven flow; ``None``: no such flow, or it failed)."""
         return None
 
+    def section_restarts(self, x):
+        """Unknowns of the same orbit with its time-stepped state extrapolated to the end of the period from the
+        two samples before it and to its start from the two after it (:func:`section_limits`; list of arrays
+        shaped like ``x``; optional capability of problems whose unknowns hold the state at ``t = 0``, ``[]``
+        otherwise).  Newton starts across a jump of the unknowns
+        along a branch: where an event (an impact) crosses the section ``t = 0`` the state there jumps between
+        its values after and before the event, and so do the unknowns, while the orbit moves continuously."""
+        return []
+
     def rebuilt(self, omega):
         """The same problem (system, options) at another frequency."""
         return type(self)(self.system, float(omega), **self.build_options)
@@ -414,3 +423,12 @@ class HarmonicProblem(PeriodicProblem):
 
     def path_fallback(self):
         return self.newton_fallback
+
+
+def section_limits(run, k):
+    """``(q, u)`` of a recorded run (``run.q``, ``run.u``: shape ``(N + 1, n)``) extrapolated linearly to the
+    end of the period from its last two samples before it (``k = -1``) or to the start from the two after it
+    (``k = 0``): the limits of the state at the section from either side, to ``O(h^2)``, also where an event
+    lies between the section and the nearest sample."""
+    a, b = (-2, -3) if k == -1 else (1, 2)
+    return 2.0 * run.q[a] - run.q[b], 2.0 * run.u[a] - run.u[b]

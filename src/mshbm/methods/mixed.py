@@ -42,7 +42,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .. import fourier
-from .base import Partition, PeriodicProblem, forward_difference_jacobian
+from .base import Partition, PeriodicProblem, forward_difference_jacobian, section_limits
 from .common import complement, failed_parts, guess_parts
 from ..errors import InputError
 from ..extrema import fourier_extrema
@@ -154,6 +154,16 @@ class _MixedBase(PeriodicProblem):
     def _split(self, x):
         a, nt = self.nc * self._harm.size, self.nA
         return x[:a], x[a:a + nt], x[a + nt:]
+
+    def section_restarts(self, x):
+        """``x`` with the time-stepped state extrapolated to ``T`` from before and to ``0`` from after
+        (:meth:`PeriodicProblem.section_restarts`)."""
+        p, q0, u0 = self._split(np.asarray(x, dtype=float))
+        run = self.integrator.run(q0, u0, p, record=True)
+        if run.failed:
+            return []
+        out = [np.concatenate((p,) + section_limits(run, k)) for k in (-1, 0)]
+        return [z for z in out if z.size == p.size + q0.size + u0.size]
 
     def residual(self, x, jac=True):
         """``(R, J)``, shapes ``(n_x,)`` and ``(n_x, n_x)``."""

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import Partition, PeriodicProblem, forward_difference_jacobian
+from .base import Partition, PeriodicProblem, forward_difference_jacobian, section_limits
 from .common import failed_parts, guess_parts
 from ..integrators.registry import make_integrator
 from ..scaling import displacement_floor, velocity_scale
@@ -150,6 +150,15 @@ class ShootingProblem(PeriodicProblem):
         """``((element, kind), ...)`` of the events of the period from ``x`` (event-driven flow), else ``None``."""
         x = np.asarray(x, dtype=float)
         return self.integrator.event_signature(x[:self.n], x[self.n:])
+
+    def section_restarts(self, x):
+        """``x`` with the state extrapolated to ``T`` from before and to ``0`` from after
+        (:meth:`PeriodicProblem.section_restarts`)."""
+        run = self._run(x, record=True)
+        if run.failed:
+            return []
+        out = [np.concatenate(section_limits(run, k)) for k in (-1, 0)]
+        return [z for z in out if z.shape == np.shape(x)]
 
     def monodromy(self, x):
         """Monodromy matrix ``d(q(T), u(T))/d(q0, u0)``, shape (2n, 2n)."""

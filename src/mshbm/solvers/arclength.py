@@ -54,13 +54,13 @@ import numpy as np
 
 from .arclength_parts import (ContinuationPoint, ContinuationResult, Evaluator, Failed, backtrack, bordered_solve,
                               free_directions, locate_fold, orientation, stall_folds, tangent)
+from .arclength_kinks import KINK_STEPS, cross_kink, family_step
+from .newton import newton
 
 #: a step whose tangents at its ends have ``|cos| <`` this is taken as a kink of the branch (see ``continuation``)
 KINK_COS = 0.9
 #: the corrector finishes at fixed lam once its scaled residual is below this (see ``_Trace.corrector``)
 POLISH_AT = 1e-6
-#: relative steps in lam tried, in this order, by a step at fixed lam across a kink (``kink_crossing``)
-KINK_STEPS = (1e-3, 1e-4, 1e-5)
 
 __all__ = ["ContinuationPoint", "ContinuationResult", "continuation", "tangent", "orientation"]
 
@@ -69,7 +69,8 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
                  ds0=0.02, ds_min=1e-5, ds_max=0.2, max_points=200, tol=1e-10, max_corrector_iter=12,
                  fast_iter=3, slow_iter=7, grow=1.6, shrink=0.5, predictor="tangent", accept=None,
                  callback=None, fold_rtol=1e-3, max_time=None, lam_limits=None, stall_accept=None, max_jump=3.0,
-                 stall_fold_rtol=5e-3, natural_fallback=True, kink_crossing=True, segment=None, max_turn=0.5):
+                 stall_fold_rtol=5e-3, natural_fallback=True, kink_crossing=True, segment=None, max_turn=0.5,
+                 restarts=None):
     """Trace the branch of ``R(x, lam) = 0`` from the converged point ``(x0, lam0)`` towards ``lam_end``.
 
     Parameters
@@ -117,6 +118,10 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
     kink_crossing : bool
         When the step falls below ``ds_min`` at a point solved exactly (not by ``stall_accept``), try one
         step at fixed ``lam`` across a kink (module docstring) before stopping, once per point.
+    restarts : callable, optional
+        ``restarts(x, lam) -> list of x``: other Newton starts for the step at fixed ``lam`` across a kink
+        (:func:`mshbm.solvers.arclength_kinks.cross_kink`) where the unknowns jump along the branch (a shooting
+        method's state at ``t = 0`` when an event crosses that section).
     natural_fallback : bool
         When the step falls below ``ds_min`` at a point accepted by ``stall_accept``, continue by
         natural-parameter steps (Newton at fixed ``lam`` from the last point, ``lam`` step adapted,
@@ -154,7 +159,8 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
         max_corrector_iter=max_corrector_iter, fast_iter=fast_iter, slow_iter=slow_iter, grow=grow, shrink=shrink,
         predictor=predictor, accept=accept, callback=callback, fold_rtol=fold_rtol, max_time=max_time,
         stall_accept=stall_accept, max_jump=max_jump, stall_fold_rtol=stall_fold_rtol,
-        natural_fallback=natural_fallback, kink_crossing=kink_crossing, segment=segment, max_turn=max_turn))
+        natural_fallback=natural_fallback, kink_crossing=kink_crossing, segment=segment, max_turn=max_turn,
+        restarts=restarts))
     return trace.run(x0)
 
 
@@ -178,7 +184,7 @@ class _Trace:
         self.counters = {"corrector_failures": 0, "rejected": 0, "corrector_iterations": 0}
         self.points, self.folds, self.kinks = [], [], []
         self.ds, self.message, self.success = self.ds0, "", False
-        self.natural, self.natural_reason = None, ""
+        self.natural, self.natural_reason, self.gap_from = None, "", None
         self.crossed_from = -1  # the point from which a step at fixed lam across a kink was last tried
 
     # ------------------------------------------------------------------ the corrector
@@ -314,12 +320,31 @@ class _Trace:
                 t = d / nd
         xp, lp = p.x + ds * t[:-1] * w, p.lam + ds * t[-1] * lsc
         if p.free is None:
-            return self.corrector(xp, lp, t, w, ds), t
-        try:
-            return self.corrector(xp, lp, t, w, ds, free=p.free), t
-        except Failed:
-            # the step left the family (a stuck element starts to slip: its offset is no longer free)
-            return self.corrector(xp, lp, t, w, ds), t
+            out = self.corrector(xp, lp, t, w, ds)
+        else:
+            try:
+                out = self.corrector(xp, lp, t, w, ds, free=p.free)
+            except Failed:
+                # the step left the family (a stuck element starts to slip: its offset is no longer free)
+                out = self.corrector(xp, lp, t, w, ds)
+        if out[-1] is not None and p.stall is None:
+            # accepted at step accuracy only (the iterate may lie off the curve by that much, ahead of it or behind):
+            # Newton with an Armijo line search at that lam from the last point often reaches the root the
+            # corrector missed (the exact solution's start of mshbm.solve)
+            lam = out[1]
+            def fun(xx, jac=True):
+                R, J = self.ev.residual(xx, lam)
+                return (R, J) if jac else (R, None)
+
+            res = newton(fun, p.x, tol=self.tol, max_iter=2 * self.max_corrector_iter,
+                         scale=lambda xx: self.ev.residual_scale(xx, lam))
+            if res.success and float(np.linalg.norm((res.x - out[0]) / w)) <= self.max_jump * max(ds, self.ds0):
+                R, s_, r, J, g = self.ev(res.x, lam)
+                self.counters["stall_solved"] = self.counters.get("stall_solved", 0) + 1
+                self.counters["stall_solve_iterations"] = self.counters.get("stall_solve_iterations", 0) + res.nit
+                # the step control sees the corrector's own count, as for an accepted stall
+                return (res.x, lam, out[2], r, (R, s_, J, g), None), t
+        return out, t
 
     def judged(self, q, what="point rejected", detail=True):
         """``q`` with the payload of ``accept`` (none without it); :class:`Failed` when it rejects ``q`` (its
@@ -347,74 +372,14 @@ class _Trace:
 
     # ------------------------------------------------------------------ kinks and the end of the range
     def cross_kink(self, p, w):
-        """A step at fixed ``lam`` from ``p`` in its direction of travel, across a kink of the branch that the
-        arclength corrector cannot turn: past a kink whose two pieces meet at more than 90 degrees the
-        hyperplane orthogonal to the incoming tangent misses the outgoing piece, and Newton on the
-        bordered system cycles between the two pieces.  Where the branch passes the kink monotonically in
-        ``lam`` a hyperplane ``lam = const`` meets it: Newton at fixed ``lam`` from ``p.x`` (relative
-        steps ``KINK_STEPS``, at most ``2 max_corrector_iter`` iterations, a jump guard of ``max_jump ds0``).
-        The new point keeps the orientation of the curve (sign det [A; t])."""
-        lsc, lam_end, direction = self.lsc, self.lam_end, self.direction
-        if p.dlam == 0.0:
-            raise Failed("no direction of travel in lam")
-        sgn = 1.0 if p.dlam > 0 else -1.0
-        last = "no step tried"
-        for rel in KINK_STEPS:
-            lam_n = p.lam + sgn * rel * lsc
-            if (lam_n - lam_end) * direction > 0 and (p.lam - lam_end) * direction < 0:
-                lam_n = lam_end
-            try:
-                x, it, r, data, _ = self.newton_fixed(p.x, lam_n, allow_stall=False,
-                                                      max_iter=2 * self.max_corrector_iter,
-                                                      free=self.free_units(p, w))
-            except Failed as exc:
-                last = str(exc)
-                continue
-            dist = float(np.linalg.norm(np.concatenate([(x - p.x) / w, [(lam_n - p.lam) / lsc]])))
-            if dist > self.max_jump * self.ds0:
-                last = f"the solution at lam = {lam_n:.6g} is {dist:.3g} away (another branch?)"
-                continue
-            q, tq, wq = self.make_point(x, lam_n, it, r, data, rel, self.scaled_t(p, w), None)
-            if p.orientation and q.orientation:
-                flip = q.orientation != p.orientation
-            else:
-                flip = q.dlam * sgn < 0
-            if flip:
-                q.dx, q.dlam, q.orientation = -q.dx, -q.dlam, -q.orientation
-            try:
-                self.judged(q)
-            except Failed as exc:
-                last = str(exc)
-                continue
-            self.kinks.append({"lam": float(p.lam), "lam_right": float(lam_n), "index": len(self.points),
-                               "cos_tangents": float(self.scaled_t(q, wq) @ self.scaled_t(p, wq)), "fixed_lam": True})
-            return q
-        raise Failed(last)
+        return cross_kink(self, p, w)
 
     def near_family(self, back=4):
         """A point among the last ``back`` has free directions (:func:`free_directions`)."""
         return any(p.free is not None for p in self.points[-back:])
 
     def family_step(self, p, w):
-        """A step at fixed ``lam`` onwards (by the ``lam`` part of ``min(ds, ds0)`` along the tangent, at least ``KINK_STEPS[0]``, in the direction of travel) where the branch would turn
-        back next to a family of solutions (a stuck element: its offset is free inside an interval that
-        shrinks as the amplitude grows).  The arclength corrector follows the family's edge, and where the
-        interval closes its tangent turns into the other edge, back in ``lam``: a corner of the solution set,
-        not a fold.  Newton at fixed ``lam`` from ``p`` (no free directions held) continues on the branch
-        beyond (slip); the point is oriented onwards and the corner recorded as a kink (``"family": True``)."""
-        sgn = 1.0 if p.dlam > 0 else -1.0 if p.dlam < 0 else self.direction
-        lam_n = p.lam + sgn * max(min(self.ds, self.ds0) * abs(self.scaled_t(p, w)[-1]), KINK_STEPS[0]) * self.lsc
-        if (lam_n - self.lam_end) * self.direction > 0 and (p.lam - self.lam_end) * self.direction < 0:
-            lam_n = self.lam_end
-        x, it, r, data, st = self.newton_fixed(p.x, lam_n, allow_stall=False, max_iter=2 * self.max_corrector_iter)
-        q, _, _ = self.make_point(x, lam_n, it, r, data, self.ds, self.scaled_t(p, w), st)
-        if q.dlam * sgn < 0:
-            q.dx, q.dlam, q.orientation = -q.dx, -q.dlam, -q.orientation
-        self.judged(q)
-        self.kinks.append({"lam": float(p.lam), "lam_right": float(lam_n), "index": len(self.points),
-                           "fixed_lam": True, "family": True})
-        self.counters["family_steps"] = self.counters.get("family_steps", 0) + 1
-        return q
+        return family_step(self, p, w)
 
     def finish_at_end(self, p, q):
         """Solve at ``lam_end`` from the interpolation between points ``p`` and ``q`` that bracket it."""
@@ -433,13 +398,14 @@ class _Trace:
         adapted); returns True when the branch ends."""
         direction, lam_end, lsc = self.direction, self.lam_end, self.lsc
         natural = self.natural
+        sgn = direction if self.gap_from is None or p.dlam == 0 else float(np.sign(p.dlam))  # a gap: onwards
         try:
-            lam_n = p.lam + direction * natural
-            if (lam_n - lam_end) * direction > 0:
+            lam_n = p.lam + sgn * natural
+            if (lam_n - lam_end) * direction > 0 and (p.lam - lam_end) * direction < 0:
                 lam_n = lam_end
             x, it, r, data, st = self.newton_fixed(p.x, lam_n, free=self.free_units(p, w))
             q, _, _ = self.make_point(x, lam_n, it, r, data, natural / lsc, self.scaled_t(p, w), st)
-            q.dx, q.dlam = (x - p.x) / (natural / lsc), direction * lsc  # secant, not the (useless) tangent
+            q.dx, q.dlam = (x - p.x) / (natural / lsc), sgn * lsc  # secant, not the (useless) tangent
             self.judged(q)
         except Failed as exc:
             self.counters["natural_failures"] = self.counters.get("natural_failures", 0) + 1
@@ -451,6 +417,13 @@ class _Trace:
             return False
         self.counters["natural_points"] = self.counters.get("natural_points", 0) + 1
         self.add(q, natural / lsc)
+        if self.gap_from is not None:  # a gap bridged: back to arclength steps from the new point
+            self.kinks.append({"lam": float(p.lam), "lam_right": float(q.lam), "index": len(self.points) - 1,
+                               "gap": True, "reason": self.natural_reason})
+            self.counters["gaps"] = self.counters.get("gaps", 0) + 1
+            self.natural, self.gap_from, self.ds = None, None, self.ds0
+            if (q.lam - lam_end) * direction < 0:
+                return False
         if q.lam == lam_end:
             self.success, self.message = True, (
                 f"reached lam_end = {lam_end:.6g} in {len(self.points)} points (the last "
@@ -527,7 +500,7 @@ class _Trace:
             except Failed as exc2:
                 self.message = (f"step size below ds_min = {self.ds_min:g} at lam = {p.lam:.6g} ({exc}; a step at "
                                 f"fixed lam across a kink failed too: {exc2})")
-                return True
+                return self.start_gap(p, self.message)
             counters["kink_crossings"] = counters.get("kink_crossings", 0) + 1
             self.add(q, self.ds0)
             if q.lam == self.lam_end:
@@ -536,12 +509,28 @@ class _Trace:
             self.ds = self.ds0
             return False
         self.message = f"step size below ds_min = {self.ds_min:g} at lam = {p.lam:.6g} ({exc})"
-        return True
+        return self.start_gap(p, self.message)
+
+    def start_gap(self, p, why):
+        """Where the arclength corrector cannot pass an exactly solved point: one natural-parameter step onwards
+        (:meth:`natural_step`, Newton at fixed ``lam`` from ``p``), recorded as a gap of the curve (kink
+        ``"gap": True``; a fold inside it is not traced), then arclength steps again.  Returns True when the branch
+        ends (no fallback, or a gap already started at this point)."""
+        if not self.natural_fallback or self.gap_from == len(self.points):
+            return True
+        self.natural, self.natural_reason, self.gap_from = self.ds0 * self.lsc * 0.5, why, len(self.points)
+        return False
 
     def fold(self, step_p, w, q):
         """A fold between the last point ``p`` and ``q`` (the ``lam`` component of the tangent changed sign),
         located by :func:`mshbm.solvers.arclength_parts.locate_fold`."""
         p, ds, fold_rtol = step_p, self.ds, self.fold_rtol
+        if p.dlam * q.dlam < 0 and p.segment is not None and q.segment is not None and p.segment != q.segment:
+            # the turn in lam comes with a change of the smooth piece: a corner (e.g. a grazing, where an impacting
+            # branch bends away from the non-impacting one), not a fold (whose tangent turns smoothly)
+            self.kinks.append({"lam": float(p.lam), "lam_right": float(q.lam), "index": len(self.points),
+                               "reversal": True})
+            return
         if p.dlam * q.dlam < 0 and p.stall is None and q.stall is None:
             try:
                 self.folds.append(locate_fold(self.step, p, w, ds, q, len(self.points), fold_rtol, self.lsc))
@@ -628,6 +617,11 @@ class _Trace:
                 turn = float(np.arccos(np.clip(self.scaled_t(q, wq) @ self.scaled_t(p, wq), -1.0, 1.0)))
                 if turn > 0.0:  # no growth past a turn of max_turn per step (never a shrink: the corrector's effort does)
                     self.ds = min(self.ds, max(ds, ds * self.max_turn / turn))
+        gaps = [k for k in self.kinks if k.get("gap")]
+        if gaps and self.success:
+            where = ", ".join(f"{k['lam']:.6g}" for k in gaps)
+            self.message += (f" ({len(gaps)} gap(s) bridged by a natural-parameter step where the arclength corrector "
+                             f"could not pass, from lam = {where}: a fold there is not traced)")
         folds = self.folds + stall_folds(points, self.stall_fold_rtol)
         folds.sort(key=lambda f: f["index"])
         self.counters.update(residual_evaluations=self.ev.n_res, parameter_derivatives=self.ev.n_dlam,

@@ -193,8 +193,9 @@ def backtrack(norm, x, dx, r):
 
 
 def stall_folds(points, rtol):
-    """Turning points of ``lam`` along the branch with a reversal of more than ``rtol`` (relative), kept
-    where the extreme point or a neighbour was accepted at step accuracy (tangent folds cover the rest)."""
+    """Turning points of ``lam`` along the branch with a reversal of more than ``rtol`` (relative) that the next
+    point keeps, kept where the extreme point or a neighbour was accepted at step accuracy (tangent folds cover
+    the rest)."""
     lam = np.array([p.lam for p in points])
     out, ext, trend = [], 0, 0
     for i in range(1, lam.size):
@@ -204,7 +205,9 @@ def stall_folds(points, rtol):
                 trend, ext = (1 if lam[i] > lam[0] else -1), i
         elif trend * (lam[i] - lam[ext]) >= 0:
             ext = i
-        elif trend * (lam[ext] - lam[i]) > thr:
+        elif trend * (lam[ext] - lam[i]) > thr and (i + 1 == lam.size or trend * (lam[ext] - lam[i + 1]) > thr):
+            # a reversal that the next point confirms (a point accepted at step accuracy may lie off the curve
+            # by more than rtol, ahead of it: the branch then comes back once and goes on, no fold)
             out.append(ext)
             trend, ext = -trend, i
     folds = []
