@@ -230,9 +230,13 @@ def _contact_info(system, sol):
         force = lam[:, j] if lam.ndim == 2 and lam.shape[1] > j else np.zeros(1)
         rec = {"kind": el.kind, "dof": int(el.dof)}
         if el.kind == "contact":
-            q_max = sol.info.get("q_max")  # the exact flow's true extrema (samples miss the impact instants)
-            q_top = float(q_max[el.dof]) if q_max is not None else float(np.max(sol.displacement([el.dof])[:, 0]))
-            rec["min_gap"] = float(el.gap - q_top)
+            if el.relative_to is not None:  # g_N = gap + sign (q_I - q_J), on the samples
+                D = sol.displacement([el.dof, el.relative_to])
+                rec["min_gap"] = float(el.gap + np.min(el.sign * (D[:, 0] - D[:, 1])))
+            else:
+                q_max = sol.info.get("q_max")  # the exact flow's true extrema (samples miss the impact instants)
+                q_top = float(q_max[el.dof]) if q_max is not None else float(np.max(sol.displacement([el.dof])[:, 0]))
+                rec["min_gap"] = float(el.gap - q_top)
             margins = (sol.info.get("contact_margins") or {}).get(j)
             impacts = margins is not None and int(margins["impacts"]) > 0
             rec["active"] = bool(np.any(force > 0.0)) or rec["min_gap"] <= 0.0 or impacts

@@ -158,3 +158,23 @@ def test_damper2d_sweep_reports_no_spurious_folds():
     for p in exact[1::2]:
         ref = mshbm.solve(case.model, p.omega, "mshbm", accuracy=False, **opts)
         assert ref.success and p.amplitude[0] == pytest.approx(ref.amplitude[0], rel=5e-3)
+
+
+def test_point_reports_the_gap_of_a_relative_contact():
+    """A contact between two DOFs (gap 5, never reached) on a linear 2-DOF chain: the sweep point's ``min_gap``
+    is ``gap + min_t sign (q_0 - q_1)`` = ``gap - |Q_0 - Q_1|`` of the linear response (it used to take
+    ``gap - max q_0``), and the contact is reported inactive."""
+    gap = 5.0
+    s = chain([1.0, 1.0], [1.0, 1.0], 0.05, forcing=[{"dof": 1, "amplitude": 1.0}],
+              elements=[Contact(0, gap, 0.8, relative_to=1)])
+    br = mshbm.sweep(s, 0.3, 0.45, method="hbm", harmonics=3, stability=False, max_points=400)
+    assert br.success and len(br) >= 2
+    for p in br.points:
+        w = float(p.omega)
+        H = np.asarray(s.K) - w * w * np.asarray(s.M) + 1j * w * np.asarray(s.C)
+        Q = np.linalg.solve(H, np.array([0.0, 1.0]))
+        rec = p.contact[0]
+        assert rec["min_gap"] == pytest.approx(gap - abs(Q[0] - Q[1]), abs=2e-3 * abs(Q[0] - Q[1]))
+        assert not rec["active"]
+        # the old formula gap - max q_0 differs by more than the tolerance here
+        assert abs(rec["min_gap"] - (gap - abs(Q[0]))) > 1e-2
