@@ -2,6 +2,15 @@
 (``modes.json`` of build_fe_model.py), the single solves (``solves.json`` of fe_example.py) and the
 frequency-response curves (``sweep_<method>.json`` of fe_sweep.py).
 
+With a Craig-Bampton reduction (case key ``reduce:``): ``reduced``, ``reduce_modes``, ``n_reduced_dofs``,
+``reduction_build_s``, ``reduction_highest_mode``; per curve ``<method>_reduction_estimate`` (largest error
+estimate at its first and last points); per single solve ``solve_<method>_reduction_estimate``; the convergence
+in the number of modes ``modes_<m>_tip``, ``modes_<m>_estimate``, ``modes_<m>_tip_rel_diff`` (against the
+largest count) and ``modes_<m>_cpu_time``.  CPU times (``time.process_time`` of the job, the machine's load does
+not enter): ``<method>_cpu_time``, ``<method>_cpu_per_point``, ``solve_<method>_cpu_time``; the issue's target
+of a certified single solve within :data:`SOLVE_TARGET_S` CPU seconds: ``solve_target_s``,
+``solve_<method>_within_target`` and ``solve_mshbm_event_within_target``.
+
 Per curve (``<method>_...``): wall time, points, time per point, DOFs of its mesh, MS-HBM's integrator,
 corrector iterations and failures, residual evaluations, and the sparse LU factorisations of the
 condensation and the solves refined from kept ones (:class:`mshbm.condensation.FactorReuse`; ``None``
@@ -26,6 +35,9 @@ import argparse
 import json
 import os
 import sys
+
+#: CPU seconds a certified single solve of the 10^4-DOF model should take at most
+SOLVE_TARGET_S = 5.0
 
 
 def _load(path):
@@ -94,6 +106,24 @@ def summarize(modes, solves, sweeps, solve_modes=None):
         if "node_dofs" in tds2:
             nums["solve_node_local_ratio"] = max(tds2["node_dofs"]["omega_local_over_omega"])
             nums["solve_node_event_substeps"] = tds2["node_dofs"]["event_substeps_per_period"]
+    red = solves.get("reduction")
+    nums["reduced"] = red is not None
+    if red is not None:
+        nums.update(reduce_modes=red["modes"], n_reduced_dofs=red["n_reduced"], reduction_build_s=red["build_time_s"],
+                    reduction_highest_mode=red["highest_mode_rad_s"])
+    conv = solves.get("mode_convergence") or []
+    if conv:
+        top = max(conv, key=lambda r: r["modes"])
+        for r in conv:
+            m_ = r["modes"]
+            nums[f"modes_{m_}_tip"] = r["amplitudes"].get("contact")
+            nums[f"modes_{m_}_estimate"] = r["reduction_estimate"]
+            nums[f"modes_{m_}_success"] = r["success"]
+            nums[f"modes_{m_}_cpu_time"] = r["cpu_time_s"]
+            if r is not top and top["amplitudes"].get("contact"):
+                nums[f"modes_{m_}_tip_rel_diff"] = abs(r["amplitudes"]["contact"] / top["amplitudes"]["contact"] - 1.0)
+        nums["modes_checked"] = ", ".join(str(r["modes"]) for r in conv)
+    nums["solve_target_s"] = SOLVE_TARGET_S
     for row in solves["solves"]:
         k = row["method"].replace("-", "_")  # a labelled variant (mshbm-event) as a placeholder name
         nums[f"solve_{k}_n_dofs"] = row.get("n_dofs")
@@ -107,6 +137,11 @@ def summarize(modes, solves, sweeps, solve_modes=None):
             continue
         nums[f"solve_{k}_skipped"] = False
         nums[f"solve_{k}_time"] = row["wall_time_s"]
+        cpu = row.get("cpu_time_s")
+        nums[f"solve_{k}_cpu_time"] = cpu
+        nums[f"solve_{k}_reduction_estimate"] = row.get("reduction_estimate")
+        nums[f"solve_{k}_accuracy_estimate"] = row.get("accuracy_estimate")
+        nums[f"solve_{k}_within_target"] = bool(row["success"] and cpu is not None and cpu <= SOLVE_TARGET_S)
         nums[f"solve_{k}_success"] = row["success"]
         nums[f"solve_{k}_iterations"] = row["iterations"]
         nums[f"solve_{k}_start"] = row.get("start", "default")
@@ -125,6 +160,7 @@ def summarize(modes, solves, sweeps, solve_modes=None):
         branches[k] = {key: b[key] for key in ("omega", "amplitude", "stable", "stability_method", "certified",
                                                "bifurcations", "success", "message", "points", "wall_time_s",
                                                "options", "dofs", "n_dofs", "counters")}
+        branches[k]["cpu_time_s"] = b.get("cpu_time_s")
         w, a = peak(b)
         cnt = b.get("counters", {})
         cond = cnt.get("condensation", {})
@@ -135,6 +171,12 @@ def summarize(modes, solves, sweeps, solve_modes=None):
                      f"{k}_factorisations": cond.get("factorisations"),
                      f"{k}_refined": cond.get("refined"),
                      f"{k}_time_per_point": b["wall_time_s"] / max(b["points"], 1)})
+        cpu = b.get("cpu_time_s")
+        red_b = b.get("reduction") or {}
+        ends = [e for e in red_b.get("error_estimate_ends", []) if e is not None]
+        nums.update({f"{k}_cpu_time": cpu, f"{k}_cpu_per_point": None if cpu is None else cpu / max(b["points"], 1),
+                     f"{k}_reduction_estimate": max(ends) if ends else None,
+                     f"{k}_stability_method": next((m_ for m_ in b["stability_method"] if m_), None)})
         nums.update({f"{k}_time": b["wall_time_s"], f"{k}_points": b["points"], f"{k}_success": b["success"],
                      f"{k}_peak_omega": w, f"{k}_peak_tip": a,
                      f"{k}_unstable": sum(v is False for v in b["stable"]),
