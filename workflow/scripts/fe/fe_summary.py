@@ -21,9 +21,11 @@ Output ``results/summary/fe.json``: ``numbers`` (flat, for the paper's placehold
 
 Agreement of two branches: ``<a>_<b>_peak_rel_diff``, the relative difference of their largest tip
 amplitudes, and of the frequencies where they occur (``..._peak_omega_rel_diff``); and
-``<a>_<b>_max_rel_diff_<dof>``, the largest relative difference of ``b``'s amplitude from ``a``'s
-(interpolated linearly at ``b``'s frequencies) over the frequencies both branches cover, where ``a``'s
-frequencies increase along the branch (no folds; else ``None``).
+``<a>_<b>_max_rel_diff_<dof>`` (both orders), the largest relative difference of ``b``'s amplitude from
+``a``'s (interpolated linearly at ``b``'s frequencies) over the frequencies both branches cover, where ``a``'s
+frequencies increase along the branch (no folds; else ``None``).  Single solves: ``solve_<m>_hbm_rel_diff_<el>``
+and ``solve_<m>_shooting_rel_diff_<el>``, the relative difference of the max |q| at element ``el`` from HBM's and
+from full shooting's on the same model.
 
 Usage::
 
@@ -148,12 +150,13 @@ def summarize(modes, solves, sweeps, solve_modes=None):
         nums[f"solve_{k}_failed_checks"] = ", ".join(row.get("failed_checks") or [])
         for name, a in row["amplitudes"].items():
             nums[f"solve_{k}_amp_{name}"] = a
-    a = {r["method"].replace("-", "_"): r["amplitudes"] for r in solves["solves"] if "skipped" not in r and r.get("n_dofs") in
-         (None, nums.get("solve_n_dofs"))}
-    for k in a:
-        if k != "hbm" and "hbm" in a:
-            for name in a["hbm"]:
-                nums[f"solve_{k}_hbm_rel_diff_{name}"] = abs(a[k][name] / a["hbm"][name] - 1.0)
+    # the rows of the main case (not full shooting on a smaller case, which names its "case")
+    a = {r["method"].replace("-", "_"): r["amplitudes"] for r in solves["solves"] if "skipped" not in r and "case" not in r}
+    for ref in ("hbm", "shooting"):  # against HBM, and against full shooting (no truncation in harmonics)
+        for k in a:
+            if k != ref and ref in a:
+                for name in a[ref]:
+                    nums[f"solve_{k}_{ref}_rel_diff_{name}"] = abs(a[k][name] / a[ref][name] - 1.0)
     branches = {}
     for b in sweeps:
         k = b["method"]
@@ -196,9 +199,11 @@ def summarize(modes, solves, sweeps, solve_modes=None):
             if ax and ay:
                 nums[f"{x}_{y}_peak_rel_diff"] = abs(ax / ay - 1.0)
                 nums[f"{x}_{y}_peak_omega_rel_diff"] = abs(wx / wy - 1.0)
-            for dof in branches[x]["amplitude"]:
+            for dof in branches[x]["amplitude"]:  # both orders: the reference must be the one without folds
                 nums[f"{x}_{y}_max_rel_diff_{dof}"] = max_rel_diff(branches[x], branches[y], dof)
-            nums[f"{x}_{y}_common_omega_max"] = min(max(branches[x]["omega"] or [0]), max(branches[y]["omega"] or [0]))
+                nums[f"{y}_{x}_max_rel_diff_{dof}"] = max_rel_diff(branches[y], branches[x], dof)
+            nums[f"{x}_{y}_common_omega_max"] = nums[f"{y}_{x}_common_omega_max"] = \
+                min(max(branches[x]["omega"] or [0]), max(branches[y]["omega"] or [0]))
     return {"numbers": nums, "model": {k: m[k] for k in m if k != "params"}, "params": p,
             "solves": solves["solves"], "branches": branches}
 
