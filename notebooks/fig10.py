@@ -66,6 +66,7 @@ for ax, (dof, title) in zip(axes[0], panels):
     if dof == ("pad" if N.get("bodies") else "tip"):
         ax.axhline(N["gap"] * 1e3, color="0.5", lw=0.8, ls="-.", label="gap")
     ax.set_title(title)
+    ax.set_xlim(N["omega_start"], N["omega_end"])  # a branch may run out of the range before it stops
     ax.set_xlabel("ω (rad/s)")
     ax.set_ylabel("amplitude (mm)")
     ax.legend(fontsize=7)
