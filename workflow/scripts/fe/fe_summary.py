@@ -2,6 +2,10 @@
 (``modes.json`` of build_fe_model.py), the single solves (``solves.json`` of fe_example.py) and the
 frequency-response curves (``sweep_<method>.json`` of fe_sweep.py).
 
+Checks of a curve (fe_sweep.py ``--check-points``): ``<method>_check_omega``, ``_check_tip`` (the curve's
+last point), ``_check_shooting_tip`` (event-driven full shooting started from it), ``_check_rel_diff_tip``,
+``_check_success`` and ``_checks_max_rel_diff_tip`` over every checked point.
+
 With a Craig-Bampton reduction (case key ``reduce:``): ``reduced``, ``reduce_modes``, ``n_reduced_dofs``,
 ``reduction_build_s``, ``reduction_highest_mode``; per curve ``<method>_reduction_estimate`` (largest error
 estimate at its first and last points); per single solve ``solve_<method>_reduction_estimate``; the convergence
@@ -87,7 +91,7 @@ def summarize(modes, solves, sweeps, solve_modes=None):
         "length": p["length"], "width": p["width"], "thickness": p["height"],
         "mu_FN": m["friction"]["mu"] * m["friction"]["normal_force"], "force": p["force"],
         "gap": m["contact"]["gap"], "restitution": m["contact"]["restitution"],
-        "x_friction": p["x_friction"], "x_force": p["x_force"],
+        "x_friction": p["x_friction"], "x_force": p["x_force"], "penalty_ratio": p["penalty_ratio"],
         "bodies": bool(body),
     }
     if body:
@@ -180,6 +184,14 @@ def summarize(modes, solves, sweeps, solve_modes=None):
         nums.update({f"{k}_cpu_time": cpu, f"{k}_cpu_per_point": None if cpu is None else cpu / max(b["points"], 1),
                      f"{k}_reduction_estimate": max(ends) if ends else None,
                      f"{k}_stability_method": next((m_ for m_ in b["stability_method"] if m_), None)})
+        checks = b.get("checks") or []
+        if checks:  # the curve's last point against event-driven full shooting started from it
+            c_ = checks[-1]
+            nums.update({f"{k}_check_omega": c_["omega"], f"{k}_check_success": c_["success"],
+                         f"{k}_check_tip": c_["branch"].get("tip"), f"{k}_check_shooting_tip": c_["shooting"].get("tip"),
+                         f"{k}_check_rel_diff_tip": abs(c_["shooting"]["tip"] / c_["branch"]["tip"] - 1.0),
+                         f"{k}_checks_max_rel_diff_tip": max(abs(c["shooting"]["tip"] / c["branch"]["tip"] - 1.0)
+                                                             for c in checks)})
         nums.update({f"{k}_time": b["wall_time_s"], f"{k}_points": b["points"], f"{k}_success": b["success"],
                      f"{k}_peak_omega": w, f"{k}_peak_tip": a,
                      f"{k}_unstable": sum(v is False for v in b["stable"]),
