@@ -150,3 +150,59 @@ def test_event_sweep_passes_the_impact_onset_that_moreau_steps_zigzag_at(model, 
     assert hb["success"], hb["message"]
     ah = np.interp(w, hb["omega"], hb["amplitude"]["tip"])
     assert np.max(np.abs(np.array(ev["amplitude"]["tip"]) / ah - 1.0)) < 0.02
+
+
+def test_fe_example_on_node_dofs_reduced_and_summary(tmp_path):
+    """The elements on node DOFs of the plate (no bodies), the model reduced onto them (Craig-Bampton, 8 modes):
+    fe_example.py solves the 10-DOF reduced model with HBM and event-driven MS-HBM started from HBM's reduced
+    solution, both certified at the default accuracy with the reduction's estimate in the certificate (below
+    1e-3 here); MS-HBM's amplitudes on the full model's DOFs agree with HBM's within 3 % (n_H = 5 truncates the
+    coupling force of MS-HBM and HBM's regularised and penalty laws alike); with 4 modes the stop's amplitude
+    moves by less than 1e-3 and the estimate is larger than with 8.  fe_summary.py reports the same numbers."""
+    info = fe.build_fe_model(tmp_path, n_el=10, case_name="fe.yaml", model="plate", ny=3, reduce_modes=8)
+    ex, summ = _script("fe_example"), _script("fe_summary")
+    facts = ex.run(tmp_path / "fe.yaml", ["hbm", "mshbm-event"], 5, tmp_path / "solves.json", log=lambda *a: None,
+                   guess_from={"mshbm-event": "hbm"}, accuracy=None, mode_counts=[4])
+    assert facts["n_dofs"] == 10 and facts["n_full_dofs"] == info["n_dofs"] == 160
+    rows = {r["method"]: r for r in facts["solves"]}
+    ev = rows["mshbm-event"]
+    assert ev["success"], ev["message"]
+    assert ev["start"] == "guess" and 0 < ev["reduction_estimate"] < 1e-3
+    for k in ("friction", "contact"):
+        assert ev["amplitudes"][k] == pytest.approx(rows["hbm"]["amplitudes"][k], rel=0.03)
+    conv = {r["modes"]: r for r in facts["mode_convergence"]}
+    assert sorted(conv) == [4, 8]
+    assert conv[8]["amplitudes"]["contact"] == pytest.approx(ev["amplitudes"]["contact"], rel=1e-6)
+    assert conv[4]["amplitudes"]["contact"] == pytest.approx(conv[8]["amplitudes"]["contact"], rel=1e-3)
+    assert conv[4]["reduction_estimate"] > conv[8]["reduction_estimate"]
+    N = summ.summarize(info, json.loads((tmp_path / "solves.json").read_text()), [])["numbers"]
+    assert N["reduced"] is True and N["n_reduced_dofs"] == 10 and N["reduce_modes"] == 8 and N["bodies"] is False
+    assert N["solve_mshbm_event_reduction_estimate"] == ev["reduction_estimate"]
+    assert N["solve_mshbm_event_cpu_time"] == ev["cpu_time_s"]
+    assert N["solve_mshbm_event_within_target"] == (ev["cpu_time_s"] <= N["solve_target_s"])
+    assert N["modes_4_tip_rel_diff"] == pytest.approx(
+        abs(conv[4]["amplitudes"]["contact"] / conv[8]["amplitudes"]["contact"] - 1.0), rel=1e-12)
+
+
+def test_reduced_sweep_names_node_dofs_and_checks_its_end_by_shooting(tmp_path):
+    """fe_sweep.py on the reduced plate (no bodies) over [0.9, 0.93] w_1, below the impacts: the named DOFs are
+    the reduced model's boundary DOFs (the stop's node, the joint's node), the JSON records the reduction with its
+    estimate at both ends (below 1e-3), and --check-points 1 solves the last point again by event-driven full
+    shooting from HBM's solution: certified, and within 3 % at the tip (HBM's regularised friction law)."""
+    info = fe.build_fe_model(tmp_path, n_el=10, case_name="fe.yaml", model="plate", ny=3, reduce_modes=8)
+    sw = _script("fe_sweep")
+    res = sw.run(tmp_path / "fe.yaml", tmp_path / "sweep_hbm.json", "hbm", (0.9, 0.93), harmonics=5, max_points=40,
+                 ds_max=0.5, log=lambda *a: None, check_points=1)
+    assert res["success"], res["message"]
+    assert res["n_dofs"] == 10 and res["n_full_dofs"] == 160
+    case = mshbm.load_case(tmp_path / "fe.yaml")
+    assert res["dofs"] == {"friction_node": case.reduction.reduced_dof(info["friction"]["dof"]),
+                           "tip": case.reduction.reduced_dof(info["contact"]["dof"])}
+    assert max(res["amplitude"]["tip"]) < info["contact"]["gap"]
+    red = res["reduction"]
+    assert red["modes"] == 8 and len(red["error_estimate_ends"]) == 2 and max(red["error_estimate_ends"]) < 1e-3
+    (c,) = res["checks"]
+    assert c["success"] and c["omega"] == res["omega"][-1]
+    # the same point; its amplitude sampled on the solution's time grid instead of the branch's (5e-7 apart)
+    assert c["branch"]["tip"] == pytest.approx(res["amplitude"]["tip"][-1], rel=1e-5)
+    assert c["shooting"]["tip"] == pytest.approx(c["branch"]["tip"], rel=0.03)

@@ -77,6 +77,11 @@ def test_config_schema_rejects_invalid_values():
     bad["numerics"]["stepz"] = bad["numerics"].pop("steps")
     with pytest.raises(WorkflowError):
         validate(bad, str(ROOT / "workflow" / "schemas" / "config.schema.yaml"))
+    for key, value in (("reduce_modes", -1), ("reduce_modes", 2.5), ("mode_convergence", [4, "x"])):
+        bad = json.loads(json.dumps(cfg))
+        bad["fe_example"][key] = value
+        with pytest.raises(WorkflowError):
+            validate(bad, str(ROOT / "workflow" / "schemas" / "config.schema.yaml"))
 
 
 def test_the_workflow_validates_the_stress_config(tmp_path):

@@ -345,3 +345,25 @@ def test_linear_response_is_refined_and_converges_with_the_mesh():
     Q = fe.linear_response(M, C, K, omega, f_dof, 1.0)
     Q_r = fe.linear_response(M, None, K, omega, f_dof, 1.0, rayleigh=ab)
     assert np.abs(Q - Q_r).max() <= 1e-10 * np.abs(Q_r).max()
+
+
+def test_reduce_option_writes_a_craig_bampton_case_on_the_node_dofs(tmp_path):
+    """--reduce N (no bodies): the case file asks for a Craig-Bampton reduction with N modes, the elements act on
+    the plate's node DOFs (the friction node at mid-length, the tip), and the loaded case solves 2 + N DOFs whose
+    first two are those nodes; a negative count is refused with exit code 2."""
+    assert fe.main([str(tmp_path), "--model", "plate", "--n-el", "6", "--ny", "2", "--case", "x.yaml",
+                    "--reduce", "3"]) == 0
+    info = json.loads((tmp_path / "modes.json").read_text())
+    assert info["bodies"] is None and info["params"]["reduce_modes"] == 3
+    assert "reduce: {method: craig_bampton, modes: 3}" in (tmp_path / "x.yaml").read_text().splitlines()
+    case = mshbm.load_case(tmp_path / "x.yaml")
+    rm = case.reduction
+    assert case.system.n == info["n_dofs"] == 72 and case.model.n == 2 + 3 == rm.system.n
+    fr, ct = info["friction"]["dof"], info["contact"]["dof"]
+    assert sorted(rm.boundary.tolist()) == sorted([fr, ct])
+    assert fr == fe.plate_w_dof(0.5, 0.5, 6, 2) and ct == fe.plate_w_dof(1.0, 0.5, 6, 2)
+    assert {e.kind: e.dof for e in rm.system.elements} == {"friction": rm.reduced_dof(fr),
+                                                            "contact": rm.reduced_dof(ct)}
+    with pytest.raises(SystemExit) as e:
+        fe.main([str(tmp_path), "--reduce", "-1"])
+    assert e.value.code == 2

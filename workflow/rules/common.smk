@@ -299,6 +299,8 @@ def fe_model_argv(w, output):
             "--ny", str(mesh.get("ny", 1)), "--case", os.path.basename(output.case)]
     if FE["bodies"]:
         argv.append("--bodies")
+    if FE.get("reduce_modes") is not None:
+        argv += ["--reduce", str(FE["reduce_modes"])]
     for key in ("body_freq_ratio", "body_mass_ratio", "width", "gap_ratio", "friction_ratio", "zeta"):
         if key in FE:
             argv += ["--set", f"{key}={FE[key]}"]

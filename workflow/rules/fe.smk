@@ -11,14 +11,14 @@
 #   <results>/summary/fe.json                           numbers of Fig. 10 and the paper (rule fe_summary)
 #
 # Meshes of the same structure (config `fe_example.meshes`): the curves on `sweep`, the single solves on `solve`
-# (both 10^4 DOFs, the target size), and full shooting's single solve on `shooting` (optional, a coarse
-# mesh: its dense step matrices refuse 10^4 DOFs; default the sweep's mesh).  A sweep on 10^4 DOFs is feasible
-# because the condensation keeps its sparse LUs across nearby frequencies (mshbm.condensation.FactorReuse).
+# (both 10^4 DOFs, the target size), and, optional, full shooting's single solve on `shooting` (a coarse mesh,
+# needed only without a reduction: full shooting's dense step matrices refuse 10^4 DOFs; default the sweep's).
 #
-# The elements act on two lumped bodies tied to the structure by springs (`bodies: true`; the shoe of the
-# friction joint and the pad of the stop): MS-HBM integrates the element DOFs in time with their own
-# M_NN, C_NN, K_NN, and a node DOF of the 10^4-DOF mesh is far too stiff for that (build_fe_model.py,
-# "Why"; README, known limitations).
+# The elements act on node DOFs of the plate, and the case file reduces the model onto them (Craig-Bampton,
+# config `fe_example.reduce_modes`; mshbm.reduction): every method solves the 2 element DOFs plus a few
+# fixed-interface modes, and the single solves report on the full model's DOFs with the reduction's error
+# estimate in their certificate.  `bodies: true` rebuilds the older model, the elements on two lumped bodies
+# tied to the nodes by springs (build_fe_model.py).
 
 if config.get("fe_example"):
     FE = config["fe_example"]
@@ -99,7 +99,10 @@ if config.get("fe_example"):
             argv=lambda w, input, output: [input.case, output.json, "--methods", ",".join(FE["solve_methods"]),
                                            "--harmonics", str(FE["harmonics"]), "--guess", "mshbm=hbm", "--guess", "mshbm-event=hbm",
                                            "--shooting-case", input.shooting_case,
-                                           "--shooting-max-dofs", str(FE["shooting_max_dofs"])],
+                                           "--shooting-max-dofs", str(FE["shooting_max_dofs"]),
+                                           "--accuracy", "default",
+                                           *(["--mode-convergence", ",".join(str(m) for m in FE["mode_convergence"])]
+                                             if FE.get("mode_convergence") else [])],
             solver=SOLVER_DIGEST,
         log:
             f"{R}/logs/fe/fe_example.log",
@@ -141,7 +144,8 @@ if config.get("fe_example"):
 
     EXTRA_SUMMARIES.append(f"{R}/summary/fe.json")
 
-    # the curves too long for the main run (config fe_example.long_methods): `snakemake --cores 2 fe_curves`
+    # every curve, with those of config fe_example.long_methods (too long for the main run, if any):
+    # `snakemake --cores 1 fe_curves`
     rule fe_curves:
         input:
             expand(f"{FE_DIR}/sweep/sweep_{{fmethod}}.json", fmethod=FE.get("long_methods", []) + FE["methods"]),
