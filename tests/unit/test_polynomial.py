@@ -385,3 +385,36 @@ def test_duffing_on_a_shaker_table_is_the_forced_duffing(omega):
     assert h25.success and sh.success
     A = float(h25.amplitude[0])
     assert abs(float(sh.amplitude[0]) - A) / A < 1e-5
+
+
+@pytest.mark.parametrize("spring_first", [False, True])
+def test_kernel_matches_numpy_twin_with_a_cone_and_its_contact(spring_first):
+    """A 3-D frictional contact (cone pair on DOFs 0, 1 loaded by a contact on DOF 2) and cubic springs, in
+    either order of the element list: the compiled kernel equals its NumPy twin to 1e-11, the cone holds at
+    every step (||P_T|| <= mu (h N_0 + P_N)) and the springs' impulses are h lambda(w^T q_M)."""
+    from mshbm import frictional_contact
+
+    springs = [Polynomial(3, {3: 2.0}), Polynomial(2, {3: 1.0}, relative_to=3)]
+    first = len(springs) if spring_first else 0
+    cone = frictional_contact(0, 1, 0.4, 0.2, normal=2, gap=0.05, restitution=0.5, first=first)
+    els = springs + cone if spring_first else cone + springs
+    sys = chain([1.0, 2.0, 1.0, 1.5], 1.0, 0.05, forcing=[{"dof": 0, "amplitude": 2.0},
+                                                          {"dof": 1, "sin": 2.0}, {"dof": 3, "amplitude": 1.0}],
+                elements=els)
+    omega, N = 0.8, 600
+    h = 2 * np.pi / omega / N
+    st = MoreauJean(sys.M, sys.C, sys.K, sys.elements, h, 0.5)
+    B = st.increments(sys.forcing(np.arange(N + 1) * h, omega))
+    q0, u0 = np.array([0.1, -0.2, 0.05, 0.0]), np.array([0.5, 0.0, -0.3, 0.2])
+    tr = st.run(q0, u0, B)
+    q, u, P = kernels.moreau_jean_numpy(q0, u0, st.Aq, st.Au, st.WG, st.Del, st.MinvG, B, st.theta, st.h,
+                                        st.kind, st.dof, st.sign, st.bound, st.gap, st.e, dof2=st.dof2,
+                                        nsrc=st.nsrc, mu_n=st.mu_n, tpair=st.tpair, poly=st.poly)
+    assert np.allclose(tr.q, q, rtol=0, atol=1e-11) and np.allclose(tr.u, u, rtol=0, atol=1e-11)
+    assert np.allclose(tr.P, P, rtol=0, atol=1e-11)
+    j1, j2, c = first, first + 1, first + 2
+    assert np.max(P[:, c]) > 0 and np.max(np.hypot(P[:, j1], P[:, j2])) > 0  # the contact and the cone act
+    assert np.all(np.hypot(P[:, j1], P[:, j2]) <= 0.4 * (h * 0.2 + P[:, c]) * (1 + 1e-12) + 1e-15)
+    for j in np.flatnonzero(st.kind == kernels.KIND_SMOOTH):
+        s_mid = sys.elements[j].local(tr.q[:-1] + 0.5 * h * tr.u[:-1])
+        assert np.allclose(tr.P[:, j], h * sys.elements[j].law(s_mid)[0], rtol=1e-13, atol=1e-15)
