@@ -48,7 +48,10 @@ Methods:
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
+from numba import njit
 
 from ..errors import InputError
 
@@ -186,6 +189,26 @@ def cone_law(el, g1, g2, lam_n=None, dn_ds=None, dn_dgamma=None):
 MAX_PASSES = 10000
 
 
+@njit(cache=True)
+def _periodic_start(ds, kt, b, max_passes):
+    """The periodic state at the last sample of the disk's return mapping driven by the increments ``ds``
+    (N_s, 2), marched period after period from zero until it repeats to ``1e-14 b`` (at most ``max_passes``)."""
+    x, y = 0.0, 0.0
+    for _ in range(max_passes):
+        px, py = x, y
+        for k in range(ds.shape[0]):
+            tx, ty = px - kt * ds[k, 0], py - kt * ds[k, 1]
+            nt = math.hypot(tx, ty)
+            if nt > b:
+                tx, ty = b * tx / nt, b * ty / nt
+            px, py = tx, ty
+        done = math.hypot(px - x, py - y) <= 1e-14 * b
+        x, y = px, py
+        if done:
+            break
+    return np.array([x, y])
+
+
 def cone_history_law(el, s1, s2, basis=None):
     """3-D Jenkins law of cone partners (``el`` the first; both with ``k_t = tangential_stiffness`` and the bound
     ``b = mu N_0``) at the periodic samples of their ``s = w^T q``, ``s1`` and ``s2`` (shape (N_s,) each).
@@ -213,17 +236,7 @@ def cone_history_law(el, s1, s2, basis=None):
     nb = V.shape[1]
     kt, b = float(el.tangential_stiffness), float(el.bound)
     ds = np.diff(s, axis=0, prepend=s[-1:])  # s_k - s_{k-1}, periodic
-    start = np.zeros(2)
-    for _ in range(MAX_PASSES):  # the periodic start, without sensitivities
-        prev = start
-        for k in range(Ns):
-            t = prev - kt * ds[k]
-            nt = float(np.hypot(t[0], t[1]))
-            prev = t if nt <= b else (b / nt) * t
-        done = float(np.hypot(*(prev - start))) <= 1e-14 * b
-        start = prev
-        if done:
-            break
+    start = _periodic_start(np.ascontiguousarray(ds), kt, b, MAX_PASSES)
     lam = np.zeros((Ns, 2))
     Dc = np.zeros((Ns, 2, 2, nb))  # d lambda_k / d c with the start held
     J = np.zeros((Ns, 2, 2))  # d lambda_k / d lambda_start
