@@ -50,6 +50,7 @@ for m, c in solved.items():
 ax1.axvline(N["omega_free"] / w1, color="0.6", lw=0.6, ls=":")
 ax1.axvline(N["omega_stuck"] / w1, color="0.3", lw=0.6, ls=":")
 ax1.set_yscale("log")
+ax1.set_ylim(top=ax1.get_ylim()[1] * 4)  # room for the legend above the curves
 ax1.set_xlabel("ω / ω₁")
 ax1.set_ylabel("in-plane tip amplitude (µm)")
 ax1.set_title("(a) blade 0 (solid HBM, dashed MS-HBM)")
