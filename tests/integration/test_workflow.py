@@ -11,7 +11,7 @@ import re
 import pytest
 from workflow_run import QUICK, ROOT, TARGET, copy_workflow, reference_failures, run
 
-FIGURES = [f"fig{i}" for i in range(1, 12)]  # Figs. 1-8 of the paper, Fig. 9 (frequency-response curves), Fig. 10 (FE example), Fig. 11 (backbones)
+FIGURES = [f"fig{i}" for i in range(1, 13)]  # Figs. 1-8 of the paper, Fig. 9 (frequency-response curves), Fig. 10 (FE example), Fig. 11 (backbones), Fig. 12 (underplatform damper)
 TABLES = ["table1", "table2"]
 #: the one lint we accept: the software environment is the pinned venv (environment.txt), not conda
 ACCEPTED_LINT = "Specify a conda environment or container for each rule."

@@ -495,3 +495,38 @@ def test_case_file_cone_partner(tmp_path):
     with pytest.raises(InputError) as exc:  # stated differently: refused
         mshbm.load_case(p)
     assert "same mu" in str(exc.value)
+
+
+def test_cone_history_law_is_periodic_in_elliptic_partial_slip():
+    """An elliptic relative motion in partial slip: the disk's return mapping forgets its start only
+    geometrically (a slip phase removes the state's component along the slip direction and shrinks the other),
+    so the law must march to the periodic state: one more period from the returned last sample reproduces every
+    sample, and the derivative (through the periodic start's fixed point) equals central differences."""
+    from mshbm import fourier
+    from mshbm.elements.cone import cone_history_law
+
+    el = jenkins_oscillator().elements[0]
+    kt, bnd = el.tangential_stiffness, el.bound
+    Ns = 256
+    V = fourier.idft_matrix(Ns, 1)  # columns: 1, cos, sin
+    c = np.zeros((3, 2))
+    c[1, 0] = 1.3 * bnd / kt  # in-phase with cos in direction 1, a small ellipse axis along direction 2
+    c[2, 1] = 0.3 * bnd / kt
+    lam, D = cone_history_law(el, V @ c[:, 0], V @ c[:, 1], V)
+    norm = np.hypot(lam[:, 0], lam[:, 1])
+    assert np.any(norm >= bnd * (1 - 1e-12)) and np.any(norm < 0.99 * bnd)  # partial slip
+    s = np.stack([V @ c[:, 0], V @ c[:, 1]], axis=1)
+    prev, again = lam[-1], np.zeros_like(lam)
+    for k in range(Ns):  # one more period of the return mapping from the returned state
+        t = prev - kt * (s[k] - s[k - 1])
+        nt = np.hypot(*t)
+        prev = again[k] = t if nt <= bnd else bnd * t / nt
+    assert np.max(np.abs(again - lam)) <= 1e-12 * bnd
+    eps = 1e-9
+    for b in range(2):
+        for n in range(3):
+            dc = np.zeros_like(c)
+            dc[n, b] = eps
+            lp = cone_history_law(el, *(V @ (c + dc)).T)[0]
+            lm = cone_history_law(el, *(V @ (c - dc)).T)[0]
+            assert np.max(np.abs((lp - lm) / (2 * eps) - D[:, :, b, n])) <= 1e-6 * kt

@@ -287,6 +287,8 @@ def notebook_inputs(name):
         out["summary"] = f"{R}/summary/fe.json"
     if "backbone" in data:
         out["summary"] = f"{R}/summary/backbone.json"
+    if "upd" in data:
+        out["summary"] = f"{R}/summary/upd.json"
     return out
 
 

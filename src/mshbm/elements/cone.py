@@ -48,7 +48,10 @@ Methods:
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
+from numba import njit
 
 from ..errors import InputError
 
@@ -182,40 +185,81 @@ def cone_law(el, g1, g2, lam_n=None, dn_ds=None, dn_dgamma=None):
     return b * phi, b * d11, b * d12, dsN, dgN
 
 
+#: most periods marched to the periodic state of the 3-D Jenkins law (:func:`cone_history_law`)
+MAX_PASSES = 10000
+
+
+@njit(cache=True)
+def _periodic_start(ds, kt, b, max_passes):
+    """The periodic state at the last sample of the disk's return mapping driven by the increments ``ds``
+    (N_s, 2), marched period after period from zero until it repeats to ``1e-14 b`` (at most ``max_passes``)."""
+    x, y = 0.0, 0.0
+    for _ in range(max_passes):
+        px, py = x, y
+        for k in range(ds.shape[0]):
+            tx, ty = px - kt * ds[k, 0], py - kt * ds[k, 1]
+            nt = math.hypot(tx, ty)
+            if nt > b:
+                tx, ty = b * tx / nt, b * ty / nt
+            px, py = tx, ty
+        done = math.hypot(px - x, py - y) <= 1e-14 * b
+        x, y = px, py
+        if done:
+            break
+    return np.array([x, y])
+
+
 def cone_history_law(el, s1, s2, basis=None):
     """3-D Jenkins law of cone partners (``el`` the first; both with ``k_t = tangential_stiffness`` and the bound
     ``b = mu N_0``) at the periodic samples of their ``s = w^T q``, ``s1`` and ``s2`` (shape (N_s,) each).
 
-    Return mapping on the disk over two periods from ``lambda = 0`` at the last sample (the second is returned;
-    the 1-D :meth:`~mshbm.elements.Jenkins.history_law` on each direction when the motion keeps one)::
+    The return mapping on the disk, from ``lambda = 0`` at the last sample::
 
         t_k = lambda_{k-1} - k_t (s_k - s_{k-1}),   lambda_k = t_k if ||t_k|| <= b else b t_k / ||t_k||
 
-    Returns ``lam`` (N_s, 2) and ``D`` (N_s, 2, 2, n_b): ``d lambda_a(t_k) / d c_b`` for the coefficients
-    ``s_b = basis @ c_b`` (``basis=None``: the samples themselves, ``n_b = N_s``); in slip
-    ``d lambda = (b / ||t||) (I - d d^T) d t``.
+    marched period after period until the state at the last sample repeats (to ``1e-14 b``; at most
+    :data:`MAX_PASSES` periods): the periodic hysteresis.  Unlike the 1-D law, two periods do not suffice in 2-D:
+    a slip phase removes only the component of the state along the slip direction and shrinks the other one, so
+    the memory of the start fades geometrically (with an elliptic relative motion in partial slip, tens of
+    periods).  If the pair never slips the state keeps its start (``lambda = 0`` at the last sample, as the 1-D
+    law).
+
+    Returns ``lam`` (N_s, 2) and ``D`` (N_s, 2, 2, n_b): ``d lambda_a(t_k) / d c_b`` of the periodic law for the
+    coefficients ``s_b = basis @ c_b`` (``basis=None``: the samples themselves, ``n_b = N_s``); in slip
+    ``d lambda = (b / ||t||) (I - d d^T) d t``.  The derivative of the periodic start ``lambda*`` (a fixed
+    point of the period map ``Phi``) is ``(I - d Phi / d lambda)^-1 d Phi / d c``, from one period marched with
+    both sensitivities.
     """
     s = np.stack([np.asarray(s1, dtype=float), np.asarray(s2, dtype=float)], axis=1)
     Ns = s.shape[0]
     V = np.eye(Ns) if basis is None else np.asarray(basis, dtype=float)
     nb = V.shape[1]
     kt, b = float(el.tangential_stiffness), float(el.bound)
+    ds = np.diff(s, axis=0, prepend=s[-1:])  # s_k - s_{k-1}, periodic
+    start = _periodic_start(np.ascontiguousarray(ds), kt, b, MAX_PASSES)
     lam = np.zeros((Ns, 2))
-    D = np.zeros((Ns, 2, 2, nb))
-    prev_l, prev_D, prev_k = np.zeros(2), np.zeros((2, 2, nb)), Ns - 1
-    for _ in range(2):
-        for k in range(Ns):
-            t = prev_l - kt * (s[k] - s[prev_k])
-            Dt = prev_D.copy()
-            dV = kt * (V[k] - V[prev_k])
-            Dt[0, 0] -= dV
-            Dt[1, 1] -= dV
-            nt = float(np.hypot(t[0], t[1]))
-            if nt > b:
-                d = t / nt
-                P = (b / nt) * (np.eye(2) - np.outer(d, d))
-                t = b * d
-                Dt = np.einsum("ac,cbn->abn", P, Dt)
-            lam[k], D[k] = t, Dt
-            prev_l, prev_D, prev_k = t, Dt, k
-    return lam, D
+    Dc = np.zeros((Ns, 2, 2, nb))  # d lambda_k / d c with the start held
+    J = np.zeros((Ns, 2, 2))  # d lambda_k / d lambda_start
+    prev_l, prev_D, prev_J, prev_k = start, np.zeros((2, 2, nb)), np.eye(2), Ns - 1
+    slipped = False
+    for k in range(Ns):
+        t = prev_l - kt * ds[k]
+        Dt = prev_D.copy()
+        dV = kt * (V[k] - V[prev_k])
+        Dt[0, 0] -= dV
+        Dt[1, 1] -= dV
+        Jt = prev_J
+        nt = float(np.hypot(t[0], t[1]))
+        if nt > b:
+            slipped = True
+            d = t / nt
+            P = (b / nt) * (np.eye(2) - np.outer(d, d))
+            t = b * d
+            Dt = np.einsum("ac,cbn->abn", P, Dt)
+            Jt = P @ Jt
+        lam[k], Dc[k], J[k] = t, Dt, Jt
+        prev_l, prev_D, prev_J, prev_k = t, Dt, Jt, k
+    if not slipped:  # the start is a convention (zero), not a function of the motion
+        return lam, Dc
+    dstart = np.linalg.solve(np.eye(2) - J[-1], Dc[-1].reshape(2, -1)).reshape(2, 2, nb)
+    return lam, Dc + np.einsum("kac,cbn->kabn", J, dstart)
