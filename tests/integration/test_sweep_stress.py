@@ -76,13 +76,19 @@ def test_markdown_table_lists_every_case(report):
 
 def test_cpu_limit_stops_a_sweep_and_keeps_its_points(tmp_path):
     """A limit far below the sweep's CPU time: the row says so, with the points traced until then."""
-    code = sweeps.main(["--config", str(CONFIG), "--cases", "chain2-open/hbm", "--no-warmup", "--cpu-limit", "0.2",
+    code = sweeps.main(["--config", str(CONFIG), "--cases", "chain2-open/hbm", "--no-warmup", "--cpu-limit", "0.02",
                         "--out", str(tmp_path)])
     assert code == 0
     (r,) = _strict_json((tmp_path / "summary.json").read_text())["rows"]
-    assert r["stop"] == "cpu-limit" and r["reached"] is False and r["within"] is False
-    assert "CPU limit of 0.2 s reached" in r["message"]
-    assert 0.2 <= r["cpu_s"] < 5.0
+    assert r["stop"] == "cpu-limit" and r["reached"] is False
+    # 'within' judges the points traced (their pointwise checks), whether or not the sweep reached its end: how
+    # many points 0.02 s of CPU buys depends on the machine's load, so it is checked for consistency, not a value
+    devs = [c["deviation"] for c in r["checks"] if c["deviation"] is not None]
+    assert r["within"] is bool(r["checks"] and len(devs) == len(r["checks"]) and max(devs) <= r["tolerance"])
+    assert "CPU limit of 0.02 s reached" in r["message"]
+    # the limit's timer (ITIMER_PROF, armed before the sweep's set-up) and the row's process_time (around the
+    # sweep call) start at different instants: the row can read a little below the limit (0.183 s of 0.2 measured)
+    assert 0.01 <= r["cpu_s"] < 5.0
     if r["points"]:
         assert r["omega_last"] < r["omega_start"]  # swept down, stopped before omega_end = 0.3
         assert r["omega_last"] > r["omega_end"]

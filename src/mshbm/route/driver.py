@@ -522,7 +522,7 @@ def assemble(problem, method, x, parts, *, success, message, iterations, nfev, r
                             success=success, message=message, iterations=iterations, nfev=nfev, residual=residual,
                             wall_time=wall_time, x=x, partition=problem.partition(),
                             conditioning=problem.conditioning(), time_step=problem.time_step,
-                            base=getattr(problem.system, "base", None), **parts)
+                            base=problem.system.base, **parts)
 
 
 def _solution(problem, method, res, parts, success, message, wall):
