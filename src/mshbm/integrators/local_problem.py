@@ -41,6 +41,19 @@ def _rel(x, d, d2, s):
 
 
 @njit(cache=True)
+def _assign(P, i, v, change, scale):
+    """``P[i] = v`` in a projected Gauss-Seidel sweep; returns ``(change, scale)`` updated by ``|v - P[i]|`` and
+    ``|v|`` (the sweep's convergence test ``change <= tol (1 + scale)``)."""
+    d = abs(v - P[i])
+    if d > change:
+        change = d
+    if abs(v) > scale:
+        scale = abs(v)
+    P[i] = v
+    return change, scale
+
+
+@njit(cache=True)
 def _local_solve(uf, u, q_free_gap, kind, dof, dof2, sign, bound, e, nsrc, mu_n, tpair, Del, P, status, tol,
                  max_iter, r, active):
     """Solve the local impulse problem; fills P and status; returns iterations.
@@ -138,24 +151,14 @@ def _local_solve(uf, u, q_free_gap, kind, dof, dof2, sign, bound, e, nsrc, mu_n,
                                 pn = -(gn + Del[c, j] * p1 + Del[c, k] * p2) / Del[c, c]
                                 pn = pn if pn > 0.0 else 0.0
                         for i, v in ((j, p1), (k, p2), (c, pn)):
-                            d = abs(v - P[i])
-                            if d > change:
-                                change = d
-                            if abs(v) > scale:
-                                scale = abs(v)
-                            P[i] = v
+                            change, scale = _assign(P, i, v, change, scale)
                         continue
                     b = bound[j]
                     if nsrc[j] >= 0:
                         b += mu_n[j] * P[nsrc[j]]
                     p1, p2, lam = _disk_solve(g1, g2, Del[j, j], Del[j, k], Del[k, k], b)
                     for i, v in ((j, p1), (k, p2)):
-                        d = abs(v - P[i])
-                        if d > change:
-                            change = d
-                        if abs(v) > scale:
-                            scale = abs(v)
-                        P[i] = v
+                        change, scale = _assign(P, i, v, change, scale)
                     continue
                 if pair[j] >= 0:
                     c = pair[j]
@@ -169,12 +172,7 @@ def _local_solve(uf, u, q_free_gap, kind, dof, dof2, sign, bound, e, nsrc, mu_n,
                                              mu_n[j], active[c])
                     if ok:
                         for i, v in ((j, pt), (c, pn)):
-                            d = abs(v - P[i])
-                            if d > change:
-                                change = d
-                            if abs(v) > scale:
-                                scale = abs(v)
-                            P[i] = v
+                            change, scale = _assign(P, i, v, change, scale)
                         continue
                     # no consistent case (found none in the measurements): scalar updates of both
                     for i in (j, c):
@@ -189,12 +187,7 @@ def _local_solve(uf, u, q_free_gap, kind, dof, dof2, sign, bound, e, nsrc, mu_n,
                             p = b if p > b else (-b if p < -b else p)
                         elif p < 0.0:
                             p = 0.0
-                        d = abs(p - P[i])
-                        if d > change:
-                            change = d
-                        if abs(p) > scale:
-                            scale = abs(p)
-                        P[i] = p
+                        change, scale = _assign(P, i, p, change, scale)
                     continue
                 res = r[j]
                 for i in range(m):
@@ -210,12 +203,7 @@ def _local_solve(uf, u, q_free_gap, kind, dof, dof2, sign, bound, e, nsrc, mu_n,
                         p = -b
                 elif p < 0.0:
                     p = 0.0
-                d = abs(p - P[j])
-                if d > change:
-                    change = d
-                if abs(p) > scale:
-                    scale = abs(p)
-                P[j] = p
+                change, scale = _assign(P, j, p, change, scale)
             if change <= tol * (1.0 + scale):
                 break
         for j in range(m):  # the cone with the final normal impulse holds exactly
