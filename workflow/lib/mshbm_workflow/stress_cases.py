@@ -11,7 +11,6 @@ from pathlib import Path
 
 import numpy as np
 import scipy.linalg as sla
-import yaml
 
 from mshbm import Contact, Friction, InputError, chain
 
@@ -22,17 +21,7 @@ SCHEMA = Path(__file__).resolve().parents[2] / "schemas" / "stress.schema.yaml"
 
 def load_config(path):
     """Read and validate ``workflow/stress.yaml`` (jsonschema); raises ``ValueError`` with the failing key."""
-    import jsonschema
-
-    with open(path, encoding="utf-8") as fh:
-        cfg = yaml.safe_load(fh)
-    with open(SCHEMA, encoding="utf-8") as fh:
-        schema = yaml.safe_load(fh)
-    try:
-        jsonschema.validate(cfg, schema)
-    except jsonschema.ValidationError as exc:
-        where = ".".join(str(p) for p in exc.absolute_path) or "(top level)"
-        raise ValueError(f"{path}: {where}: {exc.message}") from None
+    cfg = wfcore.load_validated_yaml(path, SCHEMA)
     for prof in cfg["profiles"].values():
         names = list(prof["resonance"]["systems"]) + list(prof["starts"]["systems"])
         names += [prof["stiff"][k]["system"] for k in ("kappa", "penalty", "harmonics", "steps")]

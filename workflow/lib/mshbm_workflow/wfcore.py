@@ -166,6 +166,24 @@ def get_key(config, dotted):
 
 
 # ----------------------------------------------------------------------------- results
+def load_validated_yaml(path, schema_path):
+    """The YAML file ``path`` validated against the JSON schema in the YAML file ``schema_path``; ``ValueError``
+    naming the file and the failing key (dotted path) when it does not conform."""
+    import jsonschema
+    import yaml
+
+    with open(path, encoding="utf-8") as fh:
+        cfg = yaml.safe_load(fh)
+    with open(schema_path, encoding="utf-8") as fh:
+        schema = yaml.safe_load(fh)
+    try:
+        jsonschema.validate(cfg, schema)
+    except jsonschema.ValidationError as exc:
+        where = ".".join(str(p) for p in exc.absolute_path) or "(top level)"
+        raise ValueError(f"{path}: {where}: {exc.message}") from None
+    return cfg
+
+
 def load_json(path):
     with open(path) as fh:
         return json.load(fh)

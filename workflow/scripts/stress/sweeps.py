@@ -29,10 +29,8 @@ import time  # noqa: E402
 import traceback  # noqa: E402
 from pathlib import Path  # noqa: E402
 
-import yaml  # noqa: E402
-
 from mshbm.outfile import jsonable  # noqa: E402
-from mshbm_workflow import sweep_systems  # noqa: E402
+from mshbm_workflow import sweep_systems, wfcore  # noqa: E402
 from mshbm_workflow.sweep_runner import run_case  # noqa: E402
 
 SCHEMA = Path(__file__).resolve().parents[2] / "schemas" / "sweeps.schema.yaml"
@@ -41,17 +39,7 @@ SCHEMA = Path(__file__).resolve().parents[2] / "schemas" / "sweeps.schema.yaml"
 # ----------------------------------------------------------------------------------------- configuration
 def load_config(path):
     """Read and validate the suite's configuration; ``ValueError`` names the failing key."""
-    import jsonschema
-
-    with open(path, encoding="utf-8") as fh:
-        cfg = yaml.safe_load(fh)
-    with open(SCHEMA, encoding="utf-8") as fh:
-        schema = yaml.safe_load(fh)
-    try:
-        jsonschema.validate(cfg, schema)
-    except jsonschema.ValidationError as exc:
-        where = ".".join(str(p) for p in exc.absolute_path) or "(top level)"
-        raise ValueError(f"{path}: {where}: {exc.message}") from None
+    cfg = wfcore.load_validated_yaml(path, SCHEMA)
     names = [c["name"] for c in expand(cfg)]
     dup = sorted({n for n in names if names.count(n) > 1})
     if dup:
