@@ -88,25 +88,27 @@ def _check_dofs(dofs, n):
     return list(dict.fromkeys(dofs))
 
 
-def plot(branch, path, dofs, title="", case=None):
+def plot(branch, path, dofs, title="", case=None, labels=None):
     """Write the figure of :func:`figure` as a PNG to ``path`` (the rules of ``--out``, :mod:`mshbm.outfile`;
     errors name ``--plot``)."""
     import matplotlib.pyplot as plt
 
-    fig = figure(branch, dofs, title)
+    fig = figure(branch, dofs, title, labels)
     buf = BytesIO()
     fig.savefig(buf, format="png", dpi=120)
     plt.close(fig)
     write_text(path, buf.getvalue(), case, key="--plot")
 
 
-def figure(branch, dofs, title=""):
+def figure(branch, dofs, title="", labels=None):
     """Amplitude of ``dofs`` against omega (a matplotlib Figure): each DOF in its own colour, solid where
     stable, dashed where unstable, dotted where undecided (one polyline per run of equal stability; a segment
     between points of different verdicts counts as undecided); markers at the bifurcations.
 
     ``branch`` needs ``omega`` (shape (P,), rad/s), ``amplitude`` (shape (P, n)), ``stable`` (P entries,
-    True/False/None) and ``bifurcations`` (dicts with ``type``, ``omega``, optional ``index``)."""
+    True/False/None) and ``bifurcations`` (dicts with ``type``, ``omega``, optional ``index``).  ``labels``:
+    the DOF numbers the legend shows (default ``dofs``; a reduced model's branch holds its own DOF indices, the
+    legend names the user's)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -129,7 +131,7 @@ def figure(branch, dofs, title=""):
             ax.plot(w[i:j + 2], A[i:j + 2, d], color=col, ls=styles[seg[i]],
                     lw=1.6 if seg[i] is not None else 1.2)
             i = j + 1
-        ax.plot([], [], color=col, ls="-", label=f"dof {d}")
+        ax.plot([], [], color=col, ls="-", label=f"dof {d if labels is None else labels[c]}")
     markers = {"fold": "o", "period-doubling": "s", "neimark-sacker": "D", "grazing": "^"}
     seen = set()
     for b in branch.bifurcations:
@@ -192,9 +194,10 @@ def run(args, exit_codes, write_json, error):
     param, start, end = _range(args)
     case = _io.load_case(args.case, sets=case_sets(args))
     method = args.method or case.method
-    dofs = _check_dofs(args.dofs, case.system.n)
+    dofs = labels = _check_dofs(args.dofs, case.system.n)
     if case.reduction is not None:  # the branch holds the reduced model's DOFs: its boundary DOFs are physical
-        dofs = [case.reduction.reduced_dof(d, "--dofs") for d in (args.dofs or case.reduction.boundary[:6])]
+        labels = [int(d) for d in (dofs if args.dofs else case.reduction.boundary[:6])]
+        dofs = [case.reduction.reduced_dof(d, "--dofs") for d in labels]
     defaults = {k: v for k, v in case.solver.items() if k != "method" and k in (METHODS.get(method, set()) | _COMMON)}
     cli = {k: getattr(args, k) for k in ("harmonics", "steps", "integrator") if getattr(args, k) is not None}
     if args.max_points is not None:
@@ -222,7 +225,7 @@ def run(args, exit_codes, write_json, error):
             payload["reduction"] = case.reduction.as_dict()
         write_json(args.out, payload, args.case)
     if args.plot is not None and len(br):
-        plot(br, args.plot, dofs, title=f"{case.name}: {method}" + (f", period {args.period}" if args.period > 1
+        plot(br, args.plot, dofs, labels=labels, title=f"{case.name}: {method}" + (f", period {args.period}" if args.period > 1
                                                                      else "") + ("" if param == "omega" else
                                                                                  f", {what}"), case=args.case)
     if not args.quiet:
