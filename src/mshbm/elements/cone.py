@@ -221,8 +221,10 @@ def cone_history_law(el, s1, s2, basis=None):
     :data:`MAX_PASSES` periods): the periodic hysteresis.  Unlike the 1-D law, two periods do not suffice in 2-D:
     a slip phase removes only the component of the state along the slip direction and shrinks the other one, so
     the memory of the start fades geometrically (with an elliptic relative motion in partial slip, tens of
-    periods).  If the pair never slips the state keeps its start (``lambda = 0`` at the last sample, as the 1-D
-    law).
+    periods).  A stuck orbit (the loop, centred on the middle of its bounding box, lies strictly inside the disk;
+    a slipping periodic orbit cannot: its slip directions, the loop's points on the circle, surround the origin)
+    has no unique slider position; it is centred on that middle, as the 1-D law (:meth:`Jenkins.history_law`)
+    does with the middle of its range, which it is when the motion keeps one direction.
 
     Returns ``lam`` (N_s, 2) and ``D`` (N_s, 2, 2, n_b): ``d lambda_a(t_k) / d c_b`` of the periodic law for the
     coefficients ``s_b = basis @ c_b`` (``basis=None``: the samples themselves, ``n_b = N_s``); in slip
@@ -259,7 +261,12 @@ def cone_history_law(el, s1, s2, basis=None):
             Jt = P @ Jt
         lam[k], Dc[k], J[k] = t, Dt, Jt
         prev_l, prev_D, prev_J, prev_k = t, Dt, Jt, k
-    if not slipped:  # the start is a convention (zero), not a function of the motion
+    i, j = np.argmax(lam, axis=0), np.argmin(lam, axis=0)
+    mid = 0.5 * (lam[i, [0, 1]] + lam[j, [0, 1]])
+    if np.hypot(*(lam - mid).T).max() < b * (1 - 1e-9):  # stuck: the start is a convention, centred (docstring)
+        dmid = 0.5 * (Dc[i, [0, 1]] + Dc[j, [0, 1]])  # (2, 2, n_b): row a from the samples of component a
+        return lam - mid, Dc - dmid
+    if not slipped:
         return lam, Dc
     dstart = np.linalg.solve(np.eye(2) - J[-1], Dc[-1].reshape(2, -1)).reshape(2, 2, nb)
     return lam, Dc + np.einsum("kac,cbn->kabn", J, dstart)

@@ -270,6 +270,13 @@ class Jenkins(Friction):
         ``D`` follows the same recursion (zero rows while the slider slides): ``d lambda / d s``, shape
         (N_s, N_s), or with ``basis`` (shape (N_s, n_b), ``s = basis @ c``) ``d lambda / d c``, shape
         (N_s, n_b) -- for HBM the Fourier coefficients, ``O(N_s n_b)`` memory instead of ``O(N_s^2)``.
+
+        A stuck orbit (the loop's range ``max lambda - min lambda`` below ``2 mu F_N``: a slider that moves in
+        a periodic state moves both ways, so it reaches both bounds) has no unique slider position: every
+        offset that keeps ``|lambda| <= mu F_N`` is periodic, and the march's own choice follows the phase
+        of ``s`` at the last sample, so it jumps with omega (a kink in the harmonic-0 force, which sweeps took
+        for folds).  The rule: the loop is centred, ``lambda <- lambda - (max + min) / 2``, the middle of the
+        admissible offsets, which the slipping loop of a symmetric response continues at slip onset.
         """
         s = np.asarray(s, dtype=float)
         Ns = s.size
@@ -289,6 +296,9 @@ class Jenkins(Friction):
                     l, row = -b, zero
                 lam[k], D[k] = l, row
                 prev_l, prev_D, prev_k = l, row, k
+        i, j = int(np.argmax(lam)), int(np.argmin(lam))
+        if lam[i] - lam[j] < 2 * b * (1 - 1e-9):  # stuck: centre the loop (docstring)
+            lam, D = lam - 0.5 * (lam[i] + lam[j]), D - 0.5 * (D[i] + D[j])
         return lam, D
 
     def magnitude_terms(self):
