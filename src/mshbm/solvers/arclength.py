@@ -382,12 +382,21 @@ class _Trace:
         return family_step(self, p, w)
 
     def finish_at_end(self, p, q):
-        """Solve at ``lam_end`` from the interpolation between points ``p`` and ``q`` that bracket it."""
+        """Solve at ``lam_end`` from the interpolation between points ``p`` and ``q`` that bracket it, else from
+        ``q`` and from ``p`` themselves (a Newton at fixed ``lam`` on a nonsmooth residual can stall from one
+        guess and converge from another); the first failure is raised when all three fail."""
         lam_end = self.lam_end
         a = (lam_end - p.lam) / (q.lam - p.lam)
-        xg = p.x + a * (q.x - p.x)
-        x, it, r, data, st = self.newton_fixed(
-            xg, lam_end, free=self.free_units(q, np.asarray(self.unknown_scale(q.x, q.lam), dtype=float)))
+        free = self.free_units(q, np.asarray(self.unknown_scale(q.x, q.lam), dtype=float))
+        first = None
+        for xg in (p.x + a * (q.x - p.x), q.x, p.x):
+            try:
+                x, it, r, data, st = self.newton_fixed(xg, lam_end, free=free)
+                break
+            except Failed as exc:
+                first = first or exc
+        else:
+            raise first
         w = np.asarray(self.unknown_scale(x, lam_end), dtype=float)
         pt, _, _ = self.make_point(x, lam_end, it, r, data, q.ds, self.scaled_t(q, w), st)
         return pt
