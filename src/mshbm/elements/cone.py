@@ -37,7 +37,8 @@ Methods:
   rule of :mod:`mshbm.methods.hbm_regularisation`, one value per pair from the pair's larger velocity
   scale).  With a normal contact ``F_N = N_0 + max(lambda_N, 0)`` with the penalty force (eq. 45).
 * **DLFT** (velocity predictor): the pair's prediction ``y_T`` projected onto the disk, one penalty per pair
-  (:mod:`mshbm.methods.dlft`).
+  (:mod:`mshbm.methods.dlft`), on ground or between two node triples; the 3-D Jenkins pair as two massless slider
+  DOFs carrying the rigid pair (:mod:`mshbm.methods.dlft_terms`).
 * The **exact event-driven flow**, DLFT's displacement predictor, the backbone (EPMC) and
   ``penalty_quadrature="linear"``: not supported, a clear :class:`~mshbm.errors.InputError` naming
   ``friction.cone_partner`` (time stepping: the Moreau-Jean integrator).  Hill's method (HBM stability)

@@ -7,7 +7,8 @@
 :class:`Jenkins` friction (tangential stiffness ``k_t`` in series with the slider; all methods but the
 exact flow): a law with an internal state (the slider position ``z``), :attr:`Element.history`.  HBM
 evaluates it along the period twice (:meth:`Jenkins.history_law`, derivative with respect to the Fourier
-coefficients).  Time stepping integrates one massless slider DOF per element
+coefficients).  DLFT appends the same slider DOFs to the harmonic balance (:mod:`mshbm.methods.dlft_terms`).
+Time stepping integrates one massless slider DOF per element
 (:func:`mshbm.integrators.moreau_jean._with_sliders`: ``M_zz = 0``, ``K += k_t [w; -e_z][w; -e_z]^T``,
 rigid Coulomb friction on ``z``), stepped with ``theta = 1`` so that its velocity is no state (with
 ``theta = 1/2`` the auxiliary velocity maps to ``-u_z`` every step and the shooting Jacobian grows without

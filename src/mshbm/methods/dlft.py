@@ -47,6 +47,14 @@ corrects the prediction in the time domain, on the ``N_s`` AFT samples:
 Then ``F_nl = DFT[w lambda]`` and, since ``DFT[IDFT[A X - r]] = A X - r``, the residual is
 ``R = w DFT[lambda_L - lambda]``.
 
+Elements between two DOFs (``relative_to``; friction, contact, the 3-D cone pair): ``w = sign (e_I - e_J)``, the
+demanded force weighs the linear residual of both DOFs (compliance weights per harmonic, so that ``lambda_L``
+depends on the elements' relative displacements only) and the penalty rule takes the stiffness of the relative
+coordinate; Jenkins elements (``tangential_stiffness``, 1-D and the 3-D Jenkins pair) are massless slider DOFs
+appended to the structure, tied to it by the spring ``k_t`` and carrying rigid (ground) friction, whose
+harmonics are balanced with the rest (:mod:`mshbm.methods.dlft_terms`; the solution reports the structure's DOFs,
+``info["dlft_jenkins_sliders"]`` their number).  With only ground elements everything below is unchanged.
+
 What a converged DLFT solution is, and why it depends on ``eps``
 ----------------------------------------------------------------
 ``R = 0`` says ``lambda_L = P[lambda]``: the harmonic balance holds with the time-domain force
