@@ -532,3 +532,20 @@ def test_cone_history_law_is_periodic_in_elliptic_partial_slip():
             lp = cone_history_law(el, *(V @ (c + dc)).T)[0]
             lm = cone_history_law(el, *(V @ (c - dc)).T)[0]
             assert np.max(np.abs((lp - lm) / (2 * eps) - D[:, :, b, n])) <= 1e-6 * kt
+
+
+def test_jenkins_cone_with_normal_contact_exits_2_naming_the_key(tmp_path, capsys):
+    """3-D Jenkins (tangential stiffness) whose normal load comes from a contact (a varying N, a normal preload on
+    a contact): refused by every method, the CLI exits 2 naming ``friction.normal_contact``."""
+    import yaml
+
+    from integration.test_io_cli import assert_input_error, run, write_case
+
+    data = yaml.safe_load((ROOT / "examples" / "cone3d.yaml").read_text())
+    for f in data["friction"]:
+        f["tangential_stiffness"] = 5.0
+    code, out, err = run(capsys, "solve", write_case(tmp_path, data))
+    assert_input_error(code, out, err, "friction[0].normal_contact")
+    with pytest.raises(InputError) as exc:
+        frictional_contact(0, 1, MU, N0, normal=2, tangential_stiffness=KT)
+    assert exc.value.key == "friction.normal_contact"
