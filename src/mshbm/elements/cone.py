@@ -18,18 +18,18 @@ list:
 preload ``N_0``): a tangential spring ``k_t`` in each direction in series with one slider on the disk.
 Moreau-Jean integrates the two massless slider DOFs with rigid friction that are cone partners
 (:func:`mshbm.integrators.moreau_jean._with_sliders`); HBM marches the return mapping on the disk
-(:func:`cone_history_law`, exact derivative).  A normal stiffness (a compliant normal contact) and Jenkins
-partners loaded by a contact are not supported (:class:`~mshbm.errors.InputError` naming
-``friction.normal_contact``; the CLI exits 2).  What they need: time stepping, a massless normal slider DOF
-``z_N`` tied to the normal DOF by the spring ``k_N`` and carrying the rigid contact, whose impulse loads the
-sliders' disk (the kernel's cone block already takes a contact-loaded bound, but the slider DOFs are stepped
-with ``theta = 1`` and a contact on a massless DOF has no impact law: ``e_N`` is meaningless there and the
-Moreau-Jean step must treat it as a quasi-static complementarity); HBM, the disk's return mapping with the
-per-sample bound ``mu (N_0 + lambda_N(t_k))`` and its derivative with respect to the normal DOFs' coefficients
-(:func:`cone_history_law` takes a constant bound), and the periodic start's fixed point with a moving bound;
-DLFT, the contact on ``z_N`` (its Lagrangian is a gap on a massless DOF, no new law); the certificate,
-``hysteresis_periodicity`` with the per-sample bound.  ``Contact.penalty_stiffness`` is HBM's regularisation,
-not a physical normal stiffness: time stepping and DLFT keep the rigid contact.
+(:func:`cone_history_law`, exact derivative).  **Jenkins partners loaded by a (rigid) normal contact**
+(``normal_contact`` with ``tangential_stiffness``; preload ``N_0``, varying ``N = N_0 + lambda_N``): time stepping
+and DLFT give the sliders the contact-loaded disk (the kernel's cone block with the contact; DLFT's per-sample
+bound); HBM refuses (:class:`~mshbm.errors.InputError` naming ``friction.normal_contact``, CLI exit 2): its
+return mapping would need the per-sample bound ``mu (N_0 + lambda_N(t_k))``, its derivative with respect to the
+normal DOFs' coefficients and the periodic start's fixed point with a moving bound.  **A normal contact
+stiffness** (a compliant normal contact) is not implemented in any method: there is no key for it
+(``Contact.penalty_stiffness`` is HBM's regularisation, not a physical stiffness; time stepping and DLFT keep
+the rigid contact).  It would be a massless normal slider DOF ``z_N`` tied to the normal DOF by ``k_N`` and
+carrying the rigid contact, whose impulse loads the sliders' disk; the slider DOFs are stepped with ``theta =
+1``, and a contact on a massless DOF has no impact law (``e_N`` is meaningless there): the Moreau-Jean step
+would have to treat it as a quasi-static complementarity, which the kernel does not do.
 
 Methods:
 

@@ -34,8 +34,8 @@ sensitivities are exact for the active set, a sliding friction on a closed conta
 ``d lambda_T = sign(lambda_T) mu d lambda_N``.  The certificate checks the cone
 ``|lambda_T| <= mu (N_0 + lambda_N)`` per sample (:meth:`Element.bound_samples`).  Not supported (clean
 :class:`~mshbm.errors.InputError`): the exact/event-driven flow (more than one element;
-:attr:`Element.normal_contact` is the flag to test), DLFT with the displacement predictor, and Jenkins
-friction (``tangential_stiffness``) with a normal contact.  A Moreau-Jean caveat (``e_N = 0``): the
+:attr:`Element.normal_contact` is the flag to test), DLFT with the displacement predictor, and HBM with Jenkins
+friction (``tangential_stiffness``) with a normal contact (time stepping and DLFT load the slider's bound).  A Moreau-Jean caveat (``e_N = 0``): the
 velocity-level contact law keeps a closed contact closed anywhere within ``O(h^2 F / m)`` of the stop, and
 the normal load then differs by the normal stiffness times that offset.
 
@@ -245,9 +245,6 @@ class Jenkins(Friction):
         super().__post_init__()
         object.__setattr__(self, "tangential_stiffness",
                            _finite_number("friction.tangential_stiffness", self.tangential_stiffness, positive=True))
-        if self.normal_contact is not None:
-            raise InputError("friction.normal_contact", "elastic friction (tangential_stiffness, Jenkins) with a "
-                             "normal load from a contact is not supported")
 
     history: ClassVar[bool] = True
 

@@ -108,7 +108,8 @@ def with_sliders(structure):
         for a, wa in v:
             for b, wb in v:
                 Ka[a, b] += el.tangential_stiffness * wa * wb
-        els[j] = Friction(z, el.mu, el.normal_force, el.smoothing, cone_partner=el.cone_partner)
+        els[j] = Friction(z, el.mu, el.normal_force, el.smoothing, cone_partner=el.cone_partner,
+                          normal_contact=el.normal_contact)
         sliders.append((j, z))
     if sparse:
         Ma, Ca, Ka = Ma.tocsr(), Ca.tocsr(), Ka.tocsr()

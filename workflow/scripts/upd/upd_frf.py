@@ -12,8 +12,8 @@ Two 3-D contact patches, one per platform: :func:`mshbm.frictional_contact` betw
 and the damper ``(d_y, d_z)``, the 3-D Jenkins law (the tangential contact stiffness
 ``k_t = contact_stiffness k_b`` in both directions in series with a slider on Coulomb's disk
 ``||lambda_T|| <= mu N``, the slip direction rotating), with the constant normal load ``N`` (the centrifugal
-preload; ``mu N`` in N, config ``preloads``).  A normal contact with a varying load is not combined with the
-Jenkins law by the package (:mod:`mshbm.elements.cone`), so the normal load is constant.
+preload; ``mu N`` in N, config ``preloads``).  HBM does not combine the Jenkins law with a contact-loaded
+(varying) normal load (:mod:`mshbm.elements.cone`), so the normal load is constant.
 
 Engine-order forcing: on blade ``i = 0, 1`` the tip force ``F (cos beta, sin beta) cos(omega t - i phi)``
 (``F = force`` N, ``beta = force_angle`` deg, inter-blade phase ``phi = interblade_phase`` deg).  With ``phi =
