@@ -12,10 +12,12 @@ Any weights ``C`` with ``C^T W = I`` give the same converged solution (at a solu
 lambda = P lambda``); they differ in how Newton gets there.  Ground elements use the least-squares weights
 below; as soon as an element acts between two DOFs, the compliance weights ``C = A^-1 W (W^T A^-1 W)^-1`` per
 harmonic (:func:`compliance_demand`), for which ``lambda_L = (W^T A^-1 W)^-1 (s - s_lin)`` depends on the
-elements' displacements ``s = W^T X`` only (``s_lin`` those of the linear response): the least-squares demand
-``(A X - r)_I - (A X - r)_J`` carries the full stiffness of both DOFs, and with a stiff partner (a DOF held by a
-spring ``1e14`` times stiffer) Newton's region of convergence shrinks to the rounding of that DOF.  A harmonic
-whose ``A`` or ``W^T A^-1 W`` is singular (free bodies at ``k = 0``) keeps the least-squares weights.
+elements' displacements ``s = W^T X`` only (``s_lin`` those of the linear response), so the prediction's
+derivative ``Q`` touches the elements' own columns, not the rows of ``A`` of both DOFs (the least-squares demand
+``((A X - r)_I - (A X - r)_J) / 2``).  Measured on a partner held by a spring ``k_c``: both weightings converge
+for ``k_c`` up to ``1e12`` times the structure's stiffness (above it Newton's matrix is numerically singular
+for any method and its least-squares step stalls).  A harmonic whose ``A`` or ``W^T A^-1 W`` is singular (free
+bodies at ``k = 0``) keeps the least-squares weights.
 
 The harmonic balance is ``A X - r = W DFT[lambda]``.  The forces the linear part demands of the elements are
 the least-squares solution of ``W lambda_L = A X - r``, per coefficient::
