@@ -5,7 +5,7 @@ Independent references:
 
 * **clamped partner**: the element relative to a DOF held by a spring ``k_c`` tends to the ground element as
   ``k_c -> inf`` (the held DOF moves by ``lambda / k_c``, the relative penalty rule tends to the ground rule, both
-  ``O(1 / k_c)``): at ``k_c = 1e8`` and ``1e9`` (a stiffer spring makes every method's Newton matrix numerically
+  ``O(1 / k_c)``): at ``k_c = 1e8`` and ``1e9`` (at ``1e14`` every method's Newton matrix is numerically
   singular) the differences fall tenfold and their Richardson limit is the grounded DLFT solution to 1e-12, for
   friction (both predictors), contact and the 3-D cone pair;
 * **cross-method agreement** on a small relative friction case: DLFT, HBM and MS-HBM amplitudes agree within
