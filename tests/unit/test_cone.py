@@ -127,12 +127,13 @@ def test_rotating_force_dlft_is_the_closed_form():
 
 
 @pytest.mark.parametrize("method, kw", [("shooting", dict(steps=1024)), ("mshbm", dict(steps=1024, harmonics=3)),
-                                        ("hbm", dict(harmonics=3))])
+                                        ("hbm", dict(harmonics=3)), ("dlft", dict(harmonics=3))])
 def test_rotating_force_between_two_nodes(method, kw):
     """The contact between two nodes (``relative_to``): two copies of the oscillator driven by opposite rotating
     forces move antisymmetrically, ``q_B = -q_A``, the relative slip is ``2 u_A`` and each node feels the full
     cone opposing its velocity: node A's orbit is the grounded one (discrete closed form to 1e-9 for
-    Moreau-Jean, 1e-5 of the continuous closed form for HBM)."""
+    Moreau-Jean, 1e-5 of the continuous closed form for HBM, 1e-12 for DLFT, relative: the demanded force of the
+    pair is half the difference of the two nodes' linear residuals)."""
     fh = np.zeros((3, 4))
     fh[1, 0], fh[2, 1], fh[1, 2], fh[2, 3] = F, F, -F, -F
     S = System(m * np.eye(4), c * np.eye(4), k * np.eye(4), fh,
@@ -140,7 +141,8 @@ def test_rotating_force_between_two_nodes(method, kw):
     sol = _solve(S, method, **kw)
     r = np.hypot(sol.q[:, 0], sol.q[:, 1])
     assert np.max(np.abs(sol.q[:, :2] + sol.q[:, 2:])) <= 1e-12 * r.max()
-    ref, tol = (radius(W), 1e-5) if method == "hbm" else (radius_discrete(W, kw["steps"]), 1e-9)
+    ref, tol = {"hbm": (radius(W), 1e-5), "dlft": (radius(W), 1e-12)}.get(method) or (radius_discrete(W, kw["steps"]),
+                                                                                      1e-9)
     assert np.max(np.abs(r - ref)) <= tol * ref
 
 
@@ -530,3 +532,19 @@ def test_cone_history_law_is_periodic_in_elliptic_partial_slip():
             lp = cone_history_law(el, *(V @ (c + dc)).T)[0]
             lm = cone_history_law(el, *(V @ (c - dc)).T)[0]
             assert np.max(np.abs((lp - lm) / (2 * eps) - D[:, :, b, n])) <= 1e-6 * kt
+
+
+def test_jenkins_cone_with_normal_contact_exits_2_naming_the_key(tmp_path, capsys):
+    """3-D Jenkins (tangential stiffness) whose normal load comes from a contact (a varying N, a normal preload on
+    a contact): HBM refuses (its return mapping has a constant bound), the CLI exits 2 naming
+    ``friction.normal_contact``; the other methods take it (``tests/unit/test_jenkins_normal_load.py``)."""
+    import yaml
+
+    from integration.test_io_cli import assert_input_error, run, write_case
+
+    data = yaml.safe_load((ROOT / "examples" / "cone3d.yaml").read_text())
+    for f in data["friction"]:
+        f["tangential_stiffness"] = 5.0
+    data["solver"] = {"method": "hbm", "harmonics": 5}
+    code, out, err = run(capsys, "solve", write_case(tmp_path, data))
+    assert_input_error(code, out, err, "friction.normal_contact")

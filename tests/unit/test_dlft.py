@@ -329,8 +329,9 @@ def test_impact_chain_by_exact_path_following():
 def _contact_force(prob, x, offset):
     f = np.zeros(prob.n_unknowns)
     y = prob._y(x, offset)
-    for k, (el, j, rows, cols, sel, w, Q) in enumerate(prob._el):
-        f[rows] += w * (prob.E @ np.maximum(y[:, k], 0.0))
+    for k, t in enumerate(prob._el):
+        for rows, w in zip(t.rows, t.w):
+            f[rows] += w * (prob.E @ np.maximum(y[:, k], 0.0))
     return f
 
 

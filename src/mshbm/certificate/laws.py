@@ -27,6 +27,14 @@
     law has the deficit ``1 - (2/pi) arctan(kappa ||gamma_T||)`` by construction, DLFT's law holds on its
     Lagrangian velocity, not on the series.  ``friction_cone`` takes the pair's
     ``||lambda_T||`` per sample.
+``hysteresis_periodicity`` (gating, HBM with Jenkins elements: 1-D and the 3-D Jenkins pair)
+    The element force of a law with memory is periodic only if the AFT's march over the period ends in the state
+    it started from.  One more period of the return mapping (1-D: the interval ``|lambda| <= mu N_0``; a cone
+    pair: the disk), started from the reported force at the last sample and driven by the reported series'
+    ``s = w^T q`` on the samples, must reproduce every sample: ``max_k |lambda_again(t_k) - lambda(t_k)| / (mu
+    N_0)``; bound ``1e-9`` (the 1-D march is periodic after one slip to rounding; the disk's march is iterated to
+    ``1e-14 mu N_0``).  Time stepping integrates the sliders as DOFs (their periodicity is ``periodicity``'s);
+    DLFT's sliders are Fourier series.
 """
 from __future__ import annotations
 
@@ -37,7 +45,7 @@ from .kernels import LAM_ABS, LAM_MAX, LAM_MIN, S_MIN, WU_MAX, element_terms, el
 from .record import Check
 
 __all__ = ["element_tables", "el_dofs_each", "element_series", "element_terms_table", "law_checks", "cone_check",
-           "max_abs", "spring_law_check"]
+           "max_abs", "spring_law_check", "hysteresis_check", "hysteresis_closure"]
 
 
 def max_abs(a):
@@ -240,3 +248,49 @@ def cone_check(problem, sol, system, lam, V, stepper, cert):
                                  "3-D contact slips; HBM: the regularised cone law's deficit 1 - (2/pi) arctan(kappa "
                                  "||gamma_T||) by construction; DLFT: the law holds on the Lagrangian velocity, not "
                                  "the series (reported, not gating)"))
+
+
+def hysteresis_closure(kt, b, s, lam):
+    """``max_k |lambda_again_k - lambda_k| / b``: one more period of the return mapping (spring ``kt``, bound ``b``)
+    from ``lam[-1]``, driven by ``s`` (both shape (N,) for a 1-D Jenkins element, (N, 2) for a cone pair: the
+    disk), against ``lam`` (module docstring, ``hysteresis_periodicity``)."""
+    s, lam = np.asarray(s, dtype=float), np.asarray(lam, dtype=float)
+    pair = s.ndim == 2
+    prev = lam[-1].copy()
+    worst = 0.0
+    for k in range(s.shape[0]):
+        t = prev - kt * (s[k] - s[k - 1])
+        if pair:
+            nt = float(np.hypot(t[0], t[1]))
+            prev = t if nt <= b else (b / nt) * t
+        else:
+            prev = min(max(t, -b), b)
+        worst = max(worst, float(np.max(np.abs(prev - lam[k]))))
+    return worst / b if b > 0 else 0.0
+
+
+def hysteresis_check(problem, sol, system, lam, cert):
+    """Append ``hysteresis_periodicity`` (module docstring) for HBM solutions with Jenkins elements; ``lam`` the
+    element forces on the samples (N+1, m)."""
+    if getattr(problem, "method", None) != "hbm":
+        return
+    hist = [(j, e) for j, e in enumerate(system.elements) if e.history and (e.cone_partner is None
+                                                                             or j < e.cone_partner)]
+    if not hist:
+        return
+    N = lam.shape[0] - 1
+    dofs = np.array(sorted({int(d) for j, e in hist for i in ([j] if e.cone_partner is None else [j, e.cone_partner])
+                            for d in system.elements[i].dofs}), dtype=np.int64)
+    q, _ = element_series(sol, dofs, N)
+    col = {int(d): i for i, d in enumerate(dofs)}
+    worst = 0.0
+    for j, e in hist:
+        idx = [j] if e.cone_partner is None else [j, int(e.cone_partner)]
+        sk = np.stack([system.elements[i].local(q, col)[:-1] for i in idx], axis=1)
+        L = lam[:-1][:, idx]
+        if len(idx) == 1:
+            sk, L = sk[:, 0], L[:, 0]
+        worst = max(worst, hysteresis_closure(float(e.tangential_stiffness), float(e.bound), sk, L))
+    cert.checks.append(Check("hysteresis_periodicity", worst, 1e-9, bool(worst <= 1e-9),
+                             note="max |lambda_again - lambda| / (mu N_0): one more period of the Jenkins return "
+                                  "mapping from the force at the last sample reproduces every sample"))

@@ -7,7 +7,7 @@ import numpy as np
 from ..scaling import displacement_floor, force_scale
 from .accuracy import periodicity_check, residual_check, step_accuracy_size_check
 from .energy import energy_checks
-from .laws import cone_check, element_terms_table, law_checks, max_abs, spring_law_check
+from .laws import cone_check, element_terms_table, hysteresis_check, law_checks, max_abs, spring_law_check
 from .linear import time_discretisation, undamped_resonance
 from .record import Certificate, Check
 from .substitution import model_substitution_check
@@ -92,6 +92,7 @@ def _certify(problem, sol, tol, cert, step_accuracy=None, step_size_gating=True)
     law_checks(problem, system, terms, lam, F, D, h, stepper, cert)
     spring_law_check(system, sol, lam, F, h, stepper, cert)
     cone_check(problem, sol, system, lam, V, stepper, cert)
+    hysteresis_check(problem, sol, system, lam, cert)
 
     # 4. energy balance
     energy_checks(problem, sol, system, omega, h, N, stepper, els, ue_max, cert, terms, R)

@@ -18,8 +18,18 @@ list:
 preload ``N_0``): a tangential spring ``k_t`` in each direction in series with one slider on the disk.
 Moreau-Jean integrates the two massless slider DOFs with rigid friction that are cone partners
 (:func:`mshbm.integrators.moreau_jean._with_sliders`); HBM marches the return mapping on the disk
-(:func:`cone_history_law`, exact derivative).  A normal stiffness (a compliant normal contact) and Jenkins
-partners loaded by a contact are not supported (:class:`~mshbm.errors.InputError`).
+(:func:`cone_history_law`, exact derivative).  **Jenkins partners loaded by a (rigid) normal contact**
+(``normal_contact`` with ``tangential_stiffness``; preload ``N_0``, varying ``N = N_0 + lambda_N``): time stepping
+and DLFT give the sliders the contact-loaded disk (the kernel's cone block with the contact; DLFT's per-sample
+bound); HBM refuses (:class:`~mshbm.errors.InputError` naming ``friction.normal_contact``, CLI exit 2): its
+return mapping would need the per-sample bound ``mu (N_0 + lambda_N(t_k))``, its derivative with respect to the
+normal DOFs' coefficients and the periodic start's fixed point with a moving bound.  **A normal contact
+stiffness** (a compliant normal contact) is not implemented in any method: there is no key for it
+(``Contact.penalty_stiffness`` is HBM's regularisation, not a physical stiffness; time stepping and DLFT keep
+the rigid contact).  It would be a massless normal slider DOF ``z_N`` tied to the normal DOF by ``k_N`` and
+carrying the rigid contact, whose impulse loads the sliders' disk; the slider DOFs are stepped with ``theta =
+1``, and a contact on a massless DOF has no impact law (``e_N`` is meaningless there): the Moreau-Jean step
+would have to treat it as a quasi-static complementarity, which the kernel does not do.
 
 Methods:
 
@@ -37,7 +47,8 @@ Methods:
   rule of :mod:`mshbm.methods.hbm_regularisation`, one value per pair from the pair's larger velocity
   scale).  With a normal contact ``F_N = N_0 + max(lambda_N, 0)`` with the penalty force (eq. 45).
 * **DLFT** (velocity predictor): the pair's prediction ``y_T`` projected onto the disk, one penalty per pair
-  (:mod:`mshbm.methods.dlft`).
+  (:mod:`mshbm.methods.dlft`), on ground or between two node triples; the 3-D Jenkins pair as two massless slider
+  DOFs carrying the rigid pair (:mod:`mshbm.methods.dlft_terms`).
 * The **exact event-driven flow**, DLFT's displacement predictor, the backbone (EPMC) and
   ``penalty_quadrature="linear"``: not supported, a clear :class:`~mshbm.errors.InputError` naming
   ``friction.cone_partner`` (time stepping: the Moreau-Jean integrator).  Hill's method (HBM stability)

@@ -7,7 +7,8 @@
 :class:`Jenkins` friction (tangential stiffness ``k_t`` in series with the slider; all methods but the
 exact flow): a law with an internal state (the slider position ``z``), :attr:`Element.history`.  HBM
 evaluates it along the period twice (:meth:`Jenkins.history_law`, derivative with respect to the Fourier
-coefficients).  Time stepping integrates one massless slider DOF per element
+coefficients).  DLFT appends the same slider DOFs to the harmonic balance (:mod:`mshbm.methods.dlft_terms`).
+Time stepping integrates one massless slider DOF per element
 (:func:`mshbm.integrators.moreau_jean._with_sliders`: ``M_zz = 0``, ``K += k_t [w; -e_z][w; -e_z]^T``,
 rigid Coulomb friction on ``z``), stepped with ``theta = 1`` so that its velocity is no state (with
 ``theta = 1/2`` the auxiliary velocity maps to ``-u_z`` every step and the shooting Jacobian grows without
@@ -33,8 +34,8 @@ sensitivities are exact for the active set, a sliding friction on a closed conta
 ``d lambda_T = sign(lambda_T) mu d lambda_N``.  The certificate checks the cone
 ``|lambda_T| <= mu (N_0 + lambda_N)`` per sample (:meth:`Element.bound_samples`).  Not supported (clean
 :class:`~mshbm.errors.InputError`): the exact/event-driven flow (more than one element;
-:attr:`Element.normal_contact` is the flag to test), DLFT with the displacement predictor, and Jenkins
-friction (``tangential_stiffness``) with a normal contact.  A Moreau-Jean caveat (``e_N = 0``): the
+:attr:`Element.normal_contact` is the flag to test), DLFT with the displacement predictor, and HBM with Jenkins
+friction (``tangential_stiffness``) with a normal contact (time stepping and DLFT load the slider's bound).  A Moreau-Jean caveat (``e_N = 0``): the
 velocity-level contact law keeps a closed contact closed anywhere within ``O(h^2 F / m)`` of the stop, and
 the normal load then differs by the normal stiffness times that offset.
 
@@ -244,9 +245,6 @@ class Jenkins(Friction):
         super().__post_init__()
         object.__setattr__(self, "tangential_stiffness",
                            _finite_number("friction.tangential_stiffness", self.tangential_stiffness, positive=True))
-        if self.normal_contact is not None:
-            raise InputError("friction.normal_contact", "elastic friction (tangential_stiffness, Jenkins) with a "
-                             "normal load from a contact is not supported")
 
     history: ClassVar[bool] = True
 

@@ -92,7 +92,8 @@ def _with_sliders(M, C, K, elements):
             v[d] = w
         v[z] = -1.0
         Ka += el.tangential_stiffness * np.outer(v, v)
-        out[j] = Friction(z, el.mu, el.normal_force, el.smoothing, cone_partner=el.cone_partner)  # 3-D: a disk
+        out[j] = Friction(z, el.mu, el.normal_force, el.smoothing, cone_partner=el.cone_partner,  # 3-D: a disk
+                          normal_contact=el.normal_contact)  # the bound mu (N_0 + lambda_N) of the structure's contact
         sliders.append((j, z))
     return Ma, Ca, Ka, out, sliders
 

@@ -47,6 +47,14 @@ corrects the prediction in the time domain, on the ``N_s`` AFT samples:
 Then ``F_nl = DFT[w lambda]`` and, since ``DFT[IDFT[A X - r]] = A X - r``, the residual is
 ``R = w DFT[lambda_L - lambda]``.
 
+Elements between two DOFs (``relative_to``; friction, contact, the 3-D cone pair): ``w = sign (e_I - e_J)``, the
+demanded force weighs the linear residual of both DOFs (compliance weights per harmonic, so that ``lambda_L``
+depends on the elements' relative displacements only) and the penalty rule takes the stiffness of the relative
+coordinate; Jenkins elements (``tangential_stiffness``, 1-D and the 3-D Jenkins pair) are massless slider DOFs
+appended to the structure, tied to it by the spring ``k_t`` and carrying rigid (ground) friction, whose
+harmonics are balanced with the rest (:mod:`mshbm.methods.dlft_terms`; the solution reports the structure's DOFs,
+``info["dlft_jenkins_sliders"]`` their number).  With only ground elements everything below is unchanged.
+
 What a converged DLFT solution is, and why it depends on ``eps``
 ----------------------------------------------------------------
 ``R = 0`` says ``lambda_L = P[lambda]``: the harmonic balance holds with the time-domain force
@@ -147,15 +155,13 @@ from ..errors import InputError
 from .base import HarmonicProblem
 from .common import guess_parts
 from .dlft_kernels import friction_march
+from .dlft_path import ContactPath
+from .dlft_terms import element_terms, relative_stiffness, slider_guess, with_sliders
 
 __all__ = ["DLFTProblem", "default_penalty", "PREDICTORS"]
 
 #: friction predictors: the Lagrangian on the relative velocity (default) or on the displacement increment
 PREDICTORS = ("velocity", "displacement")
-
-
-def spla_solve(A, b):
-    return spla.spsolve(sp.csc_matrix(A), b) if sp.issparse(A) else np.linalg.solve(A, b)
 
 
 def default_penalty(A_dd, m_dd, omega):
@@ -172,7 +178,7 @@ def default_penalty(A_dd, m_dd, omega):
     return eps
 
 
-class DLFTProblem(HarmonicProblem):
+class DLFTProblem(ContactPath, HarmonicProblem):
     """DLFT periodic problem (see the module docstring).
 
     Parameters
@@ -205,7 +211,6 @@ class DLFTProblem(HarmonicProblem):
                                                f"{dlft_predictor!r}")
         self.predictor = dlft_predictor
         system = system.at(omega)  # the forcing at omega (a constant forcing: the same system)
-        n = system.n
         smooth = [j for j, el in enumerate(system.elements) if el.smooth]
         for el in system.elements:
             if el.smooth:
@@ -216,20 +221,15 @@ class DLFTProblem(HarmonicProblem):
             if el.normal_contact is not None and dlft_predictor != "velocity":
                 raise InputError("friction.normal_contact", "DLFT supports friction with a normal load from a "
                                  "contact with dlft_predictor 'velocity' only")
-            if el.relative_to is not None or el.history:
-                what = "relative_to" if el.relative_to is not None else "tangential_stiffness"
-                raise InputError(f"{el.kind}.{what}", "DLFT supports ground friction and contact only (relative and "
-                                 "elastic (Jenkins) elements: use shooting, mshbm or hbm)")
-        dofs = [el.dof for el in system.elements if not el.smooth]
-        if len(set(dofs)) != len(dofs):
-            d = next(d for d in dofs if dofs.count(d) > 1)
-            raise InputError("elements", f"DLFT needs one element per DOF (DOF {d} carries a friction and a "
-                                         "contact element: the demanded force cannot be split between them)")
+        structure = system
+        system, self._sliders = with_sliders(structure)
+        if self._sliders and partition is not None:  # the sliders carry the friction: always kept
+            partition = np.union1d(np.asarray(partition, dtype=np.int64), [z for _, z in self._sliders])
         Hs = self._setup_harmonic_balance(system, omega, harmonics, steps, condense, partition)
         nR, nc = self.nR, 2 * self.n_h + 1
         pos = {int(d): i for i, d in enumerate(self.keep)}
         # the penalty rule: diagonal of the dynamic stiffness condensed onto the element DOFs N
-        nl = system.nonlinear_dofs
+        nl, n = system.nonlinear_dofs, system.n
         if self.condense and np.array_equal(self.keep, nl):
             Hd = Hs
         else:
@@ -238,10 +238,10 @@ class DLFTProblem(HarmonicProblem):
             Hd = np.array([condensation.dynamic_stiffness(sub_nl(system.M), sub_nl(system.C), sub_nl(system.K),
                                                           k * omega) - c.T[k] for k in range(self.n_h + 1)])
         pn = {int(d): i for i, d in enumerate(nl)}
-        diag = {el.dof: Hd[:, pn[el.dof], pn[el.dof]] for el in system.elements}
         Md = np.asarray(system.M.diagonal() if sp.issparse(system.M) else np.diag(system.M), dtype=float)
         if dlft_penalty is None:
-            self.eps = np.array([default_penalty(diag[el.dof], Md[el.dof], self.omega) for el in system.elements])
+            self.eps = np.array([default_penalty(*relative_stiffness(Hd, Md, pn, el), self.omega)
+                                 for el in system.elements])
         else:
             self.eps = np.full(len(system.elements), float(dlft_penalty))
         # velocity predictor: eps_v = eps / (n_h omega) (N s/m), the impedance at the resolution of the series
@@ -251,32 +251,14 @@ class DLFTProblem(HarmonicProblem):
         self._cone_ny = {}  # cone pairs: ||y_T|| per sample of the last march (the slip Jacobian)
         # d/dt of the series on the samples, Vs Om = -(Om Vs^T)^T (Om is antisymmetric), O(N_s n_h)
         VsOm = -fourier.derivative(self.Vs.T, self.omega).T if any(map(self._velocity, system.elements)) else None
-        # per element: rows of its DOF in the unknowns, the columns its demanded force depends on,
-        # and Q = d y / d x on those columns (y = lambda_L - eps w q or lambda_L - eps_v w q', affine in x)
-        self._el = []
-        A = self.A
-        for j, el in enumerate(system.elements):
-            if el.smooth:
-                continue
-            i = pos[el.dof]
-            rows = np.arange(nc) * nR + i
-            Ai = A[rows].toarray() if sp.issparse(A) else A[rows]
-            cols = np.flatnonzero(np.any(Ai != 0.0, axis=0) | np.isin(np.arange(A.shape[1]), rows))
-            w = el.sign
-            Q = w * (self.Vs @ Ai[:, cols])
-            sel = np.searchsorted(cols, rows)
-            if self._velocity(el):  # y = lambda_L - eps_v w u
-                Q[:, sel] -= self.eps_v[j] * w * VsOm
-            else:  # y = lambda_L - eps w q (contact: minus eps times the gap)
-                Q[:, sel] -= self.eps[j] * w * self.Vs
-            self._el.append((el, j, rows, cols, sel, w, Q))
+        self._el = element_terms(self, system, pos, VsOm)
         self._drop_smooth(smooth, pos, nc, nR)
+        self._sys, self.system = system, structure  # harmonic balance of the system with sliders; the structure
 
     def _drop_smooth(self, smooth, pos, nc, nR):
         """Take the smooth elements out of the Lagrangian terms: ``self._smooth`` (elements, their
         columns among the kept DOFs), ``self._pos`` (element index -> position in ``self._el``)."""
-        self._el = [e for e in self._el if not e[0].smooth]
-        self._pos = {e[1]: k for k, e in enumerate(self._el)}
+        self._pos = {t.j: k for k, t in enumerate(self._el)}
         els = [self.system.elements[j] for j in smooth]
         self._smooth = None
         if els:
@@ -310,10 +292,33 @@ class DLFTProblem(HarmonicProblem):
                 blocks[key] = blocks[key] + B if key in blocks else B
         return F.reshape(-1), blocks, lam
 
-    def _smooth_extra(self, blocks, el_row, w):
-        """``[(k, Y)]``: the derivative of the demanded force ``lambda_L`` of an element on kept DOF ``el_row``
-        through the smooth forces, ``Y = -w Vs d F_s,el_row / d X_k`` (shape ``(N_s, 2 n_h + 1)``)."""
-        return [(k, -w * (self.Vs @ B)) for (i, k), B in blocks.items() if i == el_row]
+    def _smooth_extra(self, blocks, t):
+        """``[(k, Y)]``: the derivative of the demanded force ``lambda_L`` of element term ``t`` through the smooth
+        forces, ``Y = -sum_i c_i Vs d F_s,i / d X_k`` over its demand rows ``i`` (shape ``(N_s, 2 n_h + 1)``;
+        a kept DOF ``k`` may appear more than once: the blocks add)."""
+        nR, nc = self.nR, 2 * self.n_h + 1
+        if t.D is not None:
+            return [(k, -(self.Vs @ (t.D[:, np.arange(nc) * nR + i] @ B))) for (i, k), B in blocks.items()]
+        first = {int(r[0]): c for r, c in zip(t.drows, t.dc)}
+        return [(k, -first[i] * (self.Vs @ B)) for (i, k), B in blocks.items() if i in first]
+
+    def _demand(self, t, v):
+        """``lambda_L`` on the samples: the demand of term ``t`` from the linear residual ``v``, shape (N_s,)."""
+        if t.D is not None:
+            return self.Vs @ (t.D @ v)
+        out = None
+        for r, c in zip(t.drows, t.dc):
+            y = c * (self.Vs @ v[r])
+            out = y if out is None else out + y
+        return out
+
+    def _wq(self, t, x, derivative=False):
+        """``w^T q`` (or ``w^T q'``) of term ``t`` on the samples, shape (N_s,)."""
+        out = None
+        for r, w in zip(t.rows, t.w):
+            y = w * (self.Vs @ (self.Om @ x[r] if derivative else x[r]))
+            out = y if out is None else out + y
+        return out
 
     def _velocity(self, el):
         """True if element ``el`` uses the velocity predictor (friction with ``dlft_predictor="velocity"``)."""
@@ -330,6 +335,8 @@ class DLFTProblem(HarmonicProblem):
 
     def initial_guess(self, guess=None):
         q_hat, _, _ = guess_parts(guess, self.system, self.omega, self.n_h, states=False)
+        if self._sliders:  # the sliders z = s + lambda / k_t from a solution's forces, else z = s (springs unloaded)
+            q_hat = slider_guess(q_hat, self.system, self._sliders, guess, self.n_h)
         return q_hat[:, self.keep].reshape(-1)
 
     def _march(self, x, linear=None):
@@ -342,21 +349,21 @@ class DLFTProblem(HarmonicProblem):
             linear = self.A @ x - self.r
         out = [None] * len(self._el)
         # friction loaded by a contact last: its bound mu (N_0 + lambda_N) needs the contact's force
-        order = sorted(range(len(self._el)), key=lambda k: self._el[k][0].normal_contact is not None)
+        order = sorted(range(len(self._el)), key=lambda k: self._el[k].el.normal_contact is not None)
         for k in order:
-            el, j, rows, cols, sel, w, Q = self._el[k]
-            lamL = w * (self.Vs @ linear[rows])
+            t = self._el[k]
+            el, j = t.el, t.j
+            lamL = self._demand(t, linear)
             if self._velocity(el):
                 if out[k] is not None:
                     continue  # the cone partner of an element done
-                y = lamL - self.eps_v[j] * (w * (self.Vs @ (self.Om @ x[rows])))
+                y = lamL - self.eps_v[j] * self._wq(t, x, derivative=True)
                 b = el.bound_samples(self._element_columns(out)) if el.normal_contact is not None else float(el.bound)
                 if el.cone_partner is not None:  # the disk: stick inside, else b y_T / ||y_T||
                     p = el.cone_partner
                     kp = self._pos[p]
-                    _, _, rows_p, _, _, w_p, _ = self._el[kp]
-                    lamL_p = w_p * (self.Vs @ linear[rows_p])
-                    y_p = lamL_p - self.eps_v[p] * (w_p * (self.Vs @ (self.Om @ x[rows_p])))
+                    lamL_p = self._demand(self._el[kp], linear)
+                    y_p = lamL_p - self.eps_v[p] * self._wq(self._el[kp], x, derivative=True)
                     ny = np.hypot(y, y_p)
                     stick = ny <= b
                     f = np.where(stick, 1.0, b / np.where(stick, 1.0, ny))
@@ -367,8 +374,7 @@ class DLFTProblem(HarmonicProblem):
                 stick = np.abs(y) <= b
                 out[k] = (np.clip(y, -b, b), stick.astype(np.int8), None, lamL)
                 continue
-            wq = w * (self.Vs @ x[rows])
-            y = lamL - self.eps[j] * wq
+            y = lamL - self.eps[j] * self._wq(t, x)
             if el.unilateral:
                 y = y - self.eps[j] * el.gap
                 closed = y > 0.0
@@ -386,7 +392,7 @@ class DLFTProblem(HarmonicProblem):
         lam = np.zeros((self.Ns, len(self.system.elements)))
         for k, o in enumerate(out):
             if o is not None:
-                lam[:, self._el[k][1]] = o[0]
+                lam[:, self._el[k].j] = o[0]
         return lam
 
     def residual(self, x, jac=True):
@@ -398,8 +404,10 @@ class DLFTProblem(HarmonicProblem):
             linear = linear - smooth[0]
         R = linear.copy()
         marched = self._march(x, linear)
-        for (el, j, rows, cols, sel, w, Q), (lam, state, ref, lamL) in zip(self._el, marched):
-            R[rows] -= w * (self.E @ lam)
+        for t, (lam, state, ref, lamL) in zip(self._el, marched):
+            f = self.E @ lam
+            for rows, w in zip(t.rows, t.w):
+                R[rows] -= w * f
         if not jac:
             return R, None
         blocks = []
@@ -407,29 +415,36 @@ class DLFTProblem(HarmonicProblem):
         if smooth is not None:
             for (i, k), B in smooth[1].items():
                 blocks.append((np.arange(nc) * nR + i, np.arange(nc) * nR + k, B))
-        for (el, j, rows, cols, sel, w, Q), (lam, state, ref, lamL) in zip(self._el, marched):
+
+        def add(t, cols, B):  # d (w lambda) / d x[cols] on the element's own rows, from d lambda's coefficients B
+            for rows, w in zip(t.rows, t.w):
+                blocks.append((rows, cols, w * B))
+
+        for t, (lam, state, ref, lamL) in zip(self._el, marched):
+            el, j, cols, Q = t.el, t.j, t.cols, t.Q
             act = np.flatnonzero(state)  # only stick/closed samples carry a derivative
-            if smooth is not None and act.size:  # lambda_L through the smooth forces on this element's DOF
-                for k, Y in self._smooth_extra(smooth[1], int(rows[0]), w):
+            if smooth is not None and act.size:  # lambda_L through the smooth forces on this element's DOFs
+                for k, Y in self._smooth_extra(smooth[1], t):
                     dY = Y[act].copy()
                     if ref is not None:
                         r = ref[act]
                         has = r >= 0
                         dY[has] -= Y[r[has]]
-                    blocks.append((rows, np.arange(nc) * nR + k, w * (self.E[:, act] @ dY)))
+                    add(t, np.arange(nc) * nR + k, self.E[:, act] @ dY)
             dlam = Q[act]
             if ref is not None:  # friction stick: minus the derivative of the memory
                 r = ref[act]
                 mem = np.zeros((r.size, Q.shape[1]))
                 has = r >= 0
                 mem[has] = Q[r[has]]
-                # no slip in the period: the memory is s0 = lambda_L(0) - y(0) = eps w q(0)
+                # no slip in the period: the memory is s0 = lambda_L(0) - y(0) = eps w^T q(0)
                 if (~has).any():
                     d0 = np.zeros(Q.shape[1])
-                    d0[sel] = self.eps[j] * w * self.Vs[0]
+                    for s_i, w in zip(t.sel, t.w):
+                        d0[s_i] = self.eps[j] * w * self.Vs[0]
                     mem[~has] = -d0
                 dlam -= mem
-            blocks.append((rows, cols, w * (self.E[:, act] @ dlam)))
+            add(t, cols, self.E[:, act] @ dlam)
             direction = np.sign(lam)
             p = el.cone_partner
             if p is not None:  # disk slip: d lambda_T = (b / ||y_T||) (I - d d^T) dy_T + d db, d = lambda_T / b
@@ -438,23 +453,23 @@ class DLFTProblem(HarmonicProblem):
                 bs = np.hypot(lam, lam_p)
                 direction = lam / np.where(bs > 0, bs, 1.0)
                 if sl.size:
-                    _, _, _, cols_p, _, _, Q_p = self._el[self._pos[p]]
+                    tp = self._el[self._pos[p]]
                     d_j, d_p = direction[sl], lam_p[sl] / np.where(bs[sl] > 0, bs[sl], 1.0)
                     cfac = bs[sl] / self._cone_ny[j][sl]
-                    blocks.append((rows, cols, w * (self.E[:, sl] @ ((cfac * (1.0 - d_j * d_j))[:, None] * Q[sl]))))
-                    blocks.append((rows, cols_p, w * (self.E[:, sl] @ ((-cfac * d_j * d_p)[:, None] * Q_p[sl]))))
+                    add(t, cols, self.E[:, sl] @ ((cfac * (1.0 - d_j * d_j))[:, None] * Q[sl]))
+                    add(t, tp.cols, self.E[:, sl] @ ((-cfac * d_j * d_p)[:, None] * tp.Q[sl]))
             c = el.normal_contact
             if c is not None:  # slip on a closed contact: d lambda_T = d mu d lambda_N (d = sign, or on the disk)
                 c = self._pos[c]
-                _, _, rows_c, cols_c, _, w_c, Q_c = self._el[c]
+                tc = self._el[c]
                 sl = np.flatnonzero((state == 0) & (marched[c][1] == 1))
                 if sl.size:
-                    g = (el.mu * direction[sl])[:, None] * Q_c[sl]
-                    blocks.append((rows, cols_c, w * (self.E[:, sl] @ g)))
+                    g = (el.mu * direction[sl])[:, None] * tc.Q[sl]
+                    add(t, tc.cols, self.E[:, sl] @ g)
                     if smooth is not None:
-                        for k, Y in self._smooth_extra(smooth[1], int(rows_c[0]), w_c):
+                        for k, Y in self._smooth_extra(smooth[1], tc):
                             g = (el.mu * direction[sl])[:, None] * Y[sl]
-                            blocks.append((rows, np.arange(nc) * nR + k, w * (self.E[:, sl] @ g)))
+                            add(t, np.arange(nc) * nR + k, self.E[:, sl] @ g)
         if sp.issparse(self.A):
             rr = [np.repeat(rows, cols.size) for rows, cols, _ in blocks]
             cc = [np.tile(cols, rows.size) for rows, cols, _ in blocks]
@@ -467,101 +482,14 @@ class DLFTProblem(HarmonicProblem):
                 J[np.ix_(rows, cols)] -= B
         return R, J
 
-    # ------------------------------------------------------------------ contacts only: exact path following
-    @property
-    def piecewise_linear(self):
-        """True if every element is a contact: ``lambda = max(0, y)`` with ``y`` affine in ``X``, so the
-        residual is continuous and affine on each region of fixed closed samples (as HBM's penalty law)."""
-        els = self.system.elements
-        return len(els) > 0 and all(el.unilateral for el in els)
+    def partition(self):
+        """The kept and condensed DOFs of the structure (with Jenkins sliders: the sliders are the kept unknowns
+        and the structure's DOFs all condensed)."""
+        from .base import Partition
 
-    def _y(self, x, offset=0.0):
-        """Predictions ``y`` of the contacts with every gap offset by ``offset``, shape (N_s, m)."""
-        linear = self.A @ x - self.r
-        cols = []
-        for el, j, rows, _, _, w, _ in self._el:
-            cols.append(w * (self.Vs @ linear[rows]) - self.eps[j] * (w * (self.Vs @ x[rows]) + el.gap + offset))
-        return np.stack(cols, axis=1)
-
-    def _pl_residual_jac(self, closed):
-        """``(dR/dx, dR/d offset)`` on the region ``closed`` (N_s, m)."""
-        if sp.issparse(self.A):
-            J = self.A.tolil(copy=True)
-        else:
-            J = self.A.copy()
-        h = np.zeros(self.n_unknowns)
-        for k, (el, j, rows, cols, _, w, Q) in enumerate(self._el):
-            S = np.flatnonzero(closed[:, k])
-            if S.size:
-                B = w * (self.E[:, S] @ Q[S])
-                if sp.issparse(self.A):
-                    J[np.ix_(rows, cols)] = J[np.ix_(rows, cols)].toarray() - B
-                else:
-                    J[np.ix_(rows, cols)] -= B
-                h[rows] += w * self.eps[j] * self.E[:, S].sum(axis=1)  # d lambda / d offset = -eps
-        return (J.tocsr() if sp.issparse(self.A) else J), h
-
-    def _pl_crossing(self, x, dx, closed, offset, doffset):
-        y = self._y(x, offset)
-        dy = self._y(dx, 0.0) - self._y(np.zeros_like(x), 0.0)  # linear part of y along dx
-        for k, (_, j, *_rest) in enumerate(self._el):
-            dy[:, k] -= self.eps[j] * doffset
-        moving = np.where(closed, dy < 0.0, dy > 0.0)
-        if not moving.any():
-            return np.inf, closed
-        sv = np.full(y.shape, np.inf)
-        sv[moving] = np.maximum(-y[moving] / dy[moving], 0.0)
-        smin = float(sv.min())
-        return smin, closed ^ (moving & (sv <= smin * (1.0 + 1e-12)))
-
-    def newton_fallback(self, x0, failed=None, tol=1e-10, scale=None, max_iter=50, callback=None):
-        """Contacts only: exact piecewise-linear gap continuation from the linear response.
-
-        All gaps are offset by ``lambda``, from just above the first touch-down of the linear response
-        (no sample closed) down to ``lambda = 0``, through the turning points
-        (:func:`mshbm.solvers.newton.follow_pl_path`); the end point is polished by Newton on the
-        unmodified residual.  Hook of :func:`mshbm.solvers.newton.newton`; ``None`` for friction.
-        """
-        if not self.piecewise_linear:
-            return None
-        from ..solvers.newton import NewtonResult, _scale_function, follow_pl_path, newton, scaled_norm
-
-        scale = _scale_function(self.residual, self.residual_scale if scale is None else scale)
-        key = float(tol)
-        cache = self.__dict__.setdefault("_fallback_cache", {})
-        if key in cache:
-            return cache[key]
-        try:
-            x_lin = np.asarray(spla_solve(self.A, self.r), dtype=float)
-        except (np.linalg.LinAlgError, RuntimeError):
-            return None
-        y = self._y(x_lin)
-        lam0 = float(np.max(y / self.eps[None, :]))  # offset at which the first sample touches
-        lam0 += max(1e-9, 1e-6 * abs(lam0))
-        closed0 = np.zeros(y.shape, dtype=bool)
-        path = follow_pl_path(lambda x, lam, c: self._pl_residual_jac(c),
-                              lambda x, lam, dx, dlam, c: self._pl_crossing(x, dx, c, lam, dlam),
-                              x_lin, lam0, 0.0, closed0, direction=-1.0,
-                              max_segments=10 * self.Ns * len(self.system.elements) + 1000)
-        out = None
-        if path.success:
-            pol = newton(self.residual, path.x, tol, max_iter, True, callback, scale)
-            if pol.success:
-                out = NewtonResult(pol.x, True, f"converged: scaled ||R||_inf = {pol.residual_norm:.2e} by exact "
-                                   f"piecewise-linear gap continuation ({path.segments} segments, {path.folds} "
-                                   f"folds) and {pol.nit} Newton iterations", path.segments + pol.nit,
-                                   pol.nfev, pol.residual_norm, pol.history,
-                                   {"fallback": "gap continuation", "segments": path.segments, "folds": path.folds})
-            note = "" if pol.success else f", but Newton polishing failed: {pol.message}"
-        else:
-            note = ""
-        if out is None:
-            R, _ = self.residual(np.asarray(x0, dtype=float), jac=False)
-            out = NewtonResult(np.asarray(x0, dtype=float), False, f"exact piecewise-linear gap continuation failed "
-                               f"({path.message}{note})", path.segments, 0, scaled_norm(R, scale(x0)), [],
-                               {"fallback": "failed", "segments": path.segments})
-        cache[key] = out
-        return out
+        n = self.system.n
+        return Partition(time=np.zeros(0, np.int64), harmonic=self.keep[self.keep < n].copy(),
+                         condensed=self.elim[self.elim < n].copy())
 
     def element_states(self, x):
         """Per element, on the AFT samples ``t_n = n T / N_s``: ``(lambda, constrained)``.
@@ -575,14 +503,14 @@ class DLFTProblem(HarmonicProblem):
             linear = linear - smooth[0]
         return [(lam, state.astype(bool)) for lam, state, _, _ in self._march(x, linear)]
 
-    def full_coefficients(self, x):
-        """``q_hat`` of all DOFs, shape (2 n_h + 1, n)."""
+    def full_coefficients(self, x, sliders=False):
+        """``q_hat`` of all DOFs of the structure, shape (2 n_h + 1, n) (``sliders``: and the Jenkins sliders)."""
         X = np.asarray(x, dtype=float).reshape(2 * self.n_h + 1, self.nR)
-        q_hat = np.zeros((2 * self.n_h + 1, self.system.n))
+        q_hat = np.zeros((2 * self.n_h + 1, self._sys.n))
         q_hat[:, self.keep] = X
         if self.elim.size:
             q_hat[:, self.elim] = fourier.from_complex(self.cond.recover(fourier.to_complex(X)))
-        return q_hat
+        return q_hat if sliders else q_hat[:, :self.system.n]
 
     def solution_parts(self, x):
         x = np.asarray(x, dtype=float)
@@ -603,9 +531,11 @@ class DLFTProblem(HarmonicProblem):
         info = {"condensed": self.condense,  # partition, conditioning: typed fields of the solution
                 "dlft_penalty": [None if el.smooth else float(e) for e, el in zip(self.eps, self.system.elements)],
                 "dlft_predictor": self.predictor}
-        if any(self._velocity(el) for el in self.system.elements):
+        if any(self._velocity(el) for el in self._sys.elements):
             info["dlft_velocity_penalty"] = [float(e) if self._velocity(el) else None
-                                             for e, el in zip(self.eps_v, self.system.elements)]
+                                             for e, el in zip(self.eps_v, self._sys.elements)]
+        if self._sliders:
+            info["dlft_jenkins_sliders"] = len(self._sliders)
         fr = [j for j, el in enumerate(self.system.elements) if el.bounded]
         ct = [j for j, el in enumerate(self.system.elements) if el.unilateral]
         if fr:

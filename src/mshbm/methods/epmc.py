@@ -135,6 +135,10 @@ class EPMCProblem:
                                  "supported")
             if el.cone_partner is not None:
                 raise InputError(f"{el.kind}.cone_partner", "backbone: the 3-D frictional contact is not supported")
+            if method == "dlft" and (el.history or el.relative_to is not None):
+                what = "tangential_stiffness" if el.history else "relative_to"
+                raise InputError(f"{el.kind}.{what}", "backbone with DLFT: ground friction and contacts only "
+                                 "(relative and elastic (Jenkins) elements: use method 'hbm')")
         self.system, self.mode, self.n_h, self.Ns = system, int(mode), int(harmonics), int(steps)
         omegas, Phi = linear_modes(system, self.mode + 1)
         self.omega0, self.phi = float(omegas[-1]), Phi[:, -1]

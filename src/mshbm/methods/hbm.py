@@ -113,6 +113,11 @@ class HBMProblem(PiecewiseLinearPaths, HarmonicProblem):
             raise InputError("penalty_quadrature", f"must be one of {', '.join(PENALTY_QUADRATURES)}, "
                                                    f"got {penalty_quadrature!r}")
         system = system.at(omega)  # the forcing at omega (a constant forcing: the same system)
+        for el in system.elements:  # the return mapping marches with a constant bound
+            if el.history and el.normal_contact is not None:
+                raise InputError("friction.normal_contact", "HBM: elastic friction (tangential_stiffness, Jenkins) "
+                                 "with a normal load from a contact is not supported (its return mapping has a "
+                                 "constant bound); use shooting, mshbm or dlft")
         # the regularisations left to their defaults, from the problem's scales (mshbm.methods.hbm_regularisation)
         self.given_system = system
         system, self.regularisation = resolve_regularisation(system, float(omega))

@@ -12,8 +12,8 @@ Two 3-D contact patches, one per platform: :func:`mshbm.frictional_contact` betw
 and the damper ``(d_y, d_z)``, the 3-D Jenkins law (the tangential contact stiffness
 ``k_t = contact_stiffness k_b`` in both directions in series with a slider on Coulomb's disk
 ``||lambda_T|| <= mu N``, the slip direction rotating), with the constant normal load ``N`` (the centrifugal
-preload; ``mu N`` in N, config ``preloads``).  A normal contact with a varying load is not combined with the
-Jenkins law by the package (:mod:`mshbm.elements.cone`), so the normal load is constant.
+preload; ``mu N`` in N, config ``preloads``).  HBM does not combine the Jenkins law with a contact-loaded
+(varying) normal load (:mod:`mshbm.elements.cone`), so the normal load is constant.
 
 Engine-order forcing: on blade ``i = 0, 1`` the tip force ``F (cos beta, sin beta) cos(omega t - i phi)``
 (``F = force`` N, ``beta = force_angle`` deg, inter-blade phase ``phi = interblade_phase`` deg).  With ``phi =
@@ -26,8 +26,10 @@ the relative motion at a patch is an ellipse and the damper slips in 2-D.
 Per preload: pointwise :func:`mshbm.solve` with warm starts, descending in omega over ``[omega_lo, omega_hi]``
 (fractions of the blade's first frequency ``omega_1``) in ``scan_points`` steps, then the peak of blade 0's
 in-plane tip amplitude refined by Brent's method on the pointwise solves, and at the peak the method's own
-certified solve (``accuracy`` default: its combined error estimate, :mod:`mshbm.route.refine`).  DLFT refuses
-the model (relative friction and tangential stiffness): the job of ``dlft`` records its InputError.
+certified solve (``accuracy`` default: its combined error estimate, :mod:`mshbm.route.refine`).  DLFT takes the
+3-D Jenkins contacts as massless slider DOFs carrying the rigid cone (:mod:`mshbm.methods.dlft_terms`); its
+error falls like ``1 / n_h`` (the sliders' truncated stick-slip motion), so it runs with ``dlft_harmonics``
+(default ``harmonics``).  A method that refuses the model records its InputError.
 
 Usage::
 
@@ -137,7 +139,7 @@ def frf(cfg, method, mu_n):
     s, facts = model(cfg, mu_n)
     ty, tz = facts["tips"][0]
     w1 = facts["omega_1"]
-    nh = int(cfg["harmonics"])
+    nh = int(cfg.get("dlft_harmonics") or cfg["harmonics"]) if method == "dlft" else int(cfg["harmonics"])
     opts = dict(method=method, harmonics=nh, stability=False, accuracy=False)
     if method != "hbm":
         opts["steps"] = int(cfg["steps"])
@@ -155,7 +157,7 @@ def frf(cfg, method, mu_n):
             guess = sol
             if sol.amplitude[ty] > best[0]:
                 best = (float(sol.amplitude[ty]), float(w), sol)
-    out = dict(mu_N=mu_n, scan=scan, peak=None)
+    out = dict(mu_N=mu_n, harmonics=nh, scan=scan, peak=None)
     if best[2] is None:
         out["cpu_time_s"] = time.process_time() - c0
         return out
@@ -200,7 +202,7 @@ def run(cfg, method):
     try:
         for mu_n in cfg["preloads"]:
             out["preloads"].append(frf(cfg, method, float(mu_n)))
-    except InputError as exc:  # DLFT: relative friction / tangential stiffness
+    except InputError as exc:  # a method that does not take the model
         out["refused"] = str(exc)
         out["preloads"] = []
     out["cpu_time_s"] = time.process_time() - c0

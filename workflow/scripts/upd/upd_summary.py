@@ -15,7 +15,10 @@ the lowest peak), ``<m>_attenuation`` (the lowest peak over the free system's); 
 holds for any number of preloads, ``<m>_peaks`` (all peaks as text) and ``<m>_cpu_per_curve``.  Between HBM and MS-HBM per
 preload: ``diff_amp_<k>`` and ``diff_omega_<k>`` (relative), ``est_<k>`` (the larger of the two estimates) and
 ``agree_<k>`` (``diff_amp_<k> <=`` the sum of the two estimates); ``max_diff_amp``, ``max_diff_omega``,
-``hbm_mshbm_agree`` (at every preload).
+``hbm_mshbm_agree`` (at every preload).  The same between DLFT and HBM: ``dlft_diff_amp_<k>``,
+``dlft_diff_omega_<k>``, ``dlft_agree_<k>``, ``dlft_max_diff_amp``, ``dlft_max_diff_omega``, ``dlft_hbm_agree``,
+``dlft_disagree`` (text: the preloads where the difference exceeds the estimates' sum, with both numbers) and
+``dlft_harmonics`` (DLFT's ``n_h``).
 
 Output ``results/summary/upd.json``: ``numbers`` and ``curves`` (per method: the upd_frf.py output).
 
@@ -101,6 +104,22 @@ def summarize(cfg, curves):
             dw.append(d_om)
             ok.append(d_amp <= ea + eb)
         n.update(max_diff_amp=max(da), max_diff_omega=max(dw), hbm_mshbm_agree=bool(all(ok)))
+    if "hbm" in by and "dlft" in by:
+        da, dw, ok, bad = [], [], [], []
+        for k, (a, b) in enumerate(zip(by["hbm"], by["dlft"]), 1):
+            pa, pb = a["peak"], b["peak"]
+            d_amp = abs(pb["amplitude"] / pa["amplitude"] - 1.0)
+            d_om = abs(pb["omega"] / pa["omega"] - 1.0)
+            ea, eb = pa["accuracy_estimate"] or 0.0, pb["accuracy_estimate"] or 0.0
+            n.update({f"dlft_diff_amp_{k}": d_amp, f"dlft_diff_omega_{k}": d_om, f"dlft_agree_{k}": bool(d_amp <= ea + eb)})
+            da.append(d_amp)
+            dw.append(d_om)
+            ok.append(d_amp <= ea + eb)
+            if d_amp > ea + eb:
+                bad.append(f"μN = {a['mu_N']:g} N: {d_amp:.2g} against {ea + eb:.2g}")
+        n.update(dlft_max_diff_amp=max(da), dlft_max_diff_omega=max(dw), dlft_hbm_agree=bool(all(ok)),
+                 dlft_disagree="; ".join(bad) or "none",
+                 dlft_harmonics=by["dlft"][0].get("harmonics", u["harmonics"]))
     return {"numbers": n, "curves": {c["method"]: c for c in curves}}
 
 
