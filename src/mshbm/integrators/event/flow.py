@@ -20,7 +20,7 @@ import scipy.sparse as sp
 from ...errors import InputError
 from ...system import System
 from .fallback import MoreauFallback
-from .location import event_free_steps, locate
+from .location import BATCH_MARGIN, event_free_steps, locate
 from .modes import FREE, MAX_DOFS, MOREAU, SLIP_P, EventError, ModeCatalogue, _Switch, mode_code, mode_tuple
 from .quadrature import FourierQuadrature
 from .transitions import Transitions
@@ -405,7 +405,7 @@ class EventFlow(ModeCatalogue, Transitions, FourierQuadrature, MoreauFallback):
             if batch and est.all():
                 bthr = bthr_cache.get(st)
                 if bthr is None:
-                    bthr = bthr_cache[st] = 1e-12 * (np.abs(np.vstack([md.C, md.CA])) @ state_scale)
+                    bthr = bthr_cache[st] = BATCH_MARGIN * 1e-12 * (np.abs(np.vstack([md.C, md.CA])) @ state_scale)
                 adv = event_free_steps(md, z, int((T_end - a) / md.h) - 2, bthr)
                 if adv > 0:
                     z = _power_apply(md, z, adv)

@@ -87,18 +87,19 @@ BATCH_FLOPS = 4e6
 BATCH_MARGIN = 1e4
 
 
-def event_free_steps(md, z, kmax, thr):
+def event_free_steps(md, z, kmax, tol):
     """How many full sub-steps from ``z`` in mode ``md`` certainly hold no event: at most ``kmax``.
 
     With every event row of the mode entered (``c^T z > thr``), :func:`locate` finds an event on a full sub-step
     only where an event function ends ``<= 0`` or its derivative changes sign from ``< 0`` to ``> 0`` inside.  Both
-    are screened here on ``B`` sub-steps at once from the stacked rows ``[C; C A] E^j`` (``j = 1..B``, kept with the
-    mode's shared exponentials): one ``(2 k B) x D`` product instead of ``B`` calls of :func:`locate`.  A sub-step
-    whose end value or derivative lies within :data:`BATCH_MARGIN` thresholds of zero (or of a sign change) ends the
-    run, so rounding never hides an event the one-by-one search would find.  ``thr``: the thresholds of the rows
-    ``[C; C A]``, shape ``(2 k,)``.  Returns 0 where batching does not pay (a large system with many rows)."""
+    are screened here on ``B`` sub-steps at once from the stacked rows ``[C; C A] E^j`` (``j = 0..B``, kept with the
+    mode's shared exponentials): one ``(2 k (B + 1)) x D`` product instead of ``B`` calls of :func:`locate`.  A
+    sub-step whose end value or derivative lies within ``tol`` of zero (or of a sign change) ends the run, so rounding
+    never hides an event the one-by-one search would find.  ``tol``: :data:`BATCH_MARGIN` times the thresholds of the
+    rows ``[C; C A]``, shape ``(2 k,)``.  Returns 0 where batching does not pay (a large system with many rows)."""
     k, D = md.C.shape
-    B = min(BATCH_STEPS, int(kmax), int(BATCH_FLOPS // max(2 * k * D * D, 1)))
+    nb = min(BATCH_STEPS, int(BATCH_FLOPS // max(2 * k * D * D, 1)))
+    B = min(nb, int(kmax))
     if B < 2:
         return 0
     if k == 0:
@@ -106,19 +107,14 @@ def event_free_steps(md, z, kmax, thr):
     cache = md.shared.setdefault("G_ev", {})
     key = md.C.tobytes()
     G = cache.get(key)
-    if G is None or G.shape[0] < B:
-        rows = np.vstack([md.C, md.CA])
-        nb = min(BATCH_STEPS, int(BATCH_FLOPS // (2 * k * D * D)))
-        G = np.empty((nb, 2 * k, D))
-        G[0] = rows @ md.E
-        for j in range(1, nb):
+    if G is None:
+        G = np.empty((nb + 1, 2 * k, D))
+        G[0] = np.vstack([md.C, md.CA])
+        for j in range(1, nb + 1):
             G[j] = G[j - 1] @ md.E
         cache[key] = G
-    vals = G[:B].reshape(B * 2 * k, D) @ z
-    vals = vals.reshape(B, 2 * k)
-    tol = BATCH_MARGIN * thr
-    pb, db = vals[:, :k], vals[:, k:]
-    da = np.vstack([md.CA @ z, db[:-1]])
+    vals = (G[:B + 1].reshape((B + 1) * 2 * k, D) @ z).reshape(B + 1, 2 * k)
+    pb, da, db = vals[1:, :k], vals[:-1, k:], vals[1:, k:]
     flag = np.any(pb <= tol[:k], axis=1) | np.any((da < tol[k:]) & (db > -tol[k:]), axis=1)
     hit = np.flatnonzero(flag)
     return int(hit[0]) if hit.size else B
