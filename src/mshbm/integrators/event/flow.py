@@ -20,7 +20,7 @@ import scipy.sparse as sp
 from ...errors import InputError
 from ...system import System
 from .fallback import MoreauFallback
-from .location import locate
+from .location import BATCH_MARGIN, event_free_steps, locate
 from .modes import FREE, MAX_DOFS, MOREAU, SLIP_P, EventError, ModeCatalogue, _Switch, mode_code, mode_tuple
 from .quadrature import FourierQuadrature
 from .transitions import Transitions
@@ -237,6 +237,9 @@ class EventFlow(ModeCatalogue, Transitions, FourierQuadrature, MoreauFallback):
         self.moreau_steps = int(moreau_steps)
         #: absolute ``time.perf_counter()`` after which :meth:`simulate` raises an EventError (None: no limit)
         self.deadline = None
+        #: screen runs of event-free sub-steps at once (:func:`~.location.event_free_steps`; the same flow, the
+        #: states differ by rounding): set by the stability analysis, whose flows sample nothing
+        self.batch = False
         nx = 0 if coupling_harmonics is None else int(coupling_harmonics)
         if coupling_harmonics is not None and nx < 0:
             raise InputError("coupling_harmonics", f"must be >= 0, got {coupling_harmonics}")
@@ -393,9 +396,26 @@ class EventFlow(ModeCatalogue, Transitions, FourierQuadrature, MoreauFallback):
         # E^k Phi, formed by squaring when Phi is next needed (log2 k products of D x D matrices instead of k)
         lazy = bool(jac and not self.ncx and four is None)
         pend = 0
+        # runs of event-free full sub-steps screened at once (batch; no samples, records or Fourier sums to form)
+        batch = bool(self.batch and not record and four is None and (lazy or not jac) and not samp.t.size)
+        bthr_cache = {}
         while a < T_end:
             if self.deadline is not None and time.perf_counter() > self.deadline:
                 raise EventError("time limit of the event-driven simulation reached")
+            if batch and est.all():
+                bthr = bthr_cache.get(st)
+                if bthr is None:
+                    bthr = bthr_cache[st] = BATCH_MARGIN * 1e-12 * (np.abs(np.vstack([md.C, md.CA])) @ state_scale)
+                adv = event_free_steps(md, z, int((T_end - a) / md.h) - 2, bthr)
+                if adv > 0:
+                    z = _power_apply(md, z, adv)
+                    pend += adv if jac else 0
+                    t_mode = mode_time.get(md.code, 0.0)
+                    for _ in range(adv):  # the same sums as step by step
+                        a += md.h
+                        t_mode += md.h
+                    mode_time[md.code] = t_mode
+                    continue
             rem = T_end - a
             h = md.h if rem > md.h * (1 + 1e-12) else rem
             nt = md.n_taylor

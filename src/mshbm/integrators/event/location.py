@@ -75,3 +75,46 @@ def locate(flow, md, z, zb, W, h, thr, est, a):
             if s_i is not None and (s_ev is None or s_i < s_ev):
                 s_ev, i_ev = s_i, i
     return s_ev, i_ev, W
+
+
+#: most sub-steps screened at once by :func:`event_free_steps`, and the budget (flops) of the stacked rows built per
+#: mode (``2 k D^2`` per sub-step for ``k`` event rows): batching pays where the Python cost of a sub-step exceeds
+#: its ``D^2`` product
+BATCH_STEPS = 64
+BATCH_FLOPS = 4e6
+#: an event function (or its derivative) within this many times its threshold of zero ends the screened run (the
+#: sub-step is then located one by one, as without batching)
+BATCH_MARGIN = 1e4
+
+
+def event_free_steps(md, z, kmax, tol):
+    """How many full sub-steps from ``z`` in mode ``md`` certainly hold no event: at most ``kmax``.
+
+    With every event row of the mode entered (``c^T z > thr``), :func:`locate` finds an event on a full sub-step
+    only where an event function ends ``<= 0`` or its derivative changes sign from ``< 0`` to ``> 0`` inside.  Both
+    are screened here on ``B`` sub-steps at once from the stacked rows ``[C; C A] E^j`` (``j = 0..B``, kept with the
+    mode's shared exponentials): one ``(2 k (B + 1)) x D`` product instead of ``B`` calls of :func:`locate`.  A
+    sub-step whose end value or derivative lies within ``tol`` of zero (or of a sign change) ends the run, so rounding
+    never hides an event the one-by-one search would find.  ``tol``: :data:`BATCH_MARGIN` times the thresholds of the
+    rows ``[C; C A]``, shape ``(2 k,)``.  Returns 0 where batching does not pay (a large system with many rows)."""
+    k, D = md.C.shape
+    nb = min(BATCH_STEPS, int(BATCH_FLOPS // max(2 * k * D * D, 1)))
+    B = min(nb, int(kmax))
+    if B < 2:
+        return 0
+    if k == 0:
+        return B
+    cache = md.shared.setdefault("G_ev", {})
+    key = md.C.tobytes()
+    G = cache.get(key)
+    if G is None:
+        G = np.empty((nb + 1, 2 * k, D))
+        G[0] = np.vstack([md.C, md.CA])
+        for j in range(1, nb + 1):
+            G[j] = G[j - 1] @ md.E
+        cache[key] = G
+    vals = (G[:B + 1].reshape((B + 1) * 2 * k, D) @ z).reshape(B + 1, 2 * k)
+    pb, da, db = vals[1:, :k], vals[:-1, k:], vals[1:, k:]
+    flag = np.any(pb <= tol[:k], axis=1) | np.any((da < tol[k:]) & (db > -tol[k:]), axis=1)
+    hit = np.flatnonzero(flag)
+    return int(hit[0]) if hit.size else B
