@@ -1,5 +1,7 @@
 """Fig. 12's measure at test size (workflow/scripts/upd/upd_frf.py): two cantilever blades bending in two planes,
-coupled by a light damper through two 3-D Jenkins contacts, under an engine-order force in antiphase.
+coupled by a light damper through two 3-D Jenkins contacts, under an engine-order force in antiphase.  The curves
+by HBM and MS-HBM are those of the session's quick workflow (fixture ``quick_run``: rule upd_frf with the quick
+configuration's section ``upd``, which is ``CFG`` below, checked key by key).
 
 * The classic trend of an underplatform damper: as the normal load grows, the resonance peak first drops (friction
   damping) and then rises again as the contacts stick, its frequency moving from the resonance without contact
@@ -8,6 +10,8 @@ coupled by a light damper through two 3-D Jenkins contacts, under an engine-orde
 * HBM and MS-HBM agree at every peak within the sum of their own error estimates (amplitude), and in frequency.
 * The out-of-plane tip motion at the damped peak is not negligible (two-dimensional slip).
 * DLFT refuses the model with an InputError naming the key (relative, elastic friction)."""
+import json
+
 import pytest
 
 from mshbm.errors import InputError
@@ -22,8 +26,17 @@ CFG = dict(n_el=2, length=0.1, width=0.012, height=0.008, zeta=0.002, damper_mas
 
 
 @pytest.fixture(scope="module")
-def curves():
-    return {m: [upd.frf(CFG, m, p) for p in CFG["preloads"]] for m in ("hbm", "mshbm")}
+def curves(quick_run):
+    """``upd.frf(CFG, m, p)`` for each preload ``p`` of CFG, as rule upd_frf wrote them (results/quick/upd/)."""
+    cfg = json.loads((quick_run / "config.json").read_text())["upd"]  # the run's section `upd`
+    assert {k: cfg.get(k) for k in CFG} == CFG, "config-quick.yaml's `upd` is no longer this test's case"
+    out = {}
+    for m in ("hbm", "mshbm"):
+        data = json.loads((quick_run / "upd" / f"{m}.json").read_text())
+        assert data["method"] == m and data["refused"] is None
+        out[m] = data["preloads"]
+        assert [p["mu_N"] for p in out[m]] == CFG["preloads"]
+    return out
 
 
 @pytest.mark.slow
