@@ -183,7 +183,8 @@ def summarize(modes, solves, sweeps, solve_modes=None):
         ends = [e for e in red_b.get("error_estimate_ends", []) if e is not None]
         nums.update({f"{k}_cpu_time": cpu, f"{k}_cpu_per_point": None if cpu is None else cpu / max(b["points"], 1),
                      f"{k}_reduction_estimate": max(ends) if ends else None,
-                     f"{k}_stability_method": next((m_ for m_ in b["stability_method"] if m_), None)})
+                     f"{k}_stability_method": next((m_ for m_ in b["stability_method"]  # "none: <reason>": no analysis
+                                                                   if m_ and not m_.startswith("none")), None)})
         checks = b.get("checks") or []
         if checks:  # the curve's last point against event-driven full shooting started from it
             c_ = checks[-1]

@@ -1,5 +1,7 @@
 """Fig. 12's measure at test size (workflow/scripts/upd/upd_frf.py): two cantilever blades bending in two planes,
-coupled by a light damper through two 3-D Jenkins contacts, under an engine-order force in antiphase.
+coupled by a light damper through two 3-D Jenkins contacts, under an engine-order force in antiphase.  The curves
+by HBM, MS-HBM and DLFT are those of the session's quick workflow (fixture ``quick_run``: rule upd_frf with the quick
+configuration's section ``upd``, which is ``CFG`` below, checked key by key).
 
 * The classic trend of an underplatform damper: as the normal load grows, the resonance peak first drops (friction
   damping) and then rises again as the contacts stick, its frequency moving from the resonance without contact
@@ -9,6 +11,8 @@ coupled by a light damper through two 3-D Jenkins contacts, under an engine-orde
   DLFT agrees with HBM within the sum of their estimates at the damped and the nearly stuck load; at the loose
   load (almost free slip) the two differ by 9.7e-5, more than their estimates' sum 6.1e-5 (measured).
 * The out-of-plane tip motion at the damped peak is not negligible (two-dimensional slip)."""
+import json
+
 import pytest
 
 from mshbm_workflow import script_module
@@ -22,8 +26,17 @@ CFG = dict(n_el=2, length=0.1, width=0.012, height=0.008, zeta=0.002, damper_mas
 
 
 @pytest.fixture(scope="module")
-def curves():
-    return {m: [upd.frf(CFG, m, p) for p in CFG["preloads"]] for m in ("hbm", "mshbm", "dlft")}
+def curves(quick_run):
+    """``upd.frf(CFG, m, p)`` for each preload ``p`` of CFG, as rule upd_frf wrote them (results/quick/upd/)."""
+    cfg = json.loads((quick_run / "config.json").read_text())["upd"]  # the run's section `upd`
+    assert {k: cfg.get(k) for k in CFG} == CFG, "config-quick.yaml's `upd` is no longer this test's case"
+    out = {}
+    for m in ("hbm", "mshbm", "dlft"):
+        data = json.loads((quick_run / "upd" / f"{m}.json").read_text())
+        assert data["method"] == m and data["refused"] is None
+        out[m] = data["preloads"]
+        assert [p["mu_N"] for p in out[m]] == CFG["preloads"]
+    return out
 
 
 @pytest.mark.slow
