@@ -14,7 +14,9 @@
    ``R`` smooth in ``omega`` on ill-conditioned meshes (fresh LUs differ by their rounding) and saves most
    factorisations (``Branch.counters["condensation"]``).
 3. Every point is certified (:func:`mshbm.certificate.certify` at the corrector's tolerance): a point
-   whose certificate fails is rejected and the step is shortened.  Its stability is that of
+   whose certificate fails is rejected and the step is shortened.  Then every point gets the error estimates and the
+   gating ``accuracy`` of :func:`mshbm.solve` (:mod:`mshbm.branch_accuracy`): a point beyond it is kept and
+   reported not certified.  Its stability is that of
    :func:`mshbm.stability.assess` (exact event-driven multipliers with saltation terms for elements on
    single DOFs, else a verdict only for smooth motion, else ``None``).
 4. Folds are located from the sign change of the tangent's ``omega`` component (to ``1e-3``
@@ -63,7 +65,7 @@ from .route.options import capabilities, only, without
 from .scaling import displacement_floor
 from .solvers.arclength import continuation
 from .branch_grazing import grazing_locator
-from .branch_accuracy import EVERY, certify_points, check_options, skipped, to_accuracy
+from .branch_accuracy import certify_points, check_options, skipped, to_accuracy
 from .element_outputs import element_outputs
 from .subharmonic import PERIOD_K_TOL, check_period, period_options, subharmonic_content, subharmonic_system
 from .system import System
@@ -430,7 +432,7 @@ def _run(route, system, lam_start, lam_end, method, period, parameter, omega_fix
     if method not in METHODS:
         raise InputError("method", f"unknown method {method!r} (choose from {', '.join(METHODS)})")
     k = check_period(period)
-    accuracy, every = check_options(options.get("accuracy"), options.get("estimate_every", EVERY))
+    accuracy, every = check_options(options.get("accuracy"), options.get("estimate_every"))
     options = {key: v for key, v in options.items() if key not in ("accuracy", "estimate_every")}
     route = replace(route, estimate=False)
     if capabilities(method).penalty_laws and "penalty_quadrature" not in options \
@@ -530,6 +532,7 @@ def _run(route, system, lam_start, lam_end, method, period, parameter, omega_fix
         skipped(branch, "interrupted" if interrupted is not None else "accuracy=False")
     else:
         est_opts = dict(prob_k, **only(rest, "tol", "max_iter", "line_search"))
+        branch.wall_time = time.perf_counter() - t0  # (the trace's time sets the stride of the estimates)
         certify_points(branch, route, tracer, method, est_opts, accuracy, every, [p.lam for p in res.points])
     branch.counters = dict(res.counters, start_iterations=int(sol0.iterations), points=len(branch.points),
                            condensation={k: int(v) for k, v in (reuse.counters if reuse is not None else {}).items()})
@@ -558,8 +561,9 @@ def sweep(system, omega_start, omega_end, method="mshbm", period=1, **options):
         continuation's: ``ds`` (first arclength step, scaled, default 0.02), ``ds_min`` (1e-5),
         ``ds_max`` (0.1; growth bounded by a turn of the tangent of 0.5 rad per step), ``max_points`` (400), ``predictor`` (``"tangent"`` or ``"secant"``),
         ``max_time`` (s), ``progress`` (show progress on a terminal; ``"always"``: also elsewhere),
-        ``stability`` (as for :func:`mshbm.solve`), ``blas_threads`` (default 1, as for :func:`mshbm.solve`).
-        HBM with penalty contacts (``d_c = 0``, no friction loaded by a contact) defaults to
+        ``stability`` (as for :func:`mshbm.solve`), ``blas_threads`` (default 1, as for :func:`mshbm.solve`),
+        ``accuracy`` and ``estimate_every`` (every point's error estimates and the branch's refinement to a
+        requested accuracy, :mod:`mshbm.branch_accuracy`; ``accuracy=False``: none).  HBM with penalty contacts (``d_c = 0``, no friction loaded by a contact) defaults to
         ``penalty_quadrature="linear"`` here (:mod:`mshbm.methods.hbm`): with the sampled law the branch
         folds back at kinks of the sampled equations; give ``penalty_quadrature="samples"`` for the branch of
         :func:`mshbm.solve`'s default.

@@ -63,8 +63,10 @@ from .route.refine import MAX_HARMONICS, MAX_STEPS
 __all__ = ["EVERY", "MAX_LEVELS", "check_options", "certify_points", "refined_options", "add_reduction",
            "skipped"]
 
-#: default stride of the estimated points
+#: default (smallest) stride of the estimated points
 EVERY = 4
+#: the estimates' share of a sweep's time that sets the default stride (:func:`_stride`)
+BUDGET = 0.5
 #: most refinement levels of a branch traced to a requested accuracy
 MAX_LEVELS = 3
 #: the estimates computed at the estimated points and interpolated between them
@@ -77,9 +79,9 @@ _RULE = ("estimated by re-solves at the first and last points, every {every}-th 
 def check_options(accuracy, every):
     """``(accuracy or None or False, estimate_every)`` checked (:class:`InputError` naming the key)."""
     accuracy = check_accuracy(accuracy)
-    if isinstance(every, bool) or not isinstance(every, (int, np.integer)) or every < 1:
+    if every is not None and (isinstance(every, bool) or not isinstance(every, (int, np.integer)) or every < 1):
         raise InputError("estimate_every", f"must be an integer >= 1, got {every!r}")
-    return accuracy, int(every)
+    return accuracy, None if every is None else int(every)
 
 
 def _total(values):
@@ -124,7 +126,21 @@ def _verdict(values, cert, acc):
     return total + other <= acc
 
 
+def _stride(branch, first_cost, every):
+    """The stride of the estimated points: ``every`` when given, else :data:`EVERY` widened so that the
+    estimates cost about :data:`BUDGET` times the trace (``first_cost``: the wall time of the first point's
+    estimates, against the trace's mean time per point), at most ``P // 6`` (at least 6 estimated points)."""
+    if every is not None:
+        return int(every)
+    P = len(branch.points)
+    per_point = float(branch.wall_time) / max(P, 1)
+    need = math.ceil(first_cost / (BUDGET * per_point)) if per_point > 0 else EVERY
+    return int(max(EVERY, min(need, P // 6)))
+
+
 def _anchors(branch, every):
+    """The first, the last and every ``every``-th point, the bifurcations (index and the next one) and the
+    amplitude peaks (``max_i A_i`` largest within ``every`` points on either side)."""
     P = len(branch.points)
     idx = {0, P - 1} | set(range(0, P, every))
     for b in branch.bifurcations:
@@ -133,7 +149,7 @@ def _anchors(branch, every):
             idx |= {int(i), int(i) + 1}
     amax = np.array([float(np.max(p.amplitude, initial=0.0)) for p in branch.points])
     for i in range(1, P - 1):
-        if amax[i] >= amax[i - 1] and amax[i] >= amax[i + 1]:
+        if amax[i] >= amax[max(0, i - every):i + every + 1].max():
             idx.add(i)
     return sorted(i for i in idx if 0 <= i < P)
 
@@ -148,7 +164,11 @@ def certify_points(branch, route, tracer, method, options, accuracy, every, lams
     ctx = _Context(route, tracer, method, options, acc, lams)
     t0, c0 = time.perf_counter(), time.process_time()
     found = {}
-    todo = _anchors(branch, every) if P else []
+    if P:
+        t1 = time.perf_counter()
+        found[0] = ctx.estimate(branch.points[0], lams[0])
+        every = _stride(branch, time.perf_counter() - t1, every)
+    todo = [i for i in _anchors(branch, every) if i not in found] if P else []
     while todo:
         for i in todo:
             found[i] = ctx.estimate(branch.points[i], lams[i])
@@ -190,7 +210,7 @@ def certify_points(branch, route, tracer, method, options, accuracy, every, lams
         if chk.value is not None and chk.value > worst[1]:
             worst = (i, float(chk.value), max(est, key=est.get) if est else None)
     spent, cpu = time.perf_counter() - t0, time.process_time() - c0
-    branch.accuracy = {"accuracy": acc, "requested": requested, "estimate_every": int(every),
+    branch.accuracy = {"accuracy": acc, "requested": requested, "estimate_every": int(every or EVERY),
                        "rule": _RULE.format(every=every), "estimated_points": keys,
                        "certified_points": P - len(bad), "uncertified_points": bad,
                        "largest": {"index": worst[0], "estimate": worst[1] if worst[0] is not None else None,
@@ -204,10 +224,18 @@ def certify_points(branch, route, tracer, method, options, accuracy, every, lams
 def _fail(branch, bad, worst, acc):
     i, v, name = worst
     P = len(branch.points)
+    over = [j for j in bad if (branch.points[j].certificate["accuracy"].get("estimate") or 0.0) > acc]
     where = f"omega = {branch.points[i].omega:.6g}" if branch.parameter == "omega" else f"point {i}"
-    text = (f"{len(bad)} of {P} points not certified: combined error estimate above the accuracy {acc:g}"
-            + (f" (largest {v:.3g} at {where}, mostly {name}: {REMEDY[name]} reduce it)" if name else ""))
+    text = f"{len(bad)} of {P} points not certified: "
+    parts = []
+    if over:
+        parts.append(f"{len(over)} with the combined error estimate above the accuracy {acc:g}"
+                     + (f" (largest {v:.3g} at {where}, mostly {name}: {REMEDY[name]} reduce it)" if name else ""))
+    if len(over) < len(bad):
+        parts.append(f"{len(bad) - len(over)} without an estimate (a re-solve failed; see the points' "
+                     "certificates)")
     branch.success = False
+    text += "; ".join(parts)
     branch.message = f"{branch.message}; {text}" if branch.message else text
 
 
