@@ -434,6 +434,8 @@ def _run(route, system, lam_start, lam_end, method, period, parameter, omega_fix
     k = check_period(period)
     accuracy, every = check_options(options.get("accuracy"), options.get("estimate_every"))
     options = {key: v for key, v in options.items() if key not in ("accuracy", "estimate_every")}
+    # a branch traced as a start of a solve (the "frequency" start: route.estimate False) needs no estimates
+    accuracy, no_estimate = (accuracy, "accuracy=False") if route.estimate else (False, "a start branch of a solve")
     route = replace(route, estimate=False)
     if capabilities(method).penalty_laws and "penalty_quadrature" not in options \
             and any(el.unilateral for el in system.elements) \
@@ -529,7 +531,7 @@ def _run(route, system, lam_start, lam_end, method, period, parameter, omega_fix
     branch.success = bool(res.success)
     branch.message = res.message + (f"; {note}" if note else "")
     if interrupted is not None or accuracy is False:  # the points' error estimates (mshbm.branch_accuracy)
-        skipped(branch, "interrupted" if interrupted is not None else "accuracy=False")
+        skipped(branch, "interrupted" if interrupted is not None else no_estimate)
     else:
         est_opts = dict(prob_k, **only(rest, "tol", "max_iter", "line_search"))
         branch.wall_time = time.perf_counter() - t0  # (the trace's time sets the stride of the estimates)
