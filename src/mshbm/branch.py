@@ -14,7 +14,9 @@
    ``R`` smooth in ``omega`` on ill-conditioned meshes (fresh LUs differ by their rounding) and saves most
    factorisations (``Branch.counters["condensation"]``).
 3. Every point is certified (:func:`mshbm.certificate.certify` at the corrector's tolerance): a point
-   whose certificate fails is rejected and the step is shortened.  Its stability is that of
+   whose certificate fails is rejected and the step is shortened.  Then every point gets the error estimates and the
+   gating ``accuracy`` of :func:`mshbm.solve` (:mod:`mshbm.branch_accuracy`): a point beyond it is kept and
+   reported not certified.  Its stability is that of
    :func:`mshbm.stability.assess` (exact event-driven multipliers with saltation terms for elements on
    single DOFs, else a verdict only for smooth motion, else ``None``).
 4. Folds are located from the sign change of the tangent's ``omega`` component (to ``1e-3``
@@ -63,6 +65,8 @@ from .route.options import capabilities, only, without
 from .scaling import displacement_floor
 from .solvers.arclength import continuation
 from .branch_grazing import grazing_locator
+from .branch_accuracy import certify_points, check_options, skipped, to_accuracy
+from .element_outputs import element_outputs
 from .subharmonic import PERIOD_K_TOL, check_period, period_options, subharmonic_content, subharmonic_system
 from .system import System
 
@@ -106,6 +110,7 @@ class BranchPoint:
                 "iterations": int(self.iterations), "residual": float(self.residual),
                 "certificate": self.certificate, "floquet_multipliers": _stability.multipliers_json(self.floquet_multipliers),
                 "stable": self.stable, "stability_method": self.stability_method, "contact": self.contact,
+                "elements": [e.summary() for e in (getattr(self.solution, "elements", None) or [])],
                 "x": [float(v) for v in self.x]}
 
 
@@ -116,7 +121,8 @@ class Branch:
     Attributes
     ----------
     success : bool
-        The branch reached the end of the requested range with every point certified.
+        The branch reached the end of the requested range with every point certified, the combined error
+        estimate within the accuracy included (:mod:`mshbm.branch_accuracy`).
     message : str
     method : str
     period : int
@@ -144,6 +150,8 @@ class Branch:
     wall_time: float = 0.0
     #: where a switched branch starts (:func:`switch_period_doubling`): ``{"type", "omega", "period"}``
     origin: dict = field(default_factory=dict)
+    #: the points' accuracy summary (:func:`mshbm.branch_accuracy.certify_points`)
+    accuracy: dict = field(default_factory=dict)
 
     @property
     def omega(self):
@@ -177,7 +185,7 @@ class Branch:
                 "stable": self.stable,
                 "bifurcations": [{k: v for k, v in b.items() if k != "x"} for b in self.bifurcations],
                 "iterations": [int(i) for i in self.iterations], "counters": self.counters,
-                "wall_time_s": float(self.wall_time), "origin": dict(self.origin),
+                "wall_time_s": float(self.wall_time), "origin": dict(self.origin), "accuracy": dict(self.accuracy),
                 "points": [p.as_dict() for p in self.points],
                 # a support motion (mshbm.support): amplitudes of the structure's DOFs, absolute and relative
                 **self._base_amplitudes()}
@@ -338,6 +346,7 @@ class _Tracer:
         else:
             _stability.assess(system, sol, self.stability, theta=self.options.get("theta", 0.5))
         sol.wall_time = time.perf_counter() - t0
+        sol.elements = element_outputs(sol, system)
         omega = float(omega_b) * self.k
         sol.info["period"], sol.info["forcing_omega"] = self.k, omega
         if step_accuracy is not None:
@@ -423,10 +432,11 @@ def _run(route, system, lam_start, lam_end, method, period, parameter, omega_fix
     if method not in METHODS:
         raise InputError("method", f"unknown method {method!r} (choose from {', '.join(METHODS)})")
     k = check_period(period)
-    if options.get("accuracy") is not None:
-        raise InputError("accuracy", "applies to mshbm.solve only: the points of a branch are certified for their "
-                                     "discretised equations, without the error estimates of mshbm.route.refine")
-    options, route = {key: v for key, v in options.items() if key != "accuracy"}, replace(route, estimate=False)
+    accuracy, every = check_options(options.get("accuracy"), options.get("estimate_every"))
+    options = {key: v for key, v in options.items() if key not in ("accuracy", "estimate_every")}
+    # a branch traced as a start of a solve (the "frequency" start: route.estimate False) needs no estimates
+    accuracy, no_estimate = (accuracy, "accuracy=False") if route.estimate else (False, "a start branch of a solve")
+    route = replace(route, estimate=False)
     if capabilities(method).penalty_laws and "penalty_quadrature" not in options \
             and any(el.unilateral for el in system.elements) \
             and linear_quadrature_unsupported(system.elements) is None:
@@ -520,6 +530,12 @@ def _run(route, system, lam_start, lam_end, method, period, parameter, omega_fix
     branch.bifurcations = sorted(folds + [dict(b) for b in others], key=lambda b: b.get("index", 0))
     branch.success = bool(res.success)
     branch.message = res.message + (f"; {note}" if note else "")
+    if interrupted is not None or accuracy is False:  # the points' error estimates (mshbm.branch_accuracy)
+        skipped(branch, "interrupted" if interrupted is not None else no_estimate)
+    else:
+        est_opts = dict(prob_k, **only(rest, "tol", "max_iter", "line_search"))
+        branch.wall_time = time.perf_counter() - t0  # (the trace's time sets the stride of the estimates)
+        certify_points(branch, route, tracer, method, est_opts, accuracy, every, [p.lam for p in res.points])
     branch.counters = dict(res.counters, start_iterations=int(sol0.iterations), points=len(branch.points),
                            condensation={k: int(v) for k, v in (reuse.counters if reuse is not None else {}).items()})
     branch.wall_time = time.perf_counter() - t0
@@ -547,8 +563,9 @@ def sweep(system, omega_start, omega_end, method="mshbm", period=1, **options):
         continuation's: ``ds`` (first arclength step, scaled, default 0.02), ``ds_min`` (1e-5),
         ``ds_max`` (0.1; growth bounded by a turn of the tangent of 0.5 rad per step), ``max_points`` (400), ``predictor`` (``"tangent"`` or ``"secant"``),
         ``max_time`` (s), ``progress`` (show progress on a terminal; ``"always"``: also elsewhere),
-        ``stability`` (as for :func:`mshbm.solve`), ``blas_threads`` (default 1, as for :func:`mshbm.solve`).
-        HBM with penalty contacts (``d_c = 0``, no friction loaded by a contact) defaults to
+        ``stability`` (as for :func:`mshbm.solve`), ``blas_threads`` (default 1, as for :func:`mshbm.solve`),
+        ``accuracy`` and ``estimate_every`` (every point's error estimates and the branch's refinement to a
+        requested accuracy, :mod:`mshbm.branch_accuracy`; ``accuracy=False``: none).  HBM with penalty contacts (``d_c = 0``, no friction loaded by a contact) defaults to
         ``penalty_quadrature="linear"`` here (:mod:`mshbm.methods.hbm`): with the sampled law the branch
         folds back at kinks of the sampled equations; give ``penalty_quadrature="samples"`` for the branch of
         :func:`mshbm.solve`'s default.
@@ -584,7 +601,9 @@ def _guarded(route, system, a, b, method, period, parameter, omega, options, fam
     """``_run`` with one BLAS thread (option ``blas_threads``, as :func:`mshbm.solve`) and quiet floats."""
     options = dict(options)
     with blas_threads(check_threads(options.pop("blas_threads", 1))), validate.quiet_floats():
-        return _run(route, system, a, b, method, period, parameter, omega, options, family)
+        branch = _run(route, system, a, b, method, period, parameter, omega, options, family)
+        return to_accuracy(lambda o: _run(route, system, a, b, method, period, parameter, omega, o, family), branch,
+                           options)
 
 
 def continue_forcing(system, omega, load_start, load_end=1.0, method="mshbm", period=1, **options):

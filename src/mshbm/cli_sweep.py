@@ -33,6 +33,7 @@ import numpy as np
 
 from . import __version__
 from .branch import sweep
+from .branch_accuracy import add_reduction
 from .errors import InputError
 from .interrupt import SweepInterrupted
 from .io.overrides import add_set_option, case_sets
@@ -70,6 +71,14 @@ def add_parser(sub, method_choices):
     s.add_argument("--integrator", choices=("moreau", "event"), default=None,
                    help="time integration of shooting and MS-HBM: Moreau-Jean time stepping (default) or the "
                    "exact event-driven flow, whose residual is smooth in omega at impacts")
+    s.add_argument("--accuracy", type=float, default=None, metavar="E",
+                   help="requested relative amplitude error of every point: the branch is traced again with more "
+                   "harmonics or steps until every point's combined error estimate is below E, else the points "
+                   "that fail are reported (default: no refinement, points certified at 1e-2; "
+                   "mshbm.branch_accuracy)")
+    s.add_argument("--estimate-every", type=int, default=None, metavar="K",
+                   help="re-solve the error estimates at every K-th point (default 4; also at the ends, peaks and "
+                   "bifurcations), the larger of the neighbours' estimates in between; 1: every point")
     s.add_argument("--max-points", type=int, default=None, metavar="N", help="most points on the branch (400)")
     s.add_argument("--out", default=None, metavar="FILE.json", help="write the branch as JSON")
     s.add_argument("--plot", default=None, metavar="FILE.png", help="plot amplitude against omega")
@@ -181,7 +190,7 @@ def _range(args):
 _NAMES = {"omega_start": "--omega-start", "omega_end": "--omega-end", "period": "--period",
           "max_points": "--max-points", "harmonics": "--harmonics", "steps": "--steps", "integrator": "--integrator",
           "lam_start": "--start", "lam_end": "--end", "start": "--start", "end": "--end", "omega": "--omega",
-          "parameter": "--parameter"}
+          "parameter": "--parameter", "accuracy": "--accuracy", "estimate_every": "--estimate-every"}
 
 
 def run(args, exit_codes, write_json, error):
@@ -202,6 +211,10 @@ def run(args, exit_codes, write_json, error):
     cli = {k: getattr(args, k) for k in ("harmonics", "steps", "integrator") if getattr(args, k) is not None}
     if args.max_points is not None:
         cli["max_points"] = args.max_points
+    if args.accuracy is not None:
+        cli["accuracy"] = args.accuracy
+    if args.estimate_every is not None:
+        cli["estimate_every"] = args.estimate_every
     progress = False if args.quiet else "always"
     interrupted = None
     try:
@@ -217,6 +230,8 @@ def run(args, exit_codes, write_json, error):
         if exc.key in _NAMES and exc.key in given:
             raise InputError(_NAMES[exc.key], exc.problem) from None
         raise
+    if case.reduction is not None and param == "omega" and interrupted is None:
+        add_reduction(br, case.reduction)  # the Craig-Bampton estimate, summed into every point's accuracy
     what = "omega" if param == "omega" else f"{param} at omega = {args.omega or case.omega:g}"
     if args.out is not None:
         payload = {"case": case.name, **br.to_dict(), "n_dofs": int(case.system.n), "source": case.source,
@@ -234,7 +249,7 @@ def run(args, exit_codes, write_json, error):
                          for b in br.bifurcations) or "none"
         print(f"case        {case.name}\nmethod      {method}\nparameter   {what}\nperiod      {args.period}\n"
               f"points      {len(br)}" + (f" ({param} {x.min():.6g} .. {x.max():.6g})" if len(br) else "") +
-              f"\nsuccess     {'yes' if br.success else 'no'}\nwall time   {br.wall_time:.2f} s\n"
+              f"\nsuccess     {'yes' if br.success else 'no'}\naccuracy    {_accuracy_line(br)}\nwall time   {br.wall_time:.2f} s\n"
               f"bifurcations {bifs}")
         for path in (args.out, args.plot):
             if path is not None and (path == args.out or len(br)):
@@ -244,6 +259,20 @@ def run(args, exit_codes, write_json, error):
         error(f"{br.message} ({name})" + ("; the points so far are written" if args.out or args.plot else ""))
         return 128 + int(interrupted.signum)
     if not br.success:
-        error(f"sweep stopped early: {br.message}")
+        reached = (br.accuracy or {}).get("reached_end")
+        error(f"sweep reached the end, but not every point is certified: {br.message}" if reached
+              else f"sweep stopped early: {br.message}")
         return not_conv
     return ok
+
+
+def _accuracy_line(br):
+    """One line on the points' error estimates (:mod:`mshbm.branch_accuracy`)."""
+    acc = br.accuracy or {}
+    if not acc or acc.get("skipped"):
+        return f"not estimated ({acc.get('skipped', 'no points')})"
+    big = acc.get("largest") or {}
+    return (f"{acc['certified_points']} of {len(br)} points within {acc['accuracy']:.0e} "
+            f"({'requested' if acc['requested'] else 'default'}); largest estimate "
+            + (f"{big['estimate']:.2g} ({big['name']})" if big.get("estimate") is not None else "none")
+            + f"; estimated at {len(acc['estimated_points'])} points")
