@@ -231,6 +231,7 @@ def backbone(system, amplitude_start, amplitude_end, mode=0, method="hbm", harmo
         raise InputError("integrator", f"only with method 'shooting' or 'mshbm' (got method {method!r}, which is "
                          "harmonic balance)")
     moreau = integrator == "moreau"
+    steps_given = steps is not None
     shooting = method == "shooting" and not moreau
     # the event-driven flow: corners, event sequences, its certificate
     flow = method in ("shooting", "mshbm") and not moreau
@@ -343,6 +344,13 @@ def backbone(system, amplitude_start, amplitude_end, mode=0, method="hbm", harmo
         msg += f" (after {len(bridged)} corner(s) passed by a restart from the DLFT mode, at a = " + \
             ", ".join(f"{a:.6g}" for a in bridged) + ")"
     msg = msg if not bad else f"{msg}; {len(bad)} point(s) not certified (first: {bad[0]})"
+    if (not found and method == "hbm" and not steps_given
+            and any(getattr(el, "smoothing", None) is not None for el in system.elements)):
+        # a steep regularisation (the case's smoothing kappa) that the default AFT samples do not resolve: the
+        # residual is then non-smooth at the samples' resolution and Newton stalls (friction3.yaml: converges
+        # with 8192)
+        msg += (f"; the regularised friction (smoothing {max(el.smoothing for el in system.elements if getattr(el, 'smoothing', None) is not None):g}) may need more "
+                f"AFT samples than the default {steps}: try steps (--steps) 8192")
     return Backbone(success=success, message=msg, mode=int(mode), method=method, harmonics=int(harmonics),
                     steps=int(steps), dofs=dofs, omega_linear=prob.omega0,
                     conservative=bool(getattr(prob, "conservative", False)), points=pts,
