@@ -344,6 +344,9 @@ def backbone(system, amplitude_start, amplitude_end, mode=0, method="hbm", harmo
         msg += f" (after {len(bridged)} corner(s) passed by a restart from the DLFT mode, at a = " + \
             ", ".join(f"{a:.6g}" for a in bridged) + ")"
     msg = msg if not bad else f"{msg}; {len(bad)} point(s) not certified (first: {bad[0]})"
+    if moreau and not success and any(el.acts and el.unilateral for el in system.elements):
+        msg += ("; Moreau-Jean's period map jumps where an impact moves to the next step (no smooth root past the "
+                "onset of impacts): integrator 'event' is exact there")
     if (not found and method == "hbm" and not steps_given
             and any(getattr(el, "smoothing", None) is not None for el in system.elements)):
         # a steep regularisation (the case's smoothing kappa) that the default AFT samples do not resolve: the

@@ -133,6 +133,9 @@ class EPMCProblem(ModalParameter):
                                  "supported")
             if el.cone_partner is not None:
                 raise InputError(f"{el.kind}.cone_partner", "backbone: the 3-D frictional contact is not supported")
+        if method == "dlft" and not system.elements:
+            raise InputError("method", "DLFT needs a friction or contact element (its Lagrange multipliers); the "
+                             "system is linear: use 'hbm' (exact for it) or 'shooting'")
         self.system, self.mode, self.n_h, self.Ns = system, int(mode), int(harmonics), int(steps)
         omegas, Phi = linear_modes(system, self.mode + 1)
         self.omega0, self.phi = float(omegas[-1]), Phi[:, -1]
