@@ -5,7 +5,10 @@ continuation (:func:`mshbm.solvers.arclength.continuation`) in ``lam = ln a`` of
 :mod:`mshbm.methods.epmc` (harmonic balance: ``method="hbm"`` or ``"dlft"``) or of
 :mod:`mshbm.methods.modes` (``method="shooting"``: the exact event-driven flow; for a conservative system,
 the conservative nonsmooth mode with ``xi = 0``) or of :mod:`mshbm.methods.modes_mixed` (``method="mshbm"``:
-MS-HBM, the element DOFs by that flow, the others condensed per harmonic) (notation there: ``a`` the mass-normalised modal
+MS-HBM, the element DOFs by that flow, the others condensed per harmonic); with ``integrator="moreau"`` shooting
+and MS-HBM step the period by Moreau-Jean instead (:mod:`mshbm.methods.modes_moreau`: any element the stepper
+takes; points add ``omega_error`` and ``D_error``, the half-steps estimate, and are certified when both are within
+``1e-3``) (notation there: ``a`` the mass-normalised modal
 amplitude of the first harmonic in kg^1/2 m, ``omega`` the frequency in rad/s, ``xi`` the artificial
 negative damping in 1/s, ``D = xi / (2 omega)`` the modal damping ratio).
 
@@ -172,7 +175,7 @@ def backbone(system, amplitude_start, amplitude_end, mode=0, method="hbm", harmo
         order.
     mode : int
         0-based mode of the linear system with the Jenkins joints stuck.
-    method : {"hbm", "dlft", "shooting"}
+    method : {"hbm", "dlft", "shooting", "mshbm"}
         HBM-AFT (regularised Coulomb friction, the set-valued Jenkins law, penalty contacts), DLFT (set-valued
         Coulomb friction on the ground and unilateral contact) or shooting with the exact event-driven flow
         (set-valued friction on the ground and unilateral contacts with Newton's impact law, any ``e_N``;
@@ -352,8 +355,9 @@ def backbone(system, amplitude_start, amplitude_end, mode=0, method="hbm", harmo
         # a steep regularisation (the case's smoothing kappa) that the default AFT samples do not resolve: the
         # residual is then non-smooth at the samples' resolution and Newton stalls (friction3.yaml: converges
         # with 8192)
-        msg += (f"; the regularised friction (smoothing {max(el.smoothing for el in system.elements if getattr(el, 'smoothing', None) is not None):g}) may need more "
-                f"AFT samples than the default {steps}: try steps (--steps) 8192")
+        kappa = max(el.smoothing for el in system.elements if getattr(el, "smoothing", None) is not None)
+        msg += (f"; the regularised friction (smoothing {kappa:g}) may need more AFT samples than the default "
+                f"{steps}: try steps (--steps) 8192")
     return Backbone(success=success, message=msg, mode=int(mode), method=method, harmonics=int(harmonics),
                     steps=int(steps), dofs=dofs, omega_linear=prob.omega0,
                     conservative=bool(getattr(prob, "conservative", False)), points=pts,

@@ -186,8 +186,8 @@ class MoreauModeProblem(ModalParameter):
     # ------------------------------------------------------------------ start
     def start(self, a):
         """Newton from the linear mode ``q = a phi sin(omega_0 t)`` (``xi`` of the linear mode, then with the
-        friction's describing function), else from the mode by the event-driven flow (:class:`mshbm.methods.modes.ShootingModeProblem`,
-        where it takes the system), else from the EPMC mode by DLFT (``n_h = 9``) shifted to this phase; the
+        friction's describing function), else from the mode by the event-driven flow
+        (:class:`mshbm.methods.modes.ShootingModeProblem`, where it takes the system), else from the EPMC mode by DLFT (``n_h = 9``) shifted to this phase; the
         last guess if none converges (the continuation's first corrector then says why)."""
         ig = self.stepper(self.omega0, self.xi0)
         q0, u0 = ig.initial_state(np.zeros(self.n), a * self.omega0 * self.phi)
