@@ -7,7 +7,10 @@
 # friction), rule `backbone_curve`.  On the same axes the forced responses at several levels of a tip force
 # (pointwise `mshbm.solve`, same method): the backbone must pass through their peaks.  The summary (rule
 # `backbone_summary`) holds every number shown here, and the timed 50-point backbone of the 100-DOF beam
-# (rule `backbone_timing`).
+# (rule `backbone_timing`).  MS-HBM takes the Jenkins joint with Moreau-Jean (its DOF and slider time-stepped,
+# 1024 steps per period; the event-driven flow does not take the Jenkins element).  Panel (c): the conservative
+# impact oscillator (e_N = 1) by shooting and MS-HBM with the exact event-driven flow against its closed form
+# T(A) (rule `backbone_impact`).
 
 # %% tags=["parameters"]
 config = "results/config.json"
@@ -26,9 +29,11 @@ S = nc.load_json(summary)
 N = S["numbers"]
 CURVES = S["curves"]
 COL = {"hbm": nc.COLORS["hbm"], "dlft": "#2ca02c", "mshbm": nc.COLORS["mshbm"]}
-LAB = {"hbm": "HBM (Jenkins)", "dlft": "DLFT (shoe)", "mshbm": "MS-HBM"}
+LAB = {"hbm": "HBM (Jenkins)", "dlft": "DLFT (shoe)", "mshbm": "MS-HBM (Jenkins, Moreau-Jean)"}
+IMP = S.get("impact")
 
-fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(8.0, 3.3))
+fig, axes = plt.subplots(1, 3 if IMP else 2, figsize=(11.5 if IMP else 8.0, 3.3))
+ax1, ax2 = axes[0], axes[1]
 for m, c in CURVES.items():
     b = c["backbone"]
     amp = np.asarray(b["amplitude_tip"]) * 1e3
@@ -39,7 +44,7 @@ for m, c in CURVES.items():
         sc = lv["scan"]
         ok = np.asarray(sc["success"], dtype=bool)
         w, a = np.asarray(sc["omega"])[ok], np.asarray(sc["amplitude"])[ok] * 1e3
-        ax1.plot(w, a, color=COL.get(m, "0.4"), lw=0.7, ls="-" if m == "hbm" else "--",
+        ax1.plot(w, a, color=COL.get(m, "0.4"), lw=0.7, ls={"hbm": "-", "dlft": "--"}.get(m, ":"),
                  label=f"forced responses, {LAB.get(m, m)}" if i == 0 else None)
         if lv["peak"]:
             ax1.plot(lv["peak"]["omega"], lv["peak"]["amplitude"] * 1e3, "o", ms=4, mfc="none", color=COL.get(m, "0.4"))
@@ -55,7 +60,22 @@ ax2.set_xlabel("tip amplitude (mm)")
 ax2.set_ylabel("damping ratio D (%)")
 ax2.set_title("(b) damping ratio")
 ax2.legend(fontsize=7)
-for ax in (ax1, ax2):
+if IMP:  # (c) the conservative impact oscillator against its closed form
+    ax3 = axes[2]
+    w0, g = IMP["model"]["omega0"], IMP["model"]["gap"]
+    cf = IMP["closed_form"]
+    ax3.plot(np.asarray(cf["omega"]) / w0, np.asarray(cf["A"]) / g, color="0.2", lw=1.0, label="closed form T(A)")
+    for m, mk in (("shooting", "o"), ("mshbm", "x")):
+        r = IMP["methods"].get(m)
+        if r:
+            ax3.plot(np.asarray(r["omega"]) / w0, np.asarray(r["A"]) / g, mk, ms=4, mfc="none",
+                     color=nc.COLORS.get(m, "0.4"), label=f"{'shooting' if m == 'shooting' else 'MS-HBM'} (event flow)")
+    ax3.axhline(1.0, color="0.6", lw=0.6, ls=":")
+    ax3.set_xlabel(r"$\omega / \omega_0$")
+    ax3.set_ylabel("free amplitude A / gap")
+    ax3.set_title("(c) impact oscillator, $e_N = 1$")
+    ax3.legend(fontsize=7, loc="upper left")
+for ax in axes:
     ax.grid(alpha=0.3, which="both")
 fig.tight_layout()
 nc.save(fig, out_png, out_pdf)
@@ -100,3 +120,8 @@ display(Markdown(nc.md_table(["method", "force (N)", "aimed a", "peak's a", "pea
 display(Markdown(f"Largest deviation {100 * N['max_deviation']:.4f} % (goal {100 * N['deviation_goal']:.2g} %); "
                  f"50-point backbone of the {N['timing_n_dofs']}-DOF beam: {N['timing_points']} points in "
                  f"{N['timing_cpu_s']:.2f} s of CPU (goal {N['time_goal']:g} s)."))
+if IMP:
+    display(Markdown("Impact oscillator (e_N = 1), against the closed form T(A): " + "; ".join(
+        f"{'shooting' if m == 'shooting' else 'MS-HBM'} {N[f'impact_{m}_points']} points, largest |T/T(A) - 1| "
+        f"{N[f'impact_{m}_period_error']:.2g}, largest |D| {N[f'impact_{m}_D_max']:.2g}, {N[f'impact_{m}_cpu_s']:.1f} s CPU"
+        for m in IMP["methods"]) + f"; ω/ω₀ up to {N['impact_omega_ratio_max']:.3f}."))

@@ -5,7 +5,10 @@ continuation (:func:`mshbm.solvers.arclength.continuation`) in ``lam = ln a`` of
 :mod:`mshbm.methods.epmc` (harmonic balance: ``method="hbm"`` or ``"dlft"``) or of
 :mod:`mshbm.methods.modes` (``method="shooting"``: the exact event-driven flow; for a conservative system,
 the conservative nonsmooth mode with ``xi = 0``) or of :mod:`mshbm.methods.modes_mixed` (``method="mshbm"``:
-MS-HBM, the element DOFs by that flow, the others condensed per harmonic) (notation there: ``a`` the mass-normalised modal
+MS-HBM, the element DOFs by that flow, the others condensed per harmonic); with ``integrator="moreau"`` shooting
+and MS-HBM step the period by Moreau-Jean instead (:mod:`mshbm.methods.modes_moreau`: any element the stepper
+takes; points add ``omega_error`` and ``D_error``, the half-steps estimate, and are certified when both are within
+``1e-3``) (notation there: ``a`` the mass-normalised modal
 amplitude of the first harmonic in kg^1/2 m, ``omega`` the frequency in rad/s, ``xi`` the artificial
 negative damping in 1/s, ``D = xi / (2 omega)`` the modal damping ratio).
 
@@ -52,6 +55,7 @@ from .errors import InputError
 from .methods.epmc import EPMCProblem
 from .methods.modes import ShootingModeProblem
 from .methods.modes_mixed import MixedModeProblem
+from .methods.modes_moreau import MOREAU_D_TOL, MOREAU_OMEGA_TOL, MoreauModeProblem
 from .options import aft_steps
 from .solvers.arclength import continuation
 from .system import System
@@ -62,6 +66,8 @@ __all__ = ["backbone", "Backbone"]
 ENERGY_TOL = 1e-6
 #: output samples per period of a point by shooting (the flow is exact: they only split it into pieces)
 SHOOTING_STEPS = 256
+#: Moreau-Jean steps per period of a backbone with ``integrator="moreau"`` (order 1 at stick-slip and impacts)
+MOREAU_STEPS = 1024
 #: the per-point fields of shooting besides the common ones (module docstring)
 _SHOOTING_KEYS = ("periodicity_q", "periodicity_u", "energy", "energy_drift", "impacts", "events",
                   "moreau_segments", "max_multiplier", "energy_mismatch", "q0", "u0")
@@ -81,6 +87,7 @@ class Backbone:
     dofs: list
     omega_linear: float
     conservative: bool = False
+    integrator: str | None = None
     points: list = field(default_factory=list)
     wall_time: float = 0.0
     cpu_time: float = 0.0
@@ -120,6 +127,9 @@ class Backbone:
                                   "neutrally stable)" if self.conservative and self.method == "shooting" else
                                   "not defined for the EPMC's artificial autonomous motion")}
         extra = {"shooting": _SHOOTING_KEYS, "mshbm": ("impacts", "events", "moreau_segments")}.get(self.method, ())
+        if self.integrator == "moreau":
+            extra = ("omega_error", "D_error") + (("contact_steps",) if self.method == "shooting" else extra)
+        out["integrator"] = self.integrator
         for k in keys + extra:
             out[k] = [p[k] for p in self.points]
         out["amplitude"] = [list(map(float, p["amplitude"])) for p in self.points]
@@ -154,7 +164,7 @@ def _positive(key, value):
 
 
 def backbone(system, amplitude_start, amplitude_end, mode=0, method="hbm", harmonics=5, steps=None, dofs=None,
-             points=50, max_points=None, tol=1e-8, progress=False, max_time=None):
+             points=50, max_points=None, tol=1e-8, progress=False, max_time=None, integrator=None):
     """Backbone of mode ``mode``: frequency and damping ratio against modal amplitude (EPMC).
 
     Parameters
@@ -165,7 +175,7 @@ def backbone(system, amplitude_start, amplitude_end, mode=0, method="hbm", harmo
         order.
     mode : int
         0-based mode of the linear system with the Jenkins joints stuck.
-    method : {"hbm", "dlft", "shooting"}
+    method : {"hbm", "dlft", "shooting", "mshbm"}
         HBM-AFT (regularised Coulomb friction, the set-valued Jenkins law, penalty contacts), DLFT (set-valued
         Coulomb friction on the ground and unilateral contact) or shooting with the exact event-driven flow
         (set-valued friction on the ground and unilateral contacts with Newton's impact law, any ``e_N``;
@@ -192,6 +202,13 @@ def backbone(system, amplitude_start, amplitude_end, mode=0, method="hbm", harmo
         Progress on stderr (a terminal only, or always).
     max_time : float, optional
         Wall-time limit (s).
+    integrator : {"event", "moreau"}, optional
+        Shooting and MS-HBM only: the exact event-driven flow (default) or Moreau-Jean time stepping
+        (:mod:`mshbm.methods.modes_moreau`: every element the stepper takes, Jenkins joints as sliders; ``steps``
+        Moreau-Jean steps per period, default 1024; a point is certified only when the half-steps estimate of
+        its error is within ``MOREAU_OMEGA_TOL`` in omega (relative) and ``MOREAU_D_TOL`` in D; a conservative
+        system with impacts is refused: its orbit family with ``xi = 0`` does not exist for the discrete
+        scheme).
 
     Returns
     -------
@@ -211,9 +228,21 @@ def backbone(system, amplitude_start, amplitude_end, mode=0, method="hbm", harmo
         raise InputError("max_points", f"must be an integer >= 2, got {max_points!r}")
     # shooting: the branch has corners where the event sequence changes (a grazing impact): the event
     # sequence marks its smooth pieces, and a step at fixed a crosses a corner the corrector cannot turn
-    shooting = method == "shooting"
-    flow = method in ("shooting", "mshbm")  # the event-driven flow: corners, event sequences, its certificate
-    if shooting:
+    if integrator is not None and integrator not in ("event", "moreau"):
+        raise InputError("integrator", f"must be 'event' or 'moreau', got {integrator!r}")
+    if integrator is not None and method not in ("shooting", "mshbm"):
+        raise InputError("integrator", f"only with method 'shooting' or 'mshbm' (got method {method!r}, which is "
+                         "harmonic balance)")
+    moreau = integrator == "moreau"
+    steps_given = steps is not None
+    shooting = method == "shooting" and not moreau
+    # the event-driven flow: corners, event sequences, its certificate
+    flow = method in ("shooting", "mshbm") and not moreau
+    if moreau:
+        steps = MOREAU_STEPS if steps is None else steps
+        prob = (MoreauModeProblem(system, mode, harmonics, steps) if method == "shooting" else
+                MixedModeProblem(system, mode, harmonics, steps, integrator="moreau"))
+    elif shooting:
         steps = SHOOTING_STEPS if steps is None else steps
         prob = ShootingModeProblem(system, mode, harmonics, steps)
     elif method == "mshbm":
@@ -245,6 +274,8 @@ def backbone(system, amplitude_start, amplitude_end, mode=0, method="hbm", harmo
             if prob.conservative:
                 ok = ok and pt["energy_drift"] <= 10 * tol and abs(pt["damping_ratio"]) <= 10 * tol
                 pt["stable"] = bool(pt["max_multiplier"] <= 1 + 1e-6)
+        elif moreau:  # residuals and the half-steps error estimate (mshbm.methods.modes_moreau)
+            ok = ok and pt["omega_error"] <= MOREAU_OMEGA_TOL and pt["D_error"] <= MOREAU_D_TOL
         elif method == "mshbm":  # no energy balance (mshbm.methods.modes_mixed)
             ok = ok and not pt["moreau_segments"] and (not prob.conservative or abs(pt["damping_ratio"]) <= 10 * tol)
         else:
@@ -316,7 +347,19 @@ def backbone(system, amplitude_start, amplitude_end, mode=0, method="hbm", harmo
         msg += f" (after {len(bridged)} corner(s) passed by a restart from the DLFT mode, at a = " + \
             ", ".join(f"{a:.6g}" for a in bridged) + ")"
     msg = msg if not bad else f"{msg}; {len(bad)} point(s) not certified (first: {bad[0]})"
+    if moreau and not success and any(el.acts and el.unilateral for el in system.elements):
+        msg += ("; Moreau-Jean's period map jumps where an impact moves to the next step (no smooth root past the "
+                "onset of impacts): integrator 'event' is exact there")
+    if (not found and method == "hbm" and not steps_given
+            and any(getattr(el, "smoothing", None) is not None for el in system.elements)):
+        # a steep regularisation (the case's smoothing kappa) that the default AFT samples do not resolve: the
+        # residual is then non-smooth at the samples' resolution and Newton stalls (friction3.yaml: converges
+        # with 8192)
+        kappa = max(el.smoothing for el in system.elements if getattr(el, "smoothing", None) is not None)
+        msg += (f"; the regularised friction (smoothing {kappa:g}) may need more AFT samples than the default "
+                f"{steps}: try steps (--steps) 8192")
     return Backbone(success=success, message=msg, mode=int(mode), method=method, harmonics=int(harmonics),
                     steps=int(steps), dofs=dofs, omega_linear=prob.omega0,
                     conservative=bool(getattr(prob, "conservative", False)), points=pts,
+                    integrator=(integrator or "event") if method in ("shooting", "mshbm") else None,
                     wall_time=time.perf_counter() - t0, cpu_time=time.process_time() - c0)

@@ -2,7 +2,7 @@
 by shooting with the exact event-driven flow (:func:`mshbm.backbone`; a conservative system's mode with
 ``shooting``: damping ratio 0).
 
-``mshbm backbone CASE.yaml --method hbm|dlft|shooting|mshbm --mode K --amplitude-start A --amplitude-end B [--harmonics N]
+``mshbm backbone CASE.yaml --method hbm|dlft|shooting|mshbm [--integrator event|moreau] --mode K --amplitude-start A --amplitude-end B [--harmonics N]
 [--steps N] [--points N] [--max-points N] [--dofs D [D ...]] [--out b.json] [--plot b.png] [--quiet]``
 
 The case's forcing and frequency are ignored (the mode is an autonomous motion).  Exit codes as for
@@ -35,6 +35,10 @@ def add_parser(sub):
                    help="hbm (HBM-AFT, default), dlft (set-valued friction and contact), shooting (the exact "
                    "event-driven flow: friction on the ground and impacts) or mshbm (the element DOFs by that flow, "
                    "the others by harmonic balance)")
+    s.add_argument("--integrator", choices=("event", "moreau"), default=None,
+                   help="shooting and mshbm: the exact event-driven flow (default) or Moreau-Jean time stepping "
+                   "(any element the stepper takes, e.g. Jenkins joints; --steps steps per period, default 1024; "
+                   "refused for a conservative system with impacts)")
     s.add_argument("--mode", type=int, default=0, metavar="K", help="0-based mode of the linear system with "
                    "the Jenkins joints stuck (default 0)")
     s.add_argument("--amplitude-start", type=float, required=True, metavar="A",
@@ -92,11 +96,11 @@ def run(args, exit_codes, write_json, error):
     case = _io.load_case(args.case)
     names = {"amplitude_start": "--amplitude-start", "amplitude_end": "--amplitude-end", "mode": "--mode",
              "harmonics": "--harmonics", "steps": "--steps", "points": "--points", "dofs": "--dofs", "max_points": "--max-points",
-             "method": "--method"}
+             "method": "--method", "integrator": "--integrator"}
     try:
         bb = backbone(case.system, args.amplitude_start, args.amplitude_end, mode=args.mode, method=args.method,
                       harmonics=args.harmonics, steps=args.steps, dofs=args.dofs, points=args.points,
-                      max_points=args.max_points,
+                      max_points=args.max_points, integrator=args.integrator,
                       progress=False if args.quiet else "always")
     except InputError as exc:
         if exc.key in names:
@@ -107,7 +111,8 @@ def run(args, exit_codes, write_json, error):
                    "version": __version__}
         write_json(args.out, payload, args.case)
     if args.plot is not None and len(bb):
-        plot(bb, args.plot, title=f"{case.name}: mode {args.mode}, {args.method}, n_h = {args.harmonics}")
+        how = args.method + (f" ({bb.integrator})" if bb.integrator else "")
+        plot(bb, args.plot, title=f"{case.name}: mode {args.mode}, {how}, n_h = {args.harmonics}")
     if not args.quiet:
         text = f"case        {case.name}\nmethod      {args.method}\nmode        {args.mode}\npoints      {len(bb)}"
         if len(bb):

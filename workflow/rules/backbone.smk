@@ -7,6 +7,8 @@
 #
 #   <results>/backbone/<method>.json   backbone, forced responses, peaks (rule backbone_curve)
 #   <results>/backbone/timing.json     the 100-DOF beam's backbone: points, CPU and wall time (rule backbone_timing)
+#   <results>/backbone/impact.json     the conservative impact oscillator's backbone by shooting and MS-HBM (event flow)
+#                                      against its closed form T(A) (rule backbone_impact, config backbone.impact)
 #   <results>/summary/backbone.json    numbers of Fig. 11 and the paper (rule backbone_summary)
 
 if config.get("backbone"):
@@ -60,17 +62,40 @@ if config.get("backbone"):
         script:
             "../scripts/cli_job.py"
 
+    rule backbone_impact:
+        input:
+            config=f"{R}/config.json",  # the section `backbone.impact` (read by the script)
+            script="workflow/scripts/backbone/impact_backbone.py",
+        output:
+            f"{BB_DIR}/impact.json",
+        params:
+            argv=lambda w, input, output: ["--config", input.config, "--out", output[0]],
+            solver=SOLVER_DIGEST,
+        log:
+            f"{R}/logs/backbone/impact.log",
+        benchmark:
+            f"{R}/logs/times/backbone/impact.tsv",
+        threads: 1
+        resources:
+            mem_mb=500,
+            runtime=10,
+        message:
+            "python {input.script} {params.argv}"
+        script:
+            "../scripts/cli_job.py"
+
     rule backbone_summary:
         input:
             config=f"{R}/config.json",
             curves=expand(f"{BB_DIR}/{{bmethod}}.json", bmethod=BB["methods"]),
             timing=rules.backbone_timing.output[0],
+            impact=f"{BB_DIR}/impact.json" if BB.get("impact") else [],
             script="workflow/scripts/backbone/backbone_summary.py",
         output:
             f"{R}/summary/backbone.json",
         params:
             argv=lambda w, input, output: ["--config", input.config, "--timing", input.timing, "--out", output[0],
-                                           *input.curves],
+                                           *(["--impact", input.impact] if BB.get("impact") else []), *input.curves],
         log:
             f"{R}/logs/backbone/summary.log",
         benchmark:

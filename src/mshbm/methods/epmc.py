@@ -45,15 +45,13 @@ from ..elements import Jenkins
 from ..system import System
 from .dlft import DLFTProblem
 from .hbm import HBMProblem
+from .modes_common import ModalParameter, fd_omega_xi, xi_guess
+from ..solvers.newton import newton
 
 #: the harmonic-balance problems EPMC builds on (same constructor: system, omega, n_h, steps, condense, partition)
 PROBLEMS = {"hbm": HBMProblem, "dlft": DLFTProblem}
 
 __all__ = ["EPMCProblem", "linear_modes", "shifted_system"]
-
-#: relative central-difference steps of ``dR/domega`` and ``dR/dxi`` (the latter relative to omega)
-_FD_OMEGA, _FD_XI = 1e-6, 1e-6
-
 
 def _dense(A):
     return A.toarray() if sp.issparse(A) else np.asarray(A, dtype=float)
@@ -102,7 +100,7 @@ def shifted_system(system, xi):
     return new
 
 
-class EPMCProblem:
+class EPMCProblem(ModalParameter):
     """The EPMC residual of mode ``mode`` (0-based) for :func:`mshbm.solvers.arclength.continuation`.
 
     Parameters
@@ -139,6 +137,9 @@ class EPMCProblem:
                 what = "tangential_stiffness" if el.history else "relative_to"
                 raise InputError(f"{el.kind}.{what}", "backbone with DLFT: ground friction and contacts only "
                                  "(relative and elastic (Jenkins) elements: use method 'hbm')")
+        if method == "dlft" and not system.elements:
+            raise InputError("method", "DLFT needs a friction or contact element (its Lagrange multipliers); the "
+                             "system is linear: use 'hbm' (exact for it) or 'shooting'")
         self.system, self.mode, self.n_h, self.Ns = system, int(mode), int(harmonics), int(steps)
         omegas, Phi = linear_modes(system, self.mode + 1)
         self.omega0, self.phi = float(omegas[-1]), Phi[:, -1]
@@ -184,10 +185,26 @@ class EPMCProblem:
         return p
 
     def start(self, a):
-        """Unknowns of the linear mode at modal amplitude ``a``: ``q = a phi cos(omega_0 t)``."""
+        """Unknowns of the linear mode at modal amplitude ``a``: ``q = a phi cos(omega_0 t)``, ``xi`` of the
+        linear mode, corrected by Newton at ``a``; else the same with ``xi`` from the friction's describing
+        function (:func:`mshbm.methods.modes_common.xi_guess`: a slipping Coulomb contact on the ground, whose
+        damping dominates at small amplitude); the uncorrected linear mode if neither converges (the
+        continuation's first corrector then says why)."""
         X = np.zeros((2 * self.n_h + 1, self.nR))
         X[1] = a * self.phi[self.keep]
-        return np.r_[X.reshape(-1), self.omega0, self.xi0]
+        lin = np.r_[X.reshape(-1), self.omega0, self.xi0]
+        if not any(el.acts for el in self.system.elements):
+            return lin
+        lam = float(np.log(a / self.a_ref))
+        for xi in (self.xi0, xi_guess(self.system, self.phi, self.omega0, self.xi0, a)):
+            try:
+                res = newton(lambda x, jac=True: self.residual(x, lam, jac), np.r_[lin[:-1], xi], tol=1e-10,
+                             max_iter=30, scale=lambda x: self.residual_scale(x, lam))
+            except (Failed, np.linalg.LinAlgError):
+                continue
+            if res.success:
+                return res.x
+        return lin
 
     def _amp_rows(self, p, x, a):
         X = x.reshape(2 * self.n_h + 1, self.nR)
@@ -214,24 +231,16 @@ class EPMCProblem:
         J[n + 1, nR:2 * nR], J[n + 1, 2 * nR:3 * nR] = w.imag, -w.real
         omega, xi = float(y[-2]), float(y[-1])
         x = y[:n]
-        for col, (om, xx, d) in ((n, (omega * (1 + _FD_OMEGA), xi, omega * _FD_OMEGA)),
-                                 (n + 1, (omega, xi + _FD_XI * omega, _FD_XI * omega))):
-            pp = self.hbm(om, xx)
-            pm = self.hbm(2 * omega - om, 2 * xi - xx)
-            # the linear part A x (HBM's forces do not depend on xi; on omega only through velocity laws)
-            if self._velocity_laws and (col == n or self.method == "dlft"):
-                dR = pp.residual(x, jac=False)[0] - pm.residual(x, jac=False)[0]
-            else:
-                dR = pp.A @ x - pm.A @ x
-            J[:n, col] = dR / (2 * d)
-            J[n:, col] = (self._amp_rows(pp, x, 0.0) - self._amp_rows(pm, x, 0.0)) / (2 * d)
-        return R, J
+        full = self._velocity_laws  # the element forces depend on omega (velocity laws; DLFT: on xi too)
 
-    def d_lam(self, y, lam):
-        """``dR / dlam``: ``-a`` on the amplitude row."""
-        g = np.zeros(self.n_unknowns)
-        g[self.n_x] = -self.a_ref * np.exp(lam)
-        return g
+        def rows(om, xx):
+            p = self.hbm(om, xx)
+            # the linear part A x (HBM's forces do not depend on xi; on omega only through velocity laws)
+            lin = p.residual(x, jac=False)[0] if full and (xx == xi or self.method == "dlft") else p.A @ x
+            return np.r_[lin, self._amp_rows(p, x, 0.0)]
+
+        J[:, n:] = fd_omega_xi(rows, omega, xi)
+        return R, J
 
     def force_scale(self, a):
         """Force scale (N) of the HBM rows at modal amplitude ``a``: the largest modal inertia force

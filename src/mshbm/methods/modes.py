@@ -43,10 +43,10 @@ from ..solvers.arclength_parts import Failed
 from ..solvers.arclength import continuation
 from ..solvers.newton import newton
 from .epmc import linear_modes, shifted_system
+from .modes_common import ModalParameter, fd_omega_xi, xi_guess
 
 __all__ = ["ShootingModeProblem", "xi_guess", "harmonic_mode_past", "shift_to_sine_phase"]
 
-_FD_OMEGA, _FD_XI = 1e-6, 1e-6
 #: Gauss-Legendre nodes per smooth piece of the power integrals of the energy balance
 _GAUSS = np.polynomial.legendre.leggauss(8)
 
@@ -87,20 +87,7 @@ def shift_to_sine_phase(q_hat, omega):
     return out, (V @ out).reshape(-1), (V @ fourier.derivative(out, omega)).reshape(-1)
 
 
-def xi_guess(system, phi, omega0, xi0, a):
-    """``xi`` (1/s) of the linear mode ``phi`` (``xi0``) plus the describing function of the friction elements
-    on it: a bound ``mu F_N`` slipping with amplitude ``s = |w^T phi| a`` dissipates as a dashpot
-    ``4 mu F_N / (pi omega_0 s)``."""
-    xi = xi0
-    for el in system.elements:
-        if el.acts and el.bounded:
-            wphi = abs(float(phi[el.dof] - (phi[el.relative_to] if el.relative_to is not None else 0.0)))
-            if wphi > 0:
-                xi += 4 * float(el.force_scale(0.0)) * wphi / (np.pi * omega0 * a)
-    return xi
-
-
-class ShootingModeProblem:
+class ShootingModeProblem(ModalParameter):
     """The shooting-EPMC residual of mode ``mode`` for :func:`mshbm.solvers.arclength.continuation`
     (the interface of :class:`mshbm.methods.epmc.EPMCProblem`).
 
@@ -303,19 +290,13 @@ class ShootingModeProblem:
         dq = fr.q_hat_sensitivity  # (3, n, 2n)
         J[n2, :n2] = self.v @ dq[2]
         J[n2 + 1, :n2] = self.v @ dq[1]
-        omega, xi = float(y[-2]), float(y[-1])
-        for col, (om, xx, d) in ((n2, (omega * (1 + _FD_OMEGA), xi, omega * _FD_OMEGA)),
-                                 (n2 + 1, (omega, xi + _FD_XI * omega, _FD_XI * omega))):
-            rp, rm = self.run(y, om, xx), self.run(y, 2 * omega - om, 2 * xi - xx)
-            J[:n2, col] = (rp.end_state[:n2] - rm.end_state[:n2]) / (2 * d)
-            J[n2:, col] = (self._amp_rows(rp.q_hat, 0.0) - self._amp_rows(rm.q_hat, 0.0)) / (2 * d)
-        return R, J
 
-    def d_lam(self, y, lam):
-        """``dR / dlam``: ``-a`` on the amplitude row."""
-        g = np.zeros(self.n_unknowns)
-        g[self.n_x] = -self.a_ref * np.exp(lam)
-        return g
+        def rows(om, xx):
+            r = self.run(y, om, xx)
+            return np.r_[r.end_state[:n2], self._amp_rows(r.q_hat, 0.0)]
+
+        J[:, n2:] = fd_omega_xi(rows, float(y[-2]), float(y[-1]))
+        return R, J
 
     def _disp_scale(self, y, a):
         n = self.n

@@ -27,14 +27,15 @@ from ..solvers.arclength_parts import Failed
 from ..solvers.newton import newton
 from .epmc import linear_modes, shifted_system
 from .mixed import MixedProblem
+from .modes_common import ModalParameter, fd_omega_xi
+from .modes_moreau import half_steps_error, refuse_conservative_impacts
 from .modes import ShootingModeProblem, harmonic_mode_past, shift_to_sine_phase, xi_guess
 
 __all__ = ["MixedModeProblem"]
 
-_FD_OMEGA, _FD_XI = 1e-6, 1e-6
 
 
-class MixedModeProblem:
+class MixedModeProblem(ModalParameter):
     """The MS-HBM EPMC residual of mode ``mode`` (interface of :class:`mshbm.methods.epmc.EPMCProblem`).
 
     Parameters
@@ -45,19 +46,29 @@ class MixedModeProblem:
     harmonics : int
         ``n_h`` of the coupling.
     steps : int
-        Output samples per period of the flow (and its Moreau-Jean fallback's steps).
+        Output samples per period of the flow (and its Moreau-Jean fallback's steps); with
+        ``integrator="moreau"`` the Moreau-Jean steps per period (even).
+    integrator : {"event", "moreau"}
+        The exact event-driven flow (default) or Moreau-Jean time stepping of ``N`` (every element the stepper
+        takes, Jenkins elements as sliders; a point then carries the half-steps error estimate of
+        :mod:`mshbm.methods.modes_moreau`; a conservative system with impacts is refused there).
     """
 
     method = "mshbm"
 
-    def __init__(self, system, mode, harmonics, steps):
+    def __init__(self, system, mode, harmonics, steps, integrator="event"):
         if isinstance(mode, bool) or not isinstance(mode, (int, np.integer)) or not 0 <= mode < system.n:
             raise InputError("mode", f"must be an integer in 0..{system.n - 1}, got {mode!r}")
         if isinstance(harmonics, bool) or not isinstance(harmonics, (int, np.integer)) or harmonics < 1:
             raise InputError("harmonics", f"must be an integer >= 1, got {harmonics!r}")
         if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps <= 2 * harmonics:
             raise InputError("steps", f"must be an integer > 2 harmonics = {2 * harmonics}, got {steps!r}")
+        if integrator not in ("event", "moreau"):
+            raise InputError("integrator", f"must be 'event' or 'moreau', got {integrator!r}")
+        if integrator == "moreau" and steps % 2:
+            raise InputError("steps", f"must be even with integrator 'moreau', got {steps!r}")
         self.system, self.mode, self.n_h, self.Ns = system, int(mode), int(harmonics), int(steps)
+        self.integrator = integrator
         self.Nd = np.asarray(system.nonlinear_dofs, dtype=np.int64)
         if self.Nd.size == 0:
             raise InputError("method", "MS-HBM needs a friction or contact element (its time-domain subsystem)")
@@ -66,15 +77,20 @@ class MixedModeProblem:
         self.v = np.asarray(system.M @ self.phi).reshape(-1)
         self.ref_dof = int(np.argmax(np.abs(self.phi)))
         self.nN, self.nc = self.Nd.size, 2 * self.n_h + 1
-        self.n_x = self.nc * self.nN + 2 * self.nN
-        self.n_unknowns = self.n_x + 2
         C = system.C.toarray() if hasattr(system.C, "toarray") else np.asarray(system.C)
         self.xi0 = float(self.phi @ (C @ self.phi))
         acting = [el for el in system.elements if el.acts]
         self.conservative = (not np.any(C) and all(el.unilateral and el.restitution == 1.0 for el in acting))
+        if integrator == "moreau":
+            refuse_conservative_impacts(system, self.conservative, "mshbm")
         self._cache = {}
+        self._half = None
         self.a_ref = 1.0
-        self.problem(self.omega0, self.xi0)  # input checks of MS-HBM and the flow, at once
+        # input checks of MS-HBM and the integrator, at once; n_A the integrated states of N (Moreau-Jean: one
+        # slider per Jenkins element more)
+        self.nA = self.problem(self.omega0, self.xi0).nA
+        self.n_x = self.nc * self.nN + 2 * self.nA
+        self.n_unknowns = self.n_x + 2
 
     # ------------------------------------------------------------------ problems
     def problem(self, omega, xi):
@@ -88,7 +104,7 @@ class MixedModeProblem:
                 self._cache.clear()
             try:
                 p = MixedProblem(shifted_system(self.system, xi), omega, self.n_h, self.Ns, partition=self.Nd,
-                                 integrator="event")
+                                 integrator=self.integrator)
             except np.linalg.LinAlgError as exc:
                 raise Failed(f"condensation at omega = {omega:.6g}: {exc}") from None
             Ld = p.cond.elim
@@ -119,17 +135,13 @@ class MixedModeProblem:
         w, nN = p._w, self.nN
         J[n, nN:2 * nN], J[n, 2 * nN:3 * nN] = -w.imag, w.real
         J[n + 1, nN:2 * nN], J[n + 1, 2 * nN:3 * nN] = w.real, w.imag
-        for col, (om, xx, d) in ((n, (omega * (1 + _FD_OMEGA), xi, omega * _FD_OMEGA)),
-                                 (n + 1, (omega, xi + _FD_XI * omega, _FD_XI * omega))):
-            pp, pm = self.problem(om, xx), self.problem(2 * omega - om, 2 * xi - xx)
-            J[:n, col] = (pp.residual(x, False)[0] - pm.residual(x, False)[0]) / (2 * d)
-            J[n:, col] = (self._amp_rows(pp, x, 0.0) - self._amp_rows(pm, x, 0.0)) / (2 * d)
-        return R, J
 
-    def d_lam(self, y, lam):
-        g = np.zeros(self.n_unknowns)
-        g[self.n_x] = -self.a_ref * np.exp(lam)
-        return g
+        def rows(om, xx):
+            pp = self.problem(om, xx)
+            return np.r_[pp.residual(x, False)[0], self._amp_rows(pp, x, 0.0)]
+
+        J[:, n:] = fd_omega_xi(rows, omega, xi)
+        return R, J
 
     def residual_scale(self, y, lam):
         """MS-HBM's row scales (m, m/s) and ``a`` on the amplitude rows."""
@@ -141,10 +153,11 @@ class MixedModeProblem:
     def unknown_scale(self, y, lam):
         a = float(self.a_ref * np.exp(lam))
         w = abs(float(y[-2]))
-        D = max(float(np.max(np.abs(y[:self.n_x - self.nN]))), float(np.max(np.abs(y[self.n_x - self.nN:self.n_x]))) / w,
+        nu = self.n_x - self.nA  # the velocities u_N(0) are the last n_A of x
+        D = max(float(np.max(np.abs(y[:nu]))), float(np.max(np.abs(y[nu:self.n_x]))) / w,
                 a * float(np.max(np.abs(self.phi))))
         s = np.full(self.n_unknowns, D)
-        s[self.n_x - self.nN:self.n_x] = D * w
+        s[nu:self.n_x] = D * w
         s[-2:] = w
         return s
 
@@ -160,11 +173,13 @@ class MixedModeProblem:
         whole system at ``a`` (:meth:`ShootingModeProblem.start`, where the event flow takes the system)."""
         X = np.zeros((self.nc, self.nN))
         X[2] = a * self.phi[self.Nd]
-        xi = xi_guess(self.system, self.phi, self.omega0, self.xi0, a)
-        lin = np.r_[X.reshape(-1), np.zeros(self.nN), a * self.omega0 * self.phi[self.Nd], self.omega0, xi]
-        res = self._newton_at(lin, a)
-        if res is not None and res.success:
-            return res.x
+        for xi in ((self.xi0,) if self.integrator == "moreau" else ()) + \
+                (xi_guess(self.system, self.phi, self.omega0, self.xi0, a),):
+            lin = np.r_[X.reshape(-1), self._state(np.zeros(self.nN), a * self.omega0 * self.phi[self.Nd]),
+                        self.omega0, xi]
+            res = self._newton_at(lin, a)
+            if res is not None and res.success:
+                return res.x
         try:
             sh = ShootingModeProblem(self.system, self.mode, self.n_h, max(self.Ns, 64))
             sh.a_ref = self.a_ref
@@ -173,7 +188,7 @@ class MixedModeProblem:
         except (Failed, InputError):
             return lin
         n = self.system.n
-        y = np.r_[fr.q_hat[:, self.Nd].reshape(-1), ys[self.Nd], ys[n + self.Nd], ys[-2], ys[-1]]
+        y = np.r_[fr.q_hat[:, self.Nd].reshape(-1), self._state(ys[self.Nd], ys[n + self.Nd]), ys[-2], ys[-1]]
         res = self._newton_at(y, a)
         return res.x if res is not None and res.success else y
 
@@ -194,10 +209,14 @@ class MixedModeProblem:
             P = np.zeros((self.nc, self.nN))
             m = min(self.nc, qh.shape[0])
             P[:m] = qh[:m, self.Nd]
-            res = self._newton_at(np.r_[P.reshape(-1), q[self.Nd], u[self.Nd], omega, xi], a_t, tol)
+            res = self._newton_at(np.r_[P.reshape(-1), self._state(q[self.Nd], u[self.Nd]), omega, xi], a_t, tol)
         except (Failed, InputError, np.linalg.LinAlgError):
             return None
         return (res.x, float(np.log(a_t / self.a_ref))) if res is not None and res.success else None
+
+    def _state(self, q, u):
+        """``(q_N, u_N)`` completed to the integrated states (Moreau-Jean's sliders), flattened."""
+        return np.concatenate(self.problem(self.omega0, self.xi0).integrator.initial_state(q, u))
 
     def _newton_at(self, y, a, tol=1e-10):
         lam = float(np.log(a / self.a_ref))
@@ -222,7 +241,14 @@ class MixedModeProblem:
         Q = q_hat[1::2] - 1j * q_hat[2::2]
         r = self.ref_dof
         ev = info.get("event_integrator", {})
-        return dict(modal_amplitude=a, omega=omega, xi=xi, damping_ratio=xi / (2 * omega),
+        extra = {}
+        if self.integrator == "moreau":
+            if self._half is None:
+                self._half = MixedModeProblem(self.system, self.mode, self.n_h, self.Ns // 2 + (self.Ns // 2) % 2,
+                                              integrator="moreau")
+            self._half.a_ref = self.a_ref
+            extra["omega_error"], extra["D_error"] = half_steps_error(self._half, y, lam, omega, xi / (2 * omega))
+        return dict(**extra, modal_amplitude=a, omega=omega, xi=xi, damping_ratio=xi / (2 * omega),
                     amplitude=np.asarray(amp)[list(dofs)], harmonics=np.abs(Q[:, r]).tolist(), residual_N=None,
                     residual=float(np.max(np.abs(R / p.residual_scale(x)))),
                     amplitude_residual=float(np.max(np.abs(self._amp_rows(p, x, a)))) / a,

@@ -6,7 +6,9 @@ The structure: a steel cantilever (``build_fe_model.beam_matrices``, ``n_el`` He
 N/m, slip force ``mu_N`` N) from the transverse DOF nearest ``x_joint L`` to the ground.  How each method
 writes the joint:
 
-* ``hbm`` (and ``mshbm``): the Jenkins element itself (its set-valued law, marched over the AFT samples);
+* ``hbm`` (and ``mshbm``): the Jenkins element itself (its set-valued law, marched over the AFT samples; MS-HBM:
+  the joint's DOF and its slider by Moreau-Jean, :data:`MSHBM_STEPS` steps per period, the rest condensed per
+  harmonic);
 * ``dlft``: DLFT takes ground Coulomb friction only, so the joint is a shoe, a body of mass
   ``m_s = k_t / (r omega_1)^2`` (``r = body_freq_ratio``, ``omega_1`` the free beam's first bending
   frequency) tied to the joint's DOF by the spring ``k_t``, with Coulomb friction ``mu_N`` to the ground.  As
@@ -59,6 +61,11 @@ fe = script_module("fe", "build_fe_model")
 
 #: the methods whose joint is the Jenkins element (the others: the shoe)
 JENKINS_METHODS = ("hbm", "mshbm")
+#: MS-HBM: Moreau-Jean steps per period of the joint's DOF and its slider (the event-driven flow does not take
+#: the Jenkins element), the backbone's and the forced responses' alike
+MSHBM_STEPS = 1024
+#: per method, the options of the backbone and of the forced solves beyond ``harmonics``
+METHOD_OPTIONS = {"mshbm": dict(integrator="moreau", steps=MSHBM_STEPS)}
 #: a forced response's scan ends past its peak where the tip amplitude falls below this fraction of the peak's
 STOP = 0.4
 #: DLFT's ``eps`` relative to its default at the peak, for the sensitivity of the worst peak (module docstring)
@@ -120,7 +127,7 @@ def trace_backbone(cfg, method, a_stick):
         a_stick_b = a_stick * abs(phi_b @ (s.M @ np.r_[phi_s, 0.0]))
         a0, a1 = a_hi, max(a_lo, float(cfg["stick_margin"]) * a_stick_b)
     b = mshbm.backbone(s, a0, a1, method=method, harmonics=int(cfg["harmonics"]), points=int(cfg["points"]),
-                       dofs=[facts["tip_dof"]])
+                       dofs=[facts["tip_dof"]], **METHOD_OPTIONS.get(method, {}))
     return b, facts
 
 
@@ -148,7 +155,7 @@ def forced_level(cfg, method, b, phi, a_target, omega_bb):
     s, _ = model(cfg, method, forcing=force)
     v = np.asarray(s.M @ phi).reshape(-1)
     opts = dict(method=method, harmonics=int(cfg["harmonics"]), stability=False,
-                accuracy=False)
+                accuracy=False, **METHOD_OPTIONS.get(method, {}))
     margin = float(cfg["scan_margin"])
     w_lo, w_hi = (1 - margin) * float(b.omega.min()), (1 + margin) * float(b.omega.max())
     dw = (w_hi - w_lo) / (int(cfg["scan_points"]) - 1)

@@ -12,12 +12,15 @@ responses), ``<m>_levels`` (peaks measured inside the backbone's range), ``<m>_m
 ``dlft_eps_factors`` times the default (backbone_curve.py); ``deviation_ok`` against ``deviation_goal`` (and at least five peaks per method); ``D_max_squared``, the
 order of the gap between the amplitude peak and the phase resonance.  Between HBM and DLFT: ``hbm_dlft_max_rel_diff_omega`` and
 ``hbm_dlft_max_rel_diff_D``, the largest relative differences of DLFT's omega and D from HBM's (interpolated in
-the log of the tip amplitude) over the tip amplitudes both cover, and ``hbm_dlft_max_abs_diff_D`` (the largest
+the log of the tip amplitude) over the tip amplitudes both cover (``hbm_mshbm_...`` the same for MS-HBM), and ``hbm_dlft_max_abs_diff_D`` (the largest
 difference in D itself) with ``hbm_dlft_max_abs_diff_D_tip`` (the tip amplitude where it occurs, m).  Timing: ``timing_points``,
 ``timing_cpu_s`` (process CPU time of the backbone call), ``timing_wall_s``, ``timing_success``, ``timing_ok``
 (CPU time within ``time_goal``).  ``mshbm_available``: whether MS-HBM has a backbone in this run.
 
-Output ``results/summary/backbone.json``: ``numbers``, ``curves`` (per method: backbone, levels) and ``timing``.
+The impact oscillator (``--impact``, Fig. 11c): :func:`impact_numbers`.
+
+Output ``results/summary/backbone.json``: ``numbers``, ``curves`` (per method: backbone, levels), ``timing`` and
+``impact`` (or None).
 
 Usage::
 
@@ -53,7 +56,23 @@ def compare(a, b):
             float(np.exp(xb[inside][i])))
 
 
-def summarize(cfg, curves, timing):
+def impact_numbers(impact):
+    """``impact_<m>_points``, ``impact_<m>_period_error`` (largest ``|T / T(A) - 1|`` against the closed form),
+    ``impact_<m>_D_max`` (largest ``|D|``), ``impact_<m>_cpu_s``, ``impact_<m>_success`` per method, and
+    ``impact_omega_ratio_max`` (the largest ``omega / omega_0`` reached) of impact_backbone.py's output."""
+    n = {}
+    for m, r in impact["methods"].items():
+        n.update({f"impact_{m}_points": r["points"], f"impact_{m}_period_error": r["max_period_error"],
+                  f"impact_{m}_D_max": r["max_abs_D"], f"impact_{m}_cpu_s": r["cpu_time_s"],
+                  f"impact_{m}_success": r["success"]})
+    w0 = impact["model"]["omega0"]
+    n["impact_omega_ratio_max"] = max(max(r["omega"]) for r in impact["methods"].values()) / w0
+    n["impact_gap"], n["impact_m"], n["impact_k"] = (impact["model"][k] for k in ("gap", "m", "k"))
+    n["impact_period_error"] = max(r["max_period_error"] for r in impact["methods"].values())
+    return n
+
+
+def summarize(cfg, curves, timing, impact=None):
     bb = cfg["backbone"]
     n = {"deviation_goal": bb["deviation_goal"], "time_goal": bb["time_goal"], "n_levels": len(bb["peak_amplitudes"]),
          "methods": ", ".join(c["method"] for c in curves), "mshbm_available": any(c["method"] == "mshbm" for c in curves)}
@@ -100,10 +119,15 @@ def summarize(cfg, curves, timing):
     if "hbm" in by and "dlft" in by:
         (n["hbm_dlft_max_rel_diff_omega"], n["hbm_dlft_max_rel_diff_D"], n["hbm_dlft_max_abs_diff_D"],
          n["hbm_dlft_max_abs_diff_D_tip"]) = compare(by["hbm"], by["dlft"])
+    if "hbm" in by and "mshbm" in by:
+        (n["hbm_mshbm_max_rel_diff_omega"], n["hbm_mshbm_max_rel_diff_D"], n["hbm_mshbm_max_abs_diff_D"],
+         _) = compare(by["hbm"], by["mshbm"])
     n.update(timing_points=timing["points"], timing_cpu_s=timing["cpu_time_s"], timing_wall_s=timing["wall_time_s"],
              timing_success=timing["success"], timing_n_dofs=timing["n_dofs"], timing_harmonics=timing["harmonics"],
              timing_ok=bool(timing["success"] and timing["cpu_time_s"] <= bb["time_goal"]))
-    return {"numbers": n, "curves": {c["method"]: c for c in curves}, "timing": timing}
+    if impact is not None:
+        n.update(impact_numbers(impact))
+    return {"numbers": n, "curves": {c["method"]: c for c in curves}, "timing": timing, "impact": impact}
 
 
 def main(argv=None):
@@ -111,9 +135,11 @@ def main(argv=None):
     p.add_argument("--config", required=True)
     p.add_argument("--timing", required=True)
     p.add_argument("--out", required=True)
+    p.add_argument("--impact", default=None, help="impact.json of impact_backbone.py (Fig. 11c)")
     p.add_argument("curves", nargs="+")
     args = p.parse_args(argv)
-    out = summarize(_load(args.config), [_load(c) for c in args.curves], _load(args.timing))
+    out = summarize(_load(args.config), [_load(c) for c in args.curves], _load(args.timing),
+                    _load(args.impact) if args.impact else None)
     with open(args.out, "w") as fh:
         json.dump(out, fh, indent=1)
     print(json.dumps(out["numbers"], indent=1))
