@@ -49,7 +49,33 @@ def summarise(rows):
     out_rows = [{k: r.get(k) for k in ("system", "method", "setting", "accuracy", "error", "estimate", "estimates",
                                        "harmonics", "steps", "integrator", "other_orbit", "reference")}
                 for r in rows if r["outcome"] in ("OUT", "crash")]
-    return {"totals": totals, "per_method": per, "out_rows": out_rows}
+    return {"totals": totals, "per_method": per, "out_rows": out_rows, "units": unit_mismatches(rows)}
+
+
+def unit_mismatches(rows, rtol=1e-6):
+    """Rows of a unit-scaled copy whose outcome differs from the same (method, setting) row of the original system,
+    or whose error differs by more than ``rtol`` (relative, at least 1e-12 absolute), or whose combined estimate
+    differs by more than 1e-3 relative (at least 1e-8 absolute): a change of units that changed the answer or its
+    certificate."""
+    base = {(r["system"], r["method"], str(r["setting"])): r for r in rows if not r["scaled"]}
+    out, compared = [], 0
+    for r in rows:
+        if not r["scaled"]:
+            continue
+        b = base.get((r["system"].split(" [")[0], r["method"], str(r["setting"])))
+        if b is None:
+            continue
+        compared += 1
+        e1, e2 = r.get("error"), b.get("error")
+        same_err = (e1 is None and e2 is None) or (e1 is not None and e2 is not None
+                                                   and abs(e1 - e2) <= max(rtol * abs(e2), 1e-12))
+        s1, s2 = r.get("estimate"), b.get("estimate")
+        same_est = (s1 is None) == (s2 is None) and (s1 is None or abs(s1 - s2) <= max(1e-3 * abs(s2), 1e-8))
+        if r["outcome"] != b["outcome"] or not same_err or not same_est:
+            out.append({"system": r["system"], "method": r["method"], "setting": r["setting"],
+                        "outcome": r["outcome"], "base_outcome": b["outcome"], "error": e1, "base_error": e2,
+                        "estimate": r.get("estimate"), "base_estimate": b.get("estimate")})
+    return {"compared": compared, "mismatches": out}
 
 
 def _f(x, fmt="{:.3g}"):
@@ -94,6 +120,17 @@ def markdown(s):
             lines.append(f"| {r['system']} | {r['method']} | {r['setting']} | {_f(r['error'])} | "
                          f"{_f(r['estimate'])} | {r['harmonics']} | {r['steps']} | {r['integrator']} | "
                          f"{r['other_orbit']} |")
+    u = s.get("units") or {}
+    lines += ["", "## Unit-scaled copies against the originals", "",
+              f"{u.get('compared', 0)} rows of scaled copies compared with the same method and setting on the original "
+              f"system; {len(u.get('mismatches', []))} differ in outcome, error (relative 1e-6) or combined estimate "
+              f"(relative 1e-3)."]
+    if u.get("mismatches"):
+        lines += ["", "| system | method | setting | outcome (original) | error (original) | estimate (original) |",
+                  "|---|---|---|---|---|---|"]
+        for r in u["mismatches"]:
+            lines.append(f"| {r['system']} | {r['method']} | {r['setting']} | {r['outcome']} ({r['base_outcome']}) | "
+                         f"{_f(r['error'])} ({_f(r['base_error'])}) | {_f(r['estimate'])} ({_f(r['base_estimate'])}) |")
     if s.get("skipped"):
         lines += ["", f"Systems without an exact reference (not run): {len(s['skipped'])} "
                       f"({'; '.join(sorted({x['reason'][:60] for x in s['skipped']}))})."]
