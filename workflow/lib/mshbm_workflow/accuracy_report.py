@@ -48,8 +48,10 @@ def summarise(rows):
               "systems": len({r["system"] for r in rows})}
     out_rows = [{k: r.get(k) for k in ("system", "method", "setting", "accuracy", "error", "estimate", "estimates",
                                        "harmonics", "steps", "integrator", "other_orbit", "reference")}
-                for r in rows if r["outcome"] in ("OUT", "crash")]
-    return {"totals": totals, "per_method": per, "out_rows": out_rows, "units": unit_mismatches(rows)}
+                for r in rows if r["outcome"] == "OUT"]
+    crashes = [{k: r.get(k) for k in ("system", "method", "setting", "message")} for r in rows if r["outcome"] == "crash"]
+    return {"totals": totals, "per_method": per, "out_rows": out_rows, "crashes": crashes,
+            "units": unit_mismatches(rows)}
 
 
 def unit_mismatches(rows, rtol=1e-6):
@@ -120,6 +122,10 @@ def markdown(s):
             lines.append(f"| {r['system']} | {r['method']} | {r['setting']} | {_f(r['error'])} | "
                          f"{_f(r['estimate'])} | {r['harmonics']} | {r['steps']} | {r['integrator']} | "
                          f"{r['other_orbit']} |")
+    if s.get("crashes"):
+        lines += ["", "## Crashes", "", "| system | method | setting | message |", "|---|---|---|---|"]
+        for r in s["crashes"]:
+            lines.append(f"| {r['system']} | {r['method']} | {r['setting']} | {(r['message'] or '').split(' | ')[0][:90]} |")
     u = s.get("units") or {}
     lines += ["", "## Unit-scaled copies against the originals", "",
               f"{u.get('compared', 0)} rows of scaled copies compared with the same method and setting on the original "
