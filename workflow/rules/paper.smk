@@ -14,6 +14,9 @@ rule paper:
         summaries=expand(f"{R}/summary/{{fig}}.json", fig=SUMMARIZED) + EXTRA_SUMMARIES,
         stress=(f"{R}/stress-quick/summary.md" if config.get("stress_profile", "full") == "quick"
                 else f"{R}/stress/summary.md"),
+        # the accuracy suite's table (Section 4): the quick profile unless accuracy_profile is full
+        accuracy=(f"{R}/accuracy/summary.md" if config.get("accuracy_profile", "quick") == "full"
+                  else f"{R}/accuracy-quick/summary.md"),
         # the Performance section (rule bench_report; absent without a `benchmarks` config)
         benchmarks=([f"{R}/benchmarks/summary.md", f"{R}/benchmarks/workprecision.png"]
                     + ([f"{R}/benchmarks/scaling.png"] if "scaling" in config["benchmarks"]["standalone"] else [])

@@ -12,6 +12,8 @@
   (results/benchmarks/summary.md; its figures ``benchmarks/*.png`` are embedded like the others);
   its numbers (``numbers`` of summary.json) are placeholders ``{{benchmarks.key}}`` and available to
   checks as ``benchmarks``.
+* ``{{include:accuracy}}``: the per-method table of the accuracy suite (results/accuracy[-quick]/summary.md,
+  config ``accuracy_profile``); its ``numbers`` are placeholders ``{{accuracy.key}}``.
 * ``<!-- if: EXPR -->text<!-- else -->other text<!-- endif -->`` (``else`` optional, also inside a
   paragraph): text that exists only where a result exists, e.g. a sentence about a benchmark that
   the quick configuration does not run (``benchmarks["pyharm_available"]``).  EXPR as for checks.
@@ -68,7 +70,7 @@ SAFE_BUILTINS = {"min": min, "max": max, "abs": abs, "len": len, "all": all, "an
 INCLUDE = re.compile(r"\{\{\s*include:(?P<name>[A-Za-z0-9_\-]+)\s*\}\}")
 
 
-def build(md_path, results_dir, out_html, out_md=None, stress_md=None, bench_md=None):
+def build(md_path, results_dir, out_html, out_md=None, stress_md=None, bench_md=None, accuracy_md=None):
     text = open(md_path, encoding="utf-8").read()
     config = load_json(os.path.join(results_dir, "config.json"))
     context, summaries = {"config": config}, {}
@@ -81,6 +83,8 @@ def build(md_path, results_dir, out_html, out_md=None, stress_md=None, bench_md=
         bench_md = os.path.join(results_dir, "benchmarks", "summary.md")
     if bench_md and os.path.exists(bench_md):
         context["benchmarks"] = load_json(os.path.splitext(bench_md)[0] + ".json")["numbers"]
+    if accuracy_md and os.path.exists(accuracy_md):  # the accuracy suite (rule accuracy / accuracy_quick)
+        context["accuracy"] = load_json(os.path.splitext(accuracy_md)[0] + ".json")["numbers"]
 
     def include(m):
         name = m.group("name")
@@ -109,6 +113,9 @@ def build(md_path, results_dir, out_html, out_md=None, stress_md=None, bench_md=
             table = md_table(["category", "method", "converged", "failed with diagnosis", "truncation-warned", "WRONG"],
                              rows)
             return f'<div class="table" id="stress">\n\n{head}\n\n{table}\n\n</div>'
+        if name == "accuracy":  # the per-method table of the accuracy suite's summary.md
+            table = open(accuracy_md, encoding="utf-8").read().split("\n\n")
+            return '<div class="table" id="accuracy">\n\n' + "\n\n".join(table[1:3]).strip() + "\n\n</div>"
         if name == "benchmarks":
             if not (bench_md and os.path.exists(bench_md)):
                 return ("*The benchmarks are not part of this configuration (no `benchmarks` section in the "
@@ -210,13 +217,14 @@ if "snakemake" in globals():
         results = os.path.dirname(smk.input.config)
         bench = [p for p in smk.input.benchmarks if p.endswith("summary.md")]
         _, stale = build(smk.input.md, results, smk.output.html, smk.output.md, smk.input.stress,
-                         bench[0] if bench else "")
+                         bench[0] if bench else "", smk.input.accuracy)
         for x in stale:
             print(x if x.startswith("MISSING VALUE") else f"STALE TEXT: {x}", file=log)
         print(f"wrote {smk.output.html}", file=log)
 elif __name__ == "__main__":
     results = sys.argv[1] if len(sys.argv) > 1 else "results"
     _, stale = build("paper/paper.md", results, os.path.join(results, "paper", "paper.html"),
-                     os.path.join(results, "paper", "paper.filled.md"))
+                     os.path.join(results, "paper", "paper.filled.md"),
+                     accuracy_md=os.path.join(results, "accuracy", "summary.md"))
     for x in stale:
         print(x if x.startswith("MISSING VALUE") else f"STALE TEXT: {x}")
