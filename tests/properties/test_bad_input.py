@@ -246,3 +246,23 @@ def test_singular_block_is_named_in_the_message():
     with pytest.raises(mshbm.InputError) as exc:
         mshbm.solve(s, w, "mshbm", harmonics=1, steps=256, partition=[0])
     assert exc.value.key == "omega" and "H_LL is singular at harmonic k=1" in exc.value.problem
+
+
+@pytest.mark.parametrize("method", ["shooting", "mshbm"])
+@pytest.mark.parametrize("integrator", ["moreau", "event"])
+def test_friction_and_contact_on_one_dof_is_refused_by_time_integration(method, integrator):
+    """A stop and a slider on the same DOF: their forces along it are not unique while the contact is closed
+    (Moreau-Jean's step Jacobian is singular: it raised LinAlgError / ZeroDivisionError; the event flow ended in
+    'overflow').  Refused naming ``elements``; a polynomial spring on that DOF is no constraint and is fine."""
+    import mshbm
+    from mshbm import Contact, Friction, InputError, Polynomial, System
+
+    f = np.zeros((3, 1))
+    f[1, 0] = 1.0
+    s = System(np.eye(1), 0.1 * np.eye(1), np.eye(1), f, [Contact(0, 0.3, 0.5), Friction(0, 1.0, 0.2)])
+    with pytest.raises(InputError) as e:
+        mshbm.solve(s, 0.5, method, integrator=integrator, accuracy=False)
+    assert e.value.key == "elements" and "DOF 0 carries contact and friction" in e.value.problem
+    ok = System(np.eye(1), 0.1 * np.eye(1), np.eye(1), f, [Contact(0, 0.3, 0.5), Polynomial(0, {3: 0.1})])
+    from mshbm.elements.base import dependent_directions
+    assert dependent_directions(ok.elements) is None

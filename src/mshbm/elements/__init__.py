@@ -51,7 +51,7 @@ midpoint ``q + h/2 u`` in Moreau-Jean, refused by the exact event-driven flow.
 Modules: :mod:`~mshbm.elements.base` (the contract), :mod:`~mshbm.elements.friction`,
 :mod:`~mshbm.elements.contact`, :mod:`~mshbm.elements.regularised` (the laws assembled on samples).
 """
-from .base import Element, _dof, _finite_number  # noqa: F401 -- the parameter checks, shared with mshbm.system
+from .base import Element, _dof, _finite_number, dependent_directions  # noqa: F401 -- the parameter checks, shared with mshbm.system
 from .cone import frictional_contact
 from .contact import Contact
 from .friction import Friction, Jenkins

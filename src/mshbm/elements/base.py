@@ -10,7 +10,7 @@ import numpy as np
 
 from ..errors import InputError
 
-__all__ = ["Element"]
+__all__ = ["Element", "dependent_directions"]
 
 
 def _finite_number(key, value, *, positive=False, nonnegative=False):
@@ -194,3 +194,27 @@ class Element:
     def magnitude_terms(self):
         """``[(key, what, value)]``: magnitudes that must stay inside the float range."""
         return []
+
+
+def dependent_directions(elements):
+    """Why the directions ``w_j`` of the set-valued elements (friction and contact; smooth springs are not
+    constraints) are linearly dependent, or ``None`` if they are independent.  Dependent directions (a friction
+    and a contact element on one DOF) leave the elements' forces along them undetermined while both are active:
+    the one-step impulse problem and the event flow's contact forces have no unique solution."""
+    els = [el for el in elements if not getattr(el, "smooth", False)]
+    if len(els) < 2:
+        return None
+    dofs = sorted({int(d) for el in els for d, _ in el.direction})
+    pos = {d: i for i, d in enumerate(dofs)}
+    W = np.zeros((len(dofs), len(els)))
+    for j, el in enumerate(els):
+        for d, w in el.direction:
+            W[pos[int(d)], j] = w
+    if np.linalg.matrix_rank(W) == len(els):
+        return None
+    ground = [int(el.dof) for el in els if el.relative_to is None]
+    d = next((d for d in ground if ground.count(d) > 1), None)
+    if d is not None:
+        kinds = " and ".join(el.kind for el in els if el.relative_to is None and int(el.dof) == d)
+        return f"DOF {d} carries {kinds} elements"
+    return "two elements act along one direction"
