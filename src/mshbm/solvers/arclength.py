@@ -62,6 +62,8 @@ KINK_COS = 0.9
 #: the exact root that replaces a natural-parameter point accepted at step accuracy moves no unknown by more than
 #: this (scaled by the solution's size, see ``_Trace.exact_root``): the orbit the stalled iterate approximates
 EXACT_REACH = 0.1
+#: a smooth step whose predictor missed the corrected point by at most this times ``ds`` lets the step grow
+PREDICTED = 0.02
 #: the corrector finishes at fixed lam once its scaled residual is below this (see ``_Trace.corrector``)
 POLISH_AT = 1e-6
 
@@ -525,7 +527,9 @@ class _Trace:
 
     def next_ds(self, p, q, it, kink, smooth):
         """The step after the accepted step ``p -> q`` of ``ds``: grown by ``grow`` after a fast corrector (at most
-        ``fast_iter`` iterations), shrunk by ``shrink`` after a slow one (more than ``slow_iter``).  Growth is bounded
+        ``fast_iter`` iterations) or after a smooth step whose predictor missed ``q`` by at most ``PREDICTED ds``
+        (the tangent predicts the curve: the corrector's further iterations only meet ``tol``), shrunk by ``shrink``
+        after a slow one (more than ``slow_iter``).  Growth is bounded
         by the turn of the tangent (``ds max_turn / turn``), and by ``ds_rough`` after a step that is not
         :meth:`smooth_step`."""
         ds = self.ds
@@ -535,7 +539,7 @@ class _Trace:
             turn = float(np.arccos(np.clip(self.scaled_t(q, wq) @ self.scaled_t(p, wq), -1.0, 1.0)))
         if it > self.slow_iter:
             new = max(ds * self.shrink, self.ds_min)
-        elif it <= self.fast_iter:
+        elif it <= self.fast_iter or (smooth and self.predicted(p, q, ds) <= PREDICTED * ds):
             new = min(ds * self.grow, self.ds_max)
         else:
             new = ds
@@ -546,6 +550,12 @@ class _Trace:
         if not smooth:
             new = min(new, max(self.ds_rough, self.ds_min))
         return new
+
+    def predicted(self, p, q, ds):
+        """Scaled distance of ``q`` from the tangent predictor ``p + ds t_p``."""
+        w = np.asarray(self.unknown_scale(p.x, p.lam), dtype=float)
+        moved = np.concatenate([(q.x - p.x) / w, [(q.lam - p.lam) / self.lsc]])
+        return float(np.linalg.norm(moved - ds * self.scaled_t(p, w)))
 
     def smooth_step(self, p, q, it, kink):
         """The step from ``p`` to ``q`` (``it`` corrector iterations, ``kink``) was smooth: both points solved
