@@ -689,8 +689,14 @@ class _Trace:
                 try:
                     q = self.judged(self.finish_at_end(p, q), "end point rejected", detail=False)
                 except Failed as exc:
-                    self.message = f"reached lam_end but the end point failed: {exc}"
-                    break
+                    # a long step past lam_end interpolates badly: step again from p, shorter (the step then lands
+                    # nearer lam_end, or before it)
+                    self.counters["end_retries"] = self.counters.get("end_retries", 0) + 1
+                    self.ds *= 0.5
+                    if self.ds < self.ds_min:
+                        self.message = f"reached lam_end but the end point failed: {exc}"
+                        break
+                    continue
                 self.add(q, self.ds)
                 self.success, self.message = True, f"reached lam_end = {lam_end:.6g} in {len(points)} points"
                 break
