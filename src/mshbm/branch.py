@@ -61,7 +61,7 @@ from .route.acceptance import ResidualTest
 from .route.driver import Route, assemble
 from .route.options import capabilities, only, without
 from .scaling import displacement_floor
-from .solvers.arclength import continuation
+from .solvers.arclength import PREDICTED, continuation
 from .branch_grazing import grazing_locator
 from .subharmonic import PERIOD_K_TOL, check_period, period_options, subharmonic_content, subharmonic_system
 from .system import System
@@ -490,7 +490,8 @@ def _run(route, system, lam_start, lam_end, method, period, parameter, omega_fix
             res = continuation(
                 tracer.residual, tracer.d_lam, np.asarray(sol0.x, dtype=float), float(lam_start), float(lam_end),
                 residual_scale=tracer.residual_scale, unknown_scale=tracer.unknown_scale, lam_scale=lam_scale,
-                ds0=ds, ds_min=ds_min, ds_max=ds_max, ds_rough=DS_ROUGH, max_points=int(max_points), tol=tol,
+                ds0=ds, ds_min=ds_min, ds_max=ds_max, ds_rough=DS_ROUGH, predicted=PREDICTED,
+                max_points=int(max_points), tol=tol,
                 max_corrector_iter=min(12, int(rest.get("max_iter", 12))),
                 predictor=predictor, accept=accept, callback=seen, max_time=max_time,
                 stall_accept=tracer.stall_accept, segment=tracer.segment, restarts=tracer.restarts)

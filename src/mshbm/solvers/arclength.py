@@ -55,15 +55,11 @@ import numpy as np
 from .arclength_parts import (ContinuationPoint, ContinuationResult, Evaluator, Failed, backtrack, bordered_solve,
                               free_directions, locate_fold, orientation, stall_folds, tangent)
 from .arclength_kinks import KINK_STEPS, cross_kink, family_step
+from .arclength_steps import EXACT_REACH, PREDICTED, exact_root, next_ds, smooth_step
 from .newton import newton
 
 #: a step whose tangents at its ends have ``|cos| <`` this is taken as a kink of the branch (see ``continuation``)
 KINK_COS = 0.9
-#: the exact root that replaces a natural-parameter point accepted at step accuracy moves no unknown by more than
-#: this (scaled by the solution's size, see ``_Trace.exact_root``): the orbit the stalled iterate approximates
-EXACT_REACH = 0.1
-#: a smooth step whose predictor missed the corrected point by at most this times ``ds`` lets the step grow
-PREDICTED = 0.02
 #: the corrector finishes at fixed lam once its scaled residual is below this (see ``_Trace.corrector``)
 POLISH_AT = 1e-6
 
@@ -75,7 +71,7 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
                  fast_iter=3, slow_iter=7, grow=1.6, shrink=0.5, predictor="tangent", accept=None,
                  callback=None, fold_rtol=1e-3, max_time=None, lam_limits=None, stall_accept=None, max_jump=3.0,
                  stall_fold_rtol=5e-3, natural_fallback=True, kink_crossing=True, segment=None, max_turn=0.5,
-                 restarts=None, ds_rough=None):
+                 restarts=None, ds_rough=None, predicted=None):
     """Trace the branch of ``R(x, lam) = 0`` from the converged point ``(x0, lam0)`` towards ``lam_end``.
 
     Parameters
@@ -94,9 +90,13 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
     ds_rough : float, optional
         Largest step after a step that was not smooth (default ``ds_max``): a point accepted at step accuracy
         (``stall_accept``), a kink, a change of the smooth piece (``segment``) or of the free directions, or
-        a corrector slower than ``slow_iter``, or a failed step.  Steps grow beyond it, up to ``ds_max``, only along a smooth
-        stretch, where the tangent's turn (``max_turn``) measures the curve: a branch that is linear in
-        effect is traced in tens of points, while corners and staircases keep the cautious step.
+        a corrector slower than ``slow_iter``, or a failed step.  Steps grow beyond it, up to ``ds_max``, only
+        along a smooth stretch, where the tangent's turn (``max_turn``) measures the curve: a branch that is
+        linear in effect is traced in tens of points, while corners and staircases keep the cautious step.
+    predicted : float, optional
+        After a smooth step (as for ``ds_rough``) whose tangent predictor missed the corrected point by at most
+        ``predicted * ds`` (scaled), the step grows as after a fast corrector, whatever the corrector's iteration
+        count (its further iterations only meet ``tol``; e.g. :data:`PREDICTED`).  Default: off.
     max_points : int
         Most points on the branch (the start included).
     tol : float
@@ -171,7 +171,7 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
         predictor=predictor, accept=accept, callback=callback, fold_rtol=fold_rtol, max_time=max_time,
         stall_accept=stall_accept, max_jump=max_jump, stall_fold_rtol=stall_fold_rtol,
         natural_fallback=natural_fallback, kink_crossing=kink_crossing, segment=segment, max_turn=max_turn,
-        restarts=restarts, ds_rough=ds_max if ds_rough is None else min(ds_rough, ds_max)))
+        restarts=restarts, ds_rough=ds_max if ds_rough is None else min(ds_rough, ds_max), predicted=predicted))
     return trace.run(x0)
 
 
@@ -225,32 +225,6 @@ class _Trace:
         if info:
             return best + (info,)
         raise Failed(f"Newton at fixed parameter {lam:.6g} did not converge (||R/s|| = {r:.2e})")
-
-    def exact_root(self, x0, x_stall, lam, reach, free=None):
-        """Where Newton at fixed ``lam`` from ``x0`` stalled at ``x_stall`` (an orbit accepted at one time step's
-        accuracy: the discrete map moves impacts by whole steps), the exact root of the discretised equations near
-        it: Newton with an Armijo line search (the exact solution's start of :func:`mshbm.solve`) from ``x_stall``
-        and from ``x0``; kept when it converged and no unknown moved by more than ``reach`` (scaled, max norm) from
-        ``x_stall``.  Returns the tuple of
-        :meth:`newton_fixed` (``stall`` None) or None.  A point accepted at step accuracy may lie off the exact
-        root by several per cent of the amplitude (a natural-parameter step's points on the impact5 chain at
-        2048 steps: 1.4-5.7 %); the certified pointwise solve finds the root."""
-        if reach is None or free is not None:
-            return None
-        w = np.asarray(self.unknown_scale(x_stall, lam), dtype=float)
-
-        def fun(xx, jac=True):
-            R, J = self.ev.residual(xx, lam)
-            return (R, J) if jac else (R, None)
-
-        for start in (x_stall, x0):
-            res = newton(fun, start, tol=self.tol, max_iter=50, scale=lambda xx: self.ev.residual_scale(xx, lam))
-            if res.success and float(np.max(np.abs(res.x - x_stall) / w)) <= reach:
-                R, s, r, J, g = self.ev(res.x, lam)
-                if r <= self.tol:
-                    self.counters["stall_solved"] = self.counters.get("stall_solved", 0) + 1
-                    return res.x, res.nit, r, (R, s, J, g), None
-        return None
 
     def corrector(self, xp, lp, t, w, ds, free=None):
         """Bordered Newton from the predictor ``(xp, lp)`` on the hyperplane orthogonal to ``t``; ``free``: the
@@ -448,7 +422,7 @@ class _Trace:
                 # accepted at step accuracy: the exact root nearby is the point (its amplitude may differ by several
                 # per cent); the next step starts from the stalled iterate, whose staircase passes where the exact
                 # roots of the discrete map fold
-                exact = self.exact_root(start, x, lam_n, EXACT_REACH, self.free_units(p, w))
+                exact = exact_root(self, start, x, lam_n, EXACT_REACH, self.free_units(p, w))
                 if exact is not None:
                     track = x
                     x, it, r, data, st = exact
@@ -524,46 +498,6 @@ class _Trace:
                 self.counters["rejected"] += 1
                 raise Failed("point rejected" + (f": {q.payload}" if isinstance(q.payload, str) else ""))
         return q, it, kink
-
-    def next_ds(self, p, q, it, kink, smooth):
-        """The step after the accepted step ``p -> q`` of ``ds``: grown by ``grow`` after a fast corrector (at most
-        ``fast_iter`` iterations) or after a smooth step whose predictor missed ``q`` by at most ``PREDICTED ds``
-        (the tangent predicts the curve: the corrector's further iterations only meet ``tol``), shrunk by ``shrink``
-        after a slow one (more than ``slow_iter``).  Growth is bounded
-        by the turn of the tangent (``ds max_turn / turn``), and by ``ds_rough`` after a step that is not
-        :meth:`smooth_step`."""
-        ds = self.ds
-        turn = None
-        if self.max_turn and p.stall is None and q.stall is None and kink is None:
-            wq = np.asarray(self.unknown_scale(q.x, q.lam), dtype=float)
-            turn = float(np.arccos(np.clip(self.scaled_t(q, wq) @ self.scaled_t(p, wq), -1.0, 1.0)))
-        if it > self.slow_iter:
-            new = max(ds * self.shrink, self.ds_min)
-        elif it <= self.fast_iter or (smooth and self.predicted(p, q, ds) <= PREDICTED * ds):
-            new = min(ds * self.grow, self.ds_max)
-        else:
-            new = ds
-        if turn is not None and turn > 0.0:
-            # the curve, not only the corrector, limits the step: no growth past a turn of max_turn per step
-            # (never a shrink: the corrector's effort does)
-            new = min(new, max(ds, ds * self.max_turn / turn))
-        if not smooth:
-            new = min(new, max(self.ds_rough, self.ds_min))
-        return new
-
-    def predicted(self, p, q, ds):
-        """Scaled distance of ``q`` from the tangent predictor ``p + ds t_p``."""
-        w = np.asarray(self.unknown_scale(p.x, p.lam), dtype=float)
-        moved = np.concatenate([(q.x - p.x) / w, [(q.lam - p.lam) / self.lsc]])
-        return float(np.linalg.norm(moved - ds * self.scaled_t(p, w)))
-
-    def smooth_step(self, p, q, it, kink):
-        """The step from ``p`` to ``q`` (``it`` corrector iterations, ``kink``) was smooth: both points solved
-        exactly, no kink, the same smooth piece and the same free directions, a corrector of at most ``slow_iter`` iterations, and no failed
-        step since the last point; only then may ``ds`` exceed ``ds_rough``."""
-        same_free = (p.free is None) == (q.free is None) and (p.free is None or p.free.shape == q.free.shape)
-        return (p.stall is None and q.stall is None and kink is None and p.segment == q.segment and same_free
-                and it <= self.slow_iter and self.counters["corrector_failures"] == self.failures_at_point)
 
     def failed_step(self, p, w, exc):
         """Step control after a failed step: halve ``ds``; below ``ds_min`` natural-parameter steps (at a
@@ -683,7 +617,7 @@ class _Trace:
                 self.counters["revisits"] = self.counters.get("revisits", 0) + 1
                 break
             self.fold(p, w, q)
-            smooth = self.smooth_step(p, q, it, kink)
+            smooth = smooth_step(self, p, q, it, kink)
             # the end of the range
             if (q.lam - lam_end) * direction >= 0 and (p.lam - lam_end) * direction < 0:
                 try:
@@ -704,7 +638,7 @@ class _Trace:
             if not self.lo <= q.lam <= self.hi:
                 self.message = f"the branch left the parameter range [{self.lo:.6g}, {self.hi:.6g}] at lam = {q.lam:.6g}"
                 break
-            self.ds = self.next_ds(p, q, it, kink, smooth)
+            self.ds = next_ds(self, p, q, it, kink, smooth)
         gaps = [k for k in self.kinks if k.get("gap")]
         if gaps and self.success:
             where = ", ".join(f"{k['lam']:.6g}" for k in gaps)
