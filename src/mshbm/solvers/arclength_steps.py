@@ -61,10 +61,14 @@ def prediction_error(trace, p, q, ds):
 
 def smooth_step(trace, p, q, it, kink):
     """The step from ``p`` to ``q`` (``it`` corrector iterations, ``kink``) was smooth: both points solved
-    exactly, no kink, the same smooth piece and the same free directions, a corrector of at most ``slow_iter``
-    iterations, and no failed step since the last point; only then may ``ds`` exceed ``ds_rough``."""
+    exactly, no kink, a residual without smooth pieces (``segment`` None), the same free directions, a corrector
+    of at most ``slow_iter`` iterations, and no failed step since the last point; only then may ``ds`` exceed
+    ``ds_rough``."""
     same_free = (p.free is None) == (q.free is None) and (p.free is None or p.free.shape == q.free.shape)
-    return (p.stall is None and q.stall is None and kink is None and p.segment == q.segment and same_free
+    # a piecewise-smooth residual (``segment`` known: an event-driven flow) keeps the cautious step throughout:
+    # its pieces end at grazings and folds of impacting orbits that a long step would pass unseen
+    return (p.stall is None and q.stall is None and kink is None and p.segment is None and q.segment is None
+            and same_free
             and it <= trace.slow_iter and trace.counters["corrector_failures"] == trace.failures_at_point)
 
 
