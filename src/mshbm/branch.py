@@ -63,7 +63,7 @@ from .route.acceptance import ResidualTest
 from .route.driver import Route, assemble
 from .route.options import capabilities, only, without
 from .scaling import displacement_floor
-from .solvers.arclength import continuation
+from .solvers.arclength import PREDICTED, continuation
 from .branch_grazing import grazing_locator
 from .branch_accuracy import certify_points, check_options, skipped, to_accuracy
 from .element_outputs import element_outputs
@@ -73,6 +73,9 @@ from .system import System
 __all__ = ["Branch", "BranchPoint", "sweep", "continue_forcing", "trace", "unknown_scale", "ROUTE"]
 
 #: options of the continuation itself (the others go to the method)
+#: the sweep's largest arclength step next to points that are not smooth (stall, kink, change of the smooth piece;
+#: :func:`mshbm.solvers.arclength.continuation`'s ``ds_rough``); along smooth stretches steps grow to ``ds_max``
+DS_ROUGH = 0.1
 _CONT_KEYS = {"ds", "ds_min", "ds_max", "max_points", "predictor", "max_time", "progress", "stability"}
 #: options that are not the problem's (handled by the start solve / the corrector)
 _SOLVER_KEYS = {"guess", "tol", "max_iter", "line_search", "raise_on_failure", "continuation", "blas_threads"}
@@ -452,7 +455,7 @@ def _run(route, system, lam_start, lam_end, method, period, parameter, omega_fix
     if predictor not in ("tangent", "secant"):
         raise InputError("predictor", f"must be 'tangent' or 'secant', got {predictor!r}")
     ds = _check_number("ds", cont.get("ds", 0.02))
-    ds_max = _check_number("ds_max", cont.get("ds_max", 0.1))
+    ds_max = _check_number("ds_max", cont.get("ds_max", 0.5))
     ds_min = _check_number("ds_min", cont.get("ds_min", 1e-5))
     max_time = cont.get("max_time")
     if max_time is not None:
@@ -497,7 +500,8 @@ def _run(route, system, lam_start, lam_end, method, period, parameter, omega_fix
             res = continuation(
                 tracer.residual, tracer.d_lam, np.asarray(sol0.x, dtype=float), float(lam_start), float(lam_end),
                 residual_scale=tracer.residual_scale, unknown_scale=tracer.unknown_scale, lam_scale=lam_scale,
-                ds0=ds, ds_min=ds_min, ds_max=ds_max, max_points=int(max_points), tol=tol,
+                ds0=ds, ds_min=ds_min, ds_max=ds_max, ds_rough=DS_ROUGH, predicted=PREDICTED,
+                max_points=int(max_points), tol=tol,
                 max_corrector_iter=min(12, int(rest.get("max_iter", 12))),
                 predictor=predictor, accept=accept, callback=seen, max_time=max_time,
                 stall_accept=tracer.stall_accept, segment=tracer.segment, restarts=tracer.restarts)
@@ -561,7 +565,8 @@ def sweep(system, omega_start, omega_end, method="mshbm", period=1, **options):
         ``partition``...; ``guess`` for the start point; ``tol`` also for the corrector; ``max_iter`` also bounds the corrector's
         iterations, at most 12), and the
         continuation's: ``ds`` (first arclength step, scaled, default 0.02), ``ds_min`` (1e-5),
-        ``ds_max`` (0.1; growth bounded by a turn of the tangent of 0.5 rad per step), ``max_points`` (400), ``predictor`` (``"tangent"`` or ``"secant"``),
+        ``ds_max`` (0.5 along smooth stretches, 0.1 next to points that are not smooth; growth bounded by a turn of
+        the tangent of 0.5 rad per step), ``max_points`` (400), ``predictor`` (``"tangent"`` or ``"secant"``),
         ``max_time`` (s), ``progress`` (show progress on a terminal; ``"always"``: also elsewhere),
         ``stability`` (as for :func:`mshbm.solve`), ``blas_threads`` (default 1, as for :func:`mshbm.solve`),
         ``accuracy`` and ``estimate_every`` (every point's error estimates and the branch's refinement to a

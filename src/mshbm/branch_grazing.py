@@ -39,7 +39,8 @@ def grazing_locator(tracer, system, tol):
         sides = [[a] + [h for h in hist if same_piece(h, a) and h is not a],
                  [b] + [h for h in hist if same_piece(h, b) and h is not b]]
         for side in sides:  # the side's points, nearest (latest) last; the bracket end is the nearest
-            side.sort(key=lambda h: hist.index(h) if h in hist else -1)
+            # by identity: the records hold arrays, and == between two of them is ambiguous
+            side.sort(key=lambda h: next((i for i, g in enumerate(hist) if g is h), -1))
         first = 0 if len(sides[0]) <= len(sides[1]) else 1
         for k in (first, 1 - first):  # the other side when this one's solves fail
             rec = side_point(sides[k], b if k == 0 else a)

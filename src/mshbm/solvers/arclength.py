@@ -55,6 +55,7 @@ import numpy as np
 from .arclength_parts import (ContinuationPoint, ContinuationResult, Evaluator, Failed, backtrack, bordered_solve,
                               free_directions, locate_fold, orientation, stall_folds, tangent)
 from .arclength_kinks import KINK_STEPS, cross_kink, family_step
+from .arclength_steps import EXACT_REACH, PREDICTED, exact_root, next_ds, smooth_step
 from .newton import newton
 
 #: a step whose tangents at its ends have ``|cos| <`` this is taken as a kink of the branch (see ``continuation``)
@@ -70,7 +71,7 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
                  fast_iter=3, slow_iter=7, grow=1.6, shrink=0.5, predictor="tangent", accept=None,
                  callback=None, fold_rtol=1e-3, max_time=None, lam_limits=None, stall_accept=None, max_jump=3.0,
                  stall_fold_rtol=5e-3, natural_fallback=True, kink_crossing=True, segment=None, max_turn=0.5,
-                 restarts=None):
+                 restarts=None, ds_rough=None, predicted=None):
     """Trace the branch of ``R(x, lam) = 0`` from the converged point ``(x0, lam0)`` towards ``lam_end``.
 
     Parameters
@@ -86,6 +87,16 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
         Scale of ``lam`` in the arclength (default ``|lam0|``, or 1).
     ds0, ds_min, ds_max : float
         Initial, smallest and largest arclength step (scaled, see the module docstring).
+    ds_rough : float, optional
+        Largest step after a step that was not smooth (default ``ds_max``): a point accepted at step accuracy
+        (``stall_accept``), a kink, a change of the smooth piece (``segment``) or of the free directions, or
+        a corrector slower than ``slow_iter``, or a failed step.  Steps grow beyond it, up to ``ds_max``, only
+        along a smooth stretch, where the tangent's turn (``max_turn``) measures the curve: a branch that is
+        linear in effect is traced in tens of points, while corners and staircases keep the cautious step.
+    predicted : float, optional
+        After a smooth step (as for ``ds_rough``) whose tangent predictor missed the corrected point by at most
+        ``predicted * ds`` (scaled), the step grows as after a fast corrector, whatever the corrector's iteration
+        count (its further iterations only meet ``tol``; e.g. :data:`PREDICTED`).  Default: off.
     max_points : int
         Most points on the branch (the start included).
     tol : float
@@ -160,7 +171,7 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
         predictor=predictor, accept=accept, callback=callback, fold_rtol=fold_rtol, max_time=max_time,
         stall_accept=stall_accept, max_jump=max_jump, stall_fold_rtol=stall_fold_rtol,
         natural_fallback=natural_fallback, kink_crossing=kink_crossing, segment=segment, max_turn=max_turn,
-        restarts=restarts))
+        restarts=restarts, ds_rough=ds_max if ds_rough is None else min(ds_rough, ds_max), predicted=predicted))
     return trace.run(x0)
 
 
@@ -366,6 +377,7 @@ class _Trace:
         return None
 
     def add(self, q, ds):
+        self.failures_at_point = self.counters["corrector_failures"]  # see smooth_step
         self.points.append(q)
         if self.callback is not None:
             self.callback(q, len(self.points), ds)
@@ -412,8 +424,19 @@ class _Trace:
             lam_n = p.lam + sgn * natural
             if (lam_n - lam_end) * direction > 0 and (p.lam - lam_end) * direction < 0:
                 lam_n = lam_end
-            x, it, r, data, st = self.newton_fixed(p.x, lam_n, free=self.free_units(p, w))
+            start = p.x if p.track is None else p.track
+            x, it, r, data, st = self.newton_fixed(start, lam_n, free=self.free_units(p, w))
+            track = None
+            if st is not None:
+                # accepted at step accuracy: the exact root nearby is the point (its amplitude may differ by several
+                # per cent); the next step starts from the stalled iterate, whose staircase passes where the exact
+                # roots of the discrete map fold
+                exact = exact_root(self, start, x, lam_n, EXACT_REACH, self.free_units(p, w))
+                if exact is not None:
+                    track = x
+                    x, it, r, data, st = exact
             q, _, _ = self.make_point(x, lam_n, it, r, data, natural / lsc, self.scaled_t(p, w), st)
+            q.track = track
             q.dx, q.dlam = (x - p.x) / (natural / lsc), sgn * lsc  # secant, not the (useless) tangent
             self.judged(q)
         except Failed as exc:
@@ -435,8 +458,8 @@ class _Trace:
                 return False
         if q.lam == lam_end:
             self.success, self.message = True, (
-                f"reached lam_end = {lam_end:.6g} in {len(self.points)} points (the last "
-                f"{self.counters['natural_points']} by natural-parameter steps after the "
+                f"reached lam_end = {lam_end:.6g} in {len(self.points)} points "
+                f"({self.counters['natural_points']} by natural-parameter steps after the "
                 f"arclength corrector failed: {self.natural_reason})")
             return True
         self.natural = min(natural * 1.5, self.ds_max * lsc)
@@ -603,13 +626,20 @@ class _Trace:
                 self.counters["revisits"] = self.counters.get("revisits", 0) + 1
                 break
             self.fold(p, w, q)
+            smooth = smooth_step(self, p, q, it, kink)
             # the end of the range
             if (q.lam - lam_end) * direction >= 0 and (p.lam - lam_end) * direction < 0:
                 try:
                     q = self.judged(self.finish_at_end(p, q), "end point rejected", detail=False)
                 except Failed as exc:
-                    self.message = f"reached lam_end but the end point failed: {exc}"
-                    break
+                    # a long step past lam_end interpolates badly: step again from p, shorter (the step then lands
+                    # nearer lam_end, or before it)
+                    self.counters["end_retries"] = self.counters.get("end_retries", 0) + 1
+                    self.ds *= 0.5
+                    if self.ds < self.ds_min:
+                        self.message = f"reached lam_end but the end point failed: {exc}"
+                        break
+                    continue
                 self.add(q, self.ds)
                 self.success, self.message = True, f"reached lam_end = {lam_end:.6g} in {len(points)} points"
                 break
@@ -617,15 +647,7 @@ class _Trace:
             if not self.lo <= q.lam <= self.hi:
                 self.message = f"the branch left the parameter range [{self.lo:.6g}, {self.hi:.6g}] at lam = {q.lam:.6g}"
                 break
-            ds = self.ds
-            self.ds = min(ds * self.grow, self.ds_max) if it <= self.fast_iter else (
-                max(ds * self.shrink, self.ds_min) if it > self.slow_iter else ds)
-            if self.max_turn and p.stall is None and q.stall is None and kink is None:
-                # the curve, not only the corrector, limits the step
-                wq = np.asarray(self.unknown_scale(q.x, q.lam), dtype=float)
-                turn = float(np.arccos(np.clip(self.scaled_t(q, wq) @ self.scaled_t(p, wq), -1.0, 1.0)))
-                if turn > 0.0:  # no growth past a turn of max_turn per step (never a shrink: the corrector's effort does)
-                    self.ds = min(self.ds, max(ds, ds * self.max_turn / turn))
+            self.ds = next_ds(self, p, q, it, kink, smooth)
         gaps = [k for k in self.kinks if k.get("gap")]
         if gaps and self.success:
             where = ", ".join(f"{k['lam']:.6g}" for k in gaps)

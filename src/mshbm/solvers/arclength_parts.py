@@ -42,6 +42,8 @@ class ContinuationPoint:
     #: free directions of the solution set at fixed ``lam`` (:func:`free_directions`, rows in scaled
     #: unknowns, shape ``(k, n_x)``), None if there are none
     free: object = None
+    #: a natural-parameter step's stalled iterate where the point is the exact root near it: the next step's start
+    track: object = None
 
 
 @dataclass
