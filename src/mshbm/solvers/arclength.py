@@ -443,6 +443,12 @@ class _Trace:
                                     self.scaled_t(p, np.asarray(self.unknown_scale(x, lam), float)), st)
         tp = self.scaled_t(p, wq)
         c_t = float(tq @ tp)
+        if q.segment is not None and p.segment != q.segment and (lam - p.lam) * p.dlam < 0 \
+                and any(o.segment == q.segment for o in points[:-1]):
+            # back, against the direction of travel, onto a smooth piece the branch came along: past a grazing
+            # the new piece can be steep (an impact velocity grows like the square root of the distance to it),
+            # and the hyperplane of a long step meets the old piece behind the kink; a shorter step stays on
+            raise Failed("the step went back across a kink onto a piece already traced")
         if p.segment is not None and q.segment is not None and p.segment != q.segment and c_t < KINK_COS \
                 and p.orientation and q.orientation and q.orientation != p.orientation:
             # the step passed a change of the residual's smooth piece and the tangent turned by more than
