@@ -475,6 +475,14 @@ class _Trace:
                                     self.scaled_t(p, np.asarray(self.unknown_scale(x, lam), float)), st)
         tp = self.scaled_t(p, wq)
         c_t = float(tq @ tp)
+        if q.segment is not None and p.segment != q.segment and (lam - p.lam) * p.dlam < 0 \
+                and q.segment == self.previous_segment():
+            # back, against the direction of travel, onto the smooth piece the branch came from: past a grazing
+            # the new piece can be steep (an impact velocity grows like the square root of the distance to it),
+            # and the hyperplane of a long step meets the old piece behind the kink; a shorter step stays on.
+            # (A corner that turns back onto another piece, e.g. an impacting branch ending at a grazing with
+            # the non-impacting one, is not this: the piece before the current one differs.)
+            raise Failed("the step went back across a kink onto the piece the branch came from")
         if p.segment is not None and q.segment is not None and p.segment != q.segment and c_t < KINK_COS \
                 and p.orientation and q.orientation and q.orientation != p.orientation:
             # the step passed a change of the residual's smooth piece and the tangent turned by more than
@@ -507,6 +515,15 @@ class _Trace:
                 self.counters["rejected"] += 1
                 raise Failed("point rejected" + (f": {q.payload}" if isinstance(q.payload, str) else ""))
         return q, it, kink
+
+    def previous_segment(self):
+        """The smooth piece (``segment``) of the branch before the run of points on the last point's piece
+        (``None`` when there is none or it is not known)."""
+        last = self.points[-1].segment
+        for o in reversed(self.points[:-1]):
+            if o.segment != last:
+                return o.segment
+        return None
 
     def failed_step(self, p, w, exc):
         """Step control after a failed step: halve ``ds``; below ``ds_min`` natural-parameter steps (at a
