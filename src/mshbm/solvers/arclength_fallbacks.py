@@ -1,0 +1,132 @@
+"""The fallbacks of the continuation (:mod:`mshbm.solvers.arclength`, its ``_Trace``): step control after a failed
+step, natural-parameter steps where the arclength corrector cannot go on (at points accepted at one time step's
+accuracy, and across gaps of the curve), and the end point at ``lam_end``.  A mixin: the methods use the trace's
+state (``points``, ``ds``, ``natural``, ``gap_from``, ``counters``, ...) and its Newton (``newton_fixed``)."""
+from __future__ import annotations
+
+import numpy as np
+
+from .arclength_parts import Failed
+from .arclength_steps import EXACT_REACH, exact_root
+
+__all__ = ["Fallbacks"]
+
+
+class Fallbacks:
+    """Step control after failures, natural-parameter steps and the end point of :class:`~mshbm.solvers.arclength._Trace`."""
+
+    def finish_at_end(self, p, q):
+        """Solve at ``lam_end`` from the interpolation between points ``p`` and ``q`` that bracket it, else from
+        ``q`` and from ``p`` themselves (a Newton at fixed ``lam`` on a nonsmooth residual can stall from one
+        guess and converge from another); the first failure is raised when all three fail."""
+        lam_end = self.lam_end
+        a = (lam_end - p.lam) / (q.lam - p.lam)
+        free = self.free_units(q, np.asarray(self.unknown_scale(q.x, q.lam), dtype=float))
+        first = None
+        for xg in (p.x + a * (q.x - p.x), q.x, p.x):
+            try:
+                x, it, r, data, st = self.newton_fixed(xg, lam_end, free=free)
+                break
+            except Failed as exc:
+                first = first or exc
+        else:
+            raise first
+        w = np.asarray(self.unknown_scale(x, lam_end), dtype=float)
+        pt, _, _ = self.make_point(x, lam_end, it, r, data, q.ds, self.scaled_t(q, w), st)
+        return pt
+
+    def natural_step(self, p, w):
+        """One natural-parameter step from ``p`` (Newton at fixed ``lam``, the step ``natural`` in ``lam``
+        adapted); returns True when the branch ends."""
+        direction, lam_end, lsc = self.direction, self.lam_end, self.lsc
+        natural = self.natural
+        sgn = direction if self.gap_from is None or p.dlam == 0 else float(np.sign(p.dlam))  # a gap: onwards
+        try:
+            lam_n = p.lam + sgn * natural
+            if (lam_n - lam_end) * direction > 0 and (p.lam - lam_end) * direction < 0:
+                lam_n = lam_end
+            start = p.x if p.track is None else p.track
+            x, it, r, data, st = self.newton_fixed(start, lam_n, free=self.free_units(p, w))
+            track = None
+            if st is not None:
+                # accepted at step accuracy: the exact root nearby is the point (its amplitude may differ by several
+                # per cent); the next step starts from the stalled iterate, whose staircase passes where the exact
+                # roots of the discrete map fold
+                exact = exact_root(self, start, x, lam_n, EXACT_REACH, self.free_units(p, w))
+                if exact is not None:
+                    track = x
+                    x, it, r, data, st = exact
+            q, _, _ = self.make_point(x, lam_n, it, r, data, natural / lsc, self.scaled_t(p, w), st)
+            q.track = track
+            q.dx, q.dlam = (x - p.x) / (natural / lsc), sgn * lsc  # secant, not the (useless) tangent
+            self.judged(q)
+        except Failed as exc:
+            self.counters["natural_failures"] = self.counters.get("natural_failures", 0) + 1
+            self.natural = natural * 0.5
+            if self.natural < self.ds_min * lsc:
+                self.message = (f"natural-parameter steps below ds_min at lam = {p.lam:.6g} ({exc}) after the "
+                                f"arclength corrector failed ({self.natural_reason})")
+                return True
+            return False
+        self.counters["natural_points"] = self.counters.get("natural_points", 0) + 1
+        self.add(q, natural / lsc)
+        if self.gap_from is not None:  # a gap bridged: back to arclength steps from the new point
+            self.kinks.append({"lam": float(p.lam), "lam_right": float(q.lam), "index": len(self.points) - 1,
+                               "gap": True, "reason": self.natural_reason})
+            self.counters["gaps"] = self.counters.get("gaps", 0) + 1
+            self.natural, self.gap_from, self.ds = None, None, self.ds0
+            if (q.lam - lam_end) * direction < 0:
+                return False
+        if q.lam == lam_end:
+            self.success, self.message = True, (
+                f"reached lam_end = {lam_end:.6g} in {len(self.points)} points "
+                f"({self.counters['natural_points']} by natural-parameter steps after the "
+                f"arclength corrector failed: {self.natural_reason})")
+            return True
+        self.natural = min(natural * 1.5, self.ds_max * lsc)
+        return False
+
+    def failed_step(self, p, w, exc):
+        """Step control after a failed step: halve ``ds``; below ``ds_min`` natural-parameter steps (at a
+        point accepted at step accuracy) or one step at fixed ``lam`` across a kink.  Returns True when the
+        branch ends."""
+        counters = self.counters
+        counters["corrector_failures"] += 1
+        fails = counters.setdefault("failures", [])
+        if len(fails) < 50:  # the first reasons, for diagnosis
+            fails.append({"lam": float(p.lam), "ds": float(self.ds), "reason": str(exc)})
+        self.ds *= 0.5
+        if self.ds >= self.ds_min:
+            return False
+        if self.natural_fallback and p.stall is not None:
+            # at an orbit accepted at step accuracy the residual is a staircase in (x, lam): its
+            # Jacobian and dR/dlam do not predict; step in lam at fixed lam instead (no folds)
+            self.natural, self.natural_reason = self.ds0 * self.lsc * 0.5, str(exc)
+            return False
+        if self.kink_crossing and p.stall is None and self.crossed_from != len(self.points):
+            self.crossed_from = len(self.points)
+            try:
+                q = self.cross_kink(p, w)
+            except Failed as exc2:
+                self.message = (f"step size below ds_min = {self.ds_min:g} at lam = {p.lam:.6g} ({exc}; a step at "
+                                f"fixed lam across a kink failed too: {exc2})")
+                return self.start_gap(p, self.message)
+            counters["kink_crossings"] = counters.get("kink_crossings", 0) + 1
+            self.add(q, self.ds0)
+            if q.lam == self.lam_end:
+                self.success, self.message = True, f"reached lam_end = {self.lam_end:.6g} in {len(self.points)} points"
+                return True
+            self.ds = self.ds0
+            return False
+        self.message = f"step size below ds_min = {self.ds_min:g} at lam = {p.lam:.6g} ({exc})"
+        return self.start_gap(p, self.message)
+
+    def start_gap(self, p, why):
+        """Where the arclength corrector cannot pass an exactly solved point: one natural-parameter step onwards
+        (:meth:`natural_step`, Newton at fixed ``lam`` from ``p``), recorded as a gap of the curve (kink
+        ``"gap": True``; a fold inside it is not traced), then arclength steps again.  Returns True when the branch
+        ends (no fallback, or a gap already started at this point)."""
+        if not self.natural_fallback or self.gap_from == len(self.points):
+            return True
+        self.natural, self.natural_reason, self.gap_from = self.ds0 * self.lsc * 0.5, why, len(self.points)
+        return False
