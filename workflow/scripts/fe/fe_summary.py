@@ -200,7 +200,11 @@ def summarize(modes, solves, sweeps, solve_modes=None):
                      f"{k}_folds": sum(1 for f in b["bifurcations"] if f.get("type") == "fold"),
                      f"{k}_omega_min": min(b["omega"]) if b["omega"] else None,
                      f"{k}_omega_max": max(b["omega"]) if b["omega"] else None,
-                     f"{k}_message": b["message"]})
+                     f"{k}_message": b["message"],
+                     # the end of the range reached (success also needs every point certified within the accuracy)
+                     f"{k}_reached_end": b["message"].startswith("reached lam_end"),
+                     f"{k}_estimated": b["options"].get("accuracy", True) is not False,
+                     f"{k}_uncertified": sum(not c for c in b["certified"])})
         nums["omega_start"], nums["omega_end"] = (r * b["omega_1"] for r in b["omega_ratio"])
         nums["harmonics"] = b["options"].get("harmonics", nums.get("harmonics"))
         if "steps" in b["options"] and k == "mshbm":

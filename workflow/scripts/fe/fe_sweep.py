@@ -103,7 +103,7 @@ def check_against_shooting(s, b, k, dofs, log=print):
 
 
 def run(case_path, out, method, omega_ratio, harmonics=5, steps=None, max_points=60, ds_max=None, stability=False,
-        log=print, integrator=None, accumulation=None, penalty_quadrature=None, check_points=0):
+        log=print, integrator=None, accumulation=None, penalty_quadrature=None, check_points=0, estimates=True):
     if method not in METHODS:
         raise InputError("method", f"{method!r} is not one of {', '.join(METHODS)}")
     r0, r1 = (float(r) for r in omega_ratio)
@@ -113,6 +113,8 @@ def run(case_path, out, method, omega_ratio, harmonics=5, steps=None, max_points
     modes = json.loads((Path(case_path).parent / "modes.json").read_text())
     w1 = float(modes.get("omega_model", modes["omega_fe"])[0])
     opts = {"max_points": int(max_points), "stability": stability}
+    if not estimates:  # no per-point error estimates (mshbm.sweep's accuracy=False): the discretised equations only
+        opts["accuracy"] = False
     if ds_max is not None:
         opts["ds_max"] = float(ds_max)
     if method != "shooting":
@@ -177,11 +179,14 @@ def main(argv=None):
                     help="solve the last K points again by event-driven full shooting (an independent check)")
     ap.add_argument("--stability", choices=("off", "auto", "on"), default="off",
                     help="stability of every point (mshbm.stability; off by default: ~20 s per point at 162 DOFs)")
+    ap.add_argument("--estimates", choices=("on", "off"), default="on",
+                    help="the points' error estimates (mshbm.sweep's default; off: accuracy=False, the discretised "
+                         "equations only)")
     a = ap.parse_args(argv)
     st = {"off": False, "auto": "auto", "on": True}[a.stability]
     run(a.case, a.out, a.method, a.omega_ratio, a.harmonics, a.steps, a.max_points, a.ds_max, st,
         integrator=a.integrator, accumulation=a.accumulation, penalty_quadrature=a.penalty_quadrature,
-        check_points=a.check_points)
+        check_points=a.check_points, estimates=a.estimates == "on")
     return 0
 
 
