@@ -93,8 +93,12 @@ def test_sweeps_agree_and_summary_reports_them(model, tmp_path):
         assert max(res[m]["amplitude"]["pad"]) < info["contact"]["gap"]
     wh, wm = np.array(res["hbm"]["omega"]), np.array(res["mshbm"]["omega"])
     assert np.all(np.diff(wh) > 0) and np.all(np.diff(wm) > 0)  # no folds in this range
+    # HBM takes tens of points per curve: interpolated linearly at MS-HBM's frequencies the tip read 1.3 %, cubically
+    # 0.98 %, the difference at the first point, where both solved at the same omega
+    from scipy.interpolate import CubicSpline
+
     for dof, tol in (("tip", 0.01), ("shoe", 0.03)):
-        ah = np.interp(wm, wh, res["hbm"]["amplitude"][dof])
+        ah = CubicSpline(wh, res["hbm"]["amplitude"][dof])(wm)
         rel = np.abs(np.array(res["mshbm"]["amplitude"][dof]) / ah - 1.0)
         assert rel.max() < tol, (dof, rel.max())
     solves = {"solves": []}
