@@ -149,8 +149,11 @@ def test_interrupted_sweep_writes_its_points(sig, code, tmp_path):
     out, png = tmp_path / "b.json", tmp_path / "b.png"
     argv = ["sweep", write_case(tmp_path, DH), "--method", "shooting", "--steps", 2048, "--omega-start", 0.5,
             "--omega-end", 4, "--max-points", 400, "--out", out, "--plot", png]
+    # SIGINT back to its default in the child: a shell's background job (nohup ... &) starts with SIGINT ignored, and
+    # Python then installs no KeyboardInterrupt handler, so the test measured the launcher, not the CLI
     proc = subprocess.Popen([sys.executable, "-m", "mshbm", *map(str, argv)], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, env=_env())
+                            stderr=subprocess.PIPE, env=_env(),
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     watchdog = threading.Timer(240, proc.kill)
     watchdog.start()
     try:

@@ -272,7 +272,7 @@ def hysteresis_closure(kt, b, s, lam):
 def hysteresis_check(problem, sol, system, lam, cert):
     """Append ``hysteresis_periodicity`` (module docstring) for HBM solutions with Jenkins elements; ``lam`` the
     element forces on the samples (N+1, m)."""
-    if getattr(problem, "method", None) != "hbm":
+    if not problem.hysteresis_aft:  # declared representation (mshbm.methods.base)
         return
     hist = [(j, e) for j, e in enumerate(system.elements) if e.history and (e.cone_partner is None
                                                                              or j < e.cone_partner)]

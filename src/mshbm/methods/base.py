@@ -94,6 +94,9 @@ the method's name)
 ``lagrangian_contact`` : bool (default False)
     Contacts hold on a Lagrangian displacement at the AFT samples, not on the truncated series (DLFT): the
     penetration of the series is a truncation error, reported but not gated.
+``hysteresis_aft`` : bool (default False)
+    Hysteretic (Jenkins) element forces come from a period march of the AFT samples (HBM's history law): the
+    certificate checks that march's periodicity (``hysteresis_periodicity``, :mod:`mshbm.certificate.laws`).
 ``harmonic_truncation`` : bool (default False)
     Unknowns are Fourier coefficients truncated at ``n_h`` (all methods but shooting): the certificate
     reports the truncation estimates.
@@ -194,6 +197,7 @@ class PeriodicProblem:
     penalty_quadrature = None
     lagrangian_contact = False
     harmonic_truncation = False
+    hysteresis_aft = False
     time_integrated_subset = False
     certify_connectivity_work = False
     # ------------------------------------------------------------------ capabilities read by the solve route

@@ -106,6 +106,7 @@ class HBMProblem(PiecewiseLinearPaths, HarmonicProblem):
 
     method = "hbm"
     penalty_contact = True  # declared representation (mshbm.methods.base); penalty_quadrature: set per problem
+    hysteresis_aft = True  # Jenkins forces by the period march of the samples (declared representation)
     penalty_laws, solve_defaults = True, {"penalty_quadrature": "samples"}  # solve-route capabilities
 
     def __init__(self, system, omega, harmonics, steps, condense=True, partition=None, penalty_quadrature="samples"):
