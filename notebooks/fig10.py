@@ -105,7 +105,7 @@ if N.get("modes_checked"):
     table = [(m, f"{N[f'modes_{m}_tip'] * 1e3:.7g}", f"{N.get(f'modes_{m}_tip_rel_diff', 0.0):.1e}",
               f"{N[f'modes_{m}_estimate']:.2e}", "yes" if N[f"modes_{m}_success"] else "NO",
               f"{N[f'modes_{m}_cpu_time']:.2f}") for m in N["modes_checked"].split(", ")]
-    display(Markdown(nc.md_table(["modes", "max |q| at the stop (mm)", "against the most modes", "reduction estimate",
+    display(Markdown(nc.md_table(["modes", "largest displacement at the stop (mm)", "against the most modes", "reduction estimate",
                                   "certified", "CPU (s)"], table)))
 
 # %% [markdown]

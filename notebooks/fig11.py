@@ -9,7 +9,7 @@
 # `backbone_summary`) holds every number shown here, and the timed 50-point backbone of the 100-DOF beam
 # (rule `backbone_timing`).  MS-HBM takes the Jenkins joint with Moreau-Jean (its DOF and slider time-stepped,
 # 1024 steps per period; the event-driven flow does not take the Jenkins element).  Panel (c): the conservative
-# impact oscillator (e_N = 1) by shooting and MS-HBM with the exact event-driven flow against its closed form
+# impact oscillator ($e_N = 1$) by shooting and MS-HBM with the exact event-driven flow against its closed form
 # T(A) (rule `backbone_impact`).
 
 # %% tags=["parameters"]
@@ -121,7 +121,7 @@ display(Markdown(f"Largest deviation {100 * N['max_deviation']:.4f} % (goal {100
                  f"50-point backbone of the {N['timing_n_dofs']}-DOF beam: {N['timing_points']} points in "
                  f"{N['timing_cpu_s']:.2f} s of CPU (goal {N['time_goal']:g} s)."))
 if IMP:
-    display(Markdown("Impact oscillator (e_N = 1), against the closed form T(A): " + "; ".join(
+    display(Markdown("Impact oscillator ($e_N = 1$), against the closed form T(A): " + "; ".join(
         f"{'shooting' if m == 'shooting' else 'MS-HBM'} {N[f'impact_{m}_points']} points, largest |T/T(A) - 1| "
         f"{N[f'impact_{m}_period_error']:.2g}, largest |D| {N[f'impact_{m}_D_max']:.2g}, {N[f'impact_{m}_cpu_s']:.1f} s CPU"
         for m in IMP["methods"]) + f"; ω/ω₀ up to {N['impact_omega_ratio_max']:.3f}."))

@@ -19,7 +19,7 @@ from mshbm_workflow import mdrender, nbexport, script_module  # noqa: E402
 
 check_render = script_module("paper", "check_render")
 
-NOTEBOOKS = [f"fig{i}" for i in range(1, 9)] + ["table1", "table2"]
+NOTEBOOKS = [f"fig{i}" for i in range(1, 13)] + ["table1", "table2"]
 
 
 # ----------------------------------------------------------------------------- the checker
