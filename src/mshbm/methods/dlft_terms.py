@@ -57,6 +57,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from ..elements.base import dependent_directions
 from ..errors import InputError
 
 __all__ = ["Term", "with_sliders", "relative_stiffness", "demand_weights", "element_terms"]
@@ -153,10 +154,7 @@ def demand_weights(elements, pos):
     if np.array_equal(G, np.eye(m)):
         return W
     if np.linalg.matrix_rank(G) < m:
-        dofs = [el.dof for el in elements if el.relative_to is None]
-        d = next((d for d in dofs if dofs.count(d) > 1), None)
-        what = (f"DOF {d} carries a friction and a contact element" if d is not None
-                else "two elements act along one direction")
+        what = dependent_directions(elements) or "two elements act along one direction"
         raise InputError("elements", f"DLFT needs linearly independent element directions ({what}: the demanded "
                                      "force cannot be split between them)")
     return W @ np.linalg.inv(G)
