@@ -52,26 +52,12 @@ import numpy as np
 
 from ._blas import blas_threads
 from .errors import InputError
-from .methods.epmc import EPMCProblem
-from .methods.modes import ShootingModeProblem
-from .methods.modes_mixed import MixedModeProblem
-from .methods.modes_moreau import MOREAU_D_TOL, MOREAU_OMEGA_TOL, MoreauModeProblem
-from .options import aft_steps
+from .methods.modes_common import ENERGY_TOL, MOREAU_STEPS, SHOOTING_STEPS  # noqa: F401  (re-exported)
+from .methods.modes_registry import MODE_METHODS, mode_problem
 from .solvers.arclength import continuation
 from .system import System
 
 __all__ = ["backbone", "Backbone"]
-
-#: gate of the energy balance (relative): the harmonic balance satisfies it to the residual's accuracy
-ENERGY_TOL = 1e-6
-#: output samples per period of a point by shooting (the flow is exact: they only split it into pieces)
-SHOOTING_STEPS = 256
-#: Moreau-Jean steps per period of a backbone with ``integrator="moreau"`` (order 1 at stick-slip and impacts)
-MOREAU_STEPS = 1024
-#: the per-point fields of shooting besides the common ones (module docstring)
-_SHOOTING_KEYS = ("periodicity_q", "periodicity_u", "energy", "energy_drift", "impacts", "events",
-                  "moreau_segments", "max_multiplier", "energy_mismatch", "q0", "u0")
-_METHODS = ("hbm", "dlft", "shooting", "mshbm")
 
 
 @dataclass
@@ -89,6 +75,10 @@ class Backbone:
     conservative: bool = False
     integrator: str | None = None
     points: list = field(default_factory=list)
+    #: the per-point fields of the method besides the common ones (module docstring)
+    point_keys: tuple = ()
+    #: what ``stable`` means
+    stability_note: str = "not defined for the EPMC's artificial autonomous motion"
     wall_time: float = 0.0
     cpu_time: float = 0.0
 
@@ -123,14 +113,9 @@ class Backbone:
                "omega_linear": self.omega_linear, "wall_time_s": self.wall_time, "cpu_time_s": self.cpu_time,
                "conservative": self.conservative,
                "stable": [p.get("stable") for p in self.points],
-               "stability_note": ("Floquet multipliers of the conservative orbit (all on the unit circle: "
-                                  "neutrally stable)" if self.conservative and self.method == "shooting" else
-                                  "not defined for the EPMC's artificial autonomous motion")}
-        extra = {"shooting": _SHOOTING_KEYS, "mshbm": ("impacts", "events", "moreau_segments")}.get(self.method, ())
-        if self.integrator == "moreau":
-            extra = ("omega_error", "D_error") + (("contact_steps",) if self.method == "shooting" else extra)
+               "stability_note": self.stability_note}
         out["integrator"] = self.integrator
-        for k in keys + extra:
+        for k in keys + tuple(self.point_keys):
             out[k] = [p[k] for p in self.points]
         out["amplitude"] = [list(map(float, p["amplitude"])) for p in self.points]
         out["harmonic_content"] = [p["harmonics"] for p in self.points]
@@ -216,8 +201,8 @@ def backbone(system, amplitude_start, amplitude_end, mode=0, method="hbm", harmo
     """
     if not isinstance(system, System):
         raise InputError("system", f"must be a mshbm.System, got {type(system).__name__}")
-    if method not in _METHODS:
-        raise InputError("method", f"backbone supports {', '.join(_METHODS)}, got {method!r}")
+    if method not in MODE_METHODS:
+        raise InputError("method", f"backbone supports {', '.join(MODE_METHODS)}, got {method!r}")
     a0, a1 = _positive("amplitude_start", amplitude_start), _positive("amplitude_end", amplitude_end)
     if a0 == a1:
         raise InputError("amplitude_end", "must differ from amplitude_start")
@@ -226,33 +211,11 @@ def backbone(system, amplitude_start, amplitude_end, mode=0, method="hbm", harmo
     max_points = 4 * int(points) + 10 if max_points is None else max_points
     if isinstance(max_points, bool) or not isinstance(max_points, (int, np.integer)) or max_points < 2:
         raise InputError("max_points", f"must be an integer >= 2, got {max_points!r}")
-    # shooting: the branch has corners where the event sequence changes (a grazing impact): the event
-    # sequence marks its smooth pieces, and a step at fixed a crosses a corner the corrector cannot turn
-    if integrator is not None and integrator not in ("event", "moreau"):
-        raise InputError("integrator", f"must be 'event' or 'moreau', got {integrator!r}")
-    if integrator is not None and method not in ("shooting", "mshbm"):
-        raise InputError("integrator", f"only with method 'shooting' or 'mshbm' (got method {method!r}, which is "
-                         "harmonic balance)")
-    moreau = integrator == "moreau"
     steps_given = steps is not None
-    shooting = method == "shooting" and not moreau
-    # the event-driven flow: corners, event sequences, its certificate
-    flow = method in ("shooting", "mshbm") and not moreau
-    if moreau:
-        steps = MOREAU_STEPS if steps is None else steps
-        prob = (MoreauModeProblem(system, mode, harmonics, steps) if method == "shooting" else
-                MixedModeProblem(system, mode, harmonics, steps, integrator="moreau"))
-    elif shooting:
-        steps = SHOOTING_STEPS if steps is None else steps
-        prob = ShootingModeProblem(system, mode, harmonics, steps)
-    elif method == "mshbm":
-        if steps is None:
-            steps = max(SHOOTING_STEPS, 4 * harmonics) if isinstance(harmonics, (int, np.integer)) else 0
-        prob = MixedModeProblem(system, mode, harmonics, steps)
-    else:
-        if steps is None:
-            steps = aft_steps(harmonics) if isinstance(harmonics, (int, np.integer)) else 0
-        prob = EPMCProblem(system, mode, harmonics, steps, method)
+    prob, steps = mode_problem(system, mode, method, harmonics, steps, integrator)
+    # the event-driven flow: the branch has corners where the event sequence changes (a grazing impact): the
+    # event sequence marks its smooth pieces, and a step at fixed a crosses a corner the corrector cannot turn
+    flow = prob.event_flow
     if dofs is None:
         dofs = [prob.ref_dof]
     dofs = [int(d) for d in dofs]
@@ -267,20 +230,7 @@ def backbone(system, amplitude_start, amplitude_end, mode=0, method="hbm", harmo
 
     def accept(y, lam, stall):
         pt = prob.point(y, lam, dofs)
-        ok = pt["residual"] <= 10 * tol and pt["amplitude_residual"] <= 10 * tol
-        if shooting:
-            ok = (ok and not pt["moreau_segments"]
-                  and (pt["energy_balance"] <= ENERGY_TOL or pt["energy_mismatch"] <= 10 * tol))
-            if prob.conservative:
-                ok = ok and pt["energy_drift"] <= 10 * tol and abs(pt["damping_ratio"]) <= 10 * tol
-                pt["stable"] = bool(pt["max_multiplier"] <= 1 + 1e-6)
-        elif moreau:  # residuals and the half-steps error estimate (mshbm.methods.modes_moreau)
-            ok = ok and pt["omega_error"] <= MOREAU_OMEGA_TOL and pt["D_error"] <= MOREAU_D_TOL
-        elif method == "mshbm":  # no energy balance (mshbm.methods.modes_mixed)
-            ok = ok and not pt["moreau_segments"] and (not prob.conservative or abs(pt["damping_ratio"]) <= 10 * tol)
-        else:
-            ok = ok and pt["energy_balance"] <= ENERGY_TOL
-        pt["certified"] = bool(ok)
+        pt["certified"] = bool(prob.certify(pt, tol))
         return pt["certified"] or pt["residual"] <= 10 * tol, pt
 
     show = _Progress(progress, f"mode {mode}", prob.a_ref)
@@ -347,19 +297,10 @@ def backbone(system, amplitude_start, amplitude_end, mode=0, method="hbm", harmo
         msg += f" (after {len(bridged)} corner(s) passed by a restart from the DLFT mode, at a = " + \
             ", ".join(f"{a:.6g}" for a in bridged) + ")"
     msg = msg if not bad else f"{msg}; {len(bad)} point(s) not certified (first: {bad[0]})"
-    if moreau and not success and any(el.acts and el.unilateral for el in system.elements):
-        msg += ("; Moreau-Jean's period map jumps where an impact moves to the next step (no smooth root past the "
-                "onset of impacts): integrator 'event' is exact there")
-    if (not found and method == "hbm" and not steps_given
-            and any(getattr(el, "smoothing", None) is not None for el in system.elements)):
-        # a steep regularisation (the case's smoothing kappa) that the default AFT samples do not resolve: the
-        # residual is then non-smooth at the samples' resolution and Newton stalls (friction3.yaml: converges
-        # with 8192)
-        kappa = max(el.smoothing for el in system.elements if getattr(el, "smoothing", None) is not None)
-        msg += (f"; the regularised friction (smoothing {kappa:g}) may need more AFT samples than the default "
-                f"{steps}: try steps (--steps) 8192")
+    if not success:
+        msg += prob.failure_hint(len(found), steps_given)
     return Backbone(success=success, message=msg, mode=int(mode), method=method, harmonics=int(harmonics),
                     steps=int(steps), dofs=dofs, omega_linear=prob.omega0,
-                    conservative=bool(getattr(prob, "conservative", False)), points=pts,
-                    integrator=(integrator or "event") if method in ("shooting", "mshbm") else None,
+                    conservative=bool(prob.conservative), points=pts, integrator=prob.integrator,
+                    point_keys=tuple(prob.point_keys), stability_note=prob.stability_note(),
                     wall_time=time.perf_counter() - t0, cpu_time=time.process_time() - c0)

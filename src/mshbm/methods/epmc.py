@@ -45,7 +45,7 @@ from ..elements import Jenkins
 from ..system import System
 from .dlft import DLFTProblem
 from .hbm import HBMProblem
-from .modes_common import ModalParameter, fd_omega_xi, xi_guess
+from .modes_common import ENERGY_TOL, ModalParameter, fd_omega_xi, xi_guess
 from ..solvers.newton import newton
 
 #: the harmonic-balance problems EPMC builds on (same constructor: system, omega, n_h, steps, condense, partition)
@@ -165,6 +165,24 @@ class EPMCProblem(ModalParameter):
         # force scale: the largest modal inertia (or linear stiffness) force per unit modal amplitude, N/(kg^1/2 m)
         self._force_per_a = float(np.max(np.abs(self.v))) * self.omega0 ** 2
         self._bound = max([float(el.force_scale(0.0)) for el in system.elements if el.bounded] + [0.0])
+
+    # ------------------------------------------------------------------ certificate (ModalParameter)
+    def certify(self, pt, tol):
+        """Residuals within ``10 tol`` and the energy balance within :data:`ENERGY_TOL`."""
+        return super().certify(pt, tol) and pt["energy_balance"] <= ENERGY_TOL
+
+    def failure_hint(self, points_found, steps_given):
+        """HBM without points and with default samples on a steep regularisation: ask for more samples."""
+        if points_found or steps_given or self.method != "hbm":
+            return ""
+        kappas = [el.smoothing for el in self.system.elements if getattr(el, "smoothing", None) is not None]
+        if not kappas:
+            return ""
+        # a steep regularisation (the case's smoothing kappa) that the default AFT samples do not resolve: the
+        # residual is then non-smooth at the samples' resolution and Newton stalls (friction3.yaml: converges
+        # with 8192)
+        return (f"; the regularised friction (smoothing {max(kappas):g}) may need more AFT samples than the "
+                f"default {self.Ns}: try steps (--steps) 8192")
 
     # ------------------------------------------------------------------ pieces
     def hbm(self, omega, xi):

@@ -43,7 +43,7 @@ from ..solvers.arclength_parts import Failed
 from ..solvers.arclength import continuation
 from ..solvers.newton import newton
 from .epmc import linear_modes, shifted_system
-from .modes_common import ModalParameter, fd_omega_xi, xi_guess
+from .modes_common import ENERGY_TOL, ModalParameter, fd_omega_xi, xi_guess
 
 __all__ = ["ShootingModeProblem", "xi_guess", "harmonic_mode_past", "shift_to_sine_phase"]
 
@@ -108,6 +108,10 @@ class ShootingModeProblem(ModalParameter):
     """
 
     method = "shooting"
+    integrator = "event"
+    event_flow = True
+    point_keys = ("periodicity_q", "periodicity_u", "energy", "energy_drift", "impacts", "events",
+                  "moreau_segments", "max_multiplier", "energy_mismatch", "q0", "u0")
 
     def __init__(self, system, mode, harmonics, steps, integrator="event"):
         if integrator != "event":
@@ -120,7 +124,6 @@ class ShootingModeProblem(ModalParameter):
         if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 8:
             raise InputError("steps", f"must be an integer >= 8, got {steps!r}")
         self.system, self.mode, self.n_h, self.Ns = system, int(mode), int(harmonics), int(steps)
-        self.integrator = integrator
         omegas, Phi = linear_modes(system, self.mode + 1)
         self.omega0, self.phi = float(omegas[-1]), Phi[:, -1]
         self.M, self.C = _dense(system.M), _dense(system.C)
@@ -143,6 +146,24 @@ class ShootingModeProblem(ModalParameter):
         acting = [el for el in system.elements if el.acts]
         #: no dissipation: no damping matrix, elastic impacts only, no acting friction
         self.conservative = (not np.any(self.C) and all(el.unilateral and el.restitution == 1.0 for el in acting))
+
+    # ------------------------------------------------------------------ certificate (ModalParameter)
+    def certify(self, pt, tol):
+        """Residuals within ``10 tol``, no Moreau-Jean segments, the energy balance within :data:`ENERGY_TOL`
+        (or the mismatch over the reactive power within ``10 tol``: where nothing dissipates Newton leaves
+        ``xi`` at its tolerance); a conservative orbit also conserves its energy (``energy_drift``, ``|D|``
+        within ``10 tol``) and gets ``stable`` from its multipliers."""
+        ok = (super().certify(pt, tol) and not pt["moreau_segments"]
+              and (pt["energy_balance"] <= ENERGY_TOL or pt["energy_mismatch"] <= 10 * tol))
+        if self.conservative:
+            ok = ok and pt["energy_drift"] <= 10 * tol and abs(pt["damping_ratio"]) <= 10 * tol
+            pt["stable"] = bool(pt["max_multiplier"] <= 1 + 1e-6)
+        return ok
+
+    def stability_note(self):
+        if self.conservative:
+            return "Floquet multipliers of the conservative orbit (all on the unit circle: neutrally stable)"
+        return super().stability_note()
 
     # ------------------------------------------------------------------ flows
     def flow(self, omega, xi):

@@ -12,7 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["FD_OMEGA", "FD_XI", "fd_omega_xi", "ModalParameter", "xi_guess"]
+__all__ = ["ENERGY_TOL", "FD_OMEGA", "FD_XI", "MOREAU_STEPS", "SHOOTING_STEPS", "fd_omega_xi", "ModalParameter",
+           "xi_guess"]
 
 #: relative central-difference steps of ``dR/domega`` and ``dR/dxi`` (the latter relative to omega)
 FD_OMEGA, FD_XI = 1e-6, 1e-6
@@ -27,8 +28,57 @@ def fd_omega_xi(rows, omega, xi):
     return np.stack(cols, axis=1)
 
 
+#: gate of the energy balance (relative): the harmonic balance satisfies it to the residual's accuracy
+ENERGY_TOL = 1e-6
+#: output samples per period of a point by shooting (the flow is exact: they only split it into pieces)
+SHOOTING_STEPS = 256
+#: Moreau-Jean steps per period of a backbone by Moreau-Jean (order 1 at stick-slip and impacts)
+MOREAU_STEPS = 1024
+
+
 class ModalParameter:
-    """``d_lam`` of a mode residual (``n_x``, ``n_unknowns``, ``a_ref`` set by the class)."""
+    """Base of the mode residuals: what :func:`mshbm.backbone.backbone` asks of one.
+
+    A subclass sets ``n_x``, ``n_unknowns``, ``ref_dof``, ``omega0``, ``a_ref`` (by the caller) and implements
+    ``residual(y, lam, jac)``, ``residual_scale``, ``unknown_scale``, ``start(a)`` and ``point(y, lam, dofs)``
+    (a dict of the fields of :mod:`mshbm.backbone`).  It declares (class attributes, or set in ``__init__``):
+
+    ``integrator``
+        ``None`` (harmonic balance), ``"event"`` (the exact event-driven flow) or ``"moreau"``.
+    ``event_flow``
+        ``True`` where the branch has corners at changes of the event sequence: the residual then offers
+        ``segment(y, lam)`` (the sequence of a point) and ``restart_past_corner(lam_c, lam_end, tol)``.
+    ``point_keys``
+        The per-point fields besides the common ones (:data:`mshbm.backbone.Backbone.to_dict`).
+    ``conservative``
+        No dissipation (``C = 0``, elastic impacts, no acting friction).
+
+    and decides :meth:`certify` (a converged point's certificate), :meth:`stability_note` and
+    :meth:`failure_hint`, so that the driver never asks which method it runs.
+    """
+
+    integrator = None
+    event_flow = False
+    point_keys = ()
+    conservative = False
+
+    @staticmethod
+    def default_steps(harmonics):
+        """Samples (or steps) per period when the caller gives none."""
+        raise NotImplementedError
+
+    def certify(self, pt, tol):
+        """Whether the converged point ``pt`` (its fields) is certified at corrector tolerance ``tol``; may add
+        fields (e.g. ``stable``).  Base rule: ``residual`` and ``amplitude_residual`` within ``10 tol``."""
+        return pt["residual"] <= 10 * tol and pt["amplitude_residual"] <= 10 * tol
+
+    def stability_note(self):
+        """What ``stable`` of the points means."""
+        return "not defined for the EPMC's artificial autonomous motion"
+
+    def failure_hint(self, steps_given):
+        """A hint appended to the message of a backbone that did not succeed (``""``: none)."""
+        return ""
 
     def d_lam(self, y, lam):
         """``dR / dlam``: ``-a`` on the amplitude row ``n_x``, shape ``(n_unknowns,)``."""

@@ -28,7 +28,7 @@ from ..solvers.newton import newton
 from .epmc import linear_modes, shifted_system
 from .mixed import MixedProblem
 from .modes_common import ModalParameter, fd_omega_xi
-from .modes_moreau import half_steps_error, refuse_conservative_impacts
+from .modes_moreau import half_steps_error, moreau_certify, moreau_impact_hint, refuse_conservative_impacts
 from .modes import ShootingModeProblem, harmonic_mode_past, shift_to_sine_phase, xi_guess
 
 __all__ = ["MixedModeProblem"]
@@ -69,6 +69,9 @@ class MixedModeProblem(ModalParameter):
             raise InputError("steps", f"must be even with integrator 'moreau', got {steps!r}")
         self.system, self.mode, self.n_h, self.Ns = system, int(mode), int(harmonics), int(steps)
         self.integrator = integrator
+        self.event_flow = integrator == "event"
+        self.point_keys = (("omega_error", "D_error") if integrator == "moreau" else ()) + (
+            "impacts", "events", "moreau_segments")
         self.Nd = np.asarray(system.nonlinear_dofs, dtype=np.int64)
         if self.Nd.size == 0:
             raise InputError("method", "MS-HBM needs a friction or contact element (its time-domain subsystem)")
@@ -91,6 +94,19 @@ class MixedModeProblem(ModalParameter):
         self.nA = self.problem(self.omega0, self.xi0).nA
         self.n_x = self.nc * self.nN + 2 * self.nA
         self.n_unknowns = self.n_x + 2
+
+    # ------------------------------------------------------------------ certificate (ModalParameter)
+    def certify(self, pt, tol):
+        """Residuals within ``10 tol``; Moreau-Jean: its half-steps estimate within its tolerances; the event
+        flow: no Moreau-Jean segments and, for a conservative system, ``|D|`` within ``10 tol`` (no energy
+        balance)."""
+        if self.integrator == "moreau":
+            return super().certify(pt, tol) and moreau_certify(pt)
+        return (super().certify(pt, tol) and not pt["moreau_segments"]
+                and (not self.conservative or abs(pt["damping_ratio"]) <= 10 * tol))
+
+    def failure_hint(self, points_found, steps_given):
+        return moreau_impact_hint(self.system) if self.integrator == "moreau" else ""
 
     # ------------------------------------------------------------------ problems
     def problem(self, omega, xi):

@@ -55,6 +55,19 @@ def refuse_conservative_impacts(system, conservative, method):
                          "map jumps where an impact moves to the next step); use integrator 'event' (exact)")
 
 
+def moreau_certify(pt):
+    """The half-steps estimate of a Moreau-Jean point within ``MOREAU_OMEGA_TOL`` and ``MOREAU_D_TOL``."""
+    return pt["omega_error"] <= MOREAU_OMEGA_TOL and pt["D_error"] <= MOREAU_D_TOL
+
+
+def moreau_impact_hint(system):
+    """The hint of a Moreau-Jean backbone that failed on a system with contacts (``""`` without contacts)."""
+    if any(el.acts and el.unilateral for el in system.elements):
+        return ("; Moreau-Jean's period map jumps where an impact moves to the next step (no smooth root past the "
+                "onset of impacts): integrator 'event' is exact there")
+    return ""
+
+
 def half_steps_error(prob_half, y, lam, omega, D):
     """``(omega_error, D_error)`` of a point ``y`` at ``lam`` (module docstring) from the same mode of
     ``prob_half`` (half the steps), by Newton from ``y``; ``(inf, inf)`` where it does not converge."""
@@ -88,6 +101,7 @@ class MoreauModeProblem(ModalParameter):
 
     method = "shooting"
     integrator = "moreau"
+    point_keys = ("omega_error", "D_error", "contact_steps")
 
     def __init__(self, system, mode, harmonics, steps, theta=0.5):
         if isinstance(mode, bool) or not isinstance(mode, (int, np.integer)) or not 0 <= mode < system.n:
@@ -115,6 +129,13 @@ class MoreauModeProblem(ModalParameter):
         self.n_x = 2 * self.nA
         self.n_unknowns = self.n_x + 2
         self._half = None
+
+    def certify(self, pt, tol):
+        """Residuals within ``10 tol`` and the half-steps estimate within its tolerances."""
+        return super().certify(pt, tol) and moreau_certify(pt)
+
+    def failure_hint(self, points_found, steps_given):
+        return moreau_impact_hint(self.system)
 
     def stepper(self, omega, xi):
         """Moreau-Jean over one period of the shifted autonomous system at ``(omega, xi)`` (cached)."""
