@@ -6,7 +6,6 @@ exact event-driven flow; and every point against a pointwise certified solve at 
 """
 import json
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -18,8 +17,7 @@ from mshbm.cli import main
 from mshbm.io import load_case
 from mshbm.parameter import sweep_case
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from test_sweep import _den_hartog  # noqa: E402
+from test_sweep import _den_hartog  # this folder is on sys.path (pytest's rootdir-less test folders)
 
 ZETA, F, W = 0.05, 1.0, 2.0
 

@@ -39,7 +39,6 @@ CASES = [
 
 SCRIPT = textwrap.dedent("""
     import sys
-    sys.path.insert(0, {tests!r})
     import numpy as np
     import mshbm
     from paper_systems import OMEGA, friction_chain, impact_chain
@@ -56,9 +55,11 @@ SCRIPT = textwrap.dedent("""
 
 def run_in_subprocess(path, threads, cases=CASES):
     env = dict(os.environ)
+    # the subprocess imports tests/paper_systems.py
+    env["PYTHONPATH"] = os.pathsep.join([str(ROOT / "tests")] + ([env["PYTHONPATH"]] if env.get("PYTHONPATH") else []))
     for v in THREAD_VARS:
         env[v] = str(threads)
-    code = SCRIPT.format(tests=str(ROOT / "tests"), cases=[(n, e, m, o) for n, e, m, o in cases])
+    code = SCRIPT.format(cases=[(n, e, m, o) for n, e, m, o in cases])
     subprocess.run([sys.executable, "-c", code, str(path)], env=env, check=True, cwd=str(ROOT), timeout=600)
     with np.load(path) as data:
         return {k: data[k] for k in data.files}
