@@ -5,7 +5,6 @@ oscillator (continuous slip, no stops; ``_den_hartog`` of test_sweep) in its fri
 exact event-driven flow; and every point against a pointwise certified solve at its parameter value.
 """
 import json
-import sys
 
 import numpy as np
 import pytest
