@@ -107,16 +107,30 @@ class ReducedModel:
     def expand(self, sol, estimate=True):
         """The solution ``sol`` of :attr:`system` on the full model's DOFs: ``q_hat = q_hat_r T^T``; the
         time-stepped boundary DOFs keep their time series (time-stepped modal coordinates are represented by
-        their Fourier series).  Element outputs, certificate and stability stay those of the reduced model;
+        their Fourier series).  Element outputs name the full model's DOFs (the elements act on boundary DOFs,
+        which are physical); the partition names the full model's DOFs too (``time`` and ``harmonic``: the
+        boundary DOFs of those sets, ``condensed``: every other DOF, whose motion follows from the reduction's
+        modal coordinates and the condensation).  Certificate and stability stay those of the reduced model;
         with ``estimate`` the certificate gets the entry ``reduction`` (:meth:`error_estimate`)."""
         b = self.boundary.size
+        B = self.boundary
         td = np.asarray(sol.time_dofs, dtype=np.int64)
         keep = td < b
         info = dict(sol.info)
         info["reduction"] = self.as_dict()
-        out = dataclasses.replace(sol, q_hat=np.asarray(sol.q_hat) @ self.T.T, time_dofs=self.boundary[td[keep]],
+        elements = [dataclasses.replace(e, dof=int(B[e.dof]),
+                                        relative_to=None if e.relative_to is None else int(B[e.relative_to]))
+                    for e in (sol.elements or [])]
+        partition = sol.partition
+        if partition is not None:
+            t = np.asarray(partition.time, dtype=np.int64)
+            h = np.asarray(partition.harmonic, dtype=np.int64)
+            t, h = B[t[t < b]], B[h[h < b]]
+            partition = dataclasses.replace(partition, time=t, harmonic=h,
+                                            condensed=np.setdiff1d(np.arange(self.full.n), np.union1d(t, h)))
+        out = dataclasses.replace(sol, q_hat=np.asarray(sol.q_hat) @ self.T.T, time_dofs=B[td[keep]],
                                   q_time=np.asarray(sol.q_time)[:, keep], u_time=np.asarray(sol.u_time)[:, keep],
-                                  info=info)
+                                  info=info, elements=elements, partition=partition)
         if estimate and sol.certificate is not None:
             from .certificate import Check
             from .certificate.combined import combined_check, gate

@@ -147,6 +147,14 @@ def test_friction_and_stop_on_nodes_keep_and_expand():
     sol = mshbm.solve(rm.system, w1, "mshbm", stability=False)
     full = rm.expand(sol)
     assert np.allclose(full.displacement([10, mid, tip]), sol.displacement([0, 1, 2]), rtol=0, atol=1e-15)
+    # element outputs and the partition name the user's DOFs; the element outputs are the reduced model's
+    assert [(e.dof, e.relative_to) for e in full.elements] == [(mid, None), (tip, None)]
+    for ef, er in zip(full.elements, sol.elements):
+        assert np.array_equal(ef.force, er.force) and ef.dissipated_energy == er.dissipated_energy
+    part = full.partition
+    assert part.time.tolist() == [mid, tip]
+    assert sorted(set(part.time) | set(part.harmonic) | set(part.condensed)) == list(range(s.n))
+    assert not set(part.condensed) & (set(part.time) | set(part.harmonic))
 
 
 def test_bad_reductions_name_the_key(tmp_path):
