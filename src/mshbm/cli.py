@@ -74,8 +74,11 @@ def _parser():
                    help="forcing frequency in rad/s (instead of the case's omega; same as --set omega=W)")
     add_set_option(s)
     s.add_argument("--out", default=None, metavar="FILE.json",
-                   help="write the result summary as JSON (keeps the permissions of an existing file, writes "
-                   "through symlinks, FIFOs and character devices; never the case file itself)")
+                   help="write the result as JSON: the summary, the element outputs over the period, the Fourier "
+                   "coefficients q_hat (2 n_h + 1 rows: mean, then cos and sin of each harmonic; m) of every DOF "
+                   "and the time series q_time, u_time of the time-stepped DOFs time_dofs on the grid t (keeps "
+                   "the permissions of an existing file, writes through symlinks, FIFOs and character devices; "
+                   "never the case file itself)")
     s.add_argument("--quiet", action="store_true", help="print no table (errors still go to stderr)")
     cli_sweep.add_parser(sub, METHOD_CHOICES)  # mshbm sweep: mshbm.cli_sweep
     cli_backbone.add_parser(sub)  # mshbm backbone: mshbm.cli_backbone
@@ -191,6 +194,13 @@ def _solve(args):
         # the element outputs with their series over the period (the grid of "t")
         payload["t"] = np.asarray(sol.t).tolist()
         payload["elements"] = [e.summary(series=True) for e in sol.elements]
+        # the solution itself: the Fourier coefficients of every DOF (row 0 the mean, rows 2k-1 and 2k the
+        # cosine and sine coefficients of harmonic k, m) and the time series of the time-stepped DOFs
+        payload["q_hat"] = np.asarray(sol.q_hat).tolist()
+        payload["time_dofs"] = [int(d) for d in np.asarray(sol.time_dofs).reshape(-1)]
+        if len(payload["time_dofs"]):
+            payload["q_time"] = np.asarray(sol.q_time).tolist()
+            payload["u_time"] = np.asarray(sol.u_time).tolist()
         _write_json(args.out, payload, args.case)
     if not args.quiet:
         print(_table(case, summary))

@@ -119,6 +119,20 @@ def test_cli_example_matches_api(name, tmp_path, capsys):
     np.testing.assert_allclose([printed[d] for d in range(case.system.n)], ref.amplitude, rtol=0, atol=1e-12)
     assert data["omega"] == case.omega and data["period"] == pytest.approx(2 * np.pi / case.omega)
     assert data["harmonics"] == ref.harmonics and data["steps"] == ref.steps
+    # the solution itself: the Fourier series of every DOF rebuilt from q_hat at the grid t is the API's
+    # displacement there (Fourier DOFs), and the time-stepped DOFs' series are the API's
+    q_hat, t = np.array(data["q_hat"]), np.array(data["t"])
+    assert q_hat.shape == (2 * ref.harmonics + 1, case.system.n)
+    k = np.arange(1, ref.harmonics + 1)
+    series = q_hat[0] + np.cos(np.outer(t, k) * case.omega) @ q_hat[1::2] + np.sin(np.outer(t, k) * case.omega) @ q_hat[2::2]
+    np.testing.assert_allclose(series, ref.q_hat[0] + np.cos(np.outer(t, k) * case.omega) @ ref.q_hat[1::2]
+                               + np.sin(np.outer(t, k) * case.omega) @ ref.q_hat[2::2], rtol=0, atol=1e-12)
+    assert data["time_dofs"] == [int(d) for d in ref.time_dofs]
+    if ref.time_dofs.size:
+        np.testing.assert_allclose(data["q_time"], ref.q_time, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(data["u_time"], ref.u_time, rtol=0, atol=1e-12)
+    fourier = [d for d in range(case.system.n) if d not in set(data["time_dofs"])]
+    np.testing.assert_allclose(series[:, fourier], ref.displacement(fourier), rtol=0, atol=1e-12)
 
 
 def test_cli_table_fields_and_overrides(tmp_path, capsys):
