@@ -42,9 +42,9 @@ linear response at the first omega); on the impact chain, where that start fails
 converged HBM solution there with the defaults and, in the full profile only, with ``ds_max = 0.1`` and with
 ``NewtonRaphson`` (``ds_max = 0.05``).  pyHarm's ``DLFTFriction`` pair (``dlft`` above) is also in the full
 profile only: these three runs spend their whole budget (about 140 s of the main job's CPU) and the paper quotes
-none of their numbers, so the default profile (``snakemake``) keeps the comparisons it quotes.  Each run stops after a budget of CPU time (:func:`pyharm_budget`): ten times the CPU
-time of our branch on the same equations (its twin), at least 10 s and at most ``PYHARM_BUDGET`` (20 s; the
-full profile 300 s fixed).
+none of their numbers, so the default profile (``snakemake``) keeps the comparisons it quotes.  Each run stops
+after a budget of CPU time (:func:`pyharm_budget`): ten times the CPU time of our branch on the same equations
+(its twin), at least 10 s and at most ``PYHARM_BUDGET`` (20 s; the full profile 300 s fixed).
 
 Measured per branch: wall and CPU time of this process (untimed warm-up first: numba/jax
 compilation; BLAS limited to one thread for both codes; CPU time is the fairer number on a loaded
