@@ -202,6 +202,9 @@ def run(cfg, method):
     try:
         for mu_n in cfg["preloads"]:
             out["preloads"].append(frf(cfg, method, float(mu_n)))
+            pk = out["preloads"][-1]["peak"]  # progress in the rule's log
+            print(f"{method} mu_N = {mu_n}: peak at omega / omega_1 = {pk and pk['omega_ratio']} "
+                  f"({time.process_time() - c0:.1f} s CPU so far)", flush=True)
     except InputError as exc:  # a method that does not take the model
         out["refused"] = str(exc)
         out["preloads"] = []
