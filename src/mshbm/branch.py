@@ -7,7 +7,7 @@
 2. The branch is continued in ``omega`` by pseudo-arclength continuation
    (:func:`mshbm.solvers.arclength.continuation`) on the method's residual ``R(x, omega)``
    (:func:`mshbm.build_problem`) with its Jacobian and ``dR/domega``
-   (:meth:`PeriodicProblem.omega_derivative`), in the scaled units of :func:`unknown_scale` and
+   (:meth:`PeriodicProblem.omega_derivative`), in the scaled units of :func:`mshbm.branch_tracer.unknown_scale` and
    ``problem.residual_scale``; it passes folds (turning points).  The continuation runs inside
    :func:`mshbm.condensation.reuse_factors`: a sparse condensation keeps its LU per harmonic and solves
    at nearby frequencies (corrector iterations, ``dR/domega``) by a splitting iteration on it, which makes
@@ -34,15 +34,17 @@ on the forcing (``f_hat`` times ``load``) at fixed ``omega``; :func:`mshbm.param
 any parameter that rebuilds the system (``family`` of ``_run``).  An interrupt keeps the points so far
 (:mod:`mshbm.interrupt`).
 
+The result types are in :mod:`mshbm.branch_result`, the problem the continuation runs on (residual, scales,
+certified points as functions of the parameter) in :mod:`mshbm.branch_tracer`; this module puts them together.
+
 Notation: ``n`` DOFs, ``x`` the unknowns of the method, ``omega`` the forcing frequency (rad/s).
 """
 from __future__ import annotations
 
-import json
 import math
 import sys
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 
 import numpy as np
 
@@ -50,23 +52,18 @@ from . import bifurcations
 from . import stability as _stability
 from . import validate
 from ._blas import blas_threads, check_threads
-from .certificate import certify
 from .condensation import reuse_factors
 from .errors import InputError
-from .hill import assess_hbm
 from .interrupt import Collector, SweepInterrupted, interrupted_result
 from .methods.hbm import linear_quadrature_unsupported
-from .methods.registry import build_problem
 from .options import METHODS
-from .outfile import jsonable
-from .route.acceptance import ResidualTest
-from .route.driver import Route, assemble
+from .route.driver import Route
 from .route.options import capabilities, only, without
-from .scaling import displacement_floor
 from .solvers.arclength import PREDICTED, continuation
 from .branch_grazing import grazing_locator
 from .branch_accuracy import certify_points, check_options, skipped, to_accuracy
-from .element_outputs import element_outputs
+from .branch_result import Branch, BranchPoint
+from .branch_tracer import _Tracer, scaled_forcing, unknown_scale
 from .subharmonic import PERIOD_K_TOL, check_period, period_options, subharmonic_content, subharmonic_system
 from .system import System
 
@@ -79,295 +76,6 @@ DS_ROUGH = 0.1
 _CONT_KEYS = {"ds", "ds_min", "ds_max", "max_points", "predictor", "max_time", "progress", "stability"}
 #: options that are not the problem's (handled by the start solve / the corrector)
 _SOLVER_KEYS = {"guess", "tol", "max_iter", "line_search", "raise_on_failure", "continuation", "blas_threads"}
-
-
-@dataclass
-class BranchPoint:
-    """One point of a branch.
-
-    ``omega`` is the forcing frequency (rad/s); ``load`` the load factor on the forcing;
-    ``amplitude`` ``(max - min) / 2`` per DOF over the response period (``period * T``);
-    ``x`` the method's unknowns; ``q_hat`` the displacement coefficients (harmonics of
-    ``omega / period``); ``iterations`` corrector (Newton) iterations; ``residual`` the scaled
-    residual; ``certificate`` ``{"passed", "failed": [names]}``; ``floquet_multipliers``, ``stable``,
-    ``stability_method``; ``contact`` per element ``{kind, dof, min_gap (contacts), active}`` where
-    ``active`` means the element acts on the motion (an impact or closed contact, a stick phase);
-    ``solution`` the :class:`mshbm.result.PeriodicSolution` (not serialised)."""
-
-    omega: float
-    load: float
-    amplitude: np.ndarray
-    x: np.ndarray
-    q_hat: np.ndarray
-    iterations: int
-    residual: float
-    certificate: dict
-    floquet_multipliers: np.ndarray
-    stable: bool | None
-    stability_method: str
-    contact: list
-    solution: object = None
-
-    def as_dict(self):
-        return {"omega": self.omega, "load": self.load, "amplitude": [float(a) for a in self.amplitude],
-                "iterations": int(self.iterations), "residual": float(self.residual),
-                "certificate": self.certificate, "floquet_multipliers": _stability.multipliers_json(self.floquet_multipliers),
-                "stable": self.stable, "stability_method": self.stability_method, "contact": self.contact,
-                "elements": [e.summary() for e in (getattr(self.solution, "elements", None) or [])],
-                "x": [float(v) for v in self.x]}
-
-
-@dataclass
-class Branch:
-    """A branch of periodic solutions (result of :func:`sweep` or :func:`continue_forcing`).
-
-    Attributes
-    ----------
-    success : bool
-        The branch reached the end of the requested range with every point certified, the combined error
-        estimate within the accuracy included (:mod:`mshbm.branch_accuracy`).
-    message : str
-    method : str
-    period : int
-        ``k`` of ``kT``-periodic solutions.
-    parameter : {"omega", "forcing"}
-        The continuation parameter.
-    points : list of BranchPoint
-    bifurcations : list of dict
-        ``{"type", "omega", "index", ...}``; ``type`` is ``"fold"`` (located here) or a type from
-        :func:`mshbm.bifurcations.detect` (``"period-doubling"``, ``"neimark-sacker"``, ``"grazing"``).
-    counters : dict
-        Residual evaluations, corrector iterations and failures, rejected points, ...
-    wall_time : float
-        Seconds, start solve and stability analyses included.
-    """
-
-    success: bool
-    message: str
-    method: str
-    period: int = 1
-    parameter: str = "omega"
-    points: list = field(default_factory=list)
-    bifurcations: list = field(default_factory=list)
-    counters: dict = field(default_factory=dict)
-    wall_time: float = 0.0
-    #: where a switched branch starts (:func:`switch_period_doubling`): ``{"type", "omega", "period"}``
-    origin: dict = field(default_factory=dict)
-    #: the points' accuracy summary (:func:`mshbm.branch_accuracy.certify_points`)
-    accuracy: dict = field(default_factory=dict)
-
-    @property
-    def omega(self):
-        return np.array([p.omega for p in self.points], dtype=float)
-
-    @property
-    def load(self):
-        return np.array([p.load for p in self.points], dtype=float)
-
-    @property
-    def amplitude(self):
-        """Shape ``(n_points, n)``."""
-        return np.array([p.amplitude for p in self.points], dtype=float)
-
-    @property
-    def stable(self):
-        return [p.stable for p in self.points]
-
-    @property
-    def iterations(self):
-        return np.array([p.iterations for p in self.points], dtype=int)
-
-    def __len__(self):
-        return len(self.points)
-
-    def to_dict(self):
-        return {"success": bool(self.success), "message": self.message, "method": self.method,
-                "period": int(self.period), "parameter": self.parameter,
-                "omega": [float(w) for w in self.omega], "load": [float(v) for v in self.load],
-                "amplitude": [[float(a) for a in p.amplitude] for p in self.points],
-                "stable": self.stable,
-                "bifurcations": [{k: v for k, v in b.items() if k != "x"} for b in self.bifurcations],
-                "iterations": [int(i) for i in self.iterations], "counters": self.counters,
-                "wall_time_s": float(self.wall_time), "origin": dict(self.origin), "accuracy": dict(self.accuracy),
-                "points": [p.as_dict() for p in self.points],
-                # a support motion (mshbm.support): amplitudes of the structure's DOFs, absolute and relative
-                **self._base_amplitudes()}
-
-    def _base_amplitudes(self):
-        sols = [p.solution for p in self.points]
-        if not sols or any(s is None or getattr(s, "base", None) is None for s in sols):
-            return {}
-        out = [s.base.summary(s) for s in sols]
-        return {"base": {**sols[0].base.as_dict(), "amplitude_absolute": [o["amplitude_absolute"] for o in out],
-                         "amplitude_relative": [o["amplitude_relative"] for o in out]}}
-
-    def to_json(self, **kwargs):
-        """JSON text (non-finite numbers as ``null``)."""
-        return json.dumps(jsonable(self.to_dict()), allow_nan=False, **kwargs)
-
-
-# ---------------------------------------------------------------------------------------------- helpers
-def unknown_scale(problem, x):
-    """Per-unknown scale of ``x`` (physical units of the unknowns: m for displacements and their
-    coefficients, m/s for velocities), from the problem and the current solution.
-
-    Shooting and MS-HBM: their ``residual_scale`` rows have the units of the unknowns (``D``, ``V``).
-    MS-HBM (Section 3.3): its harmonic-balance rows are forces, their unknowns displacement
-    coefficients (scale ``D``).  HBM: every unknown is a displacement coefficient, scale
-    ``max(D_0, max |x|)`` (:func:`mshbm.scaling.displacement_floor` of the penalty problem).
-    The problem's capabilities say which case applies (``penalty_laws``, ``force_row_unknowns``).
-    """
-    x = np.asarray(x, dtype=float)
-    if problem.penalty_laws:
-        if "_sweep_D0" not in problem.__dict__:
-            problem._sweep_D0 = displacement_floor(problem.system, problem.omega, penalty=True)
-        return np.full(x.size, max(problem._sweep_D0, float(np.max(np.abs(x), initial=0.0))))
-    s = np.array(problem.residual_scale(x), dtype=float)
-    a = problem.force_row_unknowns
-    if a and a < s.size:
-        s[:a] = s[a]
-    return s
-
-
-def scaled_forcing(system, load):
-    """``system`` with ``f_hat`` times ``load`` (matrices and elements shared)."""
-    return system.map_forcing(lambda f: f * float(load))
-
-
-def _contact_info(system, sol):
-    out = []
-    lam = np.asarray(sol.lam, dtype=float)
-    for j, el in enumerate(system.elements):
-        force = lam[:, j] if lam.ndim == 2 and lam.shape[1] > j else np.zeros(1)
-        rec = {"kind": el.kind, "dof": int(el.dof)}
-        if el.kind == "contact":
-            if el.relative_to is not None:  # g_N = gap + sign (q_I - q_J), on the samples
-                D = sol.displacement([el.dof, el.relative_to])
-                rec["min_gap"] = float(el.gap + np.min(el.sign * (D[:, 0] - D[:, 1])))
-            else:
-                q_max = sol.info.get("q_max")  # the exact flow's true extrema (samples miss the impact instants)
-                q_top = float(q_max[el.dof]) if q_max is not None else float(np.max(sol.displacement([el.dof])[:, 0]))
-                rec["min_gap"] = float(el.gap - q_top)
-            margins = (sol.info.get("contact_margins") or {}).get(j)
-            impacts = margins is not None and int(margins["impacts"]) > 0
-            rec["active"] = bool(np.any(force > 0.0)) or rec["min_gap"] <= 0.0 or impacts
-        else:
-            info = sol.info.get("stability", {})
-            stick = info.get("stick_fraction")
-            rec["stick_fraction"] = None if stick is None else float(stick)
-            rec["active"] = bool(el.acts)
-        out.append(rec)
-    return out
-
-
-class _Tracer:
-    """The method's problem as a function of the parameter (cached), and the point bookkeeping."""
-
-    def __init__(self, system, method, options, parameter, omega_fixed=None, k=1, tol=1e-10, stability="auto"):
-        self.build_problem = build_problem
-        self.system, self.method, self.options, self.parameter = system, method, options, parameter
-        self.omega_fixed, self.k, self.tol, self.stability = omega_fixed, k, tol, stability
-        self.cache = {}
-
-    def problem(self, lam):
-        lam = float(lam)
-        p = self.cache.get(lam)
-        if p is None:
-            if len(self.cache) > 8:
-                self.cache.pop(next(iter(self.cache)))
-            if self.parameter == "omega":
-                p = self.build_problem(self.system, lam / self.k, self.method, **self.options)[0]
-            else:
-                p = self.build_problem(scaled_forcing(self.system, lam), self.omega_fixed / self.k, self.method,
-                                       **self.options)[0]
-            self.cache[lam] = p
-        return p
-
-    def residual(self, x, lam):
-        return self.problem(lam).residual(x, jac=True)
-
-    def d_lam(self, x, lam):
-        p = self.problem(lam)
-        if self.parameter == "omega":  # d/domega = (1/k) d/d(omega / k)
-            return np.asarray(p.omega_derivative(x), dtype=float) / self.k  # the problem contract's dR/domega
-        d = 1e-6 * max(abs(lam), 1e-3)
-        Rp = self.problem(lam + d).residual(x, jac=False)[0]
-        Rm = self.problem(lam - d).residual(x, jac=False)[0]
-        return (Rp - Rm) / (2 * d)
-
-    def residual_scale(self, x, lam):
-        return self.problem(lam).residual_scale(x)
-
-    def unknown_scale(self, x, lam):
-        return unknown_scale(self.problem(lam), x)
-
-    def segment(self, x, lam):
-        """The smooth piece of the residual at ``(x, lam)``: the event sequence of an event-driven flow
-        (:meth:`PeriodicProblem.event_signature`), else ``None``."""
-        return self.problem(lam).event_signature(np.asarray(x, dtype=float))
-
-    def restarts(self, x, lam):
-        """Newton starts across a jump of the unknowns where an event crosses the section ``t = 0``
-        (:meth:`PeriodicProblem.section_restarts`)."""
-        return self.problem(lam).section_restarts(np.asarray(x, dtype=float))
-
-    def stall_accept(self, x, lam):
-        """A stalled corrector on an impacting orbit of a time-stepping method is accepted when periodic to
-        one time step's accuracy (:class:`mshbm.route.acceptance.ResidualTest`, as :func:`mshbm.solve`'s
-        start ladder does); returns the ``step_accuracy`` record for the certificate, else ``None``."""
-        problem = self.problem(lam)
-        if problem.penalty_laws:
-            return None
-        try:
-            v = ResidualTest(problem, problem.system, problem.omega)(np.asarray(x, dtype=float), converged=False,
-                                                                     iterations=0)
-        except (np.linalg.LinAlgError, ValueError, FloatingPointError):
-            return None
-        return v.step_accuracy if v.accepted and v.step_accuracy is not None else None
-
-    def point(self, x, lam, iterations, residual, step_accuracy=None):
-        """Certified :class:`BranchPoint` at ``(x, lam)``, or the reason (str) if the certificate fails."""
-        t0 = time.perf_counter()
-        problem = self.problem(lam)
-        x = np.asarray(x, dtype=float)
-        omega_b = problem.omega
-        sol = assemble(problem, self.method, x, problem.solution_parts(x), success=True,
-                       message="continuation corrector converged", iterations=int(iterations), nfev=0,
-                       residual=float(residual), wall_time=0.0)
-        # step_accuracy_size reported, not gating: along a branch of Moreau-Jean orbits h J / D exceeds its bound at
-        # many one-step points that are the branch's, and gated the sweep would stall there
-        cert = certify(problem, sol, self.tol, step_accuracy, step_size_gating=False)
-        sol.certificate = cert
-        if not cert.passed:
-            return f"certificate failed: {cert.describe_failures()}"
-        system = problem.system
-        if problem.penalty_laws and self.stability is not False \
-                and not any(el.unilateral for el in system.elements):
-            # Hill's method: stability of the regularised system HBM solves.  Not with penalty contacts: there its
-            # truncated spectrum can give spurious multipliers outside the unit circle (a false Neimark-Sacker pair)
-            assess_hbm(system, sol)
-        else:
-            _stability.assess(system, sol, self.stability, theta=self.options.get("theta", 0.5))
-        sol.wall_time = time.perf_counter() - t0
-        sol.elements = element_outputs(sol, system)
-        omega = float(omega_b) * self.k
-        sol.info["period"], sol.info["forcing_omega"] = self.k, omega
-        if step_accuracy is not None:
-            sol.info["step_accuracy"] = {"ratio": float(step_accuracy["ratio"]),
-                                         "bound": np.asarray(step_accuracy["bound"], dtype=float)}
-        return BranchPoint(omega=omega, load=float(lam) if self.parameter == "forcing" else 1.0,
-                           amplitude=np.asarray(sol.amplitude, dtype=float), x=np.asarray(x, dtype=float),
-                           q_hat=np.asarray(sol.q_hat, dtype=float), iterations=int(iterations),
-                           residual=float(residual),
-                           certificate={"passed": True, "failed": [],
-                                        "checks": len([c for c in cert.checks if c.gating]),
-                                        "step_accuracy": None if step_accuracy is None
-                                        else float(step_accuracy["ratio"]),
-                                        "step_accuracy_size": cert["step_accuracy_size"].value
-                                        if "step_accuracy_size" in cert else None},
-                           floquet_multipliers=np.asarray(sol.floquet_multipliers, dtype=complex),
-                           stable=sol.stable, stability_method=sol.stability_method,
-                           contact=_contact_info(system, sol), solution=sol)
 
 
 class _Progress:

@@ -2,7 +2,7 @@
 grazing for the bisection of :func:`mshbm.bifurcations.detect`.
 
 Notation: ``omega`` the frequency of the records (the base frequency ``omega / k`` of kT-periodic orbits), ``x``
-the method's unknowns; the ``tracer`` is the sweep's problem cache (:class:`mshbm.branch._Tracer`).
+the method's unknowns; the ``tracer`` is the sweep's problem cache (:class:`mshbm.branch_tracer._Tracer`).
 """
 from __future__ import annotations
 

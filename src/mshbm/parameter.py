@@ -34,7 +34,8 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from . import bifurcations
-from .branch import ROUTE, Branch, _check_number, _guarded, _Tracer
+from .branch import ROUTE, Branch, _check_number, _guarded
+from .branch_tracer import _Tracer
 from .errors import InputError
 from .interrupt import SweepInterrupted
 from .options import COMMON as _COMMON, METHODS
@@ -62,7 +63,7 @@ class ParameterBranch(Branch):
 
 
 class _FamilyTracer(_Tracer):
-    """:class:`mshbm.branch._Tracer` on ``family(lam)`` at the fixed frequency (module docstring)."""
+    """:class:`mshbm.branch_tracer._Tracer` on ``family(lam)`` at the fixed frequency (module docstring)."""
 
     family = None  # set by _Family.tracer
 

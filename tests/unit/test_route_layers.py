@@ -45,7 +45,8 @@ def test_the_route_does_not_call_up():
 
 
 def test_no_slot_or_context_variable_against_recursion():
-    for path in list((ROOT / "route").glob("*.py")) + [ROOT / "branch.py", ROOT / "period.py"]:
+    for path in list((ROOT / "route").glob("*.py")) + [ROOT / n for n in ("branch.py", "branch_tracer.py",
+                                                                            "branch_result.py", "period.py")]:
         text = path.read_text()
         assert "contextvars" not in text and "ContextVar" not in text, path.name
         assert not re.search(r"^[A-Z_]+ = \[None\]", text, re.M), f"{path.name}: a module-level slot"
@@ -54,7 +55,8 @@ def test_no_slot_or_context_variable_against_recursion():
 def test_no_method_name_tests_in_the_route():
     names = r"\"(shooting|hbm|mshbm|mshbm-intermediate|dlft)\""
     test = re.compile(rf"(method\s*(==|!=)\s*{names}|method\s+(not\s+)?in\s*\(|\.method\s*==)")
-    for path in list((ROOT / "route").glob("*.py")) + [ROOT / n for n in ("branch.py", "period.py",
+    for path in list((ROOT / "route").glob("*.py")) + [ROOT / n for n in ("branch.py", "branch_tracer.py",
+                                                                            "branch_result.py", "period.py",
                                                                             "subharmonic.py", "switching.py")]:
         for i, line in enumerate(path.read_text().splitlines(), 1):
             assert not test.search(line), f"{path.name}:{i}: {line.strip()}"

@@ -71,6 +71,12 @@ def mode_tuple(code, m):
 
 def _poly(coef, s):
     """``sum_j coef[j] s^j`` (Horner)."""
+    if isinstance(s, float) and getattr(coef, "ndim", 1) == 1:
+        # one time (root finding calls this most): the same operations on floats, without numpy's 0-d arrays
+        out = 0.0 + float(coef[-1])
+        for c in coef[-2::-1].tolist():
+            out = out * s + c
+        return out
     out = np.zeros_like(np.asarray(s, dtype=float)) + coef[-1]
     for c in coef[-2::-1]:
         out = out * s + c

@@ -12,6 +12,7 @@ the first *consistent* combination of the statuses left open (stick ``|lambda| <
 """
 from __future__ import annotations
 
+import functools
 import itertools
 
 import numpy as np
@@ -267,6 +268,21 @@ class Transitions:
         return Phi
 
 
+@functools.lru_cache(maxsize=None)
+def _active_sets(k):
+    """The candidate active sets of :func:`_lcp` for ``k`` unknowns, smallest first: ``(S, rest)`` index arrays
+    (read-only), ``rest`` the complement of ``S``."""
+    idx = np.arange(k)
+    out = []
+    for mask in sorted(range(1, 2 ** k), key=lambda s: bin(s).count("1")):
+        sel = np.array([(mask >> i) & 1 == 1 for i in range(k)])
+        S, rest = idx[sel], idx[~sel]
+        S.setflags(write=False)
+        rest.setflags(write=False)
+        out.append((S, rest))
+    return tuple(out)
+
+
 def _lcp(A, b):
     """Solution ``x`` of ``0 <= x _|_ A x + b >= 0`` for a small symmetric positive definite ``A``
     (enumeration of the active set, smallest sets first)."""
@@ -274,17 +290,14 @@ def _lcp(A, b):
     if np.all(b >= 0.0):
         return np.zeros(k)
     tol = 1e-12 * max(np.abs(b).max(), 1e-300)
-    idx = np.arange(k)
-    order = sorted(range(1, 2 ** k), key=lambda s: bin(s).count("1"))
-    for mask in order:
-        S = idx[[(mask >> i) & 1 == 1 for i in range(k)]]
+    neg = -tol * 1e-3 / max(np.abs(np.diag(A)).max(), 1e-300)
+    for S, rest in _active_sets(k):
         xs = np.linalg.solve(A[np.ix_(S, S)], -b[S])
-        if np.any(xs < -tol * 1e-3 / max(np.abs(np.diag(A)).max(), 1e-300)):
+        if np.any(xs < neg):
             continue
         x = np.zeros(k)
         x[S] = np.maximum(xs, 0.0)
         w = A @ x + b
-        rest = np.setdiff1d(idx, S)
         if np.all(w[rest] >= -tol):
             return x
     # projected Gauss-Seidel (A positive definite: converges)
