@@ -1,7 +1,7 @@
 """The layers of the solve route, read from the source: the numerics (mshbm.solvers) import nothing above
 them, the route (mshbm.route) never calls up into the public API or the sweep (it gets the sweep as a
-component), no global slot or context variable guards against recursion, and the route asks the problem's
-capabilities, never a method's name."""
+component), no global slot or context variable guards against recursion, and no module outside mshbm.methods
+asks a method's name (they ask the problem's declarations)."""
 import ast
 import re
 from pathlib import Path
@@ -52,12 +52,14 @@ def test_no_slot_or_context_variable_against_recursion():
         assert not re.search(r"^[A-Z_]+ = \[None\]", text, re.M), f"{path.name}: a module-level slot"
 
 
-def test_no_method_name_tests_in_the_route():
+def test_no_method_name_tests_outside_the_methods():
+    """Only ``mshbm.methods`` (the problems and their registries) may ask which method it is: the route, the sweep,
+    the certificate, the stability analysis and the backbone driver ask the problem's declarations."""
     names = r"\"(shooting|hbm|mshbm|mshbm-intermediate|dlft)\""
     test = re.compile(rf"(method\s*(==|!=)\s*{names}|method\s+(not\s+)?in\s*\(|\.method\s*==)")
-    for path in list((ROOT / "route").glob("*.py")) + [ROOT / n for n in ("branch.py", "branch_tracer.py",
-                                                                            "branch_result.py", "period.py",
-                                                                            "subharmonic.py", "switching.py")]:
+    paths = [p for p in ROOT.rglob("*.py") if "methods" not in p.relative_to(ROOT).parts]
+    assert len(paths) > 40 and ROOT / "backbone.py" in paths and ROOT / "route" / "driver.py" in paths
+    for path in paths:
         for i, line in enumerate(path.read_text().splitlines(), 1):
             assert not test.search(line), f"{path.name}:{i}: {line.strip()}"
 
