@@ -64,17 +64,19 @@ def static_deflection(system):
 
 
 def impact_jump(system, parts):
-    """Largest velocity jump (m/s) at an impact of the solution, ``|P| / M_dd`` over the contact elements
-    (0 without contacts); ``parts`` from ``problem.solution_parts``."""
+    """Largest velocity jump (m/s) at an impact of the solution, ``|P| (M^-1)_dd`` over the contact elements
+    (``|P| / M_dd`` for a diagonal mass; the effective mass of the whole structure for a consistent one;
+    0 without contacts); ``parts`` from ``problem.solution_parts``."""
+    from ..methods.mass_coupling import impact_compliance
+
     P = parts.get("impulses")
     if P is None or not P.size:
         return 0.0
-    M = system.M
-    mdiag = M.diagonal() if sp.issparse(M) else np.diag(np.asarray(M))
+    minv = impact_compliance(system)
     J = 0.0
     for j, el in enumerate(system.elements):
         if el.unilateral and j < P.shape[1]:
-            J = max(J, float(np.max(np.abs(P[:, j]), initial=0.0)) / float(mdiag[el.dof]))
+            J = max(J, float(np.max(np.abs(P[:, j]), initial=0.0)) * minv[int(el.dof)])
     return J
 
 
