@@ -57,7 +57,7 @@ def time_discretisation(problem, sol, system, omega, stepper, D, cert):
         (lambda A: np.asarray(A)[np.ix_(T, T)])
     # the time-stepped subsystem's own M and C: MS-HBM's mass-decoupled system for a consistent mass (its linear
     # solves take and return the user's coordinates), else the system's
-    tsys = getattr(problem, "ysystem", system)
+    tsys = problem.integrated_system
     MT, CT = sub(tsys.M), sub(tsys.C)
     Fk = to_complex(system.forcing_hat(X.shape[0] - 1, omega))  # (n_h + 1, n) forcing harmonics
     worst, k_worst, linear_max = 0.0, None, 0.0

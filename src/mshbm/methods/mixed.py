@@ -238,6 +238,11 @@ class MixedProblem(_MixedBase):
         phase (default; also handles chattering), or close the contact once the bounces are below
         ``1e-10`` of the scale (the Zeno closure: the flow and its monodromy stay exact up to the dropped
         tail; chattering is then an error) (:mod:`mshbm.integrators.event`).
+    impact_mass : {"subsystem", "effective"}
+        With a consistent mass (``M_LN != 0``) and a contact: the impacts on ``N`` act with ``M_NN`` (default,
+        the paper's subsystems) or with the effective mass ``1 / (M^-1)_NN`` of the whole structure, the
+        subsystems then solved in mass-decoupled coordinates (:mod:`mshbm.methods.mass_coupling`).  Only
+        ``"effective"`` converges to the model's orbit as ``n_h`` grows.
 
     Residual scale
     --------------
@@ -256,40 +261,43 @@ class MixedProblem(_MixedBase):
     # --
 
     def __init__(self, system, omega, harmonics, steps, theta=0.5, jacobian="exact", partition=None,
-                 project=True, integrator="moreau", accumulation="moreau", condensation=None):
+                 project=True, integrator="moreau", accumulation="moreau", condensation=None,
+                 impact_mass="subsystem"):
         system = system.at(omega)  # the forcing at omega (a constant forcing: the same system)
         self.system, self.omega, self.n_h = system, float(omega), int(harmonics)
         self.jacobian = jacobian
         n = system.n
+        decouple = mass_decoupling if impact_mass == "effective" else (lambda *a: None)
         self.Nd = system.nonlinear_dofs if partition is None else np.asarray(partition, dtype=np.int64)
         if self.Nd.size == 0:
             key = "partition" if partition is not None else "method"
             raise InputError(key, "the nonlinear subsystem is empty: the system has no friction or contact "
                              "element (use 'hbm', or give partition=[dofs] to integrate some DOFs in time)")
         self.Ld = complement(n, self.Nd)
-        # a consistent mass (M_LN != 0): N and L are solved in the mass-decoupled coordinates q = T y, so that
-        # impacts on N act with the effective mass (W^T M^-1 W)^-1 of the whole structure (mshbm.methods.mass_coupling)
+        # impact_mass="effective" with a consistent mass (M_LN != 0): N and L are solved in the mass-decoupled
+        # coordinates q = T y, so that impacts on N act with the effective mass (W^T M^-1 W)^-1 of the whole
+        # structure (mshbm.methods.mass_coupling)
         if condensation is not None:  # given (nearby, built on the decoupled system of its split): its split
             self.cond, self.Nd, self.Ld = condensation, condensation.keep, condensation.elim
-            self.decoupling = mass_decoupling(system, self.Nd, self.Ld)
+            self.decoupling = decouple(system, self.Nd, self.Ld)
         elif partition is None:
             # a resonance of L (k omega an eigenfrequency of L with N clamped): its DOFs are integrated with N
             # instead of condensed (mshbm.condensation.condense_around_resonances); H_LL is the same in both
             # coordinates, so the moves are too
-            self.decoupling = mass_decoupling(system, self.Nd, self.Ld)
+            self.decoupling = decouple(system, self.Nd, self.Ld)
             ysys = system if self.decoupling is None else self.decoupling.system
             self.cond, Nd, Ld, moved = condense_around_resonances(ysys, omega, self.n_h, self.Nd, self.Ld)
             if moved:
                 self.notes = [resonance_note(moved, "H_LL", "the time-integrated subsystem N")]
                 self.Nd, self.Ld = Nd, Ld
-                self.decoupling = mass_decoupling(system, self.Nd, self.Ld)
+                self.decoupling = decouple(system, self.Nd, self.Ld)
                 if self.decoupling is not None:
                     self.cond = Condensation(self.decoupling.system, omega, self.n_h, self.Nd, self.Ld)
         else:
-            self.decoupling = mass_decoupling(system, self.Nd, self.Ld)
+            self.decoupling = decouple(system, self.Nd, self.Ld)
             ysys = system if self.decoupling is None else self.decoupling.system
             self.cond = Condensation(ysys, omega, self.n_h, self.Nd, self.Ld)
-        ysys = self.ysystem
+        ysys = self.integrated_system
         # coupling force coefficients on N:  c = -H_NL q_hat_L = -g + T q_hat_N
         c0 = fourier.from_complex(-self.cond.g).reshape(-1)
         Tr = self.cond.real_matrix(self.cond.T)
@@ -312,7 +320,7 @@ class MixedProblem(_MixedBase):
         return p
 
     @property
-    def ysystem(self):
+    def integrated_system(self):
         """The system the subsystems are solved in: the mass-decoupled one (:attr:`decoupling`) or ``system``."""
         return self.system if self.decoupling is None else self.decoupling.system
 
@@ -339,8 +347,8 @@ class MixedProblem(_MixedBase):
         ``X_N = (H_NN - T_k)^-1 (F_N - g_k)`` (:meth:`mshbm.condensation.Condensation.solve_full`), equal to
         the ``N`` rows of the whole structure's steady state without a solve of size ``n``; a singular
         harmonic is set to zero as in :func:`mshbm.methods.common.linear_response`."""
-        H_NN = _coupling(self.ysystem, self.Nd, self.Nd, self.n_h, self.omega)
-        F = fourier.to_complex(self.ysystem.forcing_hat(self.n_h, self.omega))[:, self.Nd]
+        H_NN = _coupling(self.integrated_system, self.Nd, self.Nd, self.n_h, self.omega)
+        F = fourier.to_complex(self.integrated_system.forcing_hat(self.n_h, self.omega))[:, self.Nd]
         X = np.zeros((self.n_h + 1, self.nN), dtype=complex)
         for k in range(self.n_h + 1):
             if not (np.any(F[k]) or np.any(self.cond.g[k])):
@@ -364,7 +372,7 @@ class MixedProblem(_MixedBase):
         if not 0 <= int(k) <= self.n_h:
             return None
         if "_H_NN" not in self.__dict__:
-            self._H_NN = _coupling(self.ysystem, self.Nd, self.Nd, self.n_h, self.omega)
+            self._H_NN = _coupling(self.integrated_system, self.Nd, self.Nd, self.n_h, self.omega)
         x = np.empty(self.system.n, dtype=complex)
         if self.decoupling is not None and forcing:  # (T^T b)_N with b_L = F_L
             b_T = self.decoupling.forcing_on_keep(np.asarray(b_T), self.cond.F[int(k), self.Ld])
