@@ -384,7 +384,8 @@ def point_from_solution(system, sol, tangent_omega=None, x=None):
     q_max = sol.info.get("q_max") if isinstance(sol.info, dict) else None
     time_dofs = set(int(i) for i in np.asarray(sol.time_dofs).reshape(-1))
     impulses = sol.impulses if isinstance(sol.impulses, np.ndarray) and sol.impulses.ndim == 2 else None
-    minv = impact_compliance(system)  # (M^-1)_dd: the effective mass of an impact on DOF d is 1 / minv[d]
+    # ((M_TT)^-1)_dd: 1 / the mass an impact on DOF d acts with where the DOFs T are integrated in time
+    minv = impact_compliance(system, sol.time_dofs) if time_dofs else {}
     for j, el in enumerate(system.elements):
         if not el.unilateral:
             continue

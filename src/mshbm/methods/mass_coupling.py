@@ -112,20 +112,26 @@ def mass_decoupling(system, keep, elim):
     return MassDecoupling(system, keep, elim) if nz else None
 
 
-def impact_compliance(system):
-    """``(M^-1)_dd`` (1/kg) of every DOF ``d`` carrying an element, as a dict ``{d: value}``: the velocity
-    jump of DOF ``d`` per unit impulse on it, ``W^T M^-1 W`` of one contact on a ground stop (``1 / M_dd``
-    for a diagonal mass).  Cached on the system."""
+def impact_compliance(system, time_dofs=None):
+    """``((M_TT)^-1)_dd`` (1/kg) of every DOF ``d`` carrying an element, as a dict ``{d: value}``: the velocity
+    jump of DOF ``d`` per unit impulse on it when the DOFs ``T`` (``time_dofs``; ``None``: all) are integrated
+    in time with the mass block ``M_TT`` of ``system``: the whole structure's ``(M^-1)_dd`` for shooting,
+    ``1 / M_dd`` for a diagonal mass, MS-HBM's subsystem mass ``M_NN`` (its mass-decoupled system for
+    ``impact_mass="effective"``).  Cached on the system per ``T``."""
+    T = np.arange(system.n) if time_dofs is None else np.asarray(time_dofs, dtype=np.int64).reshape(-1)
+
     def compute():
-        dofs = sorted({int(el.dof) for el in system.elements})
+        pos = {int(d): i for i, d in enumerate(T)}
+        dofs = sorted({int(el.dof) for el in system.elements if int(el.dof) in pos})
         if not dofs:
             return {}
-        M = system.M
-        E = np.zeros((system.n, len(dofs)))
-        E[dofs, np.arange(len(dofs))] = 1.0
+        M = submatrix(system.M, T, T)
+        E = np.zeros((T.size, len(dofs)))
+        E[[pos[d] for d in dofs], np.arange(len(dofs))] = 1.0
         if sp.issparse(M):
             X = spla.splu(sp.csc_matrix(M)).solve(E)
         else:
             X = sla.cho_solve(sla.cho_factor(np.asarray(M, dtype=float)), E)
-        return {d: float(X[d, i]) for i, d in enumerate(dofs)}
-    return system.derived("impact_compliance", ("M", "elements"), compute)
+        return {d: float(X[pos[d], i]) for i, d in enumerate(dofs)}
+    key = "impact_compliance" if time_dofs is None else "impact_compliance:" + ",".join(map(str, T.tolist()))
+    return system.derived(key, ("M", "elements"), compute)
