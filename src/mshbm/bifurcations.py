@@ -372,6 +372,7 @@ def point_from_solution(system, sol, tangent_omega=None, x=None):
     """
     from . import stability
     from .hill import HILL
+    from .methods.mass_coupling import impact_compliance
 
     if not sol.success:
         return BranchPoint(sol.omega, x=sol if x is None else x, tangent_omega=tangent_omega)
@@ -383,7 +384,8 @@ def point_from_solution(system, sol, tangent_omega=None, x=None):
     q_max = sol.info.get("q_max") if isinstance(sol.info, dict) else None
     time_dofs = set(int(i) for i in np.asarray(sol.time_dofs).reshape(-1))
     impulses = sol.impulses if isinstance(sol.impulses, np.ndarray) and sol.impulses.ndim == 2 else None
-    Mdiag = np.asarray(system.M.diagonal() if sp.issparse(system.M) else np.diag(system.M), dtype=float)
+    # ((M_TT)^-1)_dd: 1 / the mass an impact on DOF d acts with where the DOFs T are integrated in time
+    minv = impact_compliance(system, sol.time_dofs) if time_dofs else {}
     for j, el in enumerate(system.elements):
         if not el.unilateral:
             continue
@@ -395,7 +397,7 @@ def point_from_solution(system, sol, tangent_omega=None, x=None):
             # samples); as for the exact flow, minus the impact velocity as a displacement, -> 0 at grazing
             P = float(np.max(impulses[:, j], initial=0.0))
             if P > 0.0:
-                v = P / (Mdiag[d] * (1.0 + el.restitution))
+                v = P * minv[d] / (1.0 + el.restitution)
                 gaps.append(-v / sol.omega / scale)
                 continue
         qd = float(np.asarray(q_max)[d]) if q_max is not None else float(np.max(sol.displacement([d])))

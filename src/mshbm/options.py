@@ -146,6 +146,8 @@ def check_options(method, options):
     if opts.get("accumulation", "moreau") == "close" and opts.get("integrator", "moreau") != "event":
         raise InputError("accumulation", "'close' (the Zeno closure of accumulating impacts) applies to "
                                          "integrator='event' only")
+    if opts.get("impact_mass", "subsystem") not in ("subsystem", "effective"):
+        raise InputError("impact_mass", f"must be 'subsystem' or 'effective', got {opts['impact_mass']!r}")
     if "tol" in opts:
         tol = opts["tol"]
         if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not (0 < float(tol) < 1):

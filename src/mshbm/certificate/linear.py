@@ -55,7 +55,10 @@ def time_discretisation(problem, sol, system, omega, stepper, D, cert):
     theta, h = float(stepper.theta), float(stepper.h)
     sub = (lambda A: A.tocsr()[T][:, T].toarray()) if sp.issparse(system.M) else \
         (lambda A: np.asarray(A)[np.ix_(T, T)])
-    MT, CT = sub(system.M), sub(system.C)
+    # the time-stepped subsystem's own M and C: MS-HBM's mass-decoupled system for a consistent mass (its linear
+    # solves take and return the user's coordinates), else the system's
+    tsys = problem.integrated_system
+    MT, CT = sub(tsys.M), sub(tsys.C)
     Fk = to_complex(system.forcing_hat(X.shape[0] - 1, omega))  # (n_h + 1, n) forcing harmonics
     worst, k_worst, linear_max = 0.0, None, 0.0
     for k in range(1, X.shape[0]):

@@ -64,6 +64,9 @@ has them)
     ``b = b_T`` on the time-stepped DOFs (``partition().time``) and the forcing harmonic ``F_k``
     (``forcing=True``) or zero elsewhere, from the method's own factorisations (MS-HBM: its condensation
     of ``L``); ``None``: not available (the caller solves ``H_k`` itself).
+``integrated_system`` : System (default ``system``)
+    The system whose blocks on ``partition().time`` the time-stepped DOFs are integrated with (MS-HBM with
+    ``impact_mass="effective"`` and a consistent mass: the mass-decoupled system, :mod:`mshbm.methods.mass_coupling`).
 ``notes`` : tuple or list of str (default ``()``)
     Sentences on how the problem was set up differently from what was asked (e.g. DOFs at a resonance
     of the condensed block kept as unknowns, :func:`mshbm.condensation.condense_around_resonances`); the
@@ -329,6 +332,11 @@ class PeriodicProblem:
     def conditioning(self):
         """Reciprocal condition numbers of the condensed blocks per harmonic, or ``None``."""
         return None
+
+    @property
+    def integrated_system(self):
+        """The system the time-stepped DOFs are integrated with (see the contract)."""
+        return self.system
 
     def linear_solve(self, k, b_T, forcing=True):
         """Harmonic-``k`` response of the linear structure from the method's factorisations, or ``None``

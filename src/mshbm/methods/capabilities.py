@@ -85,7 +85,7 @@ CAPABILITIES = {c.name: c for c in (
     MethodCapabilities("hbm", frozenset({"harmonics", "steps", "condense", "partition", "penalty_quadrature"}),
                        default_harmonics=5, harmonic_unknowns=True, aft_samples=True, partition_pair=False,
                        time_dofs="none", harmonic_part="HBM"),
-    MethodCapabilities("mshbm", _TIME_STEPPING,
+    MethodCapabilities("mshbm", _TIME_STEPPING | {"impact_mass"},
                        default_harmonics=5, harmonic_unknowns=True, aft_samples=False, partition_pair=False,
                        time_dofs="partition", harmonic_part="the harmonic part of mshbm"),
     MethodCapabilities("mshbm-intermediate", _TIME_STEPPING,

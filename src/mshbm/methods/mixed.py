@@ -48,6 +48,7 @@ from ..errors import InputError
 from ..extrema import fourier_extrema
 from ..scaling import displacement_floor, force_scale, velocity_scale
 from ..condensation import Condensation, condense_around_resonances, resonance_note
+from .mass_coupling import mass_decoupling
 from ..integrators.registry import make_integrator
 from ..integrators.subsystem import submatrix
 
@@ -202,6 +203,8 @@ class _MixedBase(PeriodicProblem):
             q_hat[:, self._harm] = X
         if self._cond_dofs.size:
             q_hat[:, self._cond_dofs] = fourier.from_complex(self.cond.recover(fourier.to_complex(X)))
+        if getattr(self, "decoupling", None) is not None:  # y -> q (MixedProblem with a consistent mass)
+            q_hat = self.decoupling.to_original(q_hat)
         info = self._info(p, q_hat)
         if run.extrema is not None:  # the time DOFs' true extrema from the integrator
             hi, lo = fourier_extrema(q_hat)
@@ -235,6 +238,11 @@ class MixedProblem(_MixedBase):
         phase (default; also handles chattering), or close the contact once the bounces are below
         ``1e-10`` of the scale (the Zeno closure: the flow and its monodromy stay exact up to the dropped
         tail; chattering is then an error) (:mod:`mshbm.integrators.event`).
+    impact_mass : {"subsystem", "effective"}
+        With a consistent mass (``M_LN != 0``) and a contact: the impacts on ``N`` act with ``M_NN`` (default,
+        the paper's subsystems) or with the effective mass ``1 / (M^-1)_NN`` of the whole structure, the
+        subsystems then solved in mass-decoupled coordinates (:mod:`mshbm.methods.mass_coupling`).  Only
+        ``"effective"`` converges to the model's orbit as ``n_h`` grows.
 
     Residual scale
     --------------
@@ -253,31 +261,47 @@ class MixedProblem(_MixedBase):
     # --
 
     def __init__(self, system, omega, harmonics, steps, theta=0.5, jacobian="exact", partition=None,
-                 project=True, integrator="moreau", accumulation="moreau", condensation=None):
+                 project=True, integrator="moreau", accumulation="moreau", condensation=None,
+                 impact_mass="subsystem"):
         system = system.at(omega)  # the forcing at omega (a constant forcing: the same system)
         self.system, self.omega, self.n_h = system, float(omega), int(harmonics)
         self.jacobian = jacobian
         n = system.n
+        decouple = mass_decoupling if impact_mass == "effective" else (lambda *a: None)
         self.Nd = system.nonlinear_dofs if partition is None else np.asarray(partition, dtype=np.int64)
         if self.Nd.size == 0:
             key = "partition" if partition is not None else "method"
             raise InputError(key, "the nonlinear subsystem is empty: the system has no friction or contact "
                              "element (use 'hbm', or give partition=[dofs] to integrate some DOFs in time)")
         self.Ld = complement(n, self.Nd)
-        if condensation is not None:  # given (nearby): its split of the DOFs
+        # impact_mass="effective" with a consistent mass (M_LN != 0): N and L are solved in the mass-decoupled
+        # coordinates q = T y, so that impacts on N act with the effective mass (W^T M^-1 W)^-1 of the whole
+        # structure (mshbm.methods.mass_coupling)
+        if condensation is not None:  # given (nearby, built on the decoupled system of its split): its split
             self.cond, self.Nd, self.Ld = condensation, condensation.keep, condensation.elim
+            self.decoupling = decouple(system, self.Nd, self.Ld)
         elif partition is None:
             # a resonance of L (k omega an eigenfrequency of L with N clamped): its DOFs are integrated with N
-            # instead of condensed (mshbm.condensation.condense_around_resonances)
-            self.cond, self.Nd, self.Ld, moved = condense_around_resonances(system, omega, self.n_h, self.Nd, self.Ld)
+            # instead of condensed (mshbm.condensation.condense_around_resonances); H_LL is the same in both
+            # coordinates, so the moves are too
+            self.decoupling = decouple(system, self.Nd, self.Ld)
+            ysys = system if self.decoupling is None else self.decoupling.system
+            self.cond, Nd, Ld, moved = condense_around_resonances(ysys, omega, self.n_h, self.Nd, self.Ld)
             if moved:
                 self.notes = [resonance_note(moved, "H_LL", "the time-integrated subsystem N")]
+                self.Nd, self.Ld = Nd, Ld
+                self.decoupling = decouple(system, self.Nd, self.Ld)
+                if self.decoupling is not None:
+                    self.cond = Condensation(self.decoupling.system, omega, self.n_h, self.Nd, self.Ld)
         else:
-            self.cond = Condensation(system, omega, self.n_h, self.Nd, self.Ld)
+            self.decoupling = decouple(system, self.Nd, self.Ld)
+            ysys = system if self.decoupling is None else self.decoupling.system
+            self.cond = Condensation(ysys, omega, self.n_h, self.Nd, self.Ld)
+        ysys = self.integrated_system
         # coupling force coefficients on N:  c = -H_NL q_hat_L = -g + T q_hat_N
         c0 = fourier.from_complex(-self.cond.g).reshape(-1)
         Tr = self.cond.real_matrix(self.cond.T)
-        self._setup_integrator(integrator, system, self.Nd, c0, Tr, steps, theta, project, accumulation)
+        self._setup_integrator(integrator, ysys, self.Nd, c0, Tr, steps, theta, project, accumulation)
         self.nN = self.Nd.size
         self.nc = 2 * self.n_h + 1
         self._time, self._harm, self._cond_dofs = self.Nd, self.Nd, self.Ld
@@ -294,6 +318,16 @@ class MixedProblem(_MixedBase):
         p = type(self)(self.system, float(omega), **{**self.build_options, "condensation": cond})
         p.notes = self.notes
         return p
+
+    @property
+    def integrated_system(self):
+        """The system the subsystems are solved in: the mass-decoupled one (:attr:`decoupling`) or ``system``."""
+        return self.system if self.decoupling is None else self.decoupling.system
+
+    def recovery_matrix(self, k):
+        """``Z_k`` of ``X_L = z_k - Z_k X_N`` in the user's coordinates, complex, shape ``(n_L, n_N)``."""
+        Z = self.cond.Z[int(k)] if self.Ld.size else np.zeros((0, self.nN), complex)
+        return Z if self.decoupling is None else Z + self.decoupling.A
 
     # the mixed residual (27): harmonic-balance rows of N are the connectivity q_hat_N - FFT(q_N)
     _force_rows = False
@@ -313,8 +347,8 @@ class MixedProblem(_MixedBase):
         ``X_N = (H_NN - T_k)^-1 (F_N - g_k)`` (:meth:`mshbm.condensation.Condensation.solve_full`), equal to
         the ``N`` rows of the whole structure's steady state without a solve of size ``n``; a singular
         harmonic is set to zero as in :func:`mshbm.methods.common.linear_response`."""
-        H_NN = _coupling(self.system, self.Nd, self.Nd, self.n_h, self.omega)
-        F = fourier.to_complex(self.system.forcing_hat(self.n_h, self.omega))[:, self.Nd]
+        H_NN = _coupling(self.integrated_system, self.Nd, self.Nd, self.n_h, self.omega)
+        F = fourier.to_complex(self.integrated_system.forcing_hat(self.n_h, self.omega))[:, self.Nd]
         X = np.zeros((self.n_h + 1, self.nN), dtype=complex)
         for k in range(self.n_h + 1):
             if not (np.any(F[k]) or np.any(self.cond.g[k])):
@@ -338,10 +372,12 @@ class MixedProblem(_MixedBase):
         if not 0 <= int(k) <= self.n_h:
             return None
         if "_H_NN" not in self.__dict__:
-            self._H_NN = _coupling(self.system, self.Nd, self.Nd, self.n_h, self.omega)
+            self._H_NN = _coupling(self.integrated_system, self.Nd, self.Nd, self.n_h, self.omega)
         x = np.empty(self.system.n, dtype=complex)
+        if self.decoupling is not None and forcing:  # (T^T b)_N with b_L = F_L
+            b_T = self.decoupling.forcing_on_keep(np.asarray(b_T), self.cond.F[int(k), self.Ld])
         x[self.Nd], x[self.Ld] = self.cond.solve_full(int(k), self._H_NN[int(k)], b_T, forcing)
-        return x
+        return x if self.decoupling is None else self.decoupling.to_original(x)
 
     def _info(self, p, q_hat):
         return {"connectivity_defect": float(np.max(np.abs(p - q_hat[:, self.Nd].reshape(-1)), initial=0.0))}

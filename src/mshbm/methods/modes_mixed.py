@@ -123,9 +123,7 @@ class MixedModeProblem(ModalParameter):
                                  integrator=self.integrator)
             except np.linalg.LinAlgError as exc:
                 raise Failed(f"condensation at omega = {omega:.6g}: {exc}") from None
-            Ld = p.cond.elim
-            Z1 = p.cond.Z[1] if Ld.size else np.zeros((0, self.nN), complex)
-            p._w = self.v[p.cond.keep] - Z1.T @ self.v[Ld]
+            p._w = self.v[p.cond.keep] - p.recovery_matrix(1).T @ self.v[p.cond.elim]
             self._cache[key] = p
         return p
 

@@ -218,7 +218,7 @@ class _Estimator:
         refinement difference can nearly cancel); 0 without impacts."""
         if sol.impulses is None or sol.time_step is None:
             return 0.0
-        J = impact_jump(self.system, {"impulses": np.asarray(sol.impulses)})
+        J = impact_jump(self.system, {"impulses": np.asarray(sol.impulses), "time_dofs": sol.time_dofs})
         scale = max(float(np.max(np.abs(sol.amplitude), initial=0.0)), self.floor)
         return 0.5 * float(sol.time_step) * J / scale if scale > 0 else 0.0
 
