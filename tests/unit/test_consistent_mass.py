@@ -101,6 +101,18 @@ def test_subsystem_mass_converges_to_another_orbit(solutions):
     A = float(np.max(ref.amplitude))
     err = np.max(np.abs(sub.q_hat - ref.q_hat)) / A
     assert err > 1e-3, err  # measured 5.3e-3 (3.9e-3 with 20 harmonics); effective mass: 4.5e-7
+    # ... and says so: the certificate names the substituted impact mass (M_22 = 1/3 kg against the structure's
+    # 1 / (M^-1)_22), its effect not estimated, and the message names it; with the effective mass nothing is named
+    (check,) = [c for c in sub.certificate.checks if c.name == "model_substitution"]
+    assert check.value is None and not check.gating
+    M = s.M.toarray() if hasattr(s.M, "toarray") else np.asarray(s.M)
+    m_eff = 1.0 / np.linalg.inv(M)[2, 2]
+    (named,) = sub.certificate.info["model_substitution"]["substitutions"]
+    assert named["key"] == "impact_mass" and named["represented"] == pytest.approx(M[2, 2], rel=1e-12)
+    assert named["model"] == pytest.approx(m_eff, rel=1e-12) and abs(m_eff - M[2, 2]) > 1e-3 * M[2, 2]
+    assert "impact mass of element 0" in sub.message
+    _, _, ms = solutions
+    assert "model_substitution" not in [c.name for c in ms.certificate.checks]
 
 
 def test_impact_mass_option_is_checked():

@@ -97,6 +97,11 @@ the method's name)
 ``lagrangian_contact`` : bool (default False)
     Contacts hold on a Lagrangian displacement at the AFT samples, not on the truncated series (DLFT): the
     penetration of the series is a truncation error, reported but not gated.
+``impact_masses()`` : method (default: none)
+    The contacts whose impacts act with another mass than the model implies: a list of ``(j, m_model,
+    m_used)`` (element index, the effective mass ``1 / (w^T M^-1 w)`` of the whole structure and the mass the
+    method's impact law uses, kg); MS-HBM's default subsystem law on a consistent mass.  The certificate names
+    them as a model substitution (:mod:`mshbm.certificate.substitution`).
 ``hysteresis_aft`` : bool (default False)
     Hysteretic (Jenkins) element forces come from a period march of the AFT samples (HBM's history law): the
     certificate checks that march's periodicity (``hysteresis_periodicity``, :mod:`mshbm.certificate.laws`).
@@ -202,6 +207,11 @@ class PeriodicProblem:
     harmonic_truncation = False
     hysteresis_aft = False
     time_integrated_subset = False
+
+    def impact_masses(self):
+        """Contacts whose impacts act with another mass than the model's (see the contract above)."""
+        return []
+
     certify_connectivity_work = False
     # ------------------------------------------------------------------ capabilities read by the solve route
     # (mshbm.route, mshbm.branch, mshbm.period): what differs between the methods, declared by each problem

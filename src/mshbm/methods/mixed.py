@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 
 from .. import fourier
 from .base import Partition, PeriodicProblem, forward_difference_jacobian, section_limits
@@ -268,6 +269,7 @@ class MixedProblem(_MixedBase):
         self.jacobian = jacobian
         n = system.n
         decouple = mass_decoupling if impact_mass == "effective" else (lambda *a: None)
+        self.impact_mass = impact_mass
         self.Nd = system.nonlinear_dofs if partition is None else np.asarray(partition, dtype=np.int64)
         if self.Nd.size == 0:
             key = "partition" if partition is not None else "method"
@@ -318,6 +320,38 @@ class MixedProblem(_MixedBase):
         p = type(self)(self.system, float(omega), **{**self.build_options, "condensation": cond})
         p.notes = self.notes
         return p
+
+    def impact_masses(self):
+        """With ``impact_mass="subsystem"``: the contacts on ``N`` whose impact mass ``1 / (w_N^T M_NN^-1 w_N)``
+        differs (relatively, by more than 1e-9) from the structure's ``1 / (w^T M^-1 w)`` (a consistent mass,
+        ``M_LN != 0``): ``[(j, m_model, m_used)]``."""
+        if getattr(self, "impact_mass", "subsystem") != "subsystem" or self.Ld.size == 0:
+            return []
+        contacts = [(j, el) for j, el in enumerate(self.system.elements) if el.unilateral]
+        if not contacts:
+            return []
+        M = self.system.M
+        M_LN = M[np.ix_(self.Ld, self.Nd)] if not sp.issparse(M) else M.tocsr()[self.Ld][:, self.Nd]
+        if not (M_LN.nnz if sp.issparse(M_LN) else np.count_nonzero(M_LN)):
+            return []
+        pos = {int(d): i for i, d in enumerate(self.Nd)}
+        M_NN = M[np.ix_(self.Nd, self.Nd)] if not sp.issparse(M) else M.tocsr()[self.Nd][:, self.Nd].toarray()
+        solve_M = (spla.factorized(sp.csc_matrix(M)) if sp.issparse(M)
+                   else (lambda b, L=np.linalg.inv(np.asarray(M, dtype=float)): L @ b))
+        out = []
+        for j, el in contacts:
+            w = np.zeros(self.system.n)
+            w[el.dof] = 1.0
+            if el.relative_to is not None:
+                w[el.relative_to] = -1.0
+            if any(int(d) not in pos for d in np.flatnonzero(w)):
+                continue
+            w_N = w[self.Nd]
+            m_used = 1.0 / float(w_N @ np.linalg.solve(np.asarray(M_NN, dtype=float), w_N))
+            m_model = 1.0 / float(w @ solve_M(w))
+            if abs(m_used - m_model) > 1e-9 * abs(m_model):
+                out.append((j, m_model, m_used))
+        return out
 
     @property
     def integrated_system(self):
