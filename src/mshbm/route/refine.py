@@ -72,9 +72,23 @@ RATE = 1.0
 #: order 2 on smooth parts, so that a pre-asymptotic fast decrease does not shrink the estimate
 MIN_RATE, MAX_RATE = 0.25, 2.0
 MAX_HARMONICS, MAX_STEPS = 2000, 1 << 24
+#: a truncation estimate below this fraction of the top retained harmonics is checked by a second doubling
+TAIL_FACTOR = 0.1
 #: time box (s) of one re-solve of an estimate: this many seconds, or this factor times the solve's wall time
 RESOLVE_SECONDS, RESOLVE_FACTOR = 5.0, 2.0
 _DROP = ("guess", "stability", "progress", "raise_on_failure", "accuracy")
+
+
+def _top_harmonics(sol, floor):
+    """``max |q_hat_k|`` over the DOFs given by Fourier series and the two highest retained harmonics ``k = n_h - 1, n_h`` (two: an
+    orbit with odd harmonics only has none at even ``n_h``), relative to the largest amplitude."""
+    qh = np.asarray(sol.q_hat, dtype=float)
+    harmonic = np.setdiff1d(np.arange(qh.shape[1]), np.asarray(sol.time_dofs, dtype=int))  # not time-stepped
+    if qh.shape[0] < 3 or not harmonic.size:
+        return 0.0
+    mags = np.hypot(qh[1::2, harmonic], qh[2::2, harmonic])[-2:]
+    scale = max(float(np.max(np.abs(sol.amplitude), initial=0.0)), float(floor))
+    return float(np.max(mags, initial=0.0)) / scale if scale > 0 else 0.0
 
 
 def amplitude_change(sol, ref, floor=0.0):
@@ -101,6 +115,7 @@ class _Estimator:
         self.floor = 1e-3 * displacement_floor(system, self.omega)
         self.t0 = t0
         self.diffs = {}  # the last amplitude change between refinement levels, per estimate
+        self.changes = {}  # all of them with their pair of discretisations, in level order
         self.solved = {}  # (harmonics, steps) -> the certified re-solve, or None (failed)
         self.failures = []  # messages of the failed re-solves
         self.spent = 0.0
@@ -128,13 +143,18 @@ class _Estimator:
             out["integrator"] = integ or "moreau"
         return out
 
+    @staticmethod
+    def key(opts):
+        """The key of a discretisation in :attr:`solved`: ``(harmonics, steps)`` of its options."""
+        return int(opts["harmonics"]), opts.get("steps")
+
     def resolve(self, sol, **settings):
         """The solve at ``settings`` from ``sol`` (Newton and the problem's own fallbacks, no ladder), or ``None``
         when it fails or the settings are not valid."""
         opts = self.settings(sol, **settings)
+        key = self.key(opts)
         # (at the solve's Newton tolerance: on stiff finite-element DOFs a scaled residual of 1e-8 can hide an
         # amplitude change of 0.2 %, so a looser tolerance would let the partner stay where it started)
-        key = (int(opts["harmonics"]), opts.get("steps"))
         if key in self.solved:
             return self.solved[key]
         t = time.perf_counter()
@@ -163,23 +183,66 @@ class _Estimator:
             f = self.resolve(sol, harmonics=nf)
             if f is not None:
                 d = amplitude_change(sol, f, self.floor)
-                p = self.rate("truncation", d)
-                return d / (1.0 - (n / nf) ** p), (f"amplitude change {d:.3g} against n_h = {nf}, "
-                                                   f"/ (1 - ({n}/{nf})^p), p = {p:.3g}")
+                last = self.diffs.get("truncation")
+                p = self.rate("truncation", d, (n, nf))
+                value = d / (1.0 - (n / nf) ** p)
+                note = f"amplitude change {d:.3g} against n_h = {nf}, / (1 - ({n}/{nf})^p), p = {p:.3g}"
+                why = self._untrusted(sol, d, last, value)
+                if why and value <= self.accuracy and 2 * nf <= MAX_HARMONICS:
+                    return self._second_halving(f, nf, d, value, note, why)
+                return value, note
         if n >= 2:
             nc = n // 2
             c = self.resolve(sol, harmonics=nc)
             if c is not None:
                 d = amplitude_change(sol, c, self.floor)
-                return d / ((n / nc) ** RATE - 1.0), (f"amplitude change {d:.3g} against n_h = {nc}, "
-                                                      f"/ (({n}/{nc})^p - 1), p = {RATE:g}")
+                # the previous levels' changes, when this coarse pair was the last one: their observed rate
+                hist = self.changes.get("truncation", [])
+                p, how = RATE, ""
+                if len(hist) >= 2 and hist[-1][0] == (nc, n) and d > 0 and hist[-2][1] > 0:
+                    prev = hist[-2][1]
+                    q = math.log2(prev / d)
+                    if q > MAX_RATE:  # a cancellation: the envelope of the two changes at the slowest rate
+                        d, how = max(d, prev / 2.0 ** RATE), f" (irregular: envelope of {prev:.3g})"
+                    else:
+                        p, how = max(MIN_RATE, q), " (observed against the level before)"
+                return d / ((n / nc) ** p - 1.0), (f"amplitude change {d:.3g} against n_h = {nc}, "
+                                                   f"/ (({n}/{nc})^p - 1), p = {p:.3g}{how}")
         return None, f"not estimated: the re-solves at n_h = {nf} and {n // 2} failed ({'; '.join(self.failures[-2:])})"
 
-    def rate(self, kind, d):
+    def _untrusted(self, sol, d, last, value):
+        """Why the change ``d`` of one doubling of ``n_h`` is not trusted (module docstring, "irregular
+        convergence"), or ``""``: the change fell faster than :data:`MAX_RATE` from the previous level's ``last``,
+        or the estimate ``value`` is below :data:`TAIL_FACTOR` times the top retained harmonics."""
+        if last is not None and d > 0 and last > 0 and math.log2(last / d) > MAX_RATE:
+            return f"the change fell faster than rate {MAX_RATE:g} from the previous level's {last:.3g}"
+        top = _top_harmonics(sol, self.floor)
+        if value < TAIL_FACTOR * top:
+            return f"the estimate is below {TAIL_FACTOR:g} x the top retained harmonics ({top:.3g})"
+        return ""
+
+    def _second_halving(self, f, nf, d1, value, note, why):
+        """``truncation`` from two successive changes ``d_1`` (``n_h`` against ``n_f``) and ``d_2`` (``n_f``
+        against ``2 n_f``): ``d_1 + d_2 / (1 - 2^-p)``, ``p`` their observed rate within
+        ``[MIN_RATE, MAX_RATE]``."""
+        ff = self.resolve(f, harmonics=2 * nf)
+        if ff is None:
+            return None, f"not estimated: {note}, not trusted ({why}), and the re-solve at n_h = {2 * nf} failed"
+        d2 = amplitude_change(f, ff, self.floor)
+        p = MIN_RATE if d2 <= 0 or d1 <= 0 else min(MAX_RATE, max(MIN_RATE, math.log2(d1 / d2)))
+        if d2 <= 0:
+            p = MAX_RATE
+        out = d1 + d2 / (1.0 - 2.0 ** -p)
+        return max(out, value), (f"{note}, not trusted ({why}): second doubling, change {d2:.3g} from n_h = {nf} to "
+                                 f"{2 * nf}: d_1 + d_2 / (1 - 2^-p), p = {p:.3g}")
+
+    def rate(self, kind, d, pair=None):
         """The rate ``p`` of the estimate ``kind`` with the amplitude change ``d`` at ratio 2: :data:`RATE`, or
         the rate observed against the previous level's change (Richardson), within ``[MIN_RATE, MAX_RATE]``."""
         last = self.diffs.get(kind)
         self.diffs[kind] = d
+        if pair is not None:
+            self.changes.setdefault(kind, []).append((pair, d))
         if last is not None and d > 0 and last > 0:
             return min(MAX_RATE, max(MIN_RATE, math.log2(last / d)))
         return RATE
@@ -190,14 +253,11 @@ class _Estimator:
             return 0.0, "the exact event-driven flow (no time steps)"
         N, n = int(sol.steps), int(sol.harmonics)
         low = 2 * n + 2 if self.caps.harmonic_unknowns else 8
-        value = note = None
+        value = note = c = None
         if N % 2 == 0 and N // 2 >= low:
             c = self.resolve(sol, steps=N // 2)
             if c is not None:
-                d = amplitude_change(sol, c, self.floor)
-                p = self.rate("time_discretisation", d)
-                value, note = d / (2.0 ** p - 1.0), (f"amplitude change {d:.3g} against {N // 2} steps, / (2^p - 1), "
-                                                     f"p = {p:.3g}")
+                value, note = self._two_changes(sol, c, N, low)
         if value is None and 2 * N <= MAX_STEPS:
             f = self.resolve(sol, steps=2 * N)
             if f is not None:
@@ -206,10 +266,74 @@ class _Estimator:
         if value is None:
             return None, (f"not estimated: the re-solves at {N // 2} and {2 * N} steps failed "
                           f"({'; '.join(self.failures[-2:])})")
+        if value <= self.accuracy and c is not None:
+            # about to pass: the part of the error that halving the step does not see, measured at N / 2 (half the
+            # cost): the change there when the grid is shifted by half a step, halved (first order), doubled (one
+            # alignment's error against the spread of two)
+            shift = self.grid_shift(c)
+            if shift is not None and shift > value:
+                value, note = shift, (f"{note}; the grid of {N // 2} steps shifted by half a step moves the "
+                                      f"amplitude by {shift:.3g}, which is larger (the events' places on the grid)")
         step = self.impact_step(sol)
         if step > value:
             value, note = step, f"{note}; one step at the impacts, h J / (2 max A) = {step:.3g}, is larger (first order)"
         return value, note
+
+    def _two_changes(self, sol, c, N, low):
+        """``(value, note)`` of ``time_discretisation`` from the changes ``d_1`` (``N`` against ``N / 2`` steps,
+        ``c``) and ``d_2`` (``N / 2`` against ``N / 4``; module docstring, "irregular convergence")."""
+        d1 = amplitude_change(sol, c, self.floor)
+        self.diffs["time_discretisation"] = d1
+        head = f"amplitude change d_1 = {d1:.3g} against {N // 2} steps"
+        # d_1 alone fails the request at any rate the scheme can have: the next level has this change for free
+        if d1 / (2.0 ** MAX_RATE - 1.0) > self.accuracy or N % 4 or N // 4 < low:
+            return d1 / (2.0 ** RATE - 1.0), f"{head}, / (2^p - 1), p = {RATE:g}"
+        c2 = self.resolve(c, steps=N // 4)
+        if c2 is None:
+            return d1 / (2.0 ** RATE - 1.0), f"{head}, / (2^p - 1), p = {RATE:g} (no re-solve at {N // 4} steps)"
+        d2 = amplitude_change(c, c2, self.floor)
+        head += f", d_2 = {d2:.3g} ({N // 2} against {N // 4})"
+        if d1 > 0 and d2 > 0 and MIN_RATE <= math.log2(d2 / d1) <= MAX_RATE:
+            p = math.log2(d2 / d1)
+            return d1 / (2.0 ** p - 1.0), f"{head}, observed rate p = {p:.3g}: d_1 / (2^p - 1)"
+        if d1 >= d2:  # not decreasing: the slowest rate the estimates allow
+            return d1 / (2.0 ** MIN_RATE - 1.0), f"{head}, not decreasing: d_1 / (2^p - 1), p = {MIN_RATE:g}"
+        # faster than the scheme's order: a cancellation, not convergence; the envelope of the two changes at
+        # first order
+        env = max(d1, d2 / 2.0 ** RATE)
+        return env / (2.0 ** RATE - 1.0), (f"{head}, irregular (faster than order {MAX_RATE:g}): "
+                                           f"max(d_1, d_2 / 2^p) / (2^p - 1), p = {RATE:g}")
+
+    def grid_shift(self, sol):
+        """The amplitude change when the time grid is shifted by half a step against the forcing (the forcing
+        phase-shifted by ``omega h / 2``, the answer as the start), or ``None`` (no re-solve).  The Moreau-Jean
+        error at an impact or a slip reversal depends on where the event falls between two grid points, a
+        part that a halving of the step can leave unchanged (module docstring, "irregular convergence")."""
+        if getattr(self.system, "base", None) is not None:
+            return None
+        tau = 0.5 * float(sol.time_step)
+
+        def rotate(F):
+            F = np.array(F, dtype=float)
+            for k in range(1, (F.shape[0] - 1) // 2 + 1):
+                a = k * self.omega * tau
+                c, s = F[2 * k - 1].copy(), F[2 * k].copy()
+                F[2 * k - 1], F[2 * k] = c * math.cos(a) + s * math.sin(a), s * math.cos(a) - c * math.sin(a)
+            return F
+
+        t = time.perf_counter()
+        opts = self.settings(sol)
+        route = self.route.tightened(t + max(RESOLVE_SECONDS, RESOLVE_FACTOR * float(sol.wall_time)))
+        try:
+            with newton_.time_box(route.deadline):
+                alt = route._solve(self.system.map_forcing(rotate), self.omega, self.method, dict(opts, guess=sol),
+                                   ladder_starts=("guess",))
+        except InputError:
+            alt = None
+        self.spent += time.perf_counter() - t
+        if alt is None or not alt.success:
+            return None
+        return amplitude_change(sol, alt, self.floor)
 
     def impact_step(self, sol):
         """``h J / (2 max_i A_i)``: the displacement change of one step at the largest velocity jump ``J`` of an
@@ -293,6 +417,7 @@ def estimate_and_refine(route, system, omega, method, options, sol, accuracy=Non
                                 "estimates": {}, "levels": [], "estimate_time_s": 0.0,
                                 "note": "not estimated: the solve failed"}
         return sol
+    est.solved.setdefault(est.key(est.settings(sol)), sol)  # each level is the next level's coarse partner
     values = est.own_estimates(sol)
     chk = est.attach(sol, values, acc, requested)
     levels = [_level(sol, chk, None)]
@@ -312,7 +437,7 @@ def estimate_and_refine(route, system, omega, method, options, sol, accuracy=Non
             stop = f"{kind} cannot be refined further by this method"
             break
         sys_n, opts = nxt
-        key = (int(opts["harmonics"]), opts.get("steps"))
+        key = est.key(opts)
         start = est.solved.get(key) if sys_n is system else None  # the estimate's own re-solve at these settings
         t = time.perf_counter()
         new = replace(route, estimate=False).solve(sys_n, omega, method, guess=start or sol, stability=False, **opts)
@@ -323,6 +448,7 @@ def estimate_and_refine(route, system, omega, method, options, sol, accuracy=Non
         if sys_n is not system:
             est.system, est.solved, system = sys_n, {}, sys_n
         new = _fresh(new)
+        est.solved.setdefault(key, new)
         values = {k: (v, note if "carried over" in note else f"{note} (carried over from the previous level)")
                   for k, (v, note) in values.items() if k != kind}
         own = est.own_estimates(new, only=kind)
