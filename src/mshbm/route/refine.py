@@ -23,7 +23,30 @@ With the amplitude change ``d`` between the two answers and an algebraic converg
 
 ``p`` is :data:`RATE` = 1 (first order: Moreau-Jean at impacts and stick-slip, the Fourier series of kinks),
 or, in a refinement with two successive changes ``d_1, d_2`` of the same estimate at ratio 2, the observed
-rate ``log2(d_1 / d_2)`` within ``[MIN_RATE, MAX_RATE]`` (Richardson).  An estimate whose re-solves both fail
+rate ``log2(d_1 / d_2)`` within ``[MIN_RATE, MAX_RATE]`` (Richardson).
+
+Irregular convergence.  One change can vanish by coincidence: on Den Hartog's Coulomb oscillator (``zeta = 0,
+omega = 0.8, R = 0.2``) Moreau-Jean's error is 2.7e-4 at 2048 and at 4096 steps and the change between them
+1.3e-6 (the slip reversals fall at other places of the grid, and the error moves in steps with ``N``); HBM there
+is 1.8e-3 off at ``n_h`` = 5 and 10, which agree to 5e-6, while 10 -> 20 changes by 7e-4.  So:
+
+* ``time_discretisation`` takes two changes, ``d_1`` (``N`` against ``N / 2``) and ``d_2`` (``N / 2`` against
+  ``N / 4``; on a refinement both are earlier levels, on the first level ``N / 4`` is one more re-solve, made
+  only when ``d_1`` alone could pass): ``d_1 / (2^p - 1)`` at their observed rate ``p`` (on the first level not
+  above 1); ``d_1 / (2^MIN_RATE - 1)`` when they do not decrease; when ``d_1`` fell faster than the scheme's
+  order :data:`MAX_RATE` (a cancellation), their envelope at first order, ``max(d_1, d_2 / 2)``.  An estimate
+  about to pass is compared with the change of the answer at ``N / 2`` steps when the time grid is shifted by
+  half a step against the forcing (:meth:`_Estimator.grid_shift`; the error of an event depends on its place
+  between two grid points, which a halving can leave where it was): that change (twice the change at ``N``
+  halved, first order) when it is larger.
+* ``truncation``: a change fell faster than :data:`MAX_RATE` from the previous level's, or an estimate below
+  :data:`TAIL_FACTOR` times the top retained harmonics (:func:`_top_harmonics`), is not trusted when it could
+  pass: a second doubling ``2 n_f`` gives ``d_1 + d_2 / (1 - 2^-p)`` (``p`` their observed rate in
+  ``[MIN_RATE, MAX_RATE]``).  The coarse fallback takes the rate observed against the change into ``n_c``, else
+  :data:`MIN_RATE`.
+
+Measured on the accuracy suite's 26 Moreau-Jean and 3 HBM rows that were certified outside their accuracy:
+each now succeeds within it or fails naming the estimate (README, "Known limits").  An estimate whose re-solves both fail
 is ``None`` ("not estimated"), and the combined check ``accuracy``
 (:func:`mshbm.certificate.combined.combined_check`: the sum of ``truncation``, ``time_discretisation`` and the
 ``regularisation`` and ``model_substitution`` estimates of the certificate) then fails.
@@ -196,16 +219,17 @@ class _Estimator:
             c = self.resolve(sol, harmonics=nc)
             if c is not None:
                 d = amplitude_change(sol, c, self.floor)
-                # the previous levels' changes, when this coarse pair was the last one: their observed rate
-                hist = self.changes.get("truncation", [])
-                p, how = RATE, ""
-                if len(hist) >= 2 and hist[-1][0] == (nc, n) and d > 0 and hist[-2][1] > 0:
-                    prev = hist[-2][1]
+                # the rate observed against the change into n_c (a previous level's), else the slowest rate: with
+                # the finer re-solve failed nothing shows that the series has reached its asymptotic decay
+                prev = next((v for pair, v in reversed(self.changes.get("truncation", [])) if pair[1] == nc), None)
+                p, how = MIN_RATE, " (no change into n_c observed: the slowest rate)"
+                if prev is not None and prev > 0 and d > 0:
                     q = math.log2(prev / d)
                     if q > MAX_RATE:  # a cancellation: the envelope of the two changes at the slowest rate
                         d, how = max(d, prev / 2.0 ** RATE), f" (irregular: envelope of {prev:.3g})"
+                        p = RATE
                     else:
-                        p, how = max(MIN_RATE, q), " (observed against the level before)"
+                        p, how = max(MIN_RATE, q), " (observed against the change into n_c)"
                 return d / ((n / nc) ** p - 1.0), (f"amplitude change {d:.3g} against n_h = {nc}, "
                                                    f"/ (({n}/{nc})^p - 1), p = {p:.3g}{how}")
         return None, f"not estimated: the re-solves at n_h = {nf} and {n // 2} failed ({'; '.join(self.failures[-2:])})"
@@ -283,6 +307,7 @@ class _Estimator:
         """``(value, note)`` of ``time_discretisation`` from the changes ``d_1`` (``N`` against ``N / 2`` steps,
         ``c``) and ``d_2`` (``N / 2`` against ``N / 4``; module docstring, "irregular convergence")."""
         d1 = amplitude_change(sol, c, self.floor)
+        first = "time_discretisation" not in self.diffs  # no previous level: never below the one-change estimate
         self.diffs["time_discretisation"] = d1
         head = f"amplitude change d_1 = {d1:.3g} against {N // 2} steps"
         # d_1 alone fails the request at any rate the scheme can have: the next level has this change for free
@@ -295,6 +320,8 @@ class _Estimator:
         head += f", d_2 = {d2:.3g} ({N // 2} against {N // 4})"
         if d1 > 0 and d2 > 0 and MIN_RATE <= math.log2(d2 / d1) <= MAX_RATE:
             p = math.log2(d2 / d1)
+            if first and p > RATE:
+                return d1 / (2.0 ** RATE - 1.0), f"{head}, observed rate {p:.3g}, first level: d_1 / (2^p - 1), p = 1"
             return d1 / (2.0 ** p - 1.0), f"{head}, observed rate p = {p:.3g}: d_1 / (2^p - 1)"
         if d1 >= d2:  # not decreasing: the slowest rate the estimates allow
             return d1 / (2.0 ** MIN_RATE - 1.0), f"{head}, not decreasing: d_1 / (2^p - 1), p = {MIN_RATE:g}"
