@@ -35,10 +35,11 @@ is 1.8e-3 off at ``n_h`` = 5 and 10, which agree to 5e-6, while 10 -> 20 changes
   only when ``d_1`` alone could pass): ``d_1 / (2^p - 1)`` at their observed rate ``p`` (on the first level not
   above 1); ``d_1 / (2^MIN_RATE - 1)`` when they do not decrease; when ``d_1`` fell faster than the scheme's
   order :data:`MAX_RATE` (a cancellation), their envelope at first order, ``max(d_1, d_2 / 2)``.  An estimate
-  about to pass is compared with the change of the answer at ``N / 2`` steps when the time grid is shifted by
-  half a step against the forcing (:meth:`_Estimator.grid_shift`; the error of an event depends on its place
-  between two grid points, which a halving can leave where it was): that change (twice the change at ``N``
-  halved, first order) when it is larger.
+  about to pass gets the change of the answer at ``N / 2`` steps when the time grid is shifted by half a step
+  against the forcing added (:meth:`_Estimator.grid_shift`; the error of an event depends on its place between
+  two grid points, which a halving can leave where it was; the change at ``N / 2`` is about twice the one at
+  ``N``, first order, and one alignment's error is up to about twice the spread of two): the halvings measure
+  the part of the error that falls with the step, the shift the part that depends on the alignment.
 * ``truncation``: a change fell faster than :data:`MAX_RATE` from the previous level's, or an estimate below
   :data:`TAIL_FACTOR` times the top retained harmonics (:func:`_top_harmonics`), is not trusted when it could
   pass: a second doubling ``2 n_f`` gives ``d_1 + d_2 / (1 - 2^-p)`` (``p`` their observed rate in
@@ -295,9 +296,9 @@ class _Estimator:
             # cost): the change there when the grid is shifted by half a step, halved (first order), doubled (one
             # alignment's error against the spread of two)
             shift = self.grid_shift(c)
-            if shift is not None and shift > value:
-                value, note = shift, (f"{note}; the grid of {N // 2} steps shifted by half a step moves the "
-                                      f"amplitude by {shift:.3g}, which is larger (the events' places on the grid)")
+            if shift is not None:
+                value, note = value + shift, (f"{note}; + {shift:.3g}, the change at {N // 2} steps when the grid is "
+                                              f"shifted by half a step (the events' places on the grid)")
         step = self.impact_step(sol)
         if step > value:
             value, note = step, f"{note}; one step at the impacts, h J / (2 max A) = {step:.3g}, is larger (first order)"
