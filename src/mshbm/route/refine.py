@@ -43,8 +43,8 @@ is 1.8e-3 off at ``n_h`` = 5 and 10, which agree to 5e-6, while 10 -> 20 changes
 * ``truncation``: a change fell faster than :data:`MAX_RATE` from the previous level's, or an estimate below
   :data:`TAIL_FACTOR` times the top retained harmonics (:func:`_top_harmonics`), is not trusted when it could
   pass: a second doubling ``2 n_f`` gives ``d_1 + d_2 / (1 - 2^-p)`` (``p`` their observed rate in
-  ``[MIN_RATE, MAX_RATE]``).  The coarse fallback takes the rate observed against the change into ``n_c``, else
-  :data:`MIN_RATE`.
+  ``[MIN_RATE, MAX_RATE]``).  The coarse fallback takes the rate observed against the change into ``n_c`` (at
+  most :data:`RATE`), else :data:`MIN_RATE`.
 
 Measured on the accuracy suite's 26 Moreau-Jean and 3 HBM rows that were certified outside their accuracy:
 each now succeeds within it or fails naming the estimate (README, "Known limits").  An estimate whose re-solves both fail
@@ -230,7 +230,7 @@ class _Estimator:
                         d, how = max(d, prev / 2.0 ** RATE), f" (irregular: envelope of {prev:.3g})"
                         p = RATE
                     else:
-                        p, how = max(MIN_RATE, q), " (observed against the change into n_c)"
+                        p, how = max(MIN_RATE, min(RATE, q)), " (observed against the change into n_c, at most 1)"
                 return d / ((n / nc) ** p - 1.0), (f"amplitude change {d:.3g} against n_h = {nc}, "
                                                    f"/ (({n}/{nc})^p - 1), p = {p:.3g}{how}")
         return None, f"not estimated: the re-solves at n_h = {nf} and {n // 2} failed ({'; '.join(self.failures[-2:])})"
