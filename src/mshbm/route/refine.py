@@ -32,9 +32,10 @@ is 1.8e-3 off at ``n_h`` = 5 and 10, which agree to 5e-6, while 10 -> 20 changes
 
 * ``time_discretisation`` takes two changes, ``d_1`` (``N`` against ``N / 2``) and ``d_2`` (``N / 2`` against
   ``N / 4``; on a refinement both are earlier levels, on the first level ``N / 4`` is one more re-solve, made
-  only when ``d_1`` alone could pass): ``d_1 / (2^p - 1)`` at their observed rate ``p`` (on the first level not
-  above 1); ``d_1 / (2^MIN_RATE - 1)`` when they do not decrease; when ``d_1`` fell faster than the scheme's
-  order :data:`MAX_RATE` (a cancellation), their envelope at first order, ``max(d_1, d_2 / 2)``.  An estimate
+  only when ``d_1`` alone could pass): ``d_1 / (2^p - 1)`` at their observed rate ``p`` (at most
+  :data:`MAX_RATE`; on the first level at most 1); ``d_1 / (2^MIN_RATE - 1)`` when they do not decrease; when
+  ``d_1`` fell faster than :data:`IRREGULAR_RATE` (8 times: a cancellation, no scheme of order 2 converges so),
+  their envelope at first order, ``max(d_1, d_2 / 2)``.  An estimate
   about to pass gets the change of the answer at ``N / 2`` steps when the time grid is shifted by half a step
   against the forcing added (:meth:`_Estimator.grid_shift`; the error of an event depends on its place between
   two grid points, which a halving can leave where it was; the change at ``N / 2`` is about twice the one at
@@ -95,6 +96,9 @@ RATE = 1.0
 #: the range of an observed rate (two successive amplitude changes at ratio 2); at most the Moreau-Jean scheme's
 #: order 2 on smooth parts, so that a pre-asymptotic fast decrease does not shrink the estimate
 MIN_RATE, MAX_RATE = 0.25, 2.0
+#: a time-step change that falls faster than this rate (8 times per halving) is a cancellation, not the
+#: convergence of a scheme of order <= 2 (a rate a little above 2 is the second order of smooth motion, clamped)
+IRREGULAR_RATE = 3.0
 MAX_HARMONICS, MAX_STEPS = 2000, 1 << 24
 #: a truncation estimate below this fraction of the top retained harmonics is checked by a second doubling
 TAIL_FACTOR = 0.1
@@ -319,8 +323,8 @@ class _Estimator:
             return d1 / (2.0 ** RATE - 1.0), f"{head}, / (2^p - 1), p = {RATE:g} (no re-solve at {N // 4} steps)"
         d2 = amplitude_change(c, c2, self.floor)
         head += f", d_2 = {d2:.3g} ({N // 2} against {N // 4})"
-        if d1 > 0 and d2 > 0 and MIN_RATE <= math.log2(d2 / d1) <= MAX_RATE:
-            p = math.log2(d2 / d1)
+        if d1 > 0 and d2 > 0 and MIN_RATE <= math.log2(d2 / d1) <= IRREGULAR_RATE:
+            p = min(MAX_RATE, math.log2(d2 / d1))
             if first and p > RATE:
                 return d1 / (2.0 ** RATE - 1.0), f"{head}, observed rate {p:.3g}, first level: d_1 / (2^p - 1), p = 1"
             return d1 / (2.0 ** p - 1.0), f"{head}, observed rate p = {p:.3g}: d_1 / (2^p - 1)"
@@ -329,7 +333,7 @@ class _Estimator:
         # faster than the scheme's order: a cancellation, not convergence; the envelope of the two changes at
         # first order
         env = max(d1, d2 / 2.0 ** RATE)
-        return env / (2.0 ** RATE - 1.0), (f"{head}, irregular (faster than order {MAX_RATE:g}): "
+        return env / (2.0 ** RATE - 1.0), (f"{head}, irregular (faster than rate {IRREGULAR_RATE:g}): "
                                            f"max(d_1, d_2 / 2^p) / (2^p - 1), p = {RATE:g}")
 
     def grid_shift(self, sol):
