@@ -48,8 +48,9 @@ is 1.8e-3 off at ``n_h`` = 5 and 10, which agree to 5e-6, while 10 -> 20 changes
   most :data:`RATE`), else :data:`MIN_RATE`.
 
 Measured on the accuracy suite's 26 Moreau-Jean and 3 HBM rows that were certified outside their accuracy:
-each now succeeds within it or fails naming the estimate (README, "Known limits").  An estimate whose re-solves both fail
-is ``None`` ("not estimated"), and the combined check ``accuracy``
+each now succeeds within it or fails naming the estimate (README, "Known limits").
+
+An estimate whose re-solves both fail is ``None`` ("not estimated"), and the combined check ``accuracy``
 (:func:`mshbm.certificate.combined.combined_check`: the sum of ``truncation``, ``time_discretisation`` and the
 ``regularisation`` and ``model_substitution`` estimates of the certificate) then fails.
 
@@ -108,8 +109,9 @@ _DROP = ("guess", "stability", "progress", "raise_on_failure", "accuracy")
 
 
 def _top_harmonics(sol, floor):
-    """``max |q_hat_k|`` over the DOFs given by Fourier series and the two highest retained harmonics ``k = n_h - 1, n_h`` (two: an
-    orbit with odd harmonics only has none at even ``n_h``), relative to the largest amplitude."""
+    """``max |q_hat_k|`` over the DOFs given by Fourier series and the two highest retained harmonics
+    ``k = n_h - 1, n_h`` (two: an orbit with odd harmonics only has none at even ``n_h``), relative to the largest
+    amplitude."""
     qh = np.asarray(sol.q_hat, dtype=float)
     harmonic = np.setdiff1d(np.arange(qh.shape[1]), np.asarray(sol.time_dofs, dtype=int))  # not time-stepped
     if qh.shape[0] < 3 or not harmonic.size:
