@@ -234,7 +234,7 @@ class _Trace(Fallbacks):
         max_corrector_iter, max_jump = self.max_corrector_iter, self.max_jump
         x, lam = xp.copy(), lp
         ty, tm = t[:-1], t[-1]
-        best = None
+        best, polished = None, False
         for it in range(max_corrector_iter + 1):
             if lam0 > 0 >= lam:  # a positive parameter (frequency, load factor) stays positive
                 raise Failed("the corrector left the positive parameter range")
@@ -248,11 +248,14 @@ class _Trace(Fallbacks):
                 best = (x, lam, it, r, (R, s, J, g))
             if r <= tol and abs(c) <= 1e-8:
                 return x, lam, it, r, (R, s, J, g), None
-            if it > 0 and r <= POLISH_AT and r > 0.9 * r_prev:
-                # the parameter has converged to within the step's accuracy but the bordered iteration no
-                # longer lowers the residual (by 10 % at least): finish by Newton on x alone at this lam (dR/dlam of a
-                # rebuilt problem carries its rounding, e.g. a condensation's LU, and the bordered
-                # iteration then stalls at that noise; at fixed lam it plays no role)
+            if it > 0 and r <= POLISH_AT and (not polished or r > 0.9 * r_prev):
+                # the parameter has converged to within the step's accuracy: finish by Newton on x alone at this
+                # lam, first as soon as the residual is below POLISH_AT, again where the bordered iteration no
+                # longer lowers it (by 10 % at least).  dR/dlam (central differences of rebuilt problems) carries
+                # its rounding, e.g. a condensation's LU, and the bordered iteration creeps or stalls at that
+                # noise (a linear problem: 5-7 iterations from 1e-7 to 1e-10 where Newton at fixed lam takes one);
+                # at fixed lam it plays no role, and the step control then sees the corrector's real effort
+                polished = True
                 try:
                     xf, itf, rf, dataf, _ = self.newton_fixed(x, lam, allow_stall=False, max_iter=4,
                                                               free=None if free is None else free / w[None, :])
