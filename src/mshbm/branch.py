@@ -306,6 +306,12 @@ class _Tracer:
         (:meth:`PeriodicProblem.event_signature`), else ``None``."""
         return self.problem(lam).event_signature(np.asarray(x, dtype=float))
 
+    def gauge(self, x, lam, F):
+        """The member of a family of solutions at ``lam`` (free directions ``F``: a friction element stuck the whole
+        period) that the method's rule picks (``family_gauge``: centred stick forces), or None."""
+        rule = getattr(self.problem(lam), "family_gauge", None)
+        return None if rule is None else rule(np.asarray(x, dtype=float), F)
+
     def restarts(self, x, lam):
         """Newton starts across a jump of the unknowns where an event crosses the section ``t = 0``
         (:meth:`PeriodicProblem.section_restarts`)."""
@@ -504,7 +510,8 @@ def _run(route, system, lam_start, lam_end, method, period, parameter, omega_fix
                 max_points=int(max_points), tol=tol,
                 max_corrector_iter=min(12, int(rest.get("max_iter", 12))),
                 predictor=predictor, accept=accept, callback=seen, max_time=max_time,
-                stall_accept=tracer.stall_accept, segment=tracer.segment, restarts=tracer.restarts)
+                stall_accept=tracer.stall_accept, segment=tracer.segment, restarts=tracer.restarts,
+                gauge=tracer.gauge)
     except KeyboardInterrupt as exc:
         interrupted, res = exc, interrupted_result(seen.points)
     else:

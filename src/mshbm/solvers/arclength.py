@@ -72,7 +72,7 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
                  fast_iter=3, slow_iter=7, grow=1.6, shrink=0.5, predictor="tangent", accept=None,
                  callback=None, fold_rtol=1e-3, max_time=None, lam_limits=None, stall_accept=None, max_jump=3.0,
                  stall_fold_rtol=5e-3, natural_fallback=True, kink_crossing=True, segment=None, max_turn=0.5,
-                 restarts=None, ds_rough=None, predicted=None):
+                 restarts=None, ds_rough=None, predicted=None, gauge=None):
     """Trace the branch of ``R(x, lam) = 0`` from the converged point ``(x0, lam0)`` towards ``lam_end``.
 
     Parameters
@@ -94,6 +94,12 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
         a corrector slower than ``slow_iter``, or a failed step.  Steps grow beyond it, up to ``ds_max``, only
         along a smooth stretch, where the tangent's turn (``max_turn``) measures the curve: a branch that is
         linear in effect is traced in tens of points, while corners and staircases keep the cautious step.
+    gauge : callable, optional
+        ``gauge(x, lam, F) -> x or None``: where the solutions at fixed ``lam`` form a family (free directions
+        ``F``, rows in the physical unknowns, :func:`mshbm.solvers.arclength_parts.free_directions`), the member
+        of the family a rule picks (e.g. every stuck friction element's force centred in its admissible range);
+        each such point is replaced by it when its residual stays within ``tol`` (counter ``gauged``).  Without
+        it the family is held by minimum-norm steps (the offset where the branch brought it).
     predicted : float, optional
         After a smooth step (as for ``ds_rough``) whose tangent predictor missed the corrected point by at most
         ``predicted * ds`` (scaled), the step grows as after a fast corrector, whatever the corrector's iteration
@@ -172,7 +178,8 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
         predictor=predictor, accept=accept, callback=callback, fold_rtol=fold_rtol, max_time=max_time,
         stall_accept=stall_accept, max_jump=max_jump, stall_fold_rtol=stall_fold_rtol,
         natural_fallback=natural_fallback, kink_crossing=kink_crossing, segment=segment, max_turn=max_turn,
-        restarts=restarts, ds_rough=ds_max if ds_rough is None else min(ds_rough, ds_max), predicted=predicted))
+        restarts=restarts, ds_rough=ds_max if ds_rough is None else min(ds_rough, ds_max), predicted=predicted,
+        gauge=gauge))
     return trace.run(x0)
 
 
@@ -305,6 +312,8 @@ class _Trace(Fallbacks):
         lsc, segment = self.lsc, self.segment
         w = np.asarray(self.unknown_scale(x, lam), dtype=float)
         free = free_directions(J, g, s, w, lsc)
+        if free is not None and self.gauge is not None and stall is None:
+            x, r, (R, s, J, g), w, free = self.gauged(x, lam, r, (R, s, J, g), w, free)
         t = tangent(J, g, s, w, lsc, previous=prev_t, free=free)
         seg = segment(x, lam) if segment is not None and stall is None else None
         if free is not None:
@@ -314,6 +323,24 @@ class _Trace(Fallbacks):
                                  ds=ds, residual=r, stall=stall, segment=seg, free=free,
                                  orientation=orientation(J, g, s, w, lsc, t) if seg is not None and free is None
                                  else 0), t, w
+
+    def gauged(self, x, lam, r, data, w, free):
+        """The member of the family through ``x`` that ``gauge`` picks, with its residual, data, scale and free
+        directions; ``x`` itself when the gauge declines or its point is not a solution (``tol``)."""
+        try:
+            xg = self.gauge(x, lam, free / w[None, :])
+        except (ValueError, FloatingPointError, np.linalg.LinAlgError):
+            xg = None
+        if xg is None:
+            return x, r, data, w, free
+        R, s, rg, J, g = self.ev(np.asarray(xg, dtype=float), lam)
+        if not rg <= max(self.tol, r):
+            self.counters["gauge_rejected"] = self.counters.get("gauge_rejected", 0) + 1
+            return x, r, data, w, free
+        self.counters["gauged"] = self.counters.get("gauged", 0) + 1
+        wg = np.asarray(self.unknown_scale(xg, lam), dtype=float)
+        fg = free_directions(J, g, s, wg, self.lsc)
+        return xg, rg, (R, s, J, g), wg, free if fg is None else fg
 
     @staticmethod
     def free_units(p, w):
