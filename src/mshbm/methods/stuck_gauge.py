@@ -26,7 +26,8 @@ from ..integrators.local_problem import STATUS_STICK
 
 __all__ = ["centred_member", "GAUGE_STEP"]
 
-#: probe step along each free direction (scaled units of the continuation: a unit row of ``F`` times this)
+#: probe step along each free direction (a row of ``F`` times this: the continuation's rows are unit steps in its
+#: scaled unknowns, so the probe moves the solution by 1e-6 of its size)
 GAUGE_STEP = 1e-6
 
 

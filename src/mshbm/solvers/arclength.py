@@ -96,7 +96,8 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
         linear in effect is traced in tens of points, while corners and staircases keep the cautious step.
     gauge : callable, optional
         ``gauge(x, lam, F) -> x or None``: where the solutions at fixed ``lam`` form a family (free directions
-        ``F``, rows in the physical unknowns, :func:`mshbm.solvers.arclength_parts.free_directions`), the member
+        ``F``, rows: directions in the physical unknowns, each a unit step in the scaled ones, of
+        :func:`mshbm.solvers.arclength_parts.free_directions`), the member
         of the family a rule picks (e.g. every stuck friction element's force centred in its admissible range);
         each such point is replaced by it when its residual stays within ``tol`` (counter ``gauged``).  Without
         it the family is held by minimum-norm steps (the offset where the branch brought it).
@@ -328,7 +329,7 @@ class _Trace(Fallbacks):
         """The member of the family through ``x`` that ``gauge`` picks, with its residual, data, scale and free
         directions; ``x`` itself when the gauge declines or its point is not a solution (``tol``)."""
         try:
-            xg = self.gauge(x, lam, free / w[None, :])
+            xg = self.gauge(x, lam, free * w[None, :])  # the directions in physical units
         except (ValueError, FloatingPointError, np.linalg.LinAlgError):
             xg = None
         if xg is None:
