@@ -6,6 +6,9 @@ where the stick force stays within its bound (a family of periodic solutions); t
 stick force centred in [-mu N, mu N] (:mod:`mshbm.methods.stuck_gauge`, HBM's rule for its stuck loops), so the
 branch goes on continuously into slip.  Held at the offset where the branch brought it, the slider met the range's
 edge on one side first: MS-HBM cycled between spurious folds near 1.5 (144 points, stopped), shooting left the range.
+Inside slip, at 2.4887, the slider's velocity at t = 0 (a state of Moreau-Jean's massless slider) jumps from its
+slip velocity to 0 where its stick phase crosses the section t = 0: the arclength corrector turned back there and
+cycled (stopped: "came back to its point"); a step at fixed omega across it goes on (``cross_cycle``).
 References: HBM's pointwise certified solves (its stuck loops are centred, the same n_H), within the Moreau-Jean time
 discretisation of 512 steps (measured 3.4e-4 and 1.8e-4).
 """
@@ -29,10 +32,10 @@ def _pair():
 @pytest.mark.parametrize("method, options", [("mshbm", {"harmonics": 7, "steps": 512}), ("shooting", {"steps": 512})])
 def test_sweep_of_a_jenkins_joint_passes_slip_onset(method, options):
     s = _pair()
-    br = mshbm.sweep(s, 1.2, 2.45, method, stability=False, accuracy=False, **options)
+    br = mshbm.sweep(s, 1.2, 2.6, method, stability=False, accuracy=False, **options)
     assert br.success, br.message
-    assert br.omega[-1] == pytest.approx(2.45, rel=1e-12)
-    assert len(br) <= 40 and not [b for b in br.bifurcations if b["type"] == "fold"]
+    assert br.omega[-1] == pytest.approx(2.6, rel=1e-12)
+    assert len(br) <= 60 and not [b for b in br.bifurcations if b["type"] == "fold"]
     assert br.counters.get("gauged", 0) >= 5  # the stuck stretch was traced on centred members
     stuck = slipping = 0
     for i in range(len(br)):
@@ -42,7 +45,7 @@ def test_sweep_of_a_jenkins_joint_passes_slip_onset(method, options):
             assert abs(lam.max() + lam.min()) <= 1e-8 * MU * N0, (br.omega[i], lam.max(), lam.min())
         else:
             slipping += 1
-        if i % 3 == 0 or i == len(br) - 1:
+        if i % 6 == 0 or i == len(br) - 1:
             ref = mshbm.solve(s, float(br.omega[i]), "hbm", harmonics=7, stability=False)
             assert ref.success, ref.message
             dev = np.max(np.abs(br.amplitude[i] - ref.amplitude)) / np.max(ref.amplitude)
