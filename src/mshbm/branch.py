@@ -212,7 +212,8 @@ def _run(route, system, lam_start, lam_end, method, period, parameter, omega_fix
                 max_points=int(max_points), tol=tol,
                 max_corrector_iter=min(12, int(rest.get("max_iter", 12))),
                 predictor=predictor, accept=accept, callback=seen, max_time=max_time,
-                stall_accept=tracer.stall_accept, segment=tracer.segment, restarts=tracer.restarts)
+                stall_accept=tracer.stall_accept, segment=tracer.segment, restarts=tracer.restarts,
+                gauge=tracer.gauge)
     except KeyboardInterrupt as exc:
         interrupted, res = exc, interrupted_result(seen.points)
     else:

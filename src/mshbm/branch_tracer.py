@@ -123,6 +123,12 @@ class _Tracer:
         (:meth:`PeriodicProblem.event_signature`), else ``None``."""
         return self.problem(lam).event_signature(np.asarray(x, dtype=float))
 
+    def gauge(self, x, lam, F):
+        """The member of a family of solutions at ``lam`` (free directions ``F``: a friction element stuck the whole
+        period) that the method's rule picks (``family_gauge``: centred stick forces), or None."""
+        rule = getattr(self.problem(lam), "family_gauge", None)
+        return None if rule is None else rule(np.asarray(x, dtype=float), F)
+
     def restarts(self, x, lam):
         """Newton starts across a jump of the unknowns where an event crosses the section ``t = 0``
         (:meth:`PeriodicProblem.section_restarts`)."""

@@ -40,6 +40,29 @@ def test_continuation_holds_the_offset_and_reports_the_family():
     assert res.counters["free_points"] >= len(res.points) and res.counters["free_dimension"] == 1
 
 
+def test_gauge_picks_the_member_of_the_family():
+    """A ``gauge`` (e.g. the centred stick force of a stuck element) moves every point of the family along its free
+    direction to the member the rule picks, here x1 = x0 / 2; a gauge whose point is not a solution is refused."""
+    def gauge(x, lam, F):
+        assert F.shape == (1, 2) and abs(abs(F[0, 1]) - 1.0) < 1e-12  # the free direction, physical units
+        return x + F[0] * (0.5 * x[0] - x[1]) / F[0, 1]
+
+    res = continuation(_family, lambda x, lam: np.array([-1.0, 0.0]), np.array([0.0, 0.3]), 0.0, 2.0,
+                       residual_scale=lambda x, lam: np.ones(2), unknown_scale=lambda x, lam: np.ones(2),
+                       lam_scale=1.0, ds0=0.05, ds_max=0.2, max_points=200, gauge=gauge)
+    assert res.success, res.message
+    x = np.array([p.x for p in res.points])
+    lam = np.array([p.lam for p in res.points])
+    np.testing.assert_allclose(x[:, 1], 0.5 * x[:, 0], atol=1e-14)
+    np.testing.assert_allclose(x[:, 0] * (1 + x[:, 0] ** 2), lam, atol=1e-10)
+    assert res.counters["gauged"] >= len(res.points) and not res.folds  # (and trial points: the end)
+    off = continuation(_family, lambda x, lam: np.array([-1.0, 0.0]), np.array([0.0, 0.3]), 0.0, 2.0,
+                       residual_scale=lambda x, lam: np.ones(2), unknown_scale=lambda x, lam: np.ones(2),
+                       lam_scale=1.0, ds0=0.05, ds_max=0.2, max_points=200, gauge=lambda x, lam, F: x + [0.1, 0.0])
+    assert off.success and off.counters["gauge_rejected"] >= len(off.points) and "gauged" not in off.counters
+    np.testing.assert_allclose([p.x[1] for p in off.points], 0.3, atol=1e-14)
+
+
 def test_revisit_is_an_exact_repetition_of_an_earlier_point():
     """The guard against a continuation that cycles (seen on a reduced FE blade with a stop: the same 20 points
     traced again and again until max_points): a point that repeats an earlier one to 1e-6 in the scaled

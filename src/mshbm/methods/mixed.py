@@ -52,6 +52,7 @@ from ..condensation import Condensation, condense_around_resonances, resonance_n
 from .mass_coupling import mass_decoupling
 from ..integrators.registry import make_integrator
 from ..integrators.subsystem import submatrix
+from .stuck_gauge import centred_member
 
 __all__ = ["MixedProblem", "IntermediateProblem", "StandardAsIntermediate", "auto_intermediate_partition",
            "intermediate_problem"]
@@ -188,6 +189,18 @@ class _MixedBase(PeriodicProblem):
         J[a:] = run.jacobian[:, perm]
         J[a:, a:] -= np.eye(2 * nt)
         return R, J
+
+    def family_gauge(self, x, F):
+        """The member of the family of solutions through ``x`` (free directions ``F``) whose friction elements that
+        stick the whole period have centred forces (:func:`mshbm.methods.stuck_gauge.centred_member`), or None."""
+        def forces(xx):
+            p, q0, u0 = self._split(np.asarray(xx, dtype=float))
+            run = self.integrator.run(q0, u0, p, record=True)
+            if run.failed or run.forces is None or run.status is None:
+                return None
+            return run.forces[:-1], run.status
+
+        return centred_member(forces, x, F)
 
     def solution_parts(self, x):
         x = np.asarray(x, dtype=float)

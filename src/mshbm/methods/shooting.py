@@ -26,6 +26,7 @@ from .base import Partition, PeriodicProblem, forward_difference_jacobian, secti
 from .common import failed_parts, guess_parts
 from ..integrators.registry import make_integrator
 from ..scaling import displacement_floor, velocity_scale
+from .stuck_gauge import centred_member
 
 __all__ = ["ShootingProblem"]
 
@@ -159,6 +160,17 @@ class ShootingProblem(PeriodicProblem):
             return []
         out = [np.concatenate(section_limits(run, k)) for k in (-1, 0)]
         return [z for z in out if z.shape == np.shape(x)]
+
+    def family_gauge(self, x, F):
+        """The member of the family of solutions through ``x`` (free directions ``F``) whose friction elements that
+        stick the whole period have centred forces (:func:`mshbm.methods.stuck_gauge.centred_member`), or None."""
+        def forces(xx):
+            run = self._run(xx, record=True)
+            if run.failed or run.forces is None or run.status is None:
+                return None
+            return run.forces[:-1], run.status
+
+        return centred_member(forces, x, F)
 
     def monodromy(self, x):
         """Monodromy matrix ``d(q(T), u(T))/d(q0, u0)``, shape (2n, 2n)."""

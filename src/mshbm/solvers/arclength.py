@@ -72,7 +72,7 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
                  fast_iter=3, slow_iter=7, grow=1.6, shrink=0.5, predictor="tangent", accept=None,
                  callback=None, fold_rtol=1e-3, max_time=None, lam_limits=None, stall_accept=None, max_jump=3.0,
                  stall_fold_rtol=5e-3, natural_fallback=True, kink_crossing=True, segment=None, max_turn=0.5,
-                 restarts=None, ds_rough=None, predicted=None):
+                 restarts=None, ds_rough=None, predicted=None, gauge=None):
     """Trace the branch of ``R(x, lam) = 0`` from the converged point ``(x0, lam0)`` towards ``lam_end``.
 
     Parameters
@@ -94,6 +94,13 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
         a corrector slower than ``slow_iter``, or a failed step.  Steps grow beyond it, up to ``ds_max``, only
         along a smooth stretch, where the tangent's turn (``max_turn``) measures the curve: a branch that is
         linear in effect is traced in tens of points, while corners and staircases keep the cautious step.
+    gauge : callable, optional
+        ``gauge(x, lam, F) -> x or None``: where the solutions at fixed ``lam`` form a family (free directions
+        ``F``, rows: directions in the physical unknowns, each a unit step in the scaled ones, of
+        :func:`mshbm.solvers.arclength_parts.free_directions`), the member
+        of the family a rule picks (e.g. every stuck friction element's force centred in its admissible range);
+        each such point is replaced by it when its residual stays within ``tol`` (counter ``gauged``).  Without
+        it the family is held by minimum-norm steps (the offset where the branch brought it).
     predicted : float, optional
         After a smooth step (as for ``ds_rough``) whose tangent predictor missed the corrected point by at most
         ``predicted * ds`` (scaled), the step grows as after a fast corrector, whatever the corrector's iteration
@@ -172,7 +179,8 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
         predictor=predictor, accept=accept, callback=callback, fold_rtol=fold_rtol, max_time=max_time,
         stall_accept=stall_accept, max_jump=max_jump, stall_fold_rtol=stall_fold_rtol,
         natural_fallback=natural_fallback, kink_crossing=kink_crossing, segment=segment, max_turn=max_turn,
-        restarts=restarts, ds_rough=ds_max if ds_rough is None else min(ds_rough, ds_max), predicted=predicted))
+        restarts=restarts, ds_rough=ds_max if ds_rough is None else min(ds_rough, ds_max), predicted=predicted,
+        gauge=gauge))
     return trace.run(x0)
 
 
@@ -234,7 +242,7 @@ class _Trace(Fallbacks):
         max_corrector_iter, max_jump = self.max_corrector_iter, self.max_jump
         x, lam = xp.copy(), lp
         ty, tm = t[:-1], t[-1]
-        best = None
+        best, polished = None, False
         for it in range(max_corrector_iter + 1):
             if lam0 > 0 >= lam:  # a positive parameter (frequency, load factor) stays positive
                 raise Failed("the corrector left the positive parameter range")
@@ -248,11 +256,14 @@ class _Trace(Fallbacks):
                 best = (x, lam, it, r, (R, s, J, g))
             if r <= tol and abs(c) <= 1e-8:
                 return x, lam, it, r, (R, s, J, g), None
-            if it > 0 and r <= POLISH_AT and r > 0.9 * r_prev:
-                # the parameter has converged to within the step's accuracy but the bordered iteration no
-                # longer lowers the residual (by 10 % at least): finish by Newton on x alone at this lam (dR/dlam of a
-                # rebuilt problem carries its rounding, e.g. a condensation's LU, and the bordered
-                # iteration then stalls at that noise; at fixed lam it plays no role)
+            if it > 0 and r <= POLISH_AT and (not polished or r > 0.9 * r_prev):
+                # the parameter has converged to within the step's accuracy: finish by Newton on x alone at this
+                # lam, first as soon as the residual is below POLISH_AT, again where the bordered iteration no
+                # longer lowers it (by 10 % at least).  dR/dlam (central differences of rebuilt problems) carries
+                # its rounding, e.g. a condensation's LU, and the bordered iteration creeps or stalls at that
+                # noise (a linear problem: 5-7 iterations from 1e-7 to 1e-10 where Newton at fixed lam takes one);
+                # at fixed lam it plays no role, and the step control then sees the corrector's real effort
+                polished = True
                 try:
                     xf, itf, rf, dataf, _ = self.newton_fixed(x, lam, allow_stall=False, max_iter=4,
                                                               free=None if free is None else free / w[None, :])
@@ -302,6 +313,8 @@ class _Trace(Fallbacks):
         lsc, segment = self.lsc, self.segment
         w = np.asarray(self.unknown_scale(x, lam), dtype=float)
         free = free_directions(J, g, s, w, lsc)
+        if free is not None and self.gauge is not None and stall is None:
+            x, r, (R, s, J, g), w, free = self.gauged(x, lam, r, (R, s, J, g), w, free)
         t = tangent(J, g, s, w, lsc, previous=prev_t, free=free)
         seg = segment(x, lam) if segment is not None and stall is None else None
         if free is not None:
@@ -311,6 +324,24 @@ class _Trace(Fallbacks):
                                  ds=ds, residual=r, stall=stall, segment=seg, free=free,
                                  orientation=orientation(J, g, s, w, lsc, t) if seg is not None and free is None
                                  else 0), t, w
+
+    def gauged(self, x, lam, r, data, w, free):
+        """The member of the family through ``x`` that ``gauge`` picks, with its residual, data, scale and free
+        directions; ``x`` itself when the gauge declines or its point is not a solution (``tol``)."""
+        try:
+            xg = self.gauge(x, lam, free * w[None, :])  # the directions in physical units
+        except (ValueError, FloatingPointError, np.linalg.LinAlgError):
+            xg = None
+        if xg is None:
+            return x, r, data, w, free
+        R, s, rg, J, g = self.ev(np.asarray(xg, dtype=float), lam)
+        if not rg <= max(self.tol, r):
+            self.counters["gauge_rejected"] = self.counters.get("gauge_rejected", 0) + 1
+            return x, r, data, w, free
+        self.counters["gauged"] = self.counters.get("gauged", 0) + 1
+        wg = np.asarray(self.unknown_scale(xg, lam), dtype=float)
+        fg = free_directions(J, g, s, wg, self.lsc)
+        return xg, rg, (R, s, J, g), wg, free if fg is None else fg
 
     @staticmethod
     def free_units(p, w):
@@ -521,6 +552,11 @@ class _Trace(Fallbacks):
                 self.kinks.append(kink)
                 self.counters["kinks"] = self.counters.get("kinks", 0) + 1
             back = self.revisited(q, w)
+            if back is not None and self.cross_cycle(back, w):  # a kink the corrector turns back on: crossed at fixed lam
+                if points[-1].lam == lam_end:
+                    self.success, self.message = True, f"reached lam_end = {lam_end:.6g} in {len(points)} points"
+                    break
+                continue
             if back is not None:  # the curve closed on itself: it would be traced again and again
                 self.message = (f"the continuation came back to its point {back} (lam = {points[back].lam:.6g}) and "
                                 "would trace the same points again (a closed loop of the curve, or a cycle of steps "

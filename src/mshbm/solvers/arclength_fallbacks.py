@@ -4,12 +4,17 @@ accuracy, and across gaps of the curve), and the end point at ``lam_end``.  A mi
 state (``points``, ``ds``, ``natural``, ``gap_from``, ``counters``, ...) and its Newton (``newton_fixed``)."""
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from .arclength_parts import Failed
 from .arclength_steps import EXACT_REACH, exact_root
 
-__all__ = ["Fallbacks"]
+__all__ = ["Fallbacks", "CYCLE_RTOL"]
+
+#: points of a cycle (:meth:`Fallbacks.cross_cycle`) lie within this (relative to ``lam_scale``) of one ``lam``
+CYCLE_RTOL = 1e-5
 
 
 class Fallbacks:
@@ -120,6 +125,34 @@ class Fallbacks:
             return False
         self.message = f"step size below ds_min = {self.ds_min:g} at lam = {p.lam:.6g} ({exc})"
         return self.start_gap(p, self.message)
+
+    def cross_cycle(self, back, w):
+        """Where the continuation came back to its point ``back`` (it would cycle, ``revisited``): once per point,
+        the points of the cycle after it are dropped and a step at fixed ``lam`` across a kink
+        (:func:`mshbm.solvers.arclength_kinks.cross_kink`) is taken from it, onwards towards ``lam_end`` (a kink of a
+        piecewise-linear residual, e.g. Moreau-Jean's stick-slip map, whose pieces the arclength corrector turns
+        back on).  Returns True when it added a point."""
+        lam_b = self.points[back].lam
+        while back > 0 and abs(self.points[back - 1].lam - lam_b) <= CYCLE_RTOL * self.lsc:
+            back -= 1  # the cycle's first point: the run of points at that lam
+        p = self.points[back]
+        if not self.kink_crossing or p.stall is not None or self.crossed_from == back:
+            return False
+        self.crossed_from = back
+        del self.points[back + 1:]
+        # the reversals into the cycle are no folds (records between points index - 1 and index)
+        self.folds = [f for f in self.folds if f["index"] < back]
+        self.kinks = [k for k in self.kinks if k["index"] < back]
+        if p.dlam * self.direction < 0:
+            p = replace(p, dx=-p.dx, dlam=-p.dlam, orientation=-p.orientation)
+        try:
+            q = self.cross_kink(p, w)
+        except Failed:
+            return False
+        self.counters["cycle_crossings"] = self.counters.get("cycle_crossings", 0) + 1
+        self.add(q, self.ds0)
+        self.ds = self.ds0
+        return True
 
     def start_gap(self, p, why):
         """Where the arclength corrector cannot pass an exactly solved point: one natural-parameter step onwards
