@@ -552,13 +552,14 @@ class _Trace(Fallbacks):
                 self.kinks.append(kink)
                 self.counters["kinks"] = self.counters.get("kinks", 0) + 1
             back = self.revisited(q, w)
+            lam_back = None if back is None else points[back].lam  # (cross_cycle may drop the cycle's points)
             if back is not None and self.cross_cycle(back, w):  # a kink the corrector turns back on: crossed at fixed lam
                 if points[-1].lam == lam_end:
                     self.success, self.message = True, f"reached lam_end = {lam_end:.6g} in {len(points)} points"
                     break
                 continue
             if back is not None:  # the curve closed on itself: it would be traced again and again
-                self.message = (f"the continuation came back to its point {back} (lam = {points[back].lam:.6g}) and "
+                self.message = (f"the continuation came back to its point {back} (lam = {lam_back:.6g}) and "
                                 "would trace the same points again (a closed loop of the curve, or a cycle of steps "
                                 "at a corner): stopped before lam_end")
                 self.counters["revisits"] = self.counters.get("revisits", 0) + 1
