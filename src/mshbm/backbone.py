@@ -237,7 +237,7 @@ def backbone(system, amplitude_start, amplitude_end, mode=0, method="hbm", harmo
 
     opts = dict(residual_scale=prob.residual_scale, unknown_scale=prob.unknown_scale, lam_scale=1.0, ds0=ds_max,
                 ds_min=1e-6 * max(ds_max, 1e-3), ds_max=ds_max, tol=tol, accept=accept, callback=show,
-                max_time=max_time, natural_fallback=False, kink_crossing=flow,
+                max_time=max_time, natural_fallback=False, kink_crossing=flow, early_polish=False,
                 segment=prob.segment if flow else None, lam_limits=(min(lam0, lam1) - 1.0, max(lam0, lam1) + 1.0))
 
     def trace(y_start, lam_start, n_max):

@@ -76,7 +76,7 @@ class ModalParameter:
         """What ``stable`` of the points means."""
         return "not defined for the EPMC's artificial autonomous motion"
 
-    def failure_hint(self, steps_given):
+    def failure_hint(self, points_found, steps_given):
         """A hint appended to the message of a backbone that did not succeed (``""``: none)."""
         return ""
 

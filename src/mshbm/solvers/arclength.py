@@ -72,7 +72,7 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
                  fast_iter=3, slow_iter=7, grow=1.6, shrink=0.5, predictor="tangent", accept=None,
                  callback=None, fold_rtol=1e-3, max_time=None, lam_limits=None, stall_accept=None, max_jump=3.0,
                  stall_fold_rtol=5e-3, natural_fallback=True, kink_crossing=True, segment=None, max_turn=0.5,
-                 restarts=None, ds_rough=None, predicted=None, gauge=None):
+                 restarts=None, ds_rough=None, predicted=None, gauge=None, early_polish=True):
     """Trace the branch of ``R(x, lam) = 0`` from the converged point ``(x0, lam0)`` towards ``lam_end``.
 
     Parameters
@@ -134,6 +134,10 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
         lies on (e.g. the event sequence of an event-driven flow).  Where it differs between two points the
         step passed a kink, and the tangent there keeps the curve's orientation (module docstring); without
         it (or where it returns ``None``) every step is taken as smooth.
+    early_polish : bool
+        Finish the corrector by Newton at fixed ``lam`` as soon as the bordered iteration's residual is below
+        ``POLISH_AT`` (default), or only where that iteration stalls (the backbone's residual: polished early, the
+        impact oscillator's corner at a grazing is met again from the other side and the trace stops).
     kink_crossing : bool
         When the step falls below ``ds_min`` at a point solved exactly (not by ``stall_accept``), try one
         step at fixed ``lam`` across a kink (module docstring) before stopping, once per point.
@@ -180,7 +184,7 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
         stall_accept=stall_accept, max_jump=max_jump, stall_fold_rtol=stall_fold_rtol,
         natural_fallback=natural_fallback, kink_crossing=kink_crossing, segment=segment, max_turn=max_turn,
         restarts=restarts, ds_rough=ds_max if ds_rough is None else min(ds_rough, ds_max), predicted=predicted,
-        gauge=gauge))
+        gauge=gauge, early_polish=early_polish))
     return trace.run(x0)
 
 
@@ -256,7 +260,7 @@ class _Trace(Fallbacks):
                 best = (x, lam, it, r, (R, s, J, g))
             if r <= tol and abs(c) <= 1e-8:
                 return x, lam, it, r, (R, s, J, g), None
-            if it > 0 and r <= POLISH_AT and (not polished or r > 0.9 * r_prev):
+            if it > 0 and r <= POLISH_AT and ((self.early_polish and not polished) or r > 0.9 * r_prev):
                 # the parameter has converged to within the step's accuracy: finish by Newton on x alone at this
                 # lam, first as soon as the residual is below POLISH_AT, again where the bordered iteration no
                 # longer lowers it (by 10 % at least).  dR/dlam (central differences of rebuilt problems) carries
