@@ -40,7 +40,6 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 from .. import fourier
 from .base import Partition, PeriodicProblem, forward_difference_jacobian, section_limits
@@ -49,7 +48,7 @@ from ..errors import InputError
 from ..extrema import fourier_extrema
 from ..scaling import displacement_floor, force_scale, velocity_scale
 from ..condensation import Condensation, condense_around_resonances, resonance_note
-from .mass_coupling import mass_decoupling
+from .mass_coupling import impact_compliance, mass_decoupling
 from ..integrators.registry import make_integrator
 from ..integrators.subsystem import submatrix
 from .stuck_gauge import centred_member
@@ -343,25 +342,16 @@ class MixedProblem(_MixedBase):
         contacts = [(j, el) for j, el in enumerate(self.system.elements) if el.unilateral]
         if not contacts:
             return []
-        M = self.system.M
-        M_LN = M[np.ix_(self.Ld, self.Nd)] if not sp.issparse(M) else M.tocsr()[self.Ld][:, self.Nd]
+        M_LN = submatrix(self.system.M, self.Ld, self.Nd)
         if not (M_LN.nnz if sp.issparse(M_LN) else np.count_nonzero(M_LN)):
             return []
-        pos = {int(d): i for i, d in enumerate(self.Nd)}
-        M_NN = M[np.ix_(self.Nd, self.Nd)] if not sp.issparse(M) else M.tocsr()[self.Nd][:, self.Nd].toarray()
-        solve_M = (spla.factorized(sp.csc_matrix(M)) if sp.issparse(M)
-                   else (lambda b, L=np.linalg.inv(np.asarray(M, dtype=float)): L @ b))
+        used, model = impact_compliance(self.system, self.Nd), impact_compliance(self.system)
         out = []
         for j, el in contacts:
-            w = np.zeros(self.system.n)
-            w[el.dof] = 1.0
-            if el.relative_to is not None:
-                w[el.relative_to] = -1.0
-            if any(int(d) not in pos for d in np.flatnonzero(w)):
+            c_used = used.of(el)
+            if c_used is None:  # a DOF of the contact is not integrated in time
                 continue
-            w_N = w[self.Nd]
-            m_used = 1.0 / float(w_N @ np.linalg.solve(np.asarray(M_NN, dtype=float), w_N))
-            m_model = 1.0 / float(w @ solve_M(w))
+            m_used, m_model = 1.0 / c_used, 1.0 / model.of(el)
             if abs(m_used - m_model) > 1e-9 * abs(m_model):
                 out.append((j, m_model, m_used))
         return out
