@@ -236,8 +236,8 @@ def run(args, exit_codes, write_json, error):
     if args.out is not None:
         payload = {"case": case.name, **br.to_dict(), "n_dofs": int(case.system.n), "source": case.source,
                    "version": __version__}
-        if case.reduction is not None:  # the amplitudes are those of the reduced DOFs (boundary first)
-            payload["reduction"] = case.reduction.as_dict()
+        if case.reduction is not None:  # on the user's DOFs, as solve --out (mshbm.reduction.ReducedModel.expand)
+            _on_full_dofs(payload, br, case.reduction)
         write_json(args.out, payload, args.case)
     if args.plot is not None and len(br):
         plot(br, args.plot, dofs, labels=labels, title=f"{case.name}: {method}" + (f", period {args.period}" if args.period > 1
@@ -264,6 +264,27 @@ def run(args, exit_codes, write_json, error):
               else f"sweep stopped early: {br.message}")
         return not_conv
     return ok
+
+
+def _on_full_dofs(payload, br, reduction):
+    """The ``--out`` payload of a sweep of the reduced model (``payload`` from ``br.to_dict()``) on the full model's
+    DOFs, in place: per point the amplitude of every DOF the user wrote (index = DOF; the boundary DOFs' are the
+    branch's own, exact for time-integrated DOFs; the others from the expanded Fourier series, ``q_hat T^T``), and
+    the elements and contacts named by their DOFs in the full model.  The points' unknowns ``x`` stay the
+    method's on the reduced model; ``reduction`` (:meth:`mshbm.reduction.ReducedModel.as_dict`) says so."""
+    B = reduction.boundary
+    for i, bp in enumerate(br.points):
+        pt = payload["points"][i]
+        amp = np.full(reduction.full.n, np.nan)
+        if bp.solution is not None:
+            full = reduction.expand(bp.solution, estimate=False)
+            amp = np.asarray(full.amplitude, dtype=float)
+            pt["elements"] = [e.summary() for e in (full.elements or [])]
+        amp[B] = np.asarray(bp.amplitude, dtype=float)[:B.size]
+        payload["amplitude"][i] = pt["amplitude"] = [float(a) for a in amp]
+        pt["contact"] = [dict(c, dof=int(B[c["dof"]])) if "dof" in c else c for c in pt["contact"]]
+    payload["reduction"] = {**reduction.as_dict(), "dofs": "the full model's (amplitude, elements, contact); the "
+                            "points' x are the unknowns of the method on the reduced model"}
 
 
 def _accuracy_line(br):

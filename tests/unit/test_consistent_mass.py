@@ -122,3 +122,33 @@ def test_impact_mass_option_is_checked():
     with pytest.raises(mshbm.InputError) as e:
         mshbm.solve(chain_with_stop(), OMEGA, "shooting", impact_mass="effective")
     assert e.value.key == "impact_mass"
+
+
+def test_compliance_of_a_relative_contact_and_the_impact_masses_named():
+    """``impact_compliance`` holds ``(M_TT)^-1`` between the element DOFs: ``w^T M^-1 w`` of a relative contact
+    ``w = e_2 - e_0`` (off-diagonal entries included) for the whole chain and for the subsystem ``T = {0, 2}``;
+    MS-HBM's ``impact_masses`` and the penalty restitution use it."""
+    from mshbm.certificate.substitution import _penalty_restitution
+    from mshbm.methods.mixed import MixedProblem
+
+    el = Contact(2, 0.5, restitution=E_N, relative_to=0)
+    s = chain_with_stop().with_elements([el])
+    w = np.array([-1.0, 0.0, 1.0])
+    Minv = np.linalg.inv(M)
+    c = impact_compliance(s)
+    assert abs(c.of(el) - w @ Minv @ w) <= 1e-14 * (w @ Minv @ w)
+    assert abs(c.entry(0, 2) - Minv[0, 2]) <= 1e-15 and abs(c[0] - Minv[0, 0]) <= 1e-14
+    M_TT = M[np.ix_([0, 2], [0, 2])]
+    w_T = np.array([-1.0, 1.0])
+    sub = impact_compliance(s, [0, 2])
+    assert abs(sub.of(el) - w_T @ np.linalg.solve(M_TT, w_T)) <= 1e-14 * sub.of(el)
+    assert impact_compliance(s, [2]).of(el) is None  # DOF 0 not integrated in time
+    p = MixedProblem(s, OMEGA, harmonics=4, steps=64, partition=[0, 2])
+    ((j, m_model, m_used),) = p.impact_masses()
+    assert j == 0 and abs(m_model * (w @ Minv @ w) - 1.0) <= 1e-13
+    assert abs(m_used * (w_T @ np.linalg.solve(M_TT, w_T)) - 1.0) <= 1e-13
+    # the penalty contact's restitution: exp(-pi z / sqrt(1 - z^2)) with z = d_c / (2 sqrt(k_c m)), m = 1/(w^T M^-1 w)
+    pen = Contact(2, 0.5, restitution=E_N, relative_to=0, penalty_stiffness=100.0, penalty_damping=0.5)
+    z = 0.5 / (2.0 * np.sqrt(100.0 / (w @ Minv @ w)))
+    assert _penalty_restitution(s.with_elements([pen]), pen) == pytest.approx(np.exp(-np.pi * z / np.sqrt(1 - z * z)),
+                                                                            rel=1e-13)

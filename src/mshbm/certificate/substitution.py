@@ -83,12 +83,9 @@ def _penalty_restitution(system, el):
     """Restitution of the Kelvin-Voigt penalty contact of the impulse direction's mass (module docstring)."""
     if el.penalty_damping == 0.0:
         return 1.0
-    M = system.M.toarray() if hasattr(system.M, "toarray") else np.asarray(system.M, dtype=float)
-    w = np.zeros(system.n)
-    w[el.dof] = 1.0
-    if el.relative_to is not None:
-        w[el.relative_to] = -1.0
-    m = 1.0 / float(w @ np.linalg.solve(M, w))
+    from ..methods.mass_coupling import impact_compliance
+
+    m = 1.0 / impact_compliance(system).of(el)
     z = el.penalty_damping / (2.0 * np.sqrt(el.penalty_stiffness * m))
     return 0.0 if z >= 1.0 else float(np.exp(-np.pi * z / np.sqrt(1.0 - z * z)))
 

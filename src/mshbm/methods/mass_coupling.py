@@ -28,7 +28,7 @@ import scipy.sparse.linalg as spla
 
 from ..integrators.subsystem import submatrix
 
-__all__ = ["MassDecoupling", "mass_decoupling"]
+__all__ = ["MassDecoupling", "mass_decoupling", "Compliance", "impact_compliance"]
 
 
 class MassDecoupling:
@@ -112,26 +112,56 @@ def mass_decoupling(system, keep, elim):
     return MassDecoupling(system, keep, elim) if nz else None
 
 
+class Compliance(dict):
+    """``((M_TT)^-1)`` restricted to the element DOFs (1/kg): as a dict ``{d: ((M_TT)^-1)_dd}`` (the diagonal)
+    and, with the off-diagonal entries between element DOFs, :meth:`entry` and :meth:`of` (the compliance
+    ``w^T (M_TT)^-1 w`` of an element's impulse direction ``w``, ``e_d - e_r`` for a relative contact)."""
+
+    def __init__(self, dofs, X):
+        super().__init__({d: float(X[i, i]) for i, d in enumerate(dofs)})
+        self.index = {d: i for i, d in enumerate(dofs)}
+        self.X = X  # shape (len(dofs), len(dofs)), symmetric
+
+    def entry(self, d, r):
+        """``((M_TT)^-1)_dr`` of two element DOFs."""
+        return float(self.X[self.index[int(d)], self.index[int(r)]])
+
+    def of(self, el):
+        """``w^T (M_TT)^-1 w`` (1/kg) of element ``el`` (``w = e_dof - e_relative_to``): the velocity jump of its
+        relative coordinate per unit impulse; ``None`` if a DOF of ``w`` is not integrated in time."""
+        d, r = int(el.dof), el.relative_to
+        if d not in self.index or (r is not None and int(r) not in self.index):
+            return None
+        if r is None:
+            return self[d]
+        r = int(r)
+        return self[d] + self[r] - 2.0 * self.entry(d, r)
+
+
 def impact_compliance(system, time_dofs=None):
-    """``((M_TT)^-1)_dd`` (1/kg) of every DOF ``d`` carrying an element, as a dict ``{d: value}``: the velocity
-    jump of DOF ``d`` per unit impulse on it when the DOFs ``T`` (``time_dofs``; ``None``: all) are integrated
-    in time with the mass block ``M_TT`` of ``system``: the whole structure's ``(M^-1)_dd`` for shooting,
-    ``1 / M_dd`` for a diagonal mass, MS-HBM's subsystem mass ``M_NN`` (its mass-decoupled system for
-    ``impact_mass="effective"``).  Cached on the system per ``T``."""
+    """:class:`Compliance`: ``(M_TT)^-1`` (1/kg) between the DOFs ``d`` carrying an element (``dof`` and
+    ``relative_to``) when the DOFs ``T`` (``time_dofs``; ``None``: all) are integrated in time with the mass block
+    ``M_TT`` of ``system``; its diagonal entry is the velocity jump of DOF ``d`` per unit impulse on it: the whole
+    structure's ``(M^-1)_dd`` for shooting, ``1 / M_dd`` for a diagonal mass, MS-HBM's subsystem mass ``M_NN``
+    (its mass-decoupled system for ``impact_mass="effective"``).  Cached on the system per ``T`` (where ``M`` is
+    an immutable dense array)."""
     T = np.arange(system.n) if time_dofs is None else np.asarray(time_dofs, dtype=np.int64).reshape(-1)
 
     def compute():
         pos = {int(d): i for i, d in enumerate(T)}
-        dofs = sorted({int(el.dof) for el in system.elements if int(el.dof) in pos})
+        dofs = sorted({int(d) for el in system.elements for d in (el.dof, el.relative_to)
+                       if d is not None and int(d) in pos})
         if not dofs:
-            return {}
+            return Compliance([], np.zeros((0, 0)))
         M = submatrix(system.M, T, T)
         E = np.zeros((T.size, len(dofs)))
-        E[[pos[d] for d in dofs], np.arange(len(dofs))] = 1.0
+        rows = [pos[d] for d in dofs]
+        E[rows, np.arange(len(dofs))] = 1.0
         if sp.issparse(M):
             X = spla.splu(sp.csc_matrix(M)).solve(E)
         else:
             X = sla.cho_solve(sla.cho_factor(np.asarray(M, dtype=float)), E)
-        return {d: float(X[pos[d], i]) for i, d in enumerate(dofs)}
+        X = X[rows]
+        return Compliance(dofs, 0.5 * (X + X.T))
     key = "impact_compliance" if time_dofs is None else "impact_compliance:" + ",".join(map(str, T.tolist()))
     return system.derived(key, ("M", "elements"), compute)
