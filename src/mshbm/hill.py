@@ -61,7 +61,7 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.linalg as sla
-from scipy.spatial import cKDTree
+from ._deferred import cKDTree
 
 from . import fourier
 from .elements import regularised_forces  # the regularised-force Jacobian: imported in this one place only

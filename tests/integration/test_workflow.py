@@ -77,6 +77,11 @@ def test_config_schema_rejects_invalid_values():
     bad["numerics"]["stepz"] = bad["numerics"].pop("steps")
     with pytest.raises(WorkflowError):
         validate(bad, str(ROOT / "workflow" / "schemas" / "config.schema.yaml"))
+    for value in ({"shootin": 100}, {"shooting": 0}, {"shooting": 1.5}):   # unknown method, n < 1, not an integer
+        bad = json.loads(json.dumps(cfg))
+        bad["benchmarks"]["scaling_max_n"] = value
+        with pytest.raises(WorkflowError):
+            validate(bad, str(ROOT / "workflow" / "schemas" / "config.schema.yaml"))
     for key, value in (("reduce_modes", -1), ("reduce_modes", 2.5), ("mode_convergence", [4, "x"])):
         bad = json.loads(json.dumps(cfg))
         bad["fe_example"][key] = value

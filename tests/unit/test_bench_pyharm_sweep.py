@@ -116,7 +116,9 @@ def test_reach_fraction_is_where_the_branch_first_nears_its_end():
 
 def test_specs_follow_the_workflow_branches():
     """Our runs of the default profile are the workflow's Fig. 9 branches (config `branches`): the same
-    omega ranges, the same method options and max_points; every same-law pair names existing runs."""
+    omega ranges, the same method options and max_points, and, as those curves, no per-point error estimates
+    where the branch has none (`accuracy: false`, every run of the system: pyHarm's twins too); every same-law
+    pair names existing runs."""
     from mshbm.io.yaml import load_yaml, read_text
 
     cfg = {b["name"]: b for b in load_yaml(read_text(ROOT / "workflow" / "config.yaml"))["branches"]}
@@ -131,12 +133,15 @@ def test_specs_follow_the_workflow_branches():
             if label in twins:  # pyHarm's twin keeps the benchmark's settings (the same equations as pyHarm)
                 continue
             expect = dict({k: v for k, v in opts.items() if k != "method"},
-                          **({"max_points": b["max_points"]} if "max_points" in b else {}))
+                          **({"max_points": b["max_points"]} if "max_points" in b else {}),
+                          **({"accuracy": False} if b.get("accuracy") is False else {}))
             assert ours[label]["options"] == expect, (name, label)
             assert ours[label]["method"] == opts.get("method", label)
         if name == "impact5":  # pyHarm's twin on the impact chain: its n_H and the penalty law at the samples
             assert ours["hbm"]["options"]["harmonics"] == bps.N_H_IMPACT
             assert ours["hbm"]["options"]["penalty_quadrature"] == "samples"
+        assert b.get("accuracy") is False   # the main run's curves make no estimates, so neither do ours here
+        assert all(r["options"].get("accuracy") is False for r in s["ours"]), name
         names = set(ours) | {r["name"] for r in s["pyharm"]}
         assert all(a in names and p in names for a, p in s["pairs"])
     quick = {s["name"]: s for s in bps.specs("quick")}

@@ -201,6 +201,9 @@ def bench_args(w):
         args += ["--pyharm-python", PYHARM_PYTHON or os.path.join(PYHARM_ENV, "bin", "python")]
     if w.bench == "pyharm_sweep":
         args += ["--config", f"{R}/config.json"]
+    if w.bench == "scaling":
+        grid = BENCH.get("full", {}) if w.bdir == "benchmarks-full" else BENCH
+        args += [f"--max-n={m}={n}" for m, n in (grid.get("scaling_max_n") or {}).items()]
     return args
 
 

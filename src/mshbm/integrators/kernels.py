@@ -53,7 +53,7 @@ from pathlib import Path
 
 import numpy as np
 from numba import njit
-from scipy.optimize import brentq
+from .._deferred import brentq
 
 
 def _drop_stale_cache():

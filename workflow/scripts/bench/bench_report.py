@@ -206,8 +206,16 @@ def section_scaling(sc, sub):
         return []
     s = sc["summary"]
     tt = s.get("time_table_s", {})
-    ns = sorted({int(n) for m in tt.values() for n in m})
-    rows = [[m] + [fmt(tt[m].get(str(n)), ".3g") for n in ns] for m in tt]
+    sk = s.get("skipped_table", {})
+    ns = sorted({int(n) for m in tt.values() for n in m} | {int(n) for m in sk.values() for n in m})
+    rows = [[m] + [fmt(tt[m].get(str(n)), ".3g") if str(n) not in sk.get(m, {}) else "not run"
+                   for n in ns] for m in tt]
+    notes = []
+    for m, cells in sk.items():
+        if cells:
+            first = min(cells, key=int)
+            sizes = ", ".join(f"{int(n):,}".replace(",", " ") for n in sorted(cells, key=int))
+            notes.append(f"{m} at n = {sizes}: {cells[first]}")
     if s.get("time_at_1e5_s") is not None:
         big = (f"n = 10⁵ solved in {fmt(s.get('time_at_1e5_s'), '.3g')} s (target ≤ 30 s; amplitudes of all DOFs "
                f"from the solution in a further {fmt(s.get('amplitude_eval_at_1e5_s'), '.3g')} s)")
@@ -215,9 +223,12 @@ def section_scaling(sc, sub):
         big = f"this profile stops at n = {max(ns):,}".replace(",", " ") if ns else "no solve finished"
     lines = ["### Scaling to 10⁵ degrees of freedom", "",
              f"Chain of n masses (light damping 0.01), friction on mass 1, MS-HBM with n_H = 5: fitted cost exponent "
-             f"{fmt(s.get('mshbm_exponent_n_ge_1000'), '.2f')} for n ≥ 1000; {big}. A method's series ends where "
-             "one solve exceeded the time or memory limit of the benchmark.", "",
+             f"{fmt(s.get('mshbm_exponent_n_ge_1000'), '.2f')} for n ≥ 1000; {big}. Each method runs up to this "
+             "profile's largest n for it, if it has one, and is otherwise dropped where the CPU time predicted for the "
+             "next n, or that of one solve, exceeds the benchmark's limit (or its memory the memory limit); the "
+             "sizes it did not run say so.", "",
              md_table(["method \\ n"] + [f"{n:,}".replace(",", " ") for n in ns], rows), "",
+             *([f"Not run: {'; '.join(notes)}.", ""] if notes else []),
              "![Wall time of one solve (set-up included) against the number of masses; the FE membrane "
              f"(general sparse M, C, K) takes the same path.]({sub}/scaling.png)", ""]
     return lines

@@ -9,7 +9,7 @@ Brent's method on the Taylor polynomial of the flow to ~1e-15 s.
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import brentq
+from ..._deferred import brentq
 
 from .modes import EventError, _poly
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.optimize import brentq
+from ..._deferred import brentq
 
 from .modes import FREE, MOREAU, _poly, mode_tuple
 
