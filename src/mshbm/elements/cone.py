@@ -203,20 +203,41 @@ MAX_PASSES = 10000
 @njit(cache=True)
 def _periodic_start(ds, kt, b, max_passes):
     """The periodic state at the last sample of the disk's return mapping driven by the increments ``ds``
-    (N_s, 2), marched period after period from zero until it repeats to ``1e-14 b`` (at most ``max_passes``)."""
+    (N_s, 2): the fixed point ``lambda* = Phi(lambda*)`` of the period map ``Phi``, from zero until one period
+    returns to its start to ``1e-14 b`` (at most ``max_passes`` periods).  Each period is marched with its
+    derivative ``J = d Phi / d lambda`` (the product of the slip projections ``(b / ||t||) (I - d d^T)``); the
+    next start is Newton's ``lambda + (I - J)^-1 (Phi(lambda) - lambda)`` (the plain march ``Phi(lambda)``
+    converges only geometrically, for slow rates over thousands of periods) as long as Newton at least halves
+    the return ``||Phi(lambda) - lambda||`` per period, the march after that."""
     x, y = 0.0, 0.0
+    newton, r_prev = True, np.inf
     for _ in range(max_passes):
         px, py = x, y
+        j00, j01, j10, j11 = 1.0, 0.0, 0.0, 1.0
         for k in range(ds.shape[0]):
             tx, ty = px - kt * ds[k, 0], py - kt * ds[k, 1]
             nt = math.hypot(tx, ty)
             if nt > b:
+                d0, d1 = tx / nt, ty / nt
+                c = b / nt
+                p00, p01, p11 = c * (1.0 - d0 * d0), -c * d0 * d1, c * (1.0 - d1 * d1)
+                j00, j01, j10, j11 = (p00 * j00 + p01 * j10, p00 * j01 + p01 * j11,
+                                      p01 * j00 + p11 * j10, p01 * j01 + p11 * j11)
                 tx, ty = b * tx / nt, b * ty / nt
             px, py = tx, ty
-        done = math.hypot(px - x, py - y) <= 1e-14 * b
-        x, y = px, py
-        if done:
-            break
+        rx, ry = px - x, py - y
+        r = math.hypot(rx, ry)
+        if r <= 1e-14 * b:
+            return np.array([px, py])
+        if newton and r > 0.5 * r_prev:
+            newton = False
+        r_prev = r
+        a00, a01, a10, a11 = 1.0 - j00, -j01, -j10, 1.0 - j11
+        det = a00 * a11 - a01 * a10
+        if newton and abs(det) > 1e-12:
+            x, y = x + (a11 * rx - a01 * ry) / det, y + (a00 * ry - a10 * rx) / det
+        else:
+            x, y = px, py
     return np.array([x, y])
 
 
