@@ -295,8 +295,8 @@ def cone_history_law(el, s1, s2, basis=None):
     marched period after period until the state at the last sample repeats (to ``1e-14 b``; at most
     :data:`MAX_PASSES` periods): the periodic hysteresis.  Unlike the 1-D law, two periods do not suffice in 2-D:
     a slip phase removes only the component of the state along the slip direction and shrinks the other one, so
-    the memory of the start fades geometrically (with an elliptic relative motion in partial slip, tens of
-    periods).  A stuck orbit (the loop, centred on the middle of its bounding box, lies strictly inside the disk;
+    the memory of the start fades geometrically (with an elliptic relative motion in partial slip, tens to
+    thousands of periods; Newton on the period map, :func:`_periodic_start`, takes a few).  A stuck orbit (the loop, centred on the middle of its bounding box, lies strictly inside the disk;
     a slipping periodic orbit cannot: its slip directions, the loop's points on the circle, surround the origin)
     has no unique slider position; it is centred on that middle, as the 1-D law (:meth:`Jenkins.history_law`)
     does with the middle of its range, which it is when the motion keeps one direction.
