@@ -203,21 +203,85 @@ MAX_PASSES = 10000
 @njit(cache=True)
 def _periodic_start(ds, kt, b, max_passes):
     """The periodic state at the last sample of the disk's return mapping driven by the increments ``ds``
-    (N_s, 2), marched period after period from zero until it repeats to ``1e-14 b`` (at most ``max_passes``)."""
+    (N_s, 2): the fixed point ``lambda* = Phi(lambda*)`` of the period map ``Phi``, from zero until one period
+    returns to its start to ``1e-14 b`` (at most ``max_passes`` periods).  Each period is marched with its
+    derivative ``J = d Phi / d lambda`` (the product of the slip projections ``(b / ||t||) (I - d d^T)``); the
+    next start is Newton's ``lambda + (I - J)^-1 (Phi(lambda) - lambda)`` (the plain march ``Phi(lambda)``
+    converges only geometrically, for slow rates over thousands of periods) as long as Newton at least halves
+    the return ``||Phi(lambda) - lambda||`` per period, the march after that."""
     x, y = 0.0, 0.0
+    newton, r_prev = True, np.inf
     for _ in range(max_passes):
         px, py = x, y
+        j00, j01, j10, j11 = 1.0, 0.0, 0.0, 1.0
         for k in range(ds.shape[0]):
             tx, ty = px - kt * ds[k, 0], py - kt * ds[k, 1]
             nt = math.hypot(tx, ty)
             if nt > b:
+                d0, d1 = tx / nt, ty / nt
+                c = b / nt
+                p00, p01, p11 = c * (1.0 - d0 * d0), -c * d0 * d1, c * (1.0 - d1 * d1)
+                j00, j01, j10, j11 = (p00 * j00 + p01 * j10, p00 * j01 + p01 * j11,
+                                      p01 * j00 + p11 * j10, p01 * j01 + p11 * j11)
                 tx, ty = b * tx / nt, b * ty / nt
             px, py = tx, ty
-        done = math.hypot(px - x, py - y) <= 1e-14 * b
-        x, y = px, py
-        if done:
-            break
+        rx, ry = px - x, py - y
+        r = math.hypot(rx, ry)
+        if r <= 1e-14 * b:
+            return np.array([px, py])
+        if newton and r > 0.5 * r_prev:
+            newton = False
+        r_prev = r
+        a00, a01, a10, a11 = 1.0 - j00, -j01, -j10, 1.0 - j11
+        det = a00 * a11 - a01 * a10
+        if newton and abs(det) > 1e-12:
+            x, y = x + (a11 * rx - a01 * ry) / det, y + (a00 * ry - a10 * rx) / det
+        else:
+            x, y = px, py
     return np.array([x, y])
+
+
+@njit(cache=True)
+def _march(ds, V, kt, b, start):
+    """One period of the disk's return mapping from ``start`` (the state at the last sample) with both
+    sensitivities: ``lam`` (N_s, 2), ``Dc`` (N_s, 2, 2, n_b) ``d lambda_k / d c`` with the start held, ``J``
+    (N_s, 2, 2) ``d lambda_k / d lambda_start``, and whether the pair slipped (:func:`cone_history_law`).  In slip
+    ``d lambda = P d t`` with ``P = (b / ||t||) (I - d d^T)``."""
+    Ns, nb = ds.shape[0], V.shape[1]
+    lam = np.zeros((Ns, 2))
+    Dc = np.zeros((Ns, 2, 2, nb))
+    J = np.zeros((Ns, 2, 2))
+    l0, l1 = start[0], start[1]
+    j00, j01, j10, j11 = 1.0, 0.0, 0.0, 1.0
+    prev_k = Ns - 1
+    slipped = False
+    for k in range(Ns):
+        t0, t1 = l0 - kt * ds[k, 0], l1 - kt * ds[k, 1]
+        Dt = Dc[k]
+        if k > 0:
+            Dt[:, :, :] = Dc[k - 1]
+        for n in range(nb):
+            dV = kt * (V[k, n] - V[prev_k, n])
+            Dt[0, 0, n] -= dV
+            Dt[1, 1, n] -= dV
+        nt = math.hypot(t0, t1)
+        if nt > b:
+            slipped = True
+            d0, d1 = t0 / nt, t1 / nt
+            c = b / nt
+            p00, p01, p10, p11 = c * (1.0 - d0 * d0), c * (0.0 - d0 * d1), c * (0.0 - d1 * d0), c * (1.0 - d1 * d1)
+            t0, t1 = b * d0, b * d1
+            for bb in range(2):
+                for n in range(nb):
+                    x0, x1 = Dt[0, bb, n], Dt[1, bb, n]
+                    Dt[0, bb, n] = p00 * x0 + p01 * x1
+                    Dt[1, bb, n] = p10 * x0 + p11 * x1
+            j00, j01, j10, j11 = (p00 * j00 + p01 * j10, p00 * j01 + p01 * j11,
+                                  p10 * j00 + p11 * j10, p10 * j01 + p11 * j11)
+        lam[k, 0], lam[k, 1] = t0, t1
+        J[k, 0, 0], J[k, 0, 1], J[k, 1, 0], J[k, 1, 1] = j00, j01, j10, j11
+        l0, l1, prev_k = t0, t1, k
+    return lam, Dc, J, slipped
 
 
 def cone_history_law(el, s1, s2, basis=None):
@@ -231,8 +295,8 @@ def cone_history_law(el, s1, s2, basis=None):
     marched period after period until the state at the last sample repeats (to ``1e-14 b``; at most
     :data:`MAX_PASSES` periods): the periodic hysteresis.  Unlike the 1-D law, two periods do not suffice in 2-D:
     a slip phase removes only the component of the state along the slip direction and shrinks the other one, so
-    the memory of the start fades geometrically (with an elliptic relative motion in partial slip, tens of
-    periods).  A stuck orbit (the loop, centred on the middle of its bounding box, lies strictly inside the disk;
+    the memory of the start fades geometrically (with an elliptic relative motion in partial slip, tens to
+    thousands of periods; Newton on the period map, :func:`_periodic_start`, takes a few).  A stuck orbit (the loop, centred on the middle of its bounding box, lies strictly inside the disk;
     a slipping periodic orbit cannot: its slip directions, the loop's points on the circle, surround the origin)
     has no unique slider position; it is centred on that middle, as the 1-D law (:meth:`Jenkins.history_law`)
     does with the middle of its range, which it is when the motion keeps one direction.
@@ -250,28 +314,7 @@ def cone_history_law(el, s1, s2, basis=None):
     kt, b = float(el.tangential_stiffness), float(el.bound)
     ds = np.diff(s, axis=0, prepend=s[-1:])  # s_k - s_{k-1}, periodic
     start = _periodic_start(np.ascontiguousarray(ds), kt, b, MAX_PASSES)
-    lam = np.zeros((Ns, 2))
-    Dc = np.zeros((Ns, 2, 2, nb))  # d lambda_k / d c with the start held
-    J = np.zeros((Ns, 2, 2))  # d lambda_k / d lambda_start
-    prev_l, prev_D, prev_J, prev_k = start, np.zeros((2, 2, nb)), np.eye(2), Ns - 1
-    slipped = False
-    for k in range(Ns):
-        t = prev_l - kt * ds[k]
-        Dt = prev_D.copy()
-        dV = kt * (V[k] - V[prev_k])
-        Dt[0, 0] -= dV
-        Dt[1, 1] -= dV
-        Jt = prev_J
-        nt = float(np.hypot(t[0], t[1]))
-        if nt > b:
-            slipped = True
-            d = t / nt
-            P = (b / nt) * (np.eye(2) - np.outer(d, d))
-            t = b * d
-            Dt = np.einsum("ac,cbn->abn", P, Dt)
-            Jt = P @ Jt
-        lam[k], Dc[k], J[k] = t, Dt, Jt
-        prev_l, prev_D, prev_J, prev_k = t, Dt, Jt, k
+    lam, Dc, J, slipped = _march(ds, np.ascontiguousarray(V), kt, b, start)
     i, j = np.argmax(lam, axis=0), np.argmin(lam, axis=0)
     mid = 0.5 * (lam[i, [0, 1]] + lam[j, [0, 1]])
     if np.hypot(*(lam - mid).T).max() < b * (1 - 1e-9):  # stuck: the start is a convention, centred (docstring)
