@@ -67,10 +67,12 @@ def test_too_coarse_points_are_reported_not_certified(elastic_dlft):
 
 
 def test_certified_points_are_within_the_accuracy():
-    """Moreau-Jean shooting, 1024 steps, impact oscillator (e = 0.8): every point certified at the default 1 %,
-    and every point's true error is within it; its estimate is the time discretisation."""
+    """Moreau-Jean shooting, 2048 steps, impact oscillator (e = 0.8): every point certified at the default 1 %,
+    and every point's true error is within it; its estimate is the time discretisation.  (At 1024 steps the
+    changes against 512 and 256 steps fall slower than first order at some points, e.g. rate 0.47 at omega =
+    2.2, and the estimate, 1.7 %, leaves them uncertified.)"""
     s = cf.system()
-    b = mshbm.sweep(s, 2.0, 2.4, "shooting", steps=1024, max_points=25)
+    b = mshbm.sweep(s, 2.0, 2.4, "shooting", steps=2048, max_points=25)
     assert len(b) == 25 and b.accuracy["certified_points"] == 25 and not b.accuracy["uncertified_points"]
     for p in b.points:
         err = abs(p.amplitude[0] / _exact(p.omega, cf.R) - 1.0)

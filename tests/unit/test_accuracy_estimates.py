@@ -4,8 +4,9 @@ accuracy.
 The damped impact oscillator of :mod:`closed_forms` (``x'' + 0.1 x' + x = cos omega t``, stop at 0.1,
 restitution 0.8) has the closed-form (1,1) orbit.  Moreau-Jean locates the impact to a step: the amplitude
 error is first order and irregular in ``N`` (omega = 2: 0.08 %, 0.17 %, 0.04 % at 256, 1024, 4096 steps), so
-the estimate ``time_discretisation`` is at least ``h J / (2 max A)``; measured estimates 0.58 % and 0.14 %
-at 1024 and 4096 steps (omega = 2), 0.66 % and 0.12 % (omega = 2.2).
+the estimate ``time_discretisation`` is at least ``h J / (2 max A)`` and is taken from two successive changes
+(``N`` against ``N / 2`` and ``N / 2`` against ``N / 4``) at their observed rate; measured at omega = 2.2: 1.7 %
+(error 0.25 %) at 1024 steps, 0.21 % (0.017 %) at 2048, 0.12 % (0.099 %) at 4096.
 """
 from __future__ import annotations
 
@@ -67,10 +68,12 @@ def test_event_driven_flow_has_no_time_discretisation_estimate():
 def test_estimates_are_relative_to_the_amplitude_not_the_units():
     """The same oscillator in other units (lengths and forces times 1e-6): the same estimates."""
     omega = 2.2
-    a = mshbm.solve(cf.system(), omega, "shooting", steps=1024, stability=False)
+    # (2048 steps: at 1024 the changes against 512 and 256 fall at rate 0.47 and the estimate, 1.7 %, fails the
+    # default accuracy in both units)
+    a = mshbm.solve(cf.system(), omega, "shooting", steps=2048, stability=False)
     small = mshbm.chain([1.0], 1.0, 2.0 * cf.ZETA, forcing=[{"dof": 0, "amplitude": 1e-6}],
                         elements=[mshbm.Contact(0, cf.SIGMA * 1e-6, cf.R)])
-    b = mshbm.solve(small, omega, "shooting", steps=1024, stability=False)
+    b = mshbm.solve(small, omega, "shooting", steps=2048, stability=False)
     assert a.success and b.success
     ea, eb = a.info["accuracy"]["estimates"], b.info["accuracy"]["estimates"]
     assert eb["time_discretisation"] == pytest.approx(ea["time_discretisation"], rel=1e-6)

@@ -105,8 +105,11 @@ def reference(case, cfg):
         return (None, "F <= mu N") if r is None else (np.array([r, r]) * length, "closed form (circular orbit)")
     import mshbm
 
-    sol = mshbm.solve(build_system(case), p["omega"], "shooting", integrator="event", stability=False,
-                      tol=float(cfg["reference_tol"]), max_time=float(cfg["max_time_s"]))
+    try:
+        sol = mshbm.solve(build_system(case), p["omega"], "shooting", integrator="event", stability=False,
+                          tol=float(cfg["reference_tol"]), max_time=float(cfg["max_time_s"]))
+    except mshbm.InputError as exc:  # e.g. a contact and a friction element on one DOF
+        return None, f"event-driven flow refused: {exc}"[:200]
     if not sol.success:
         return None, "event-driven flow failed: " + str(sol.message)[:200]
     return np.asarray(sol.amplitude, dtype=float), "event-driven flow"

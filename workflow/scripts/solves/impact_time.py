@@ -68,7 +68,9 @@ def impacts_of(ex):
 
 
 def orbit(system, om, steps, log):
-    sh = mshbm.solve(system, om, "shooting", steps=steps, stability=False)
+    # Moreau-Jean shooting only starts the exact event-driven orbit below: no error estimate of its own
+    # (accuracy=False; a start outside the default accuracy is still a start)
+    sh = mshbm.solve(system, om, "shooting", steps=steps, stability=False, accuracy=False)
     if not sh.success:
         return {"success": False, "message": f"shooting: {sh.message}"}
     ex = exact_periodic(system, om, guess=sh)
