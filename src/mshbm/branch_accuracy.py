@@ -336,7 +336,8 @@ def add_reduction(branch, reduction):
 def to_accuracy(run, branch, options):
     """Trace the branch again, refined (:func:`refined_options`), while points fail a requested ``accuracy``
     (module docstring); ``run(options) -> Branch`` traces it.  Returns the last branch, with
-    ``accuracy["levels"]``."""
+    ``accuracy["levels"]``.  Interrupted while tracing a refined level, it raises the
+    :class:`~mshbm.interrupt.SweepInterrupted` of the last complete level's branch (:func:`_interrupted_refinement`)."""
     if options.get("accuracy") in (None, False) or not branch.accuracy or branch.accuracy.get("skipped"):
         return branch
     t0 = time.perf_counter()
