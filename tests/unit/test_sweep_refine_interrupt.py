@@ -1,6 +1,6 @@
 """An interrupt (Ctrl-C, SIGTERM, a CPU limit) while a sweep traces its branch again refined (option ``accuracy``,
 :func:`mshbm.branch_accuracy.to_accuracy`) keeps the last complete level's curve: the refined trace had only begun
-(the sweep stress suite's rows reported "interrupted before the first point" after a level that had traced the
+(the sweep stress suite's rows reported "CPU limit reached before the first point" after a level that had traced the
 whole range)."""
 import numpy as np
 import pytest
@@ -55,3 +55,23 @@ def test_interrupt_of_a_refined_level_that_got_as_far_keeps_it(refine_once):
     with pytest.raises(SweepInterrupted) as info:
         ba.to_accuracy(run, level0, {"accuracy": 0.01})
     assert info.value.branch is refined
+
+
+def test_interrupt_while_estimating_the_points_keeps_the_traced_branch(monkeypatch):
+    """An interrupt while the traced points' accuracy is estimated (re-solves after the trace) keeps the points:
+    the branch reached its end, its estimates are marked skipped."""
+    import mshbm
+    import mshbm.branch as br_mod
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt()
+
+    monkeypatch.setattr(br_mod, "certify_points", interrupted)
+    s = mshbm.chain([1.0, 1.0], 1.0, 0.05, forcing=[{"dof": 1, "amplitude": 1.0}],
+                    elements=[mshbm.Contact(0, 1000.0, 0.8)])
+    with pytest.raises(SweepInterrupted) as info:
+        mshbm.sweep(s, 2.0, 1.5, "hbm", harmonics=3, stability=False)
+    got = info.value.branch
+    assert len(got.points) >= 3 and got.omega[-1] == pytest.approx(1.5, rel=1e-12)
+    assert not got.success and got.accuracy["skipped"] == "interrupted" and got.accuracy["reached_end"]
+    assert "interrupted while estimating the points' accuracy" in got.message
