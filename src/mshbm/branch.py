@@ -238,17 +238,27 @@ def _run(route, system, lam_start, lam_end, method, period, parameter, omega_fix
         if "bracket" in f:
             rec["bracket"] = f["bracket"]
         folds.append(rec)
-    others, note = ([], "") if not branch.points else _detect_other(
-        branch, system, grazing_locator(tracer, system, tol) if parameter == "omega" and not interrupted else None)
+    # an interrupt after the trace (locating bifurcations, the points' estimates) keeps the traced points
+    try:
+        others, note = ([], "") if not branch.points else _detect_other(
+            branch, system, grazing_locator(tracer, system, tol) if parameter == "omega" and not interrupted else None)
+    except KeyboardInterrupt as exc:
+        interrupted, others, note = exc, [], "interrupted while locating its bifurcations"
     branch.bifurcations = sorted(folds + [dict(b) for b in others], key=lambda b: b.get("index", 0))
     branch.success = bool(res.success)
     branch.message = res.message + (f"; {note}" if note else "")
-    if interrupted is not None or accuracy is False:  # the points' error estimates (mshbm.branch_accuracy)
-        skipped(branch, "interrupted" if interrupted is not None else no_estimate)
-    else:
+    if interrupted is None and accuracy is not False:
         est_opts = dict(prob_k, **only(rest, "tol", "max_iter", "line_search"))
         branch.wall_time = time.perf_counter() - t0  # (the trace's time sets the stride of the estimates)
-        certify_points(branch, route, tracer, method, est_opts, accuracy, every, [p.lam for p in res.points])
+        try:
+            certify_points(branch, route, tracer, method, est_opts, accuracy, every, [p.lam for p in res.points])
+        except KeyboardInterrupt as exc:
+            interrupted = exc
+            branch.message += "; interrupted while estimating the points' accuracy"
+    if interrupted is not None or accuracy is False:  # the points' error estimates (mshbm.branch_accuracy)
+        skipped(branch, "interrupted" if interrupted is not None else no_estimate)
+        if interrupted is not None:
+            branch.success = False
     branch.counters = dict(res.counters, start_iterations=int(sol0.iterations), points=len(branch.points),
                            condensation={k: int(v) for k, v in (reuse.counters if reuse is not None else {}).items()})
     branch.wall_time = time.perf_counter() - t0

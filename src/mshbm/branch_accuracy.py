@@ -66,6 +66,7 @@ import numpy as np
 from .certificate.combined import DEFAULT_ACCURACY, REMEDY, combined_check, estimates, gate
 from .certificate.record import Check
 from .errors import InputError
+from .interrupt import SweepInterrupted
 from .options import check_accuracy
 from .methods.hbm_regularisation import REGULARISATION_BOUND, regularisation_check, regularised
 from .route.refine import _Estimator
@@ -346,7 +347,8 @@ def add_reduction(branch, reduction):
 def to_accuracy(run, branch, options):
     """Trace the branch again, refined (:func:`refined_options`), while points fail a requested ``accuracy``
     (module docstring); ``run(options) -> Branch`` traces it.  Returns the last branch, with
-    ``accuracy["levels"]``."""
+    ``accuracy["levels"]``.  Interrupted while tracing a refined level, it raises the
+    :class:`~mshbm.interrupt.SweepInterrupted` of the last complete level's branch (:func:`_interrupted_refinement`)."""
     if options.get("accuracy") in (None, False) or not branch.accuracy or branch.accuracy.get("skipped"):
         return branch
     t0 = time.perf_counter()
@@ -364,7 +366,10 @@ def to_accuracy(run, branch, options):
         if nxt is None:
             stop = kind
             break
-        new = run(nxt)
+        try:
+            new = run(nxt)
+        except SweepInterrupted as exc:
+            raise _interrupted_refinement(branch, exc, levels, kind) from exc
         new.wall_time += sum(lv["wall_time_s"] for lv in levels)
         options, branch = nxt, new
         levels.append(_level(branch, options, kind))
@@ -372,6 +377,27 @@ def to_accuracy(run, branch, options):
     if stop:
         branch.message += f"; refinement stopped: {stop}"
     return branch
+
+
+def _reach(branch):
+    """How far ``branch`` got from its start in its parameter (0 without points)."""
+    values = branch.omega if branch.parameter == "omega" else branch.load
+    return abs(float(values[-1]) - float(values[0])) if len(branch.points) else 0.0
+
+
+def _interrupted_refinement(branch, exc, levels, kind):
+    """The :class:`SweepInterrupted` of a sweep interrupted while tracing a refined level: it carries the last
+    complete level's ``branch`` (its points certified as far as that level's accuracy allows) unless the refined
+    partial one got as far, so that an interrupt keeps the curve already traced."""
+    partial = exc.branch
+    if partial is not None and _reach(partial) >= _reach(branch):
+        return exc
+    branch.success = False
+    branch.counters = dict(branch.counters or {}, interrupted=True)
+    branch.accuracy["levels"] = levels
+    branch.message += (f"; interrupted while tracing it again refined ({kind}) after {len(partial.points) if partial else 0} "
+                       "points: this is the last complete level")
+    return SweepInterrupted(branch, exc.cause)
 
 
 def _level(branch, options, kind):

@@ -80,3 +80,16 @@ def test_revisit_is_an_exact_repetition_of_an_earlier_point():
     assert _Trace.revisited(tr, near, w) is None
     last = SimpleNamespace(x=pts[-1].x.copy(), lam=pts[-1].lam)
     assert _Trace.revisited(tr, last, w) is None
+
+
+def test_free_direction_with_the_parameter_derivative_rounded():
+    """An exact null direction of J (a zero row and column) with dR/dlam outside J's range only by rounding
+    (1e-9 of the largest singular value: an integrator's derivative in omega) is a family; an O(1) component
+    outside the range (a fold's neighbour) is not."""
+    J = np.array([[2.0, 0.0], [0.0, 0.0]])
+    s, w = np.ones(2), np.ones(2)
+    F = free_directions(J, np.array([-1.0, 2e-9]), s, w, 1.0)
+    assert F is not None and F.shape == (1, 2) and abs(abs(F[0, 1]) - 1.0) < 1e-12
+    assert free_directions(J, np.array([-1.0, 1e-3]), s, w, 1.0) is None
+    # a nearly singular J (a regular point near an edge of the family: 1e-5) has no free direction
+    assert free_directions(np.array([[2.0, 0.0], [0.0, 1e-5]]), np.array([-1.0, 0.0]), s, w, 1.0) is None

@@ -16,9 +16,12 @@ import scipy.sparse as sp
 __all__ = ["ContinuationPoint", "ContinuationResult", "Failed", "bordered_solve", "Evaluator", "orientation",
            "tangent", "backtrack", "stall_folds", "locate_fold", "free_directions", "FREE_RTOL"]
 
-#: a singular value of the scaled ``[J_y, g]`` below ``FREE_RTOL`` times the largest marks a free direction
+#: a singular value of the scaled ``J_y`` below ``FREE_RTOL`` times the largest of ``[J_y, g]`` marks a free direction
 #: (see :func:`free_directions`)
 FREE_RTOL = 1e-10
+#: ... when ``[J_y, g]`` is rank deficient too: its smallest singular value below ``FREE_RANGE_RTOL`` times the
+#: largest (``g`` in the range of ``J_y`` up to the rounding of ``dR/dlam``, see :func:`free_directions`)
+FREE_RANGE_RTOL = 1e-7
 
 
 
@@ -124,10 +127,17 @@ def orientation(J, g, s, w, lam_scale, t):
     return int(sign) if np.isfinite(logdet) else 0
 
 
-def free_directions(J, g, s, w, lam_scale, rtol=FREE_RTOL):
+def free_directions(J, g, s, w, lam_scale, rtol=FREE_RTOL, range_rtol=FREE_RANGE_RTOL):
     """Free directions of the solutions at fixed ``lam``: an orthonormal basis (rows, scaled unknowns
-    ``y = x / w``, shape ``(k, n_x)``) of the null space of ``J_y`` when ``[J_y, g]`` is rank deficient
-    too (singular values below ``rtol`` times the largest), else ``None``.
+    ``y = x / w``, shape ``(k, n_x)``) of the null space of ``J_y`` (singular values below ``rtol`` times the
+    largest of ``[J_y, g]``) when ``[J_y, g]`` is rank deficient too (its smallest singular value below
+    ``range_rtol`` times the largest), else ``None``.
+
+    The two bounds differ: a family's null space is exact (a stuck element's periodicity row is identically
+    zero: ``1e-17`` of the largest), while ``g`` (``dR/dlam``, e.g. an integrator's derivative in ``omega``)
+    lies in the range of ``J_y`` only up to its rounding (``1e-10``-``1e-9`` of the largest singular value on
+    a stuck Coulomb contact of MS-HBM).  A fold has ``J_y`` singular only where a point falls on it exactly,
+    and ``g`` far outside its range there.
 
     Then the solutions near ``(x, lam)`` are not a curve but a family of dimension ``k + 1``: e.g. a
     Jenkins slider that sticks the whole period can sit at any offset (with the structure's mean
@@ -140,7 +150,7 @@ def free_directions(J, g, s, w, lam_scale, rtol=FREE_RTOL):
     if A.size == 0 or not np.all(np.isfinite(A)):
         return None
     sa = np.linalg.svd(A, compute_uv=False)
-    if sa[0] == 0.0 or sa[-1] > rtol * sa[0]:
+    if sa[0] == 0.0 or sa[-1] > range_rtol * sa[0]:
         return None
     _, sj, Vt = np.linalg.svd(Jy)
     k = int(np.sum(sj <= rtol * sa[0]))
