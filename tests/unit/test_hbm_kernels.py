@@ -29,15 +29,17 @@ def test_aft_forces_matches_numpy_twin(seed, Ns):
     p1 = np.array([0.6, 0.5 * rng.random(), -0.2, 0.3])
     p2 = np.array([50.0, 1e3, 2e2, 10.0])
     p3 = np.array([0.0, 0.0, 3.0, 0.0])
-    Fn, Jn = np.empty((2 * n_h + 1, nN)), np.empty((2 * n_h + 1, nN, 2 * n_h + 1, nN))
-    hk.aft_forces(Xn, Vs, VsOm, E, kind, col, sign, p1, p2, p3, True, Fn, Jn)
     Fn2, Jn2 = hk.aft_forces_numpy(Xn, Vs, VsOm, E, kind, col, sign, p1, p2, p3)
     scale = max(np.abs(Fn2).max(), 1.0)
-    np.testing.assert_allclose(Fn, Fn2, rtol=0, atol=1e-12 * scale)
-    np.testing.assert_allclose(Jn, Jn2, rtol=0, atol=1e-12 * max(np.abs(Jn2).max(), 1.0))
-    Fn3 = np.empty_like(Fn)
-    hk.aft_forces(Xn, Vs, VsOm, E, kind, col, sign, p1, p2, p3, False, Fn3, np.empty((0, 0, 0, 0)))
-    np.testing.assert_array_equal(Fn3, Fn)
+    # the Jacobian blocks by matrix products (any matrices) and by the trigonometric sums (uniform grid)
+    for kw in (np.zeros(0), np.arange(1, n_h + 1) * omega):
+        Fn, Jn = np.empty((2 * n_h + 1, nN)), np.empty((2 * n_h + 1, nN, 2 * n_h + 1, nN))
+        hk.aft_forces(Xn, Vs, VsOm, E, kind, col, sign, p1, p2, p3, True, Fn, Jn, kw)
+        np.testing.assert_allclose(Fn, Fn2, rtol=0, atol=1e-12 * scale)
+        np.testing.assert_allclose(Jn, Jn2, rtol=0, atol=1e-12 * max(np.abs(Jn2).max(), 1.0))
+        Fn3 = np.empty_like(Fn)
+        hk.aft_forces(Xn, Vs, VsOm, E, kind, col, sign, p1, p2, p3, False, Fn3, np.empty((0, 0, 0, 0)), kw)
+        np.testing.assert_array_equal(Fn3, Fn)
 
 
 def test_kernel_path_equals_generic_path():

@@ -30,12 +30,14 @@ KIND_FRICTION, KIND_CONTACT = 0, 1
 
 
 @njit(cache=True)
-def aft_forces(Xn, Vs, VsOm, E, kind, col, sign, p1, p2, p3, jac, Fn, Jn):  # pragma: no cover - compiled
+def aft_forces(Xn, Vs, VsOm, E, kind, col, sign, p1, p2, p3, jac, Fn, Jn, kw):  # pragma: no cover - compiled
     """Fill ``Fn`` (``nc x n_N``) and, with ``jac``, ``Jn`` (``nc x n_N x nc x n_N``, zeroed here).
 
     Per element ``j``: ``kind[j]`` (0 friction, 1 contact), ``col[j]`` its column in ``Xn``,
     ``sign[j]`` its direction ``w``; friction ``p1 = 2 mu F_N / pi``, ``p2 = kappa``; contact
-    ``p1 = gap``, ``p2 = k_c``, ``p3 = d_c``.
+    ``p1 = gap``, ``p2 = k_c``, ``p3 = d_c``.  ``kw`` (shape ``(n_h,)``, rad/s): the frequencies ``k omega``
+    when ``Vs``, ``VsOm``, ``E`` are the uniform-grid matrices of :mod:`mshbm.fourier` (then the Jacobian
+    blocks come from the trigonometric sums of :func:`_trig_block`); empty: any matrices, blocks by products.
     """
     Ns, nc = Vs.shape
     nN = Xn.shape[1]
@@ -95,7 +97,9 @@ def aft_forces(Xn, Vs, VsOm, E, kind, col, sign, p1, p2, p3, jac, Fn, Jn):  # pr
                 n_act += 1
         if n_act == 0:
             continue
-        if 4 * n_act > Ns:  # dense: two matrix products
+        if kw.shape[0] > 0:  # uniform grid: O(n_act n_h + nc^2) by the product-to-sum identities
+            _trig_block(dq[:, i], du[:, i], idx[:n_act], Ns, kw, Jn, i)
+        elif 4 * n_act > Ns:  # dense: two matrix products
             Ed = np.empty((nc, Ns))
             Eu = np.empty((nc, Ns))
             for a in range(nc):
@@ -117,6 +121,65 @@ def aft_forces(Xn, Vs, VsOm, E, kind, col, sign, p1, p2, p3, jac, Fn, Jn):  # pr
                         continue
                     for b in range(nc):
                         Jn[a, i, b, i] += ea * (cq * Vs[s, b] + cu * VsOm[s, b])
+
+
+@njit(cache=True)
+def _trig_block(dq, du, idx, Ns, kw, Jn, i):  # pragma: no cover - compiled
+    """``Jn[:, i, :, i] = E diag(dq) Vs + E diag(du) Vs Om`` on the uniform grid ``theta_s = 2 pi s / N_s``
+    (``E``, ``Vs``, ``Om`` of :mod:`mshbm.fourier`: rows/columns ``1, cos k theta, sin k theta``, ``E`` scaled
+    ``1/N_s``, ``2/N_s``).  With ``C_d(m) = sum_s d_s cos(m theta_s) / N_s`` and ``S_d(m)`` (sine), ``m <= 2 n_h``,
+    summed over the samples ``idx`` where ``d`` is nonzero, ``2 cos a cos b = cos(a-b) + cos(a+b)``,
+    ``2 cos a sin b = sin(a+b) - sin(a-b)``, ``2 sin a cos b = sin(a+b) + sin(a-b)``,
+    ``2 sin a sin b = cos(a-b) - cos(a+b)`` give every entry; ``X Om`` maps column ``cos k`` to ``-k omega``
+    times column ``sin k`` and ``sin k`` to ``k omega`` times ``cos k``."""
+    nh = kw.shape[0]
+    nc = 2 * nh + 1
+    M = 2 * nh + 1
+    Cq, Sq, Cu, Su = np.zeros(M), np.zeros(M), np.zeros(M), np.zeros(M)
+    two_pi_n = 2.0 * math.pi / Ns
+    for t in range(idx.shape[0]):
+        s = idx[t]
+        a, b = dq[s], du[s]
+        for m in range(M):
+            ph = two_pi_n * ((m * s) % Ns)
+            c, sn = math.cos(ph), math.sin(ph)
+            Cq[m] += a * c
+            Sq[m] += a * sn
+            Cu[m] += b * c
+            Su[m] += b * sn
+    inv = 1.0 / Ns
+    for m in range(M):
+        Cq[m] *= inv
+        Sq[m] *= inv
+        Cu[m] *= inv
+        Su[m] *= inv
+    Bq = np.empty((nc, nc))
+    Bu = np.empty((nc, nc))
+    for r in range(2):
+        C = Cq if r == 0 else Cu
+        S = Sq if r == 0 else Su
+        B = Bq if r == 0 else Bu
+        B[0, 0] = C[0]
+        for kb in range(1, nh + 1):
+            B[0, 2 * kb - 1] = C[kb]
+            B[0, 2 * kb] = S[kb]
+        for ka in range(1, nh + 1):
+            B[2 * ka - 1, 0] = 2.0 * C[ka]
+            B[2 * ka, 0] = 2.0 * S[ka]
+            for kb in range(1, nh + 1):
+                dm = ka - kb
+                cd = C[abs(dm)]
+                sd = S[dm] if dm >= 0 else -S[-dm]
+                B[2 * ka - 1, 2 * kb - 1] = cd + C[ka + kb]
+                B[2 * ka - 1, 2 * kb] = S[ka + kb] - sd
+                B[2 * ka, 2 * kb - 1] = S[ka + kb] + sd
+                B[2 * ka, 2 * kb] = cd - C[ka + kb]
+    for a in range(nc):
+        Jn[a, i, 0, i] = Bq[a, 0]
+        for k in range(1, nh + 1):
+            w = kw[k - 1]
+            Jn[a, i, 2 * k - 1, i] = Bq[a, 2 * k - 1] - w * Bu[a, 2 * k]
+            Jn[a, i, 2 * k, i] = Bq[a, 2 * k] + w * Bu[a, 2 * k - 1]
 
 
 @njit(cache=True)
