@@ -5,6 +5,7 @@ in conftest.py), in a temporary copy of the workflow files (workflow/ with its S
 paper/, examples/), so it never touches results/ or .snakemake/ of the working tree.  Snakemake runs
 from the copy's root and finds workflow/Snakefile there, as it does in the repository.
 """
+import importlib.util
 import json
 import math
 import os
@@ -19,6 +20,16 @@ WORKFLOW_FILES = ["workflow", "notebooks", "paper", "examples"]
 QUICK = ["--configfile", "workflow/config-quick.yaml"]
 #: the paper's outputs (rule `all` may also hold targets of other rule files, e.g. the stress suite)
 TARGET = ["reproduction"]
+
+
+def load_script(relpath):
+    """The workflow script ``workflow/scripts/<relpath>`` (e.g. ``"fe/build_fe_model.py"``) as a module, to call
+    its functions (its ``main(argv)`` as ``workflow/scripts/cli_job.py`` runs it)."""
+    path = ROOT / "workflow" / "scripts" / relpath
+    spec = importlib.util.spec_from_file_location(path.stem, path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
 
 
 def copy_workflow(dst):

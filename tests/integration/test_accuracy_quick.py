@@ -7,7 +7,6 @@ MS-HBM, HBM and DLFT on two closed-form impact orbits (restitution 0 with a stic
 damped Coulomb oscillator, and the first system with forcing and gap scaled by 1e-11; default settings and
 ``accuracy`` 1e-2, 1e-3.
 """
-import importlib.util
 import json
 import math
 from pathlib import Path
@@ -19,6 +18,7 @@ import closed_forms as cf
 import mshbm
 from mshbm_workflow import accuracy_refs as ar
 from mshbm_workflow.accuracy_cases import build_system, load_config, methods_for, plan_systems, reference
+from workflow_run import load_script
 
 ROOT = Path(__file__).resolve().parents[2]
 SCRIPT = ROOT / "workflow" / "scripts" / "stress" / "accuracy.py"
@@ -87,9 +87,7 @@ def test_scaled_copies_scale_the_reference_exactly():
 @pytest.fixture(scope="module")
 def quick(tmp_path_factory):
     out = tmp_path_factory.mktemp("accuracy-quick")
-    spec = importlib.util.spec_from_file_location("accuracy_suite", SCRIPT)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
+    mod = load_script(SCRIPT.relative_to(ROOT / "workflow" / "scripts"))
     assert mod.main(["--config", str(CONFIG), "--quick", "--out", str(out)]) == 0
 
     def reject(name):

@@ -2,7 +2,6 @@
 structure DOFs + 2 bodies): the linear limit of MS-HBM and HBM against modal superposition, the
 frequency-response curves of fe_sweep.py (MS-HBM against HBM), fe_example.py's single solves and
 shooting cost, and fe_summary.py's numbers."""
-import importlib.util
 import json
 import math
 from pathlib import Path
@@ -13,15 +12,13 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 import mshbm
+from workflow_run import load_script
 
 ROOT = Path(__file__).resolve().parents[2]
 
 
 def _script(name):
-    spec = importlib.util.spec_from_file_location(name, ROOT / "workflow" / "scripts" / "fe" / f"{name}.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_script(f"fe/{name}.py")
 
 
 fe = _script("build_fe_model")

@@ -5,7 +5,6 @@ solve checks, the JSON and Markdown report.
 Both cases have closed forms: ``chain2-open/hbm`` never reaches its stop (the linear response of the 2-DOF
 chain), ``chain3-jenkins-stuck/mshbm`` never slips (the chain with the Jenkins spring ``k_t`` added).
 """
-import importlib.util
 import json
 import math
 from pathlib import Path
@@ -14,11 +13,10 @@ import numpy as np
 import pytest
 
 from mshbm_workflow import sweep_runner, sweep_systems
+from workflow_run import load_script
 
 ROOT = Path(__file__).resolve().parents[2]
-_spec = importlib.util.spec_from_file_location("sweeps", ROOT / "workflow" / "scripts" / "stress" / "sweeps.py")
-sweeps = importlib.util.module_from_spec(_spec)  # the script's main(argv), as workflow/scripts/cli_job.py runs it
-_spec.loader.exec_module(sweeps)
+sweeps = load_script("stress/sweeps.py")  # the script's main(argv), as workflow/scripts/cli_job.py runs it
 
 CONFIG = ROOT / "workflow" / "sweeps.yaml"
 CASES = ["chain2-open/hbm", "chain3-jenkins-stuck/mshbm"]

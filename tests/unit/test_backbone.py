@@ -7,6 +7,7 @@ from scipy.optimize import brentq
 
 import mshbm
 from mshbm.backbone import backbone
+from workflow_run import load_script
 
 M3 = np.diag([1.0, 2.0, 1.5])
 K3 = np.array([[3.0, -1.0, 0.0], [-1.0, 2.0, -1.0], [0.0, -1.0, 1.0]])
@@ -224,15 +225,9 @@ def test_fe_beam_joint_limits():
     at small amplitude the joint sticks and the backbone is the linear EPMC mode of (M, C, K + k_t e e^T) (the
     Rayleigh C is not proportional to it: reference by the state matrix, to 1e-9); at large amplitude the joint
     slides with a bounded force and omega tends to the free beam's first bending frequency."""
-    import importlib.util
-    from pathlib import Path
-
     from mshbm.methods.epmc import stuck_stiffness
 
-    path = Path(__file__).resolve().parents[2] / "workflow" / "scripts" / "bench" / "bench_backbone.py"
-    spec = importlib.util.spec_from_file_location("bench_backbone", path)
-    bench = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(bench)
+    bench = load_script("bench/bench_backbone.py")
     s = bench.beam()
     b = backbone(s, 1e-6, 1e-1, harmonics=5, points=15)
     assert b.success, b.message

@@ -2,17 +2,14 @@
 monotone pieces of a branch, the branch-to-branch amplitude difference (closed-form branches), and the
 benchmark's systems read from the workflow config.  pyHarm itself is not needed (its environment is
 not part of the test run; the benchmark's JSON is produced by the workflow)."""
-import importlib.util
 from pathlib import Path
 
 import numpy as np
 import pytest
+from workflow_run import load_script
 
 ROOT = Path(__file__).resolve().parents[2]
-_spec = importlib.util.spec_from_file_location("bench_pyharm_sweep",
-                                               ROOT / "workflow" / "scripts" / "bench" / "bench_pyharm_sweep.py")
-bps = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(bps)
+bps = load_script("bench/bench_pyharm_sweep.py")
 
 
 def test_monotone_segments_split_at_folds_and_repeats():

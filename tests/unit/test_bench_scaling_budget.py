@@ -2,19 +2,16 @@
 runs every size up to it and none above whatever its timings, the others stop where the predicted CPU time
 exceeds the limit, and every size not run is recorded with its reason (the report prints "not run").  The
 solves are replaced by a cost model, so the decisions are checked without timing anything."""
-import importlib.util
 from pathlib import Path
 
 import pytest
+from workflow_run import load_script
 
 ROOT = Path(__file__).resolve().parents[2]
 
 
 def _load(name):
-    spec = importlib.util.spec_from_file_location(name, ROOT / "workflow" / "scripts" / "bench" / f"{name}.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_script(f"bench/{name}.py")
 
 
 bs = _load("bench_scaling")

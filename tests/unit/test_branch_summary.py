@@ -1,17 +1,14 @@
 """workflow/scripts/branches/branch_summary.py: the paper's numbers of the frequency-response curves (Fig. 9)."""
-import importlib.util
 from pathlib import Path
 
 import pytest
+from workflow_run import load_script
 
 ROOT = Path(__file__).resolve().parents[2]
 
 
 def _module():
-    spec = importlib.util.spec_from_file_location("branch_summary", ROOT / "workflow" / "scripts" / "branches" / "branch_summary.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_script("branches/branch_summary.py")
 
 
 def _branch(label, method, omega, amp, bif=()):

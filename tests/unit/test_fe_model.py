@@ -1,6 +1,5 @@
 """The finite-element beam of the FE example (workflow/scripts/fe/build_fe_model.py): element matrices,
 natural frequencies against the closed-form Euler-Bernoulli cantilever, and the case file it writes."""
-import importlib.util
 import json
 import math
 import re
@@ -14,11 +13,10 @@ import yaml
 from dataclasses import replace
 
 import mshbm
+from workflow_run import load_script
 
 ROOT = Path(__file__).resolve().parents[2]
-_spec = importlib.util.spec_from_file_location("build_fe_model", ROOT / "workflow" / "scripts" / "fe" / "build_fe_model.py")
-fe = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(fe)
+fe = load_script("fe/build_fe_model.py")
 
 #: relative tolerance of the numbers of a rebuilt example case file against the committed one
 EXAMPLE_RTOL = 1e-9
