@@ -190,8 +190,10 @@ class HBMProblem(PiecewiseLinearPaths, HarmonicProblem):
             Xn = np.ascontiguousarray(X if every else X[:, self.nl_cols])
             Fn = np.empty((nc, nN))
             Jn = np.empty((nc, nN, nc, nN)) if jac else _NO_JAC
-            hbm_kernels.aft_forces(Xn, self.Vs, self.VsOm, self.E, *self._fast, jac, Fn, Jn,
-                                   np.arange(1, self.n_h + 1) * float(self.omega))
+            kw = self.__dict__.get("_kw")  # the harmonics' frequencies k omega, k = 1..n_h (rad/s)
+            if kw is None:
+                kw = self._kw = np.arange(1, self.n_h + 1) * float(self.omega)
+            hbm_kernels.aft_forces(Xn, self.Vs, self.VsOm, self.E, *self._fast, jac, Fn, Jn, kw)
             R = self.A @ x - self.r
             if every:
                 R -= Fn.reshape(-1)
