@@ -284,7 +284,7 @@ def test_batched_event_free_sub_steps_give_the_same_flow(case, two_stops, monkey
     runs = []
     for batch in (False, True):
         fl = EventFlow(s, omega)
-        fl.batch = batch
+        fl.batch, fl.screen = batch, False  # against the sub-step-by-sub-step loop
         z0 = np.concatenate([sol.q[0], sol.u[0], fl.osc(ts)])
         calls.clear()
         out = fl.simulate(ts, z0, duration=3 * fl.T, jac=True)
@@ -296,6 +296,39 @@ def test_batched_event_free_sub_steps_give_the_same_flow(case, two_stops, monkey
     assert np.abs(a.monodromy - b.monodromy).max() <= 1e-11 * np.abs(a.monodromy).max()
     # measured: 396 -> 41 (friction+contact, 21 events), 388 -> 13 (two stops, 5 events) calls of locate
     assert nb < na / 3
+
+
+def test_screened_sub_steps_are_bit_identical_to_the_step_by_step_loop(monkeypatch):
+    """``EventFlow.screen`` (the default) screens runs of event-free sub-steps and advances them one by one with the
+    loop's own products: the same events, end state, monodromy and Fourier sums to the bit, with and without the
+    forcing states and Fourier coefficients of MS-HBM's coupled flow, and far fewer calls of ``locate``."""
+    from mshbm.integrators.event import flow as flow_mod
+
+    omega, ts = 0.8, 0.37
+    s = chain([1.0, 1.0], 1.0, 0.05, forcing=[{"dof": 1, "amplitude": 1.5}],
+              elements=[Friction(0, 1.0, 0.3), Contact(1, 0.8, 0.7)])
+    sol = mshbm.solve(s, omega, "shooting", steps=2048, stability=False, accuracy=False)
+    calls = []
+    real = flow_mod.locate
+    monkeypatch.setattr(flow_mod, "locate", lambda *a: calls.append(1) or real(*a))
+    for coupled in (False, True):
+        runs = []
+        for screen in (False, True):
+            fl = EventFlow(s, omega, coupling_harmonics=5 if coupled else None)
+            fl.screen = screen
+            if coupled:
+                fl.set_forcing(np.full((11, 2), 0.01))
+            z0 = np.concatenate([sol.q[0], sol.u[0], np.zeros(fl.D - 2 * s.n)])
+            kw = dict(jac_cols="all", fourier=5) if coupled else {}
+            calls.clear()
+            out = fl.simulate(ts, z0, duration=3 * fl.T, jac=True, **kw)
+            runs.append((out, len(calls)))
+        (a, na), (b, nb) = runs
+        assert len(a.events) >= 3 and [(e.kind, e.t) for e in a.events] == [(e.kind, e.t) for e in b.events]
+        assert np.array_equal(a.end_state, b.end_state) and np.array_equal(a.monodromy, b.monodromy)
+        if coupled:
+            assert np.array_equal(a.q_hat, b.q_hat) and np.array_equal(a.q_hat_sensitivity, b.q_hat_sensitivity)
+        assert nb < na / 3, (coupled, na, nb)
 
 
 # ----------------------------------------------------------------------------- inputs

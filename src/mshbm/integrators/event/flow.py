@@ -240,6 +240,10 @@ class EventFlow(ModeCatalogue, Transitions, FourierQuadrature, MoreauFallback):
         #: screen runs of event-free sub-steps at once (:func:`~.location.event_free_steps`; the same flow, the
         #: states differ by rounding): set by the stability analysis, whose flows sample nothing
         self.batch = False
+        #: screen runs of event-free sub-steps (as ``batch``) but advance them one sub-step at a time, with the
+        #: products and Fourier records of the sub-step-by-sub-step loop: bit-identical to it, without its per-step
+        #: event search (False: every sub-step searched, the reference the tests compare with)
+        self.screen = True
         nx = 0 if coupling_harmonics is None else int(coupling_harmonics)
         if coupling_harmonics is not None and nx < 0:
             raise InputError("coupling_harmonics", f"must be >= 0, got {coupling_harmonics}")
@@ -398,22 +402,40 @@ class EventFlow(ModeCatalogue, Transitions, FourierQuadrature, MoreauFallback):
         pend = 0
         # runs of event-free full sub-steps screened at once (batch; no samples, records or Fourier sums to form)
         batch = bool(self.batch and not record and four is None and (lazy or not jac) and not samp.t.size)
+        # screened runs advanced sub-step by sub-step (the same numbers as without screening): no samples or records
+        screen = bool(self.screen and not batch and not record and not samp.t.size)
         bthr_cache = {}
         while a < T_end:
             if self.deadline is not None and time.perf_counter() > self.deadline:
                 raise EventError("time limit of the event-driven simulation reached")
-            if batch and est.all():
+            if (batch or screen) and est.all():
                 bthr = bthr_cache.get(st)
                 if bthr is None:
                     bthr = bthr_cache[st] = BATCH_MARGIN * 1e-12 * (np.abs(np.vstack([md.C, md.CA])) @ state_scale)
                 adv = event_free_steps(md, z, int((T_end - a) / md.h) - 2, bthr)
                 if adv > 0:
-                    z = _power_apply(md, z, adv)
-                    pend += adv if jac else 0
                     t_mode = mode_time.get(md.code, 0.0)
-                    for _ in range(adv):  # the same sums as step by step
-                        a += md.h
-                        t_mode += md.h
+                    if batch:
+                        z = _power_apply(md, z, adv)
+                        pend += adv if jac else 0
+                        for _ in range(adv):  # the same sums as step by step
+                            a += md.h
+                            t_mode += md.h
+                    else:  # the loop below on event-free full sub-steps, without its event search
+                        E, h = md.E, md.h
+                        for _ in range(adv):
+                            if four is not None:
+                                self._fourier_piece(md, z, None, Phi, a, h, four)  # a record (full sub-step)
+                            if jac:
+                                if lazy:
+                                    pend += 1
+                                else:
+                                    Phi = _power_apply(md, Phi, pend) if pend else Phi
+                                    pend = 0
+                                    Phi = self.emul(md, Phi, sens=True)
+                            z = E @ z
+                            a += h
+                            t_mode += h
                     mode_time[md.code] = t_mode
                     continue
             rem = T_end - a
