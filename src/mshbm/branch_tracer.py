@@ -85,6 +85,7 @@ class _Tracer:
         self.system, self.method, self.options, self.parameter = system, method, options, parameter
         self.omega_fixed, self.k, self.tol, self.stability = omega_fixed, k, tol, stability
         self.cache = {}
+        self.stability_seed = None  # the last point assessed: starts the next one's exact orbit (stability.assess)
 
     def problem(self, lam):
         lam = float(lam)
@@ -170,7 +171,9 @@ class _Tracer:
             # truncated spectrum can give spurious multipliers outside the unit circle (a false Neimark-Sacker pair)
             assess_hbm(system, sol)
         else:
-            _stability.assess(system, sol, self.stability, theta=self.options.get("theta", 0.5))
+            _stability.assess(system, sol, self.stability, theta=self.options.get("theta", 0.5),
+                              seed=self.stability_seed)
+            self.stability_seed = sol
         sol.wall_time = time.perf_counter() - t0
         sol.elements = element_outputs(sol, system)
         omega = float(omega_b) * self.k
