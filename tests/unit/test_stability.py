@@ -294,7 +294,8 @@ def test_json_fields(impact5, tmp_path):
 def test_nearby_exact_orbit_continued_from_the_previous_point(impact5):
     """Along a branch the previous point's exact orbit starts the next one's (``seed``): the same orbit and
     multipliers as from the reported orbit's own state, from a start much closer to it; a seed without an exact
-    orbit (multipliers of its own) is ignored."""
+    orbit (multipliers of its own) is ignored; a failed continuation one small step away is not retried from the
+    reported orbit (stability.SEED_CLOSE)."""
     prev = mshbm.solve(impact5, OMEGA, "mshbm", harmonics=1)  # n_H = 1: ~11 % from the exact orbit (measured)
     assert prev.stability_orbit == stability.NEARBY and len(prev.info["stability"]["exact_state"]) == 2 * impact5.n
     sol = mshbm.solve(impact5, 1.002 * OMEGA, "mshbm", harmonics=1, stability=False, guess=prev)
@@ -315,3 +316,13 @@ def test_nearby_exact_orbit_continued_from_the_previous_point(impact5):
     assert own.stability_orbit == stability.REPORTED
     again = stability.assess(impact5, copy.deepcopy(sol), "auto", seed=own)
     assert again.info["stability"]["exact_start"] == "reported"
+    # a continued orbit whose Newton fails (here a broken seed state) one small step away is the analysis's answer
+    # (no second start from the reported orbit); after a larger step the reported orbit's start is tried
+    bad = copy.deepcopy(prev)
+    bad.info["stability"]["exact_state"] = [float("nan")] * (2 * impact5.n)
+    near = stability.assess(impact5, copy.deepcopy(sol), "auto", seed=bad)
+    assert near.stability_orbit != stability.NEARBY and "continued from the exact orbit at" in near.stability_reason
+    far = mshbm.solve(impact5, 1.02 * OMEGA, "mshbm", harmonics=1, stability=False, guess=prev)
+    assert abs(far.omega / bad.omega - 1.0) > stability.SEED_CLOSE
+    far = stability.assess(impact5, far, "auto", seed=bad)
+    assert far.stability_orbit == stability.NEARBY and far.info["stability"]["exact_start"] == "reported"
