@@ -86,6 +86,7 @@ class _Tracer:
         self.omega_fixed, self.k, self.tol, self.stability = omega_fixed, k, tol, stability
         self.cache = {}
         self.stability_seed = None  # the last point assessed: starts the next one's exact orbit (stability.assess)
+        self.substitution_estimate = True  # False: a substituted law is named, not estimated (accuracy=False)
 
     def problem(self, lam):
         lam = float(lam)
@@ -160,7 +161,8 @@ class _Tracer:
                        residual=float(residual), wall_time=0.0)
         # step_accuracy_size reported, not gating: along a branch of Moreau-Jean orbits h J / D exceeds its bound at
         # many one-step points that are the branch's, and gated the sweep would stall there
-        cert = certify(problem, sol, self.tol, step_accuracy, step_size_gating=False)
+        cert = certify(problem, sol, self.tol, step_accuracy, step_size_gating=False,
+                       substitution_estimate=self.substitution_estimate)
         sol.certificate = cert
         if not cert.passed:
             return f"certificate failed: {cert.describe_failures()}"
