@@ -39,7 +39,7 @@ How (:func:`assess`):
    only when that orbit lies within ``MAX_ORBIT_DISTANCE`` (relative) of the solution.  Along a branch
    (``seed``: the previous point's result) that exact orbit is continued: its Newton starts from the
    previous point's exact orbit (same phase of the section state), a few iterations, where the reported
-   orbit's state (MS-HBM's truncated harmonics on a Craig-Bampton plate that impacts: 10-20 % off the
+   orbit's state (MS-HBM's truncated harmonics on a Craig-Bampton plate that impacts: 6-50 % off the
    flow's orbit) needs many more and fails near grazings and folds.  The continued orbit is taken when it
    lies within ``MAX_ORBIT_DISTANCE`` of the reported one or within twice the previous point's distance;
    else (a jump), and when its Newton fails after a frequency step above ``SEED_CLOSE``, the start from
