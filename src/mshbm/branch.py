@@ -184,6 +184,7 @@ def _run(route, system, lam_start, lam_end, method, period, parameter, omega_fix
                                   **rest)
     tracer = (_Tracer if family is None else family.tracer)(sys_k, method, dict(prob_k), parameter, omega_fixed, k,
                                                               tol, stab)
+    tracer.substitution_estimate = accuracy is not False  # no error estimates: a substituted law only named
     branch = Branch(success=False, message="", method=method, period=k, parameter=parameter)
     if not sol0.success:
         branch.message = f"no certified solution at the start {parameter} = {lam_start:g}: {sol0.message}"

@@ -85,6 +85,8 @@ class _Tracer:
         self.system, self.method, self.options, self.parameter = system, method, options, parameter
         self.omega_fixed, self.k, self.tol, self.stability = omega_fixed, k, tol, stability
         self.cache = {}
+        self.stability_seed = None  # the last point assessed: starts the next one's exact orbit (stability.assess)
+        self.substitution_estimate = True  # False: a substituted law is named, not estimated (accuracy=False)
 
     def problem(self, lam):
         lam = float(lam)
@@ -159,7 +161,8 @@ class _Tracer:
                        residual=float(residual), wall_time=0.0)
         # step_accuracy_size reported, not gating: along a branch of Moreau-Jean orbits h J / D exceeds its bound at
         # many one-step points that are the branch's, and gated the sweep would stall there
-        cert = certify(problem, sol, self.tol, step_accuracy, step_size_gating=False)
+        cert = certify(problem, sol, self.tol, step_accuracy, step_size_gating=False,
+                       substitution_estimate=self.substitution_estimate)
         sol.certificate = cert
         if not cert.passed:
             return f"certificate failed: {cert.describe_failures()}"
@@ -170,7 +173,9 @@ class _Tracer:
             # truncated spectrum can give spurious multipliers outside the unit circle (a false Neimark-Sacker pair)
             assess_hbm(system, sol)
         else:
-            _stability.assess(system, sol, self.stability, theta=self.options.get("theta", 0.5))
+            _stability.assess(system, sol, self.stability, theta=self.options.get("theta", 0.5),
+                              seed=self.stability_seed)
+            self.stability_seed = sol
         sol.wall_time = time.perf_counter() - t0
         sol.elements = element_outputs(sol, system)
         omega = float(omega_b) * self.k

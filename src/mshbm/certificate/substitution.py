@@ -121,9 +121,10 @@ def describe_substitution(subs):
                      f"{s.model:.4g} replaced by {s.represented:.4g} ({s.law})" for s in subs)
 
 
-def model_substitution_check(problem, sol, cert):
+def model_substitution_check(problem, sol, cert, estimate=True):
     """Append ``model_substitution`` (module docstring) when ``problem`` substitutes a law; details in
-    ``cert.info["model_substitution"]``."""
+    ``cert.info["model_substitution"]``.  ``estimate=False`` (the points of a sweep without error estimates,
+    ``accuracy=False``): the substitution is named, its effect (two exact periodic solves) not estimated."""
     subs = substituted_laws(problem)
     if not subs:
         return
@@ -148,6 +149,11 @@ def model_substitution_check(problem, sol, cert):
                 f"method 'shooting' with integrator 'event')")
         cert.checks.append(Check("model_substitution", None, MODEL_SUBSTITUTION_BOUND, False, False, note))
         info["value_basis"] = "not estimated"
+        return
+    if not estimate:
+        note = f"{what}: its effect on the amplitudes was not estimated (no error estimates requested)"
+        cert.checks.append(Check("model_substitution", None, MODEL_SUBSTITUTION_BOUND, False, False, note))
+        info["value_basis"] = "not requested"
         return
     value, why = _exact_change(system, sol, involved, info)
     if value is None:
