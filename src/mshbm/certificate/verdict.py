@@ -40,7 +40,8 @@ def certify(problem, sol, tol, step_accuracy=None, step_size_gating=True, substi
         Moreau-Jean impact5 branches of Fig. 9 the values are reported in the points' certificates).
     substitution_estimate : bool
         Whether ``model_substitution`` estimates the effect of a substituted law (two exact periodic solves;
-        default) or only names it (:func:`mshbm.sweep`'s points without error estimates, ``accuracy=False``).
+        default) or only names it (solves and :func:`mshbm.sweep`'s points without error estimates,
+        ``accuracy=False``).
 
     Returns
     -------
@@ -112,7 +113,7 @@ def _certify(problem, sol, tol, cert, step_accuracy=None, step_size_gating=True,
     model_substitution_check(problem, sol, cert, substitution_estimate)
 
 
-def apply_certificate(problem, sol, tol, step_accuracy=None, cert=None):
+def apply_certificate(problem, sol, tol, step_accuracy=None, cert=None, substitution_estimate=True):
     """Attach ``certify(problem, sol, tol)`` to ``sol.certificate`` and gate ``sol.success`` on it.
 
     ``success`` stays True only if it was True (Newton converged) and every gating check
@@ -120,10 +121,10 @@ def apply_certificate(problem, sol, tol, step_accuracy=None, cert=None):
     estimates) above their bound are named in the message of a certified solution as a warning
     (:meth:`Certificate.describe_warnings`; ``success`` stays True).  ``cert``: the certificate
     already computed for the same problem, unknowns and ``step_accuracy`` (the start ladder's
-    acceptance test), attached instead of computing it again.
+    acceptance test), attached instead of computing it again.  ``substitution_estimate``: as for :func:`certify`.
     """
     if cert is None:
-        cert = certify(problem, sol, tol, step_accuracy)
+        cert = certify(problem, sol, tol, step_accuracy, substitution_estimate=substitution_estimate)
     sol.certificate = cert
     if sol.success and not cert.passed:
         sol.success = False

@@ -112,6 +112,10 @@ class Route:
     sweep : callable or None
         The branch tracer of the ``"frequency"`` start, ``sweep(route, system, omega_start, omega_end,
         method, **options) -> Branch`` (:mod:`mshbm.branch`); ``None``: that start reports it has none.
+    law_estimates : bool
+        The certificate estimates the effect of regularised and substituted laws (re-solves with stiffer laws,
+        the exact orbits with the model's and the represented restitution); False under ``accuracy=False``
+        (nothing reads them: a substituted law is then named, not estimated), for this solve and its nested ones.
     """
 
     deadline: float | None = None
@@ -119,6 +123,7 @@ class Route:
     in_frequency: bool = False
     sweep: object = None
     estimate: bool = True
+    law_estimates: bool = True
 
     # -- derived routes
     def tightened(self, deadline):
@@ -160,6 +165,8 @@ class Route:
         stab = _stability.check_option(options.pop("stability", "auto"))
         theta = options.get("theta", 0.5)
         route = self.tightened(deadline)
+        if accuracy is False and route.law_estimates:
+            route = replace(route, law_estimates=False)
         with newton_.time_box(deadline):
             sol = route._chain(system, omega, method, dict(options))
         with blas_threads(check_threads(options.pop("blas_threads", 1))), validate.quiet_floats():
@@ -293,7 +300,7 @@ class Route:
             if ladder and sopts.get("continuation", True) and not self.single_start:
                 # a ladder of starts, the first accepted one wins (mshbm.route.ladder); a caller's guess is its
                 # first start, so a poor guess falls back to the default starts instead of failing
-                accept = _certified_accept(problem, method, omega, sopts, nkw, system)
+                accept = _certified_accept(problem, method, omega, sopts, nkw, system, self.law_estimates)
                 laddered = True
                 res = Ladder(problem, method, system, omega, nkw, accept, route=self, options=options,
                              guess=sopts.get("guess")).run(DEFAULT_STARTS if ladder_starts is None else ladder_starts)
@@ -331,9 +338,10 @@ class Route:
                                          "bound": np.asarray(step_accuracy["bound"], dtype=float),
                                          "step_change": step_accuracy.get("step_change")}
         # success only if certified (mshbm.certificate)
-        apply_certificate(problem, sol, nkw["tol"], step_accuracy, cert=None if cached is None else cached["cert"])
+        apply_certificate(problem, sol, nkw["tol"], step_accuracy, cert=None if cached is None else cached["cert"],
+                          substitution_estimate=self.law_estimates)
         if sol.success and problem.penalty_laws and regularised(problem.system) and not self.single_start \
-                and not self.in_frequency:
+                and not self.in_frequency and self.law_estimates:
             # the error of the regularised laws (HBM): one re-solve with stiffer laws (not gating; not for the
             # nested solves of a start ladder, whose answers are starts)
             warned = sol.certificate.describe_warnings()
@@ -531,7 +539,7 @@ def _solution(problem, method, res, parts, success, message, wall):
                     nfev=res.nfev, residual=res.residual_norm, wall_time=wall)
 
 
-def _certified_accept(problem, method, omega, sopts, nkw, system):
+def _certified_accept(problem, method, omega, sopts, nkw, system, law_estimates=True):
     """Acceptance test of the start ladder (:class:`mshbm.route.ladder.Ladder`): the ladder's own
     start-independent residual test (:func:`mshbm.route.ladder.residual_accept`: physical units, no run-away
     orbits, one step's accuracy at impacts) *and* the certificate of the solution it would return."""
@@ -544,7 +552,7 @@ def _certified_accept(problem, method, omega, sopts, nkw, system):
         if not firsts[id(prob)][1](attempt):
             return False
         sol = _solution(prob, method, attempt.newton, attempt.parts(), True, "", 0.0)
-        cert = certify(prob, sol, nkw["tol"], attempt.step_accuracy)
+        cert = certify(prob, sol, nkw["tol"], attempt.step_accuracy, substitution_estimate=law_estimates)
         if not cert.passed:
             attempt.verdict = f"rejected by the certificate: {cert.describe_failures()}"
         else:  # the driver reuses parts and certificate of the accepted x (same problem, same x)
