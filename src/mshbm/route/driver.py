@@ -76,6 +76,12 @@ EVENT_FALLBACK_SECONDS = 10.0
 EVENT_FALLBACK_STARTS = ("guess", "exact", "transient", "linear", "clamped", "zero", "forcing", "frequency")
 
 
+def _starts(problem):
+    """:data:`DEFAULT_STARTS` with the problem's ``preferred_starts`` moved right after the guess."""
+    first = tuple(getattr(problem, "preferred_starts", ()) or ())
+    return ("guess",) + first + tuple(s for s in DEFAULT_STARTS if s != "guess" and s not in first)
+
+
 class _Progress:
     def __init__(self, method, enabled):
         self.enabled = enabled and sys.stderr.isatty() or enabled == "always"
@@ -296,7 +302,7 @@ class Route:
                 accept = _certified_accept(problem, method, omega, sopts, nkw, system)
                 laddered = True
                 res = Ladder(problem, method, system, omega, nkw, accept, route=self, options=options,
-                             guess=sopts.get("guess")).run(DEFAULT_STARTS if ladder_starts is None else ladder_starts)
+                             guess=sopts.get("guess")).run(_starts(problem) if ladder_starts is None else ladder_starts)
             else:
                 res = solve_problem(problem, x0, fallback=bool(sopts.get("continuation", True)), **nkw)
             section = res.info.get("section")
