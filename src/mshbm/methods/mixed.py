@@ -261,13 +261,11 @@ class MixedProblem(_MixedBase):
         With a consistent mass (``M_LN != 0``) and a contact: the impacts on ``N`` act with ``M_NN`` (the
         paper's subsystems) or with the effective mass ``1 / (M^-1)_NN`` of the whole structure, the
         subsystems then solved in mass-decoupled coordinates (:mod:`mshbm.methods.mass_coupling`).  Only
-        ``"effective"`` converges to the model's orbit as ``n_h`` grows.  Default: ``"effective"`` with
-        ``integrator="event"``, ``"subsystem"`` with Moreau-Jean (the lighter effective mass raises the local
-        frequency of ``N``: on the reduced plate of the FE example no start gave a certified Moreau-Jean orbit
-        at 4096 steps); the subsystem law's effect is then estimated by the solve route
-        (:mod:`mshbm.route.refine`).  The mass-decoupled event problem starts its ladder with the exact orbit
-        and the transient (:attr:`preferred_starts`): from the linear start Newton stalls on the accumulating
-        bounces of a light node (measured on the reduced cantilever: 19.6 s CPU cold, 5.3 s so).
+        ``"effective"`` converges to the model's orbit as ``n_h`` grows.  Default: ``"effective"`` with the
+        event flow, else ``"subsystem"`` (with Moreau-Jean steps the light node found no certified orbit on the
+        reduced FE plate), whose effect the solve route estimates (:mod:`mshbm.route.refine`).  The event
+        ladder then starts with the exact orbit and the transient (``preferred_starts``; reduced cantilever
+        cold: 19.6 s CPU from the linear start, 5.3 s so).
 
     Residual scale
     --------------

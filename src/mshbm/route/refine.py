@@ -20,6 +20,9 @@ With the amplitude change ``d`` between the two answers and an algebraic converg
     irregularly with ``N``: on the impact oscillator of ``tests/closed_forms.py`` at omega = 2 the error is
     0.08 %, 0.17 %, 0.04 % at 256, 1024, 4096 steps, and the change against ``N / 2`` at 1024 steps is 0.03 %).
     Zero for the exact event-driven flow (no time steps).
+``model_substitution`` (MS-HBM's subsystem impact mass on a consistent mass, where the contact impacts)
+    The amplitude change against the re-solve with ``impact_mass="effective"`` and the event-driven flow (the
+    exact orbit, the answer and the transient as starts; time box :data:`IMPACT_MASS_SECONDS`).
 
 ``p`` is :data:`RATE` = 1 (first order: Moreau-Jean at impacts and stick-slip, the Fourier series of kinks),
 or, in a refinement with two successive changes ``d_1, d_2`` of the same estimate at ratio 2, the observed
