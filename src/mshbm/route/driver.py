@@ -12,7 +12,8 @@ The chain (each step runs only when the previous ones failed and ``continuation`
 
 1. **start** -- with no guess, the start ladder (:class:`mshbm.route.ladder.Ladder`: linear,
    regularisation, shifted section, clamped, zero, exact orbit, transient, continuation in forcing and
-   friction bound, kept section, frequency; the first start whose solution the certificate accepts wins);
+   friction bound, kept section, frequency; a problem's ``preferred_starts`` right after the guess; the first
+   start whose solution the certificate accepts wins);
    with a guess, Newton from it (:func:`mshbm.solvers.newton.solve_problem`, with the problem's exact path
    follower :meth:`PeriodicProblem.path_fallback`), then the ladder with the guess as its first start;
 2. **homotopy** -- the problem's softened-law stages (:meth:`PeriodicProblem.homotopy`), each solution
