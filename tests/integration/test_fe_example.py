@@ -164,7 +164,9 @@ def test_fe_example_on_node_dofs_reduced_and_summary(tmp_path):
     solution, both certified at the default accuracy with the reduction's estimate in the certificate (below
     1e-3 here); MS-HBM's amplitudes on the full model's DOFs agree with HBM's within 3 % (n_H = 5 truncates the
     coupling force of MS-HBM and HBM's regularised and penalty laws alike); with 4 modes the stop's amplitude
-    moves by less than 1e-3 and the estimate is larger than with 8.  fe_summary.py reports the same numbers."""
+    moves by less than 2e-3 (measured 1.8e-3 with the event flow's default effective impact mass, which depends on
+    the modes kept through their mass coupling to the node; 1e-3 held for the subsystem mass M_NN, the modes'
+    Guyan mass of the node) and the estimate is larger than with 8.  fe_summary.py reports the same numbers."""
     info = fe.build_fe_model(tmp_path, n_el=10, case_name="fe.yaml", model="plate", ny=3, reduce_modes=8)
     ex, summ = _script("fe_example"), _script("fe_summary")
     facts = ex.run(tmp_path / "fe.yaml", ["hbm", "mshbm-event"], 5, tmp_path / "solves.json", log=lambda *a: None,
@@ -179,7 +181,7 @@ def test_fe_example_on_node_dofs_reduced_and_summary(tmp_path):
     conv = {r["modes"]: r for r in facts["mode_convergence"]}
     assert sorted(conv) == [4, 8]
     assert conv[8]["amplitudes"]["contact"] == pytest.approx(ev["amplitudes"]["contact"], rel=1e-6)
-    assert conv[4]["amplitudes"]["contact"] == pytest.approx(conv[8]["amplitudes"]["contact"], rel=1e-3)
+    assert conv[4]["amplitudes"]["contact"] == pytest.approx(conv[8]["amplitudes"]["contact"], rel=2e-3)
     assert conv[4]["reduction_estimate"] > conv[8]["reduction_estimate"]
     N = summ.summarize(info, json.loads((tmp_path / "solves.json").read_text()), [])["numbers"]
     assert N["reduced"] is True and N["n_reduced_dofs"] == 10 and N["reduce_modes"] == 8 and N["bodies"] is False

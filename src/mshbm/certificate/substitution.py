@@ -15,8 +15,10 @@ Which laws are substituted (read from the problem's declared representation, :mo
 
 * ``impact_masses()`` (MS-HBM with its default ``impact_mass="subsystem"`` on a consistent mass): the impact
   acts with the time-integrated subsystem's own mass ``M_NN`` instead of the effective mass ``1 / (w^T M^-1 w)``
-  the whole structure implies (:mod:`mshbm.methods.mass_coupling`); named, its effect not estimated (value
-  ``None``) where the contact opens and closes.
+  the whole structure implies (:mod:`mshbm.methods.mass_coupling`); named, its effect not estimated here (value
+  ``None``) where the contact opens and closes: :func:`mshbm.solve` estimates it (:mod:`mshbm.route.refine`:
+  the amplitude change against the re-solve with ``impact_mass="effective"`` and the event-driven flow), and
+  without that estimate the combined check ``accuracy`` fails.
 
 Otherwise the time-stepping methods (shooting, MS-HBM: Moreau-Jean or the event-driven flow) represent Newton's
 law with ``e_N`` and substitute nothing.
@@ -145,10 +147,12 @@ def model_substitution_check(problem, sol, cert, estimate=True):
         info["value_basis"] = "no impact"
         return
     if any(s.key == "impact_mass" for s in involved):
+        # estimated by the solve route (mshbm.route.refine: the re-solve with the effective impact mass); until
+        # then (certify alone, a sweep's points) not estimated
         note = (f"{what}: its effect on the amplitudes was not estimated (compare the exact event-driven orbit: "
                 f"method 'shooting' with integrator 'event')")
         cert.checks.append(Check("model_substitution", None, MODEL_SUBSTITUTION_BOUND, False, False, note))
-        info["value_basis"] = "not estimated"
+        info["value_basis"] = "impact mass: not estimated"
         return
     if not estimate:
         note = f"{what}: its effect on the amplitudes was not estimated (no error estimates requested)"

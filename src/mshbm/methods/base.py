@@ -64,6 +64,9 @@ has them)
     ``b = b_T`` on the time-stepped DOFs (``partition().time``) and the forcing harmonic ``F_k``
     (``forcing=True``) or zero elsewhere, from the method's own factorisations (MS-HBM: its condensation
     of ``L``); ``None``: not available (the caller solves ``H_k`` itself).
+``preferred_starts`` : tuple of str (default ``()``)
+    Starts of the start ladder (:mod:`mshbm.route.ladder`) tried first, right after the caller's guess (MS-HBM
+    with mass-decoupled subsystems and the event flow: the exact orbit and the transient).
 ``integrated_system`` : System (default ``system``)
     The system whose blocks on ``partition().time`` the time-stepped DOFs are integrated with (MS-HBM with
     ``impact_mass="effective"`` and a consistent mass: the mass-decoupled system, :mod:`mshbm.methods.mass_coupling`).
@@ -207,6 +210,7 @@ class PeriodicProblem:
     harmonic_truncation = False
     hysteresis_aft = False
     time_integrated_subset = False
+    preferred_starts = ()
 
     def impact_masses(self):
         """Contacts whose impacts act with another mass than the model's (see the contract above)."""

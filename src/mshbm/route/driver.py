@@ -12,7 +12,8 @@ The chain (each step runs only when the previous ones failed and ``continuation`
 
 1. **start** -- with no guess, the start ladder (:class:`mshbm.route.ladder.Ladder`: linear,
    regularisation, shifted section, clamped, zero, exact orbit, transient, continuation in forcing and
-   friction bound, kept section, frequency; the first start whose solution the certificate accepts wins);
+   friction bound, kept section, frequency; a problem's ``preferred_starts`` right after the guess; the first
+   start whose solution the certificate accepts wins);
    with a guess, Newton from it (:func:`mshbm.solvers.newton.solve_problem`, with the problem's exact path
    follower :meth:`PeriodicProblem.path_fallback`), then the ladder with the guess as its first start;
 2. **homotopy** -- the problem's softened-law stages (:meth:`PeriodicProblem.homotopy`), each solution
@@ -74,6 +75,12 @@ EVENT_FALLBACK_SECONDS = 10.0
 #: point), the exact orbit and the simulated transient next, then the cheap default starts and the
 #: continuations, as far as the time box reaches
 EVENT_FALLBACK_STARTS = ("guess", "exact", "transient", "linear", "clamped", "zero", "forcing", "frequency")
+
+
+def _starts(problem):
+    """:data:`DEFAULT_STARTS` with the problem's ``preferred_starts`` moved right after the guess."""
+    first = tuple(getattr(problem, "preferred_starts", ()) or ())
+    return ("guess",) + first + tuple(s for s in DEFAULT_STARTS if s != "guess" and s not in first)
 
 
 class _Progress:
@@ -303,7 +310,7 @@ class Route:
                 accept = _certified_accept(problem, method, omega, sopts, nkw, system, self.law_estimates)
                 laddered = True
                 res = Ladder(problem, method, system, omega, nkw, accept, route=self, options=options,
-                             guess=sopts.get("guess")).run(DEFAULT_STARTS if ladder_starts is None else ladder_starts)
+                             guess=sopts.get("guess")).run(_starts(problem) if ladder_starts is None else ladder_starts)
             else:
                 res = solve_problem(problem, x0, fallback=bool(sopts.get("continuation", True)), **nkw)
             section = res.info.get("section")

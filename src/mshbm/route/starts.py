@@ -30,7 +30,7 @@ velocities, ``omega`` the forcing frequency (period ``T = 2 pi / omega``), ``n_h
     all displacements and velocities zero;
 ``"exact"`` (one element, at most :data:`EXACT_MAX_DOFS` DOFs)
     the exact event-driven periodic orbit (:func:`mshbm.methods.exact.exact_periodic`), itself started
-    from the linear response, then from the best attempt so far;
+    from the linear response, then from rest, then from the best attempt so far;
 ``"transient"``
     Moreau-Jean simulation of the whole system (friction and impacts exact, the method's steps per period)
     from the best attempt so far (from rest if that one ran away beyond 1e3 times
@@ -377,8 +377,11 @@ class ExactStart:
 
     @staticmethod
     def _guesses(ladder):
-        """The linear start, then the state at ``t = 0`` of the best attempt so far (when finite)."""
-        guesses = ["linear"]
+        """The linear start, the state of rest (on the reduced cantilever's tip stop at 0.99 w_1 the exact flow's
+        Newton converged from rest in 0.7 s CPU and stalled from the linear response), then the state at
+        ``t = 0`` of the best attempt so far (when finite)."""
+        n = ladder.system.n
+        guesses = ["linear", {"q0": np.zeros(n), "u0": np.zeros(n)}]
         best = ladder.best()
         if best is not None:
             try:
