@@ -14,7 +14,8 @@ false, ``certificate["failed"] == ["accuracy"]``, ``certificate["accuracy"]``), 
 Cost, and the rule that keeps it affordable.  An estimate is what :mod:`mshbm.route.refine` computes for a solve:
 re-solves of the point at ``2 n_h`` (``truncation``) and ``N / 2`` steps (``time_discretisation``), from the
 point itself, and for HBM one re-solve with stiffer laws (``regularisation``, :mod:`mshbm.methods.hbm_regularisation`);
-``model_substitution`` comes with every point's certificate, ``reduction`` (a Craig-Bampton case of the CLI,
+``model_substitution`` (two exact event-driven periodic solves, :mod:`mshbm.certificate.substitution`) at the
+estimated points too (a sweep's points are certified without it), ``reduction`` (a Craig-Bampton case of the CLI,
 :meth:`mshbm.reduction.ReducedModel.error_estimate`) at the estimated points.  These re-solves cost one to a few
 corrector solves each, more than the point itself at ``2 n_h``, so they are made at the *estimated points*:
 
@@ -64,7 +65,8 @@ from dataclasses import replace
 import numpy as np
 
 from .certificate.combined import DEFAULT_ACCURACY, REMEDY, combined_check, estimates, gate
-from .certificate.record import Check
+from .certificate.record import Certificate, Check
+from .certificate.substitution import model_substitution_check, substituted_laws
 from .errors import InputError
 from .interrupt import SweepInterrupted
 from .options import check_accuracy
@@ -81,8 +83,10 @@ EVERY = 4
 BUDGET = 0.5
 #: most refinement levels of a branch traced to a requested accuracy
 MAX_LEVELS = 3
-#: the estimates computed at the estimated points and interpolated between them
+#: the estimates computed at the estimated points and interpolated between them (the re-solves; ``_INTERPOLATED``
+#: adds ``model_substitution``: the exact orbits of the system as written and with the substituted law)
 _OWN = ("truncation", "time_discretisation", "regularisation", "reduction")
+_INTERPOLATED = _OWN + ("model_substitution",)
 _RULE = ("estimated by re-solves at the first and last points, every {every}-th point, the bifurcations, the "
          "amplitude peaks and between neighbours whose verdicts differ; elsewhere, per estimate, the larger value "
          "of the two neighbouring estimated points (re-solved where those sum above the accuracy between two "
@@ -125,6 +129,13 @@ class _Context:
             chk = regularisation_check(problem, sol, nkw, REGULARISATION_BOUND)
             sol.certificate.checks = [c for c in sol.certificate.checks if c.name != "regularisation"]
             values["regularisation"] = (chk.value, chk.note)
+        if substituted_laws(problem):  # (the sweep's points leave this check of the certificate to here)
+            tmp = Certificate()
+            model_substitution_check(problem, sol, tmp)
+            chk = next((c for c in tmp.checks if c.name == "model_substitution"), None)
+            if chk is not None:
+                sol.certificate.info.update(tmp.info)
+                values["model_substitution"] = (chk.value, chk.note)
         self.spent += time.perf_counter() - t
         return values
 
@@ -201,7 +212,7 @@ def certify_points(branch, route, tracer, method, options, accuracy, every, lams
             a = max(k for k in keys if k < i)
             b = min(k for k in keys if k > i)
             values, how, src = {}, "interpolated", [a, b]
-            for name in _OWN:
+            for name in _INTERPOLATED:
                 if name in found[a] or name in found[b]:
                     va, vb = found[a].get(name, (None, ""))[0], found[b].get(name, (None, ""))[0]
                     v = None if va is None or vb is None else max(va, vb)

@@ -161,8 +161,10 @@ class _Tracer:
                        residual=float(residual), wall_time=0.0)
         # step_accuracy_size reported, not gating: along a branch of Moreau-Jean orbits h J / D exceeds its bound at
         # many one-step points that are the branch's, and gated the sweep would stall there
+        # model_substitution (two exact periodic solves) is one of the point's error estimates (mshbm.branch_accuracy);
+        # without estimates (accuracy=False) a substituted law is named, not estimated
         cert = certify(problem, sol, self.tol, step_accuracy, step_size_gating=False,
-                       substitution_estimate=self.substitution_estimate)
+                       substitution=not self.substitution_estimate, substitution_estimate=False)
         sol.certificate = cert
         if not cert.passed:
             return f"certificate failed: {cert.describe_failures()}"

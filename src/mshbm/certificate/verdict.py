@@ -16,7 +16,7 @@ from .truncation import truncation_checks
 __all__ = ["certify", "apply_certificate", "reword_warnings"]
 
 
-def certify(problem, sol, tol, step_accuracy=None, step_size_gating=True, substitution_estimate=True):
+def certify(problem, sol, tol, step_accuracy=None, step_size_gating=True, substitution=True, substitution_estimate=True):
     """Certificate of ``sol`` (a :class:`mshbm.result.PeriodicSolution` of ``problem``).
 
     Parameters
@@ -38,6 +38,10 @@ def certify(problem, sol, tol, step_accuracy=None, step_size_gating=True, substi
         Whether ``step_accuracy_size`` gates (default, :func:`mshbm.solve`) or is only reported
         (:func:`mshbm.sweep`'s points: a branch is followed continuously from certified points, and on the
         Moreau-Jean impact5 branches of Fig. 9 the values are reported in the points' certificates).
+    substitution : bool
+        Whether to compute ``model_substitution`` (default).  A sweep's points with error estimates leave it to
+        them (:mod:`mshbm.branch_accuracy`: at the estimated points, interpolated between them), as the other
+        estimates: its two exact periodic solves cost more than the point itself.
     substitution_estimate : bool
         Whether ``model_substitution`` estimates the effect of a substituted law (two exact periodic solves;
         default) or only names it (solves and :func:`mshbm.sweep`'s points without error estimates,
@@ -50,14 +54,15 @@ def certify(problem, sol, tol, step_accuracy=None, step_size_gating=True, substi
     cert = Certificate()
     with np.errstate(all="ignore"):
         try:
-            _certify(problem, sol, float(tol), cert, step_accuracy, bool(step_size_gating),
+            _certify(problem, sol, float(tol), cert, step_accuracy, bool(step_size_gating), bool(substitution),
                      bool(substitution_estimate))
         except Exception as exc:  # noqa: BLE001 -- a certificate that cannot be computed does not pass
             cert.checks.append(Check("evaluation", None, None, False, True, f"{type(exc).__name__}: {exc}"))
     return cert
 
 
-def _certify(problem, sol, tol, cert, step_accuracy=None, step_size_gating=True, substitution_estimate=True):
+def _certify(problem, sol, tol, cert, step_accuracy=None, step_size_gating=True, substitution=True,
+             substitution_estimate=True):
     """The checks of :func:`certify`, appended to ``cert`` in their fixed order."""
     system, omega = problem.system, float(sol.omega)
     stepper = None if problem.integrator is None else problem.integrator.stepper  # None: HBM, DLFT, event flow
@@ -110,7 +115,8 @@ def _certify(problem, sol, tol, cert, step_accuracy=None, step_size_gating=True,
         truncation_checks(sol, system, omega, mags, lam, N, D, cert)
 
     # 7. model substitution (a contact law in place of Newton's law with the user's restitution: DLFT, HBM)
-    model_substitution_check(problem, sol, cert, substitution_estimate)
+    if substitution:
+        model_substitution_check(problem, sol, cert, substitution_estimate)
 
 
 def apply_certificate(problem, sol, tol, step_accuracy=None, cert=None, substitution_estimate=True):

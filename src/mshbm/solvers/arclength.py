@@ -222,11 +222,11 @@ class _Trace(Fallbacks):
         best = None
         max_iter = self.max_corrector_iter if max_iter is None else max_iter
         for it in range(max_iter + 1):
-            R, s, r, J, g = ev(x, lam)
+            R, s, r, J, _ = ev(x, lam, dlam=False)  # dR/dlam only at the point returned (fixed lam)
             if best is None or r < best[2]:
-                best = (x, it, r, (R, s, J, g))
+                best = (x, it, r, (R, s, J, None))
             if r <= tol:
-                return x, it, r, (R, s, J, g), None
+                return x, it, r, (R, s, J, ev.g(x, lam)), None
             if it == max_iter:
                 break
             dx = bordered_solve(J / s[:, None], -R / s, free=free)
@@ -236,7 +236,8 @@ class _Trace(Fallbacks):
             x = xn
         info = self.stalled(best[0], lam) if allow_stall else None
         if info:
-            return best + (info,)
+            R, s, J, _ = best[3]
+            return best[:3] + ((R, s, J, ev.g(best[0], lam)), info)
         raise Failed(f"Newton at fixed parameter {lam:.6g} did not converge (||R/s|| = {r:.2e})")
 
     def corrector(self, xp, lp, t, w, ds, free=None):

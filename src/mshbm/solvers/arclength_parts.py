@@ -99,19 +99,26 @@ class Evaluator:
         self.lam_scale = float(lam_scale)
         self.n_res = self.n_dlam = 0
 
-    def __call__(self, x, lam, jac=True):
+    def __call__(self, x, lam, jac=True, dlam=True):
+        """``(R, s, r, J, g)``: residual, row scale, scaled residual norm, Jacobian and ``dR/dlam`` (``J, g``
+        None without ``jac``; ``g`` None without ``dlam``, see :meth:`g`)."""
         R, J = self.residual(x, lam)
         self.n_res += 1
         s = np.asarray(self.residual_scale(x, lam), dtype=float)
         r = float(np.max(np.abs(R) / s)) if R.size else 0.0
         if not jac:
             return R, s, r, None, None
-        g = np.asarray(self.d_lam(x, lam), dtype=float)
-        self.n_dlam += 1
+        g = self.g(x, lam) if dlam else None
         # the bordered systems are dense (the harmonic methods' unknowns are few; condense=False gives
         # a sparse J of the same small size)
         J = J.toarray() if sp.issparse(J) else np.asarray(J, dtype=float)
         return R, s, r, J, g
+
+    def g(self, x, lam):
+        """``dR/dlam`` at ``(x, lam)``, shape ``(n_x,)``: where it costs residuals of rebuilt problems (central
+        differences: two residuals), Newton at fixed ``lam`` asks for it only at the point it returns (for the tangent)."""
+        self.n_dlam += 1
+        return np.asarray(self.d_lam(x, lam), dtype=float)
 
 
 def orientation(J, g, s, w, lam_scale, t):
