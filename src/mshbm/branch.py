@@ -204,7 +204,9 @@ def _run(route, system, lam_start, lam_end, method, period, parameter, omega_fix
             return None
         sol = route.solve_period(system, float(lam), method, period=k, stability=False,
                                  **dict(without(rest, "guess"), accuracy=False))
-        return None if sol.x is None else np.asarray(sol.x, dtype=float)
+        if not sol.success or sol.x is None:  # why, for the sweep's message
+            return (sol.message or "no solution")[:160]
+        return np.asarray(sol.x, dtype=float)
 
     lam_scale = abs(lam_start) if parameter == "omega" else max(abs(lam_start), abs(lam_end))
     # one kept LU per harmonic of the condensed part, reused by the nearby frequencies of a corrector and of

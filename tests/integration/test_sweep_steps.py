@@ -18,6 +18,11 @@
   (the penalty law's quadrature is nonsmooth on a scale below 1e-5); the sweep stopped there.  The method's
   pointwise solve (its exact piecewise-linear path follower) gives the next point, the gap is reported, and the
   branch goes on, each point the pointwise solve's answer.
+* examples/damper2d.yaml by HBM (9 harmonics): where the damper starts to lift off (omega ~ 1.085, MS-HBM) the
+  branch turns at a fold and Newton at fixed omega fails; the sweep turned back there and traced its own branch down
+  to 0.668 and up again (182 points) before stopping.  Now it stops near the lift-off, and its message says that
+  the method's pointwise solve onwards fails too (HBM finds no solution there from any start): the method, not the
+  continuation, cannot go on.
 """
 from pathlib import Path
 
@@ -121,3 +126,18 @@ def test_penalty_contact_gap_is_bridged_by_the_pointwise_solve():
         ref = np.asarray(s.amplitude, float)
         dev = np.max(np.abs(np.asarray(b.points[i].amplitude, float) - ref)) / np.max(ref)
         assert dev <= 1e-6, (om[i], b.points[i].amplitude, ref)
+
+
+def test_damper2d_hbm_stops_at_lift_off_saying_the_pointwise_solve_fails():
+    from mshbm.io import load_case
+
+    case = load_case(ROOT / "examples" / "damper2d.yaml")
+    b = mshbm.sweep(case.model, 0.6, 1.2, "hbm", harmonics=9, stability=False, accuracy=False)
+    assert not b.success
+    om = np.asarray(b.omega)
+    assert len(b.points) <= 100 and 1.08 <= om[-1] <= 1.09 and np.all(np.diff(om[:-10]) > 0), om  # no loop back
+    assert "the pointwise solve at" in b.message and "failed too" in b.message, b.message
+    ref = mshbm.solve(case.model, float(om[len(om) // 2]), "hbm", harmonics=9, stability=False, accuracy=False)
+    assert ref.success, ref.message
+    dev = np.max(np.abs(np.asarray(b.points[len(om) // 2].amplitude) - ref.amplitude)) / np.max(ref.amplitude)
+    assert dev <= 1e-6, dev

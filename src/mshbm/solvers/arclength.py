@@ -576,6 +576,7 @@ class _Trace(Fallbacks):
                 break
             self.fold(p, w, q)
             smooth = smooth_step(self, p, q, it, kink)
+            self.clean_step = self.counters["corrector_failures"] == self.failures_at_point  # no failed step since p
             # the end of the range
             if (q.lam - lam_end) * direction >= 0 and (p.lam - lam_end) * direction < 0:
                 try:

@@ -68,6 +68,13 @@ class Fallbacks:
         except Failed as exc:
             self.counters["natural_failures"] = self.counters.get("natural_failures", 0) + 1
             q, why = self.pointwise(p, w, lam_n, sgn, natural)
+            if q is None and natural * 0.5 < self.ds_min * lsc and sgn != direction and self.gap_from is not None:
+                # a gap behind a fold that Newton cannot pass either: the pointwise solve onwards, as a sweep in the
+                # parameter alone would jump there (the gap is recorded; the fold in it is not traced)
+                lam_n = p.lam + direction * 0.5 * self.ds0 * lsc
+                if (lam_n - lam_end) * direction > 0:
+                    lam_n = lam_end
+                q, why = self.pointwise(p, w, lam_n, direction, natural)
             if q is None:
                 self.natural = natural * 0.5
                 if self.natural < self.ds_min * lsc:

@@ -69,10 +69,12 @@ def next_ds(trace, p, q, it, kink, smooth):
 
 def rough_predicted(trace, p, q, kink):
     """The step ``p -> q`` may grow by its prediction alone (:func:`next_ds`): both points solved exactly, no kink,
-    no change of the free directions or of the smooth piece (``segment``), no failed step since ``p``."""
+    no change of the free directions, a residual without smooth pieces (``segment`` None: a piecewise-smooth one
+    keeps its cautious step, see :func:`smooth_step`), no failed step since ``p`` (``trace.clean_step``, set before
+    ``q`` is added)."""
     same_free = (p.free is None) == (q.free is None) and (p.free is None or p.free.shape == q.free.shape)
-    return (p.stall is None and q.stall is None and kink is None and p.segment == q.segment and same_free
-            and trace.counters["corrector_failures"] == trace.failures_at_point)
+    return (p.stall is None and q.stall is None and kink is None and p.segment is None and q.segment is None
+            and same_free and trace.clean_step)
 
 
 def prediction_error(trace, p, q, ds):
