@@ -200,6 +200,15 @@ def _run(route, system, lam_start, lam_end, method, period, parameter, omega_fix
         pt = tracer.point(x, lam, 0, 0.0, stall)
         return not isinstance(pt, str), pt
 
+    def solve_at(lam, x):  # the pointwise solve (its start ladder) where Newton from the last point fails
+        if parameter != "omega" or family is not None:
+            return None
+        sol = route.solve_period(system, float(lam), method, period=k, stability=False,
+                                 **dict(without(rest, "guess"), accuracy=False))
+        if not sol.success or sol.x is None:  # why, for the sweep's message
+            return (sol.message or "no solution")[:160]
+        return np.asarray(sol.x, dtype=float)
+
     lam_scale = abs(lam_start) if parameter == "omega" else max(abs(lam_start), abs(lam_end))
     # one kept LU per harmonic of the condensed part, reused by the nearby frequencies of a corrector and of
     # dR/domega: faster, and R smooth in omega (mshbm.condensation.FactorReuse)
@@ -214,7 +223,7 @@ def _run(route, system, lam_start, lam_end, method, period, parameter, omega_fix
                 max_corrector_iter=min(12, int(rest.get("max_iter", 12))),
                 predictor=predictor, accept=accept, callback=seen, max_time=max_time,
                 stall_accept=tracer.stall_accept, segment=tracer.segment, restarts=tracer.restarts,
-                gauge=tracer.gauge)
+                gauge=tracer.gauge, solve_at=solve_at)
     except KeyboardInterrupt as exc:
         interrupted, res = exc, interrupted_result(seen.points)
     else:

@@ -8,6 +8,21 @@
   useful tangent); where a step is accepted at one time step's accuracy the exact root of the discretised
   equations nearby is the point.  Checked against the exact event-driven flow at frequencies where the accepted
   iterates lay 1.4-5.7 % off.
+* A relative Coulomb contact between two masses by HBM (the stiff default arctan law): Newton needs 5-20
+  iterations from any predictor that misses the transitions of the sampled law, however short the step, so a step
+  control by the corrector's effort alone crawled (150 points reached omega = 0.379 of 0.3 -> 0.6, steps of 1e-3);
+  the step is kept where the tangent predicted the point and grows where it predicted it well, and the branch
+  reaches the end in 113 points, each the pointwise solve's answer.
+* A gap between two masses (penalty contact by HBM, 15 harmonics) that closes near resonance: at omega = 0.63463
+  neither the arclength corrector nor Newton at fixed omega from the last point converges, however short the step
+  (the penalty law's quadrature is nonsmooth on a scale below 1e-5); the sweep stopped there.  The method's
+  pointwise solve (its exact piecewise-linear path follower) gives the next point, the gap is reported, and the
+  branch goes on, each point the pointwise solve's answer.
+* examples/damper2d.yaml by HBM (9 harmonics): where the damper starts to lift off (omega ~ 1.085, MS-HBM) the
+  branch turns at a fold and Newton at fixed omega fails, and the sweep stops there (its message named only the
+  failing Newton).  Now its message says that the method's pointwise solve onwards fails too (HBM finds no solution
+  there from any start, also with 15 harmonics): the method, not the continuation, cannot go on.  (The sweep still
+  turns back at a spurious fold near 1.087 and traces its branch down to 0.67 and up again first: 230 points.)
 """
 from pathlib import Path
 
@@ -16,6 +31,7 @@ import pytest
 
 import mshbm
 from mshbm import Contact, chain
+from mshbm_workflow import sweep_systems
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -74,3 +90,54 @@ def test_natural_steps_take_the_exact_root():
         assert ref.success, ref.message
         a, a_ref = _amplitudes(b.points[i].solution, system.n), _amplitudes(ref, system.n)
         assert float(np.max(np.abs(a - a_ref)) / np.max(a_ref)) <= 5e-3, (om[i], a, a_ref)
+
+
+def test_stiff_friction_law_hbm_sweep_does_not_crawl():
+    system = chain([1.0, 1.0], 1.0, 0.02, forcing=[{"dof": 1, "amplitude": 1.0}],
+                   elements=[mshbm.Friction(1, mu=0.5, normal_force=0.5, relative_to=0)])
+    b = mshbm.sweep(system, 0.3, 0.6, "hbm", harmonics=9, stability=False, accuracy=False, max_points=150)
+    assert b.success, b.message
+    assert b.omega[-1] == pytest.approx(0.6, abs=1e-12)
+    assert len(b.points) <= 130, len(b.points)  # (113; by the corrector's effort alone 150 points reached 0.379)
+    for i in (len(b.points) // 3, 2 * len(b.points) // 3, len(b.points) - 1):
+        p = b.points[i]
+        s = mshbm.solve(system, p.omega, "hbm", harmonics=9, stability=False, accuracy=False)
+        assert s.success, s.message
+        ref = np.asarray(s.amplitude, float)
+        assert np.max(np.abs(np.asarray(p.amplitude, float) - ref)) <= 1e-6 * np.max(ref), (p.omega, p.amplitude, ref)
+
+
+def test_penalty_contact_gap_is_bridged_by_the_pointwise_solve():
+    system, _, _ = sweep_systems.build({"chain": {
+        "masses": [1.0, 1.0], "stiffness": [1.0, 2.0], "damping": 0.05, "forcing": [{"dof": 1, "amplitude": 1.0}],
+        "elements": [{"type": "contact", "at": 0, "relative_to": 1, "gap_ratio": 0.3, "restitution": 0.7}]}},
+        "chain2-rel-contact")
+    b = mshbm.sweep(system, 0.58, 0.645, "hbm", harmonics=15, stability=False, accuracy=False)
+    assert b.success, b.message
+    assert b.omega[-1] == pytest.approx(0.645, abs=1e-12)
+    assert b.counters.get("pointwise_points", 0) >= 1 and "gap(s) bridged" in b.message, b.message
+    om = np.asarray(b.omega)
+    after = int(np.argmax(om > 0.6347))  # the first point past the gap
+    assert np.all(om[after:] > 0.6346), om  # onwards past the gap
+    for i in (after, len(b.points) - 1):
+        s = mshbm.solve(system, float(om[i]), "hbm", harmonics=15, penalty_quadrature="linear", stability=False,
+                        accuracy=False)
+        assert s.success, s.message
+        ref = np.asarray(s.amplitude, float)
+        dev = np.max(np.abs(np.asarray(b.points[i].amplitude, float) - ref)) / np.max(ref)
+        assert dev <= 1e-6, (om[i], b.points[i].amplitude, ref)
+
+
+def test_damper2d_hbm_stops_at_lift_off_saying_the_pointwise_solve_fails():
+    from mshbm.io import load_case
+
+    case = load_case(ROOT / "examples" / "damper2d.yaml")
+    b = mshbm.sweep(case.model, 0.6, 1.2, "hbm", harmonics=9, stability=False, accuracy=False)
+    assert not b.success
+    om = np.asarray(b.omega)
+    assert 1.08 <= om[-1] <= 1.09, om
+    assert "the pointwise solve at" in b.message and "failed too" in b.message, b.message
+    ref = mshbm.solve(case.model, float(om[len(om) // 2]), "hbm", harmonics=9, stability=False, accuracy=False)
+    assert ref.success, ref.message
+    dev = np.max(np.abs(np.asarray(b.points[len(om) // 2].amplitude) - ref.amplitude)) / np.max(ref.amplitude)
+    assert dev <= 1e-6, dev

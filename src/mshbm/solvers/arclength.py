@@ -72,7 +72,7 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
                  fast_iter=3, slow_iter=7, grow=1.6, shrink=0.5, predictor="tangent", accept=None,
                  callback=None, fold_rtol=1e-3, max_time=None, lam_limits=None, stall_accept=None, max_jump=3.0,
                  stall_fold_rtol=5e-3, natural_fallback=True, kink_crossing=True, segment=None, max_turn=0.5,
-                 restarts=None, ds_rough=None, predicted=None, gauge=None, early_polish=True):
+                 restarts=None, ds_rough=None, predicted=None, gauge=None, early_polish=True, solve_at=None):
     """Trace the branch of ``R(x, lam) = 0`` from the converged point ``(x0, lam0)`` towards ``lam_end``.
 
     Parameters
@@ -141,6 +141,12 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
     kink_crossing : bool
         When the step falls below ``ds_min`` at a point solved exactly (not by ``stall_accept``), try one
         step at fixed ``lam`` across a kink (module docstring) before stopping, once per point.
+    solve_at : callable, optional
+        ``solve_at(lam, x) -> x or None``: a pointwise solve at ``lam`` by other means than Newton from a nearby point
+        (e.g. the method's own start ladder and exact path followers; ``x`` the last point, a hint).  Where a
+        natural-parameter step across a gap fails (Newton at fixed ``lam`` from the last point does not converge:
+        a residual that is nonsmooth on a scale below the step, e.g. a stiff penalty law), its point at that ``lam``
+        is taken from it (counter ``pointwise_points``; the gap is recorded as any other) before the step is halved.
     restarts : callable, optional
         ``restarts(x, lam) -> list of x``: other Newton starts for the step at fixed ``lam`` across a kink
         (:func:`mshbm.solvers.arclength_kinks.cross_kink`) where the unknowns jump along the branch (a shooting
@@ -184,7 +190,7 @@ def continuation(residual, d_lam, x0, lam0, lam_end, *, residual_scale, unknown_
         stall_accept=stall_accept, max_jump=max_jump, stall_fold_rtol=stall_fold_rtol,
         natural_fallback=natural_fallback, kink_crossing=kink_crossing, segment=segment, max_turn=max_turn,
         restarts=restarts, ds_rough=ds_max if ds_rough is None else min(ds_rough, ds_max), predicted=predicted,
-        gauge=gauge, early_polish=early_polish))
+        gauge=gauge, early_polish=early_polish, solve_at=solve_at))
     return trace.run(x0)
 
 
@@ -571,6 +577,7 @@ class _Trace(Fallbacks):
                 break
             self.fold(p, w, q)
             smooth = smooth_step(self, p, q, it, kink)
+            self.clean_step = self.counters["corrector_failures"] == self.failures_at_point  # no failed step since p
             # the end of the range
             if (q.lam - lam_end) * direction >= 0 and (p.lam - lam_end) * direction < 0:
                 try:

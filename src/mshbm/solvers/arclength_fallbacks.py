@@ -46,10 +46,10 @@ class Fallbacks:
         direction, lam_end, lsc = self.direction, self.lam_end, self.lsc
         natural = self.natural
         sgn = direction if self.gap_from is None or p.dlam == 0 else float(np.sign(p.dlam))  # a gap: onwards
+        lam_n = p.lam + sgn * natural
+        if (lam_n - lam_end) * direction > 0 and (p.lam - lam_end) * direction < 0:
+            lam_n = lam_end
         try:
-            lam_n = p.lam + sgn * natural
-            if (lam_n - lam_end) * direction > 0 and (p.lam - lam_end) * direction < 0:
-                lam_n = lam_end
             start = p.x if p.track is None else p.track
             x, it, r, data, st = self.newton_fixed(start, lam_n, free=self.free_units(p, w))
             track = None
@@ -67,12 +67,21 @@ class Fallbacks:
             self.judged(q)
         except Failed as exc:
             self.counters["natural_failures"] = self.counters.get("natural_failures", 0) + 1
-            self.natural = natural * 0.5
-            if self.natural < self.ds_min * lsc:
-                self.message = (f"natural-parameter steps below ds_min at lam = {p.lam:.6g} ({exc}) after the "
-                                f"arclength corrector failed ({self.natural_reason})")
-                return True
-            return False
+            q, why = self.pointwise(p, w, lam_n, sgn, natural)
+            if q is None and natural * 0.5 < self.ds_min * lsc and sgn != direction and self.gap_from is not None:
+                # a gap behind a fold that Newton cannot pass either: the pointwise solve onwards, as a sweep in the
+                # parameter alone would jump there (the gap is recorded; the fold in it is not traced)
+                lam_n = p.lam + direction * 0.5 * self.ds0 * lsc
+                if (lam_n - lam_end) * direction > 0:
+                    lam_n = lam_end
+                q, why = self.pointwise(p, w, lam_n, direction, natural)
+            if q is None:
+                self.natural = natural * 0.5
+                if self.natural < self.ds_min * lsc:
+                    self.message = (f"natural-parameter steps below ds_min at lam = {p.lam:.6g} ({exc}{why}) after "
+                                    f"the arclength corrector failed ({self.natural_reason})")
+                    return True
+                return False
         self.counters["natural_points"] = self.counters.get("natural_points", 0) + 1
         self.add(q, natural / lsc)
         if self.gap_from is not None:  # a gap bridged: back to arclength steps from the new point
@@ -90,6 +99,36 @@ class Fallbacks:
             return True
         self.natural = min(natural * 1.5, self.ds_max * lsc)
         return False
+
+    def pointwise(self, p, w, lam_n, sgn, natural):
+        """Where Newton at fixed ``lam_n`` from ``p`` failed in a natural-parameter step: the point from
+        ``solve_at(lam_n, p.x)`` (the method's pointwise solve with its own starts, e.g. an exact path follower of a
+        piecewise-linear law), kept when its residual is within ``tol`` and ``accept`` takes it (counter
+        ``pointwise_points``).  Only onwards towards ``lam_end``: a pointwise solve knows nothing of the branch, and
+        behind a fold (the gap's direction of travel back in ``lam``) it would return to the part already traced.
+        Returns ``(q or None, why)``, ``why`` a note for the message when it failed."""
+        if self.solve_at is None or self.gap_from is None or sgn != self.direction:
+            return None, ""
+        try:
+            x = self.solve_at(lam_n, p.x)
+        except (Failed, ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
+            x = str(exc) or type(exc).__name__
+        if x is None or isinstance(x, str):
+            self.counters["pointwise_failures"] = self.counters.get("pointwise_failures", 0) + 1
+            return None, f"; the pointwise solve at {lam_n:.6g} failed too" + (f": {x}" if x else "")
+        x = np.asarray(x, dtype=float)
+        R, s_, r, J, g = self.ev(x, lam_n)
+        if not r <= self.tol:
+            return None, f"; the pointwise solve at {lam_n:.6g} left ||R/s|| = {r:.2e}"
+        q, _, _ = self.make_point(x, lam_n, 0, r, (R, s_, J, g), natural / self.lsc, self.scaled_t(p, w), None)
+        if q.dlam * sgn < 0:
+            q.dx, q.dlam, q.orientation = -q.dx, -q.dlam, -q.orientation
+        try:
+            self.judged(q)
+        except Failed as exc:
+            return None, f"; the pointwise solve's point at {lam_n:.6g} was rejected: {exc}"
+        self.counters["pointwise_points"] = self.counters.get("pointwise_points", 0) + 1
+        return q, ""
 
     def failed_step(self, p, w, exc):
         """Step control after a failed step: halve ``ds``; below ``ds_min`` natural-parameter steps (at a

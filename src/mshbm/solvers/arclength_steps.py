@@ -23,23 +23,38 @@ EXACT_REACH = 0.1
 #: a smooth step whose predictor missed the corrected point by at most this times ``ds`` may let the step grow
 #: (``continuation(predicted=...)``, used by :func:`mshbm.sweep`)
 PREDICTED = 0.02
+#: a step whose predictor missed the corrected point by at most ``max(ROUGH_PREDICTED ds, PREDICTED_ABS)`` (scaled)
+#: is not shortened however slow its corrector, and one that missed by at most ``max(predicted ds, PREDICTED_ABS)``
+#: grows (:func:`next_ds`): the tangent predicted the curve, so the corrector's iterations measure the conditioning
+#: of the residual (e.g. a stiff regularised friction law, whose Newton needs as many iterations from 1e-4 away as
+#: from 1e-2), not the step.  The absolute part: on a residual that is rough on a fine scale (HBM's samples entering
+#: and leaving a stiff law's transition) the predictor misses by that roughness whatever the step, and a test
+#: relative to ``ds`` alone would hold a short step short for ever
+ROUGH_PREDICTED = 0.1
+PREDICTED_ABS = 1e-3
 
 
 def next_ds(trace, p, q, it, kink, smooth):
     """The step after the accepted step ``p -> q`` of ``ds``: grown by ``grow`` after a fast corrector (at most
     ``fast_iter`` iterations) or after a smooth step whose predictor missed ``q`` by at most ``predicted ds``
     (the tangent predicts the curve: the corrector's further iterations only meet ``tol``), shrunk by ``shrink``
-    after a slow one (more than ``slow_iter``).  Growth is bounded by the turn of the tangent
+    after a slow one (more than ``slow_iter``) -- unless the step was :func:`rough_predicted` and its predictor missed
+    ``q`` by at most ``max(ROUGH_PREDICTED ds, PREDICTED_ABS)`` (then it is kept, and grown where it missed by at most
+    ``max(predicted ds, PREDICTED_ABS)``, whatever the corrector's effort; with ``predicted`` set).  Growth is bounded by the turn of the tangent
     (``ds max_turn / turn``), and by ``ds_rough`` after a step that is not :func:`smooth_step`."""
     ds = trace.ds
     turn = None
     if trace.max_turn and p.stall is None and q.stall is None and kink is None:
         wq = np.asarray(trace.unknown_scale(q.x, q.lam), dtype=float)
         turn = float(np.arccos(np.clip(trace.scaled_t(q, wq) @ trace.scaled_t(p, wq), -1.0, 1.0)))
-    if it > trace.slow_iter:
+    pe = prediction_error(trace, p, q, ds) if trace.predicted is not None else np.inf
+    # the tangent predicted the point: the corrector's effort says nothing about the step (see ROUGH_PREDICTED)
+    predicted = rough_predicted(trace, p, q, kink) and pe <= max(ROUGH_PREDICTED * ds, PREDICTED_ABS)
+    if predicted and pe <= max(trace.predicted * ds, PREDICTED_ABS):
+        new = min(ds * trace.grow, trace.ds_max)
+    elif it > trace.slow_iter and not predicted:
         new = max(ds * trace.shrink, trace.ds_min)
-    elif it <= trace.fast_iter or (smooth and trace.predicted is not None
-                                  and prediction_error(trace, p, q, ds) <= trace.predicted * ds):
+    elif it <= trace.fast_iter or (smooth and pe <= trace.predicted * ds):
         new = min(ds * trace.grow, trace.ds_max)
     else:
         new = ds
@@ -50,6 +65,16 @@ def next_ds(trace, p, q, it, kink, smooth):
     if not smooth:
         new = min(new, max(trace.ds_rough, trace.ds_min))
     return new
+
+
+def rough_predicted(trace, p, q, kink):
+    """The step ``p -> q`` may grow by its prediction alone (:func:`next_ds`): both points solved exactly, no kink,
+    no change of the free directions, a residual without smooth pieces (``segment`` None: a piecewise-smooth one
+    keeps its cautious step, see :func:`smooth_step`), no failed step since ``p`` (``trace.clean_step``, set before
+    ``q`` is added)."""
+    same_free = (p.free is None) == (q.free is None) and (p.free is None or p.free.shape == q.free.shape)
+    return (p.stall is None and q.stall is None and kink is None and p.segment is None and q.segment is None
+            and same_free and trace.clean_step)
 
 
 def prediction_error(trace, p, q, ds):
