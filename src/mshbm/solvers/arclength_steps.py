@@ -54,7 +54,7 @@ def next_ds(trace, p, q, it, kink, smooth):
         new = min(ds * trace.grow, trace.ds_max)
     elif it > trace.slow_iter and not predicted:
         new = max(ds * trace.shrink, trace.ds_min)
-    elif it <= trace.fast_iter or (smooth and pe <= trace.predicted * ds):
+    elif it <= trace.fast_iter or (smooth and trace.predicted is not None and pe <= trace.predicted * ds):
         new = min(ds * trace.grow, trace.ds_max)
     else:
         new = ds
