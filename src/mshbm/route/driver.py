@@ -79,7 +79,7 @@ EVENT_FALLBACK_STARTS = ("guess", "exact", "transient", "linear", "clamped", "ze
 
 def _starts(problem):
     """:data:`DEFAULT_STARTS` with the problem's ``preferred_starts`` moved right after the guess."""
-    first = tuple(getattr(problem, "preferred_starts", ()) or ())
+    first = tuple(problem.preferred_starts or ())
     return ("guess",) + first + tuple(s for s in DEFAULT_STARTS if s != "guess" and s not in first)
 
 
