@@ -164,7 +164,7 @@ class _Tracer:
         # model_substitution (two exact periodic solves) is one of the point's error estimates (mshbm.branch_accuracy);
         # without estimates (accuracy=False) a substituted law is named, not estimated
         cert = certify(problem, sol, self.tol, step_accuracy, step_size_gating=False,
-                       substitution=not self.substitution_estimate, substitution_estimate=False)
+                       substitution="skip" if self.substitution_estimate else "name")
         sol.certificate = cert
         if not cert.passed:
             return f"certificate failed: {cert.describe_failures()}"

@@ -21,6 +21,7 @@ coarser discretisation and appends the ``accuracy`` check; :func:`mshbm.certify`
 from __future__ import annotations
 
 from .record import Check
+from .substitution import IMPACT_MASS_PENDING
 
 __all__ = ["DEFAULT_ACCURACY", "ESTIMATES", "combined_check", "gate"]
 
@@ -61,8 +62,8 @@ def combined_check(cert, accuracy, requested):
     missing = [k for k in ("truncation", "time_discretisation") if k in cert and cert[k].value is None]
     # MS-HBM's subsystem impact law: the solve route estimates its effect (mshbm.route.refine); without that
     # estimate a success could lie outside the accuracy
-    basis = str((cert.info.get("model_substitution") or {}).get("value_basis", ""))
-    if "model_substitution" in cert and cert["model_substitution"].value is None and basis.startswith("impact mass"):
+    basis = (cert.info.get("model_substitution") or {}).get("value_basis")
+    if "model_substitution" in cert and cert["model_substitution"].value is None and basis == IMPACT_MASS_PENDING:
         missing.append("model_substitution")
     ok = total <= accuracy and not missing
     if missing:

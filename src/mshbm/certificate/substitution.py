@@ -117,6 +117,10 @@ def substituted_laws(problem):
     return out
 
 
+#: ``info["value_basis"]`` of MS-HBM's subsystem impact law before the solve route estimates it (mshbm.route.refine)
+IMPACT_MASS_PENDING = "impact mass: not estimated"
+
+
 def describe_substitution(subs):
     """The substitutions in words, e.g. ``"contact.restitution = 0.5 replaced by 1 (the DLFT contact law ...)"``."""
     return "; ".join(f"{s.key if s.key != 'impact_mass' else f'impact mass of element {s.element}'} = "
@@ -152,7 +156,7 @@ def model_substitution_check(problem, sol, cert, estimate=True):
         note = (f"{what}: its effect on the amplitudes was not estimated (compare the exact event-driven orbit: "
                 f"method 'shooting' with integrator 'event')")
         cert.checks.append(Check("model_substitution", None, MODEL_SUBSTITUTION_BOUND, False, False, note))
-        info["value_basis"] = "impact mass: not estimated"
+        info["value_basis"] = IMPACT_MASS_PENDING
         return
     if not estimate:
         note = f"{what}: its effect on the amplitudes was not estimated (no error estimates requested)"

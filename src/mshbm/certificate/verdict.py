@@ -16,7 +16,7 @@ from .truncation import truncation_checks
 __all__ = ["certify", "apply_certificate", "reword_warnings"]
 
 
-def certify(problem, sol, tol, step_accuracy=None, step_size_gating=True, substitution=True, substitution_estimate=True):
+def certify(problem, sol, tol, step_accuracy=None, step_size_gating=True, substitution="estimate"):
     """Certificate of ``sol`` (a :class:`mshbm.result.PeriodicSolution` of ``problem``).
 
     Parameters
@@ -38,14 +38,12 @@ def certify(problem, sol, tol, step_accuracy=None, step_size_gating=True, substi
         Whether ``step_accuracy_size`` gates (default, :func:`mshbm.solve`) or is only reported
         (:func:`mshbm.sweep`'s points: a branch is followed continuously from certified points, and on the
         Moreau-Jean impact5 branches of Fig. 9 the values are reported in the points' certificates).
-    substitution : bool
-        Whether to compute ``model_substitution`` (default).  A sweep's points with error estimates leave it to
-        them (:mod:`mshbm.branch_accuracy`: at the estimated points, interpolated between them), as the other
-        estimates: its two exact periodic solves cost more than the point itself.
-    substitution_estimate : bool
-        Whether ``model_substitution`` estimates the effect of a substituted law (two exact periodic solves;
-        default) or only names it (solves and :func:`mshbm.sweep`'s points without error estimates,
-        ``accuracy=False``).
+    substitution : {"estimate", "name", "skip"}
+        ``model_substitution``: a substituted law named and its effect estimated (two exact periodic solves;
+        default), only named (solves and :func:`mshbm.sweep`'s points without error estimates, ``accuracy=False``),
+        or left out (a sweep's points with error estimates leave it to them, :mod:`mshbm.branch_accuracy`: at the
+        estimated points, interpolated between them, as the other estimates: its exact solves cost more than the
+        point itself).
 
     Returns
     -------
@@ -54,15 +52,13 @@ def certify(problem, sol, tol, step_accuracy=None, step_size_gating=True, substi
     cert = Certificate()
     with np.errstate(all="ignore"):
         try:
-            _certify(problem, sol, float(tol), cert, step_accuracy, bool(step_size_gating), bool(substitution),
-                     bool(substitution_estimate))
+            _certify(problem, sol, float(tol), cert, step_accuracy, bool(step_size_gating), substitution)
         except Exception as exc:  # noqa: BLE001 -- a certificate that cannot be computed does not pass
             cert.checks.append(Check("evaluation", None, None, False, True, f"{type(exc).__name__}: {exc}"))
     return cert
 
 
-def _certify(problem, sol, tol, cert, step_accuracy=None, step_size_gating=True, substitution=True,
-             substitution_estimate=True):
+def _certify(problem, sol, tol, cert, step_accuracy=None, step_size_gating=True, substitution="estimate"):
     """The checks of :func:`certify`, appended to ``cert`` in their fixed order."""
     system, omega = problem.system, float(sol.omega)
     stepper = None if problem.integrator is None else problem.integrator.stepper  # None: HBM, DLFT, event flow
@@ -115,11 +111,11 @@ def _certify(problem, sol, tol, cert, step_accuracy=None, step_size_gating=True,
         truncation_checks(sol, system, omega, mags, lam, N, D, cert)
 
     # 7. model substitution (a contact law in place of Newton's law with the user's restitution: DLFT, HBM)
-    if substitution:
-        model_substitution_check(problem, sol, cert, substitution_estimate)
+    if substitution != "skip":
+        model_substitution_check(problem, sol, cert, estimate=substitution == "estimate")
 
 
-def apply_certificate(problem, sol, tol, step_accuracy=None, cert=None, substitution_estimate=True):
+def apply_certificate(problem, sol, tol, step_accuracy=None, cert=None, substitution="estimate"):
     """Attach ``certify(problem, sol, tol)`` to ``sol.certificate`` and gate ``sol.success`` on it.
 
     ``success`` stays True only if it was True (Newton converged) and every gating check
@@ -127,10 +123,10 @@ def apply_certificate(problem, sol, tol, step_accuracy=None, cert=None, substitu
     estimates) above their bound are named in the message of a certified solution as a warning
     (:meth:`Certificate.describe_warnings`; ``success`` stays True).  ``cert``: the certificate
     already computed for the same problem, unknowns and ``step_accuracy`` (the start ladder's
-    acceptance test), attached instead of computing it again.  ``substitution_estimate``: as for :func:`certify`.
+    acceptance test), attached instead of computing it again.  ``substitution``: as for :func:`certify`.
     """
     if cert is None:
-        cert = certify(problem, sol, tol, step_accuracy, substitution_estimate=substitution_estimate)
+        cert = certify(problem, sol, tol, step_accuracy, substitution=substitution)
     sol.certificate = cert
     if sol.success and not cert.passed:
         sol.success = False

@@ -135,6 +135,7 @@ class HBMProblem(PiecewiseLinearPaths, HarmonicProblem):
         if why:
             raise InputError("penalty_quadrature", why)
         self._fast = None if self._linear else _fast_laws(system.elements, self.nl_cols, pos)
+        self._kw = np.arange(1, self.n_h + 1) * float(self.omega)  # the harmonics' frequencies k omega (rad/s)
 
     def residual_scale(self, x=None):
         """Per-row scale of the residual, shape ``(n_x,)``: the force scale ``F`` (N) on every row."""
@@ -190,10 +191,7 @@ class HBMProblem(PiecewiseLinearPaths, HarmonicProblem):
             Xn = np.ascontiguousarray(X if every else X[:, self.nl_cols])
             Fn = np.empty((nc, nN))
             Jn = np.empty((nc, nN, nc, nN)) if jac else _NO_JAC
-            kw = self.__dict__.get("_kw")  # the harmonics' frequencies k omega, k = 1..n_h (rad/s)
-            if kw is None:
-                kw = self._kw = np.arange(1, self.n_h + 1) * float(self.omega)
-            hbm_kernels.aft_forces(Xn, self.Vs, self.VsOm, self.E, *self._fast, jac, Fn, Jn, kw)
+            hbm_kernels.aft_forces(Xn, self.Vs, self.VsOm, self.E, *self._fast, jac, Fn, Jn, self._kw)
             R = self.A @ x - self.r
             if every:
                 R -= Fn.reshape(-1)

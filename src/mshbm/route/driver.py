@@ -346,7 +346,7 @@ class Route:
                                          "step_change": step_accuracy.get("step_change")}
         # success only if certified (mshbm.certificate)
         apply_certificate(problem, sol, nkw["tol"], step_accuracy, cert=None if cached is None else cached["cert"],
-                          substitution_estimate=self.law_estimates)
+                          substitution="estimate" if self.law_estimates else "name")
         if sol.success and problem.penalty_laws and regularised(problem.system) and not self.single_start \
                 and not self.in_frequency and self.law_estimates:
             # the error of the regularised laws (HBM): one re-solve with stiffer laws (not gating; not for the
@@ -559,7 +559,8 @@ def _certified_accept(problem, method, omega, sopts, nkw, system, law_estimates=
         if not firsts[id(prob)][1](attempt):
             return False
         sol = _solution(prob, method, attempt.newton, attempt.parts(), True, "", 0.0)
-        cert = certify(prob, sol, nkw["tol"], attempt.step_accuracy, substitution_estimate=law_estimates)
+        cert = certify(prob, sol, nkw["tol"], attempt.step_accuracy,
+                       substitution="estimate" if law_estimates else "name")
         if not cert.passed:
             attempt.verdict = f"rejected by the certificate: {cert.describe_failures()}"
         else:  # the driver reuses parts and certificate of the accepted x (same problem, same x)

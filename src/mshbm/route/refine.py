@@ -89,6 +89,7 @@ import numpy as np
 
 from ..certificate.combined import DEFAULT_ACCURACY, combined_check, estimates, gate
 from ..certificate.record import Check
+from ..certificate.substitution import IMPACT_MASS_PENDING
 from ..certificate.verdict import reword_warnings
 from ..errors import InputError
 from ..methods.capabilities import capabilities as method_capabilities
@@ -427,7 +428,7 @@ class _Estimator:
         if self.time_stepped(sol) and only in (None, "time_discretisation"):
             out["time_discretisation"] = self.time_discretisation(sol)
         sub = (sol.certificate.info.get("model_substitution") or {}) if sol.certificate is not None else {}
-        if sub.get("value_basis") == "impact mass: not estimated" and only in (None, "model_substitution"):
+        if sub.get("value_basis") == IMPACT_MASS_PENDING and only in (None, "model_substitution"):
             old = sol.certificate["model_substitution"].note
             out["model_substitution"] = value, note = self.impact_mass(sol, sub["described"])
             if value is not None:  # the message named it "not estimated" (certificate.verdict.apply_certificate)

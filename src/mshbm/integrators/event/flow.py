@@ -429,9 +429,7 @@ class EventFlow(ModeCatalogue, Transitions, FourierQuadrature, MoreauFallback):
                             if jac:
                                 if lazy:
                                     pend += 1
-                                else:
-                                    Phi = _power_apply(md, Phi, pend) if pend else Phi
-                                    pend = 0
+                                else:  # (pend stays 0 without lazy)
                                     Phi = self.emul(md, Phi, sens=True)
                             z = E @ z
                             a += h
