@@ -284,8 +284,11 @@ def _newton_step_max_modulus(system, sol, flow, step, Phi0, mult, max_candidates
             lu = sla.lu_factor(Phi0 - (mu + 1e-10 * max(1.0, abs(mu))) * np.eye(2 * n), check_finite=False)
         except (np.linalg.LinAlgError, ValueError):
             return _full_step_max_modulus(system, sol, flow, step)
-        r, lv = sla.lu_solve(lu, b), sla.lu_solve(lu, b, trans=2)
-        r, lv = sla.lu_solve(lu, r / np.linalg.norm(r)), sla.lu_solve(lu, lv / np.linalg.norm(lv), trans=2)
+        # (no finiteness checks: Phi0 is finite; a non-finite vector from an exactly singular factor ends below in
+        # the ill-conditioned case)
+        r, lv = sla.lu_solve(lu, b, check_finite=False), sla.lu_solve(lu, b, trans=2, check_finite=False)
+        r = sla.lu_solve(lu, r / np.linalg.norm(r), check_finite=False)
+        lv = sla.lu_solve(lu, lv / np.linalg.norm(lv), trans=2, check_finite=False)
         r, lv = r / np.linalg.norm(r), lv / np.linalg.norm(lv)
         c = np.vdot(lv, r)
         if not abs(c) >= 1e-8:  # ill-conditioned eigenvalue: no first-order formula
