@@ -79,10 +79,13 @@ __all__ = ["assess", "check_option", "describe", "multipliers_json", "set_exact"
 
 #: largest system for which the exact flow is used by default (see the module docstring)
 MAX_EXACT_DOFS = 200
-#: wall-time limit (s) of the exact flow's periodic solve in the stability analysis, well above what the exact
-#: flow needs up to MAX_EXACT_DOFS; a flow that has not converged by then (an event sequence that makes no progress,
-#: e.g. a slip velocity that stays at its switching threshold) is reported as "exact flow failed", never a hang
-EXACT_TIME_LIMIT = 20.0
+#: work budget (the event-driven flow's deterministic count, flop equivalents, :data:`mshbm.integrators.event.flow.
+#: WORK_STEP`; 0.3-3 ns each on the examples' flows) of the reported orbit's monodromy flows and, separately, of the
+#: exact flow's periodic solve in the stability analysis: some 10-100 s of one core, 40 times and more what the
+#: exact solve needs on the examples up to 150 DOFs (1e7-5e8); a flow that exceeds it (an event sequence that makes
+#: no progress, e.g. a slip velocity that stays at its switching threshold) is reported as "exact flow failed",
+#: never a hang, and at the same point on every machine whatever its load (not a wall-time limit)
+EXACT_WORK_LIMIT = 3e10
 #: most Moreau-Jean steps per period of the step-map estimate (its cost is O(steps n^2))
 STEP_MAP_MAX_STEPS = 16384
 #: the exact periodic orbit must be this close (relative, amplitudes and section state) to the solution
@@ -229,7 +232,7 @@ def _own(system, sol, start=None, flow=None):
         if flow is None:
             flow = ExactFlow(system, sol.omega)
             flow.batch = True  # nothing sampled: runs of event-free sub-steps screened at once
-        flow.deadline = time.perf_counter() + EXACT_TIME_LIMIT
+        flow.work_limit = flow.work + EXACT_WORK_LIMIT
         if start is None:
             t_s, x, scale = _section_state(flow, sol, _section_index)
         else:
@@ -281,8 +284,11 @@ def _newton_step_max_modulus(system, sol, flow, step, Phi0, mult, max_candidates
             lu = sla.lu_factor(Phi0 - (mu + 1e-10 * max(1.0, abs(mu))) * np.eye(2 * n), check_finite=False)
         except (np.linalg.LinAlgError, ValueError):
             return _full_step_max_modulus(system, sol, flow, step)
-        r, lv = sla.lu_solve(lu, b), sla.lu_solve(lu, b, trans=2)
-        r, lv = sla.lu_solve(lu, r / np.linalg.norm(r)), sla.lu_solve(lu, lv / np.linalg.norm(lv), trans=2)
+        # (no finiteness checks: Phi0 is finite; a non-finite vector from an exactly singular factor ends below in
+        # the ill-conditioned case)
+        r, lv = sla.lu_solve(lu, b, check_finite=False), sla.lu_solve(lu, b, trans=2, check_finite=False)
+        r = sla.lu_solve(lu, r / np.linalg.norm(r), check_finite=False)
+        lv = sla.lu_solve(lu, lv / np.linalg.norm(lv), trans=2, check_finite=False)
         r, lv = r / np.linalg.norm(r), lv / np.linalg.norm(lv)
         c = np.vdot(lv, r)
         if not abs(c) >= 1e-8:  # ill-conditioned eigenvalue: no first-order formula
@@ -376,7 +382,7 @@ def _exact(system, sol, seed=None):
     for k, (start, g) in enumerate(starts):
         try:
             ex = exact_periodic(system, sol.omega, guess=g, samples=1024, blas_threads=None,
-                                time_limit=EXACT_TIME_LIMIT)
+                                work_limit=EXACT_WORK_LIMIT)
         except (EventError, ValueError, np.linalg.LinAlgError, InputError) as exc:
             res = {"ok": False, "message": f"{type(exc).__name__}: {exc}"}
         else:

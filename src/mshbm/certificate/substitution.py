@@ -57,8 +57,10 @@ MODEL_SUBSTITUTION_BOUND = 1e-2
 RESTITUTION_TOL = 1e-3
 #: largest system for which the exact orbits are computed (dense matrices, cost ~ n^3)
 MAX_DOFS = 200
-#: wall-time limit (s) of each exact periodic solve
-TIME_LIMIT = 20.0
+#: work budget of each exact periodic solve (the event-driven flow's deterministic count, flop equivalents, about a
+#: nanosecond each: some 10-100 s of one core), not a wall-time limit: the check's outcome does not depend on the
+#: machine's load
+WORK_LIMIT = 3e10
 #: Newton tolerance of the exact periodic solves for an orbit of unit scale (m, m/s); smaller orbits: relative
 EXACT_TOL = 1e-11
 
@@ -196,7 +198,7 @@ def _exact_change(system, sol, subs, info):
     amps = []
     for sysx, name in ((system, "as written"), (substituted, "with the substituted restitution")):
         try:
-            ex = exact_periodic(sysx, sol.omega, guess=sol, samples=1024, blas_threads=None, time_limit=TIME_LIMIT,
+            ex = exact_periodic(sysx, sol.omega, guess=sol, samples=1024, blas_threads=None, work_limit=WORK_LIMIT,
                                 tol=max(tol, 1e-300))
         except (EventError, ValueError, np.linalg.LinAlgError, InputError) as exc:
             return None, f"the exact flow of the system {name} failed: {type(exc).__name__}: {exc}"

@@ -160,7 +160,7 @@ def _start(flow, guess, omega):
 
 def exact_periodic(system, omega, guess=None, samples=4096, tol=1e-11, max_iter=30, harmonics=25,
                    jacobian="saltation", substeps=128, max_events=10000, blas_threads=1, time_limit=None,
-                   accumulation="close"):
+                   accumulation="close", work_limit=None):
     """Exact periodic solution of a linear structure with local elements (any number).
 
     Shooting on the exact event-driven flow (see the module docstring): the
@@ -199,7 +199,12 @@ def exact_periodic(system, omega, guess=None, samples=4096, tol=1e-11, max_iter=
         Events per period before the flow is declared an accumulation.
     time_limit : float, optional
         Seconds of wall time; a simulation still running then ends with an EventError, and the
-        solve fails with that message (``None``, the default: no limit).
+        solve fails with that message (``None``, the default: no limit).  The answer then depends on the
+        machine's load; ``work_limit`` is the reproducible budget.
+    work_limit : float, optional
+        Budget of the event-driven flow's deterministic work count over the whole solve (flop equivalents,
+        :data:`mshbm.integrators.event.flow.WORK_STEP`; about a nanosecond each): the simulation that exceeds it
+        ends with an EventError and the solve fails with that message, on every machine alike (``None``: none).
     accumulation : {"close", "moreau", "error"}
         At an accumulation of impacts: close the contact exactly (default), switch to Moreau-Jean for
         that phase (then ``info["moreau"]`` lists the segments and the monodromy is no longer exact),
@@ -234,7 +239,7 @@ def exact_periodic(system, omega, guess=None, samples=4096, tol=1e-11, max_iter=
     with _blas_threads(blas_threads):
         sol = _exact_periodic(system, omega, guess, samples, tol, max_iter, harmonics, jacobian, substeps,
                               max_events, None if time_limit is None else t_wall + float(time_limit),
-                              accumulation)
+                              accumulation, work_limit)
     sol.wall_time = time.perf_counter() - t_wall
     from ..floquet import set_exact
 
@@ -242,7 +247,7 @@ def exact_periodic(system, omega, guess=None, samples=4096, tol=1e-11, max_iter=
 
 
 def _exact_periodic(system, omega, guess, samples, tol, max_iter, harmonics, jacobian, substeps, max_events,
-                    deadline=None, accumulation="close"):
+                    deadline=None, accumulation="close", work_limit=None):
     t_wall = time.perf_counter()
     if isinstance(omega, bool) or not isinstance(omega, (int, float, np.integer, np.floating)):
         raise InputError("omega", f"must be a number, got {omega!r}")
@@ -254,6 +259,7 @@ def _exact_periodic(system, omega, guess, samples, tol, max_iter, harmonics, jac
         raise InputError("jacobian", f"must be 'saltation' or 'fd', got {jacobian!r}")
     flow = ExactFlow(system, omega, substeps=substeps, max_events=max_events, accumulation=accumulation)
     flow.deadline = deadline
+    flow.work_limit = None if work_limit is None else float(work_limit)
     n, D, T = flow.n, flow.D, flow.T
     omega = flow.omega
     t_s, q_s, u_s = _start(flow, guess, omega)

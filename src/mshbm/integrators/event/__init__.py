@@ -88,8 +88,10 @@ period) for the rest of that contact phase (until no element has an impulse or a
 segments with their reasons; ``FlowRun.monodromy_exact = False`` because the step Jacobians of those
 segments hold no saltation terms).  ``accumulation="close"``: the Zeno closure: the contact is closed
 with ``e = 0`` once the bounces are below that resolution (exact up to the dropped tail, ``< 1e-10`` of the scale);
-``accumulation="error"``: an :class:`EventError`.  More than ``max_events`` events per period, or a
-wall-time ``deadline``, end the run with an :class:`EventError` whose message says why: it never hangs.
+``accumulation="error"``: an :class:`EventError`.  More than ``max_events`` events per period, a budget
+``work_limit`` of the flow's deterministic work count ``work`` (sub-steps, located sub-steps and events weighted by
+their cost, :data:`.flow.WORK_STEP`: the same on every machine) or a wall-time ``deadline`` (load-dependent, for
+callers that want one) end the run with an :class:`EventError` whose message says why: it never hangs.
 
 The matrices are dense: the integrator is meant for small (sub)systems, up to a few hundred DOFs.
 

@@ -42,6 +42,9 @@ class MoreauFallback:
         while a < T_end * (1 - 1e-15) and quiet < RELEASE_STEPS:
             if self.deadline is not None and time.perf_counter() > self.deadline:
                 raise EventError("time limit of the event-driven simulation reached")
+            if self.work_limit is not None and self.work > self.work_limit:
+                raise EventError(f"work budget of the event-driven simulation spent ({self.work:.3g} of "
+                                 f"{self.work_limit:.3g} flop equivalents, in a Moreau-Jean segment at t = {a:.9g})")
             rem = T_end - a
             k = chunk
             h = h0
@@ -51,6 +54,8 @@ class MoreauFallback:
             mj = self._stepper(h)
             tt = a + h * np.arange(k + 1)
             tr = mj.run(q, u, mj.increments(self.forcing_at(tt)))
+            # (work: a step's Python-free kernel ~ its (2n)^2 products, the monodromy's 2n columns when carried)
+            self.work += k * 8.0 * n * n * (1 + (2 * n if Phi is not None else 0))
             if Phi is not None:  # d(q, u) through the segment; the forcing states' influence is neglected
                 J = mj.monodromy(tr.status)
                 Phi = np.vstack([J @ Phi[:2 * n], Phi[2 * n:]])
