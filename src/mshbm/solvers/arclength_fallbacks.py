@@ -1,7 +1,8 @@
 """The fallbacks of the continuation (:mod:`mshbm.solvers.arclength`, its ``_Trace``): step control after a failed
 step, natural-parameter steps where the arclength corrector cannot go on (at points accepted at one time step's
-accuracy, and across gaps of the curve), and the end point at ``lam_end``.  A mixin: the methods use the trace's
-state (``points``, ``ds``, ``natural``, ``gap_from``, ``counters``, ...) and its Newton (``newton_fixed``)."""
+accuracy, across gaps of the curve, and past a false reversal onto the branch already traced), and the end point at
+``lam_end``.  A mixin: the methods use the trace's state (``points``, ``ds``, ``natural``, ``gap_from``, ``counters``,
+...) and its Newton (``newton_fixed``)."""
 from __future__ import annotations
 
 from dataclasses import replace
@@ -24,6 +25,9 @@ RETRACE_RTOL = 5e-3
 
 class Fallbacks:
     """Step control after failures, natural-parameter steps and the end point of :class:`~mshbm.solvers.arclength._Trace`."""
+
+    #: the farthest point from which a retrace (:meth:`retraced`) was last bridged
+    retrace_from = None
 
     def finish_at_end(self, p, q):
         """Solve at ``lam_end`` from the interpolation between points ``p`` and ``q`` that bracket it, else from
@@ -62,7 +66,7 @@ class Fallbacks:
             return False
         q = points[-1]
         f = max(range(len(points)), key=lambda i: points[i].lam * direction)
-        if f >= len(points) - 1 or f == getattr(self, "retrace_from", None) \
+        if f >= len(points) - 1 or f == self.retrace_from \
                 or (points[f].lam - q.lam) * direction <= RETRACE_BACK * lsc:
             return False
         best = np.inf
