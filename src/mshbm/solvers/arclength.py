@@ -595,6 +595,8 @@ class _Trace(Fallbacks):
                 self.success, self.message = True, f"reached lam_end = {lam_end:.6g} in {len(points)} points"
                 break
             self.add(q, self.ds)
+            if self.retraced(w):  # a false fold: the branch already traced, backwards (see Fallbacks.retraced)
+                continue
             if not self.lo <= q.lam <= self.hi:
                 self.message = f"the branch left the parameter range [{self.lo:.6g}, {self.hi:.6g}] at lam = {q.lam:.6g}"
                 break

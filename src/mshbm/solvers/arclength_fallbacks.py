@@ -1,7 +1,8 @@
 """The fallbacks of the continuation (:mod:`mshbm.solvers.arclength`, its ``_Trace``): step control after a failed
 step, natural-parameter steps where the arclength corrector cannot go on (at points accepted at one time step's
-accuracy, and across gaps of the curve), and the end point at ``lam_end``.  A mixin: the methods use the trace's
-state (``points``, ``ds``, ``natural``, ``gap_from``, ``counters``, ...) and its Newton (``newton_fixed``)."""
+accuracy, across gaps of the curve, and past a false reversal onto the branch already traced), and the end point at
+``lam_end``.  A mixin: the methods use the trace's state (``points``, ``ds``, ``natural``, ``gap_from``, ``counters``,
+...) and its Newton (``newton_fixed``)."""
 from __future__ import annotations
 
 from dataclasses import replace
@@ -11,14 +12,22 @@ import numpy as np
 from .arclength_parts import Failed
 from .arclength_steps import EXACT_REACH, exact_root
 
-__all__ = ["Fallbacks", "CYCLE_RTOL"]
+__all__ = ["Fallbacks", "CYCLE_RTOL", "RETRACE_BACK", "RETRACE_RTOL"]
 
 #: points of a cycle (:meth:`Fallbacks.cross_cycle`) lie within this (relative to ``lam_scale``) of one ``lam``
 CYCLE_RTOL = 1e-5
+#: a branch that turned back by more than ``RETRACE_BACK`` (relative to ``lam_scale``) from the farthest point reached
+#: and lies within ``RETRACE_RTOL`` (scaled distance, the arclength's norm) of the part traced before it is retracing
+#: that part (:meth:`Fallbacks.retraced`)
+RETRACE_BACK = 0.01
+RETRACE_RTOL = 5e-3
 
 
 class Fallbacks:
     """Step control after failures, natural-parameter steps and the end point of :class:`~mshbm.solvers.arclength._Trace`."""
+
+    #: the farthest point from which a retrace (:meth:`retraced`) was last bridged
+    retrace_from = None
 
     def finish_at_end(self, p, q):
         """Solve at ``lam_end`` from the interpolation between points ``p`` and ``q`` that bracket it, else from
@@ -39,6 +48,49 @@ class Fallbacks:
         w = np.asarray(self.unknown_scale(x, lam_end), dtype=float)
         pt, _, _ = self.make_point(x, lam_end, it, r, data, q.ds, self.scaled_t(q, w), st)
         return pt
+
+    def retraced(self, w):
+        """Whether the last point ``q`` retraces the branch: it lies more than ``RETRACE_BACK`` (times ``lam_scale``)
+        behind the farthest point reached towards ``lam_end`` (index ``f``) and within ``RETRACE_RTOL`` (scaled,
+        the arclength's norm with the scale ``w``) of the branch traced before ``f``, interpolated in ``lam``.
+        A genuine fold leads onto another sheet, whose points differ from the first sheet's at the same ``lam`` by
+        far more than ``RETRACE_RTOL`` once ``RETRACE_BACK`` behind the fold; on a residual that is a staircase on a fine scale
+        (a time-stepping method's discrete map near a plateau of the response) the tangent's ``lam`` component
+        changes sign on the jitter and the corrector then follows the curve already traced, backwards, out of the
+        range.  Then the points after ``f`` (and the folds and kinks recorded among them) are dropped, and a gap
+        is bridged from ``f`` onwards (:meth:`start_gap`: natural-parameter steps, the pointwise solve where they
+        fail, then arclength steps again; recorded as a gap, counter ``retraces``).  Returns True when it did so
+        (once per farthest point)."""
+        points, direction, lsc = self.points, self.direction, self.lsc
+        if len(points) < 4 or self.natural is not None:
+            return False
+        q = points[-1]
+        f = max(range(len(points)), key=lambda i: points[i].lam * direction)
+        if f >= len(points) - 1 or f == self.retrace_from \
+                or (points[f].lam - q.lam) * direction <= RETRACE_BACK * lsc:
+            return False
+        best = np.inf
+        for a, b in zip(points[:f], points[1:f + 1]):
+            if (a.lam - q.lam) * (b.lam - q.lam) > 0 or a.lam == b.lam:
+                continue  # this segment of the branch before f does not bracket q's lam
+            t = (q.lam - a.lam) / (b.lam - a.lam)
+            best = min(best, float(np.linalg.norm((a.x + t * (b.x - a.x) - q.x) / w)))
+        if best > RETRACE_RTOL:
+            return False
+        self.retrace_from = f
+        self.counters["retraces"] = self.counters.get("retraces", 0) + 1
+        del points[f + 1:]
+        self.folds = [fo for fo in self.folds if fo["index"] <= f]
+        self.kinks = [k for k in self.kinks if k["index"] <= f]
+        p = points[f]
+        if p.dlam * direction < 0:  # onwards: the way the branch went before the false turn
+            points[f] = replace(p, dx=-p.dx, dlam=-p.dlam, orientation=-p.orientation)
+        # a gap from f (start_gap): natural-parameter steps onwards, the pointwise solve where they fail, then
+        # arclength steps again
+        self.natural, self.gap_from = self.ds0 * lsc * 0.5, len(points)
+        self.natural_reason = (f"the arclength steps turned back at lam = {p.lam:.6g} onto the branch already "
+                               f"traced (within {best:.2g} of it, scaled): no fold there")
+        return True
 
     def natural_step(self, p, w):
         """One natural-parameter step from ``p`` (Newton at fixed ``lam``, the step ``natural`` in ``lam``
