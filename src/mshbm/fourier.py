@@ -116,18 +116,19 @@ def from_complex(Z):
 def dft_matrix(N, n_h):
     """Matrix ``E`` with ``fft(x, n_h) = E @ x`` for samples ``x`` of shape (N,).
 
-    Read-only; small matrices are cached (every HBM problem of a sweep uses the same).
+    Read-only; small matrices are cached (every HBM problem of a sweep uses the same), and the last large one
+    (the refinement's re-solves build several problems of one size).
     """
     if N * (2 * n_h + 1) <= _CACHE_MAX:
         return _dft_cached(int(N), int(n_h))
-    return _dft(N, n_h)
+    return _dft_large(int(N), int(n_h))
 
 
 def idft_matrix(N, n_h):
     """Matrix ``V`` with ``ifft(x_hat, N) = V @ x_hat`` (read-only, cached like :func:`dft_matrix`)."""
     if N * (2 * n_h + 1) <= _CACHE_MAX:
         return _idft_cached(int(N), int(n_h))
-    return _idft(N, n_h)
+    return _idft_large(int(N), int(n_h))
 
 
 def idft_derivative_matrix(N, n_h, omega):
@@ -159,15 +160,14 @@ def _swapped_columns(N, n_h):
 def _swapped(N, n_h):
     if N * (2 * n_h + 1) <= _CACHE_MAX:
         return _swapped_cached(int(N), int(n_h))
-    return _swapped_columns(N, n_h)
+    return _swapped_large(int(N), int(n_h))
 
 
 _CACHE_MAX = 1 << 20  # entries (8 MiB) per cached matrix
 
 
 def _dft(N, n_h):
-    t = 2.0 * np.pi * np.arange(N) / N
-    E = basis(t, 1.0, n_h).T * (2.0 / N)
+    E = idft_matrix(N, n_h).T * (2.0 / N)  # V(t_j)^T: the basis on the same grid
     E[0] *= 0.5
     E.flags.writeable = False
     return E
@@ -182,6 +182,10 @@ def _idft(N, n_h):
 _dft_cached = functools.lru_cache(maxsize=32)(_dft)
 _idft_cached = functools.lru_cache(maxsize=32)(_idft)
 _swapped_cached = functools.lru_cache(maxsize=32)(_swapped_columns)
+# above _CACHE_MAX the last matrix of each kind only (the problem built last holds it anyway)
+_dft_large = functools.lru_cache(maxsize=1)(_dft)
+_idft_large = functools.lru_cache(maxsize=1)(_idft)
+_swapped_large = functools.lru_cache(maxsize=1)(_swapped_columns)
 
 
 def real_block(Zk, k):

@@ -66,11 +66,14 @@ def test_solve_with_continuation_ends_with_the_ladder(impact5, reference):
     assert _rel(sol.amplitude, reference.amplitude) < 0.03
 
 
-@pytest.mark.slow
 def test_force_rows_not_relaxed_where_the_step_does_not_resolve_the_structure():
     """The stress suite's start-random5 (23 undamped masses, omega = 0.037 rad/s, fastest mode 36 rad/s,
     omega_max h = 3): the one-step argument does not hold, and the MS-HBM 3.3 solution from the solution at
-    omega / 2 (33 % off full shooting) is not accepted to one step's accuracy (before the guard it was)."""
+    omega / 2 (33 % off full shooting) is not accepted to one step's accuracy (before the guard it was).
+
+    The solution at omega / 2 is Newton's from the linear start alone (``continuation=False``): the default
+    ladder finds no certified solution there either and returns that same attempt, bit for bit (its best
+    residual, 9.69e-3, is the linear start's), after 20 s more of other starts and the event fallback."""
     import scipy.linalg as sla
     from mshbm_workflow.stress_cases import random_system
     from mshbm.route.ladder import residual_accept, Attempt
@@ -80,7 +83,8 @@ def test_force_rows_not_relaxed_where_the_step_does_not_resolve_the_structure():
     prob, _ = mshbm.build_problem(system, omega, "mshbm-intermediate", harmonics=5, steps=2048)
     w_max = float(np.sqrt(sla.eigh(system.dense("K"), system.dense("M"), eigvals_only=True).max()))
     assert w_max * prob.time_step > 1.0
-    half = mshbm.solve(system, omega / 2, "mshbm-intermediate", **OPTS)
+    half = mshbm.solve(system, omega / 2, "mshbm-intermediate", continuation=False, **OPTS)
+    assert not half.success and half.residual > 1e-3  # the stalled start of the scenario
     x0 = prob.initial_guess(half)
     res = solve_problem(prob, x0, max_iter=50)
     assert not res.success  # Newton stalls: only the one-step rule could accept it

@@ -29,6 +29,10 @@ WORK = {"runs": 0, "steps": 0, "dof_steps": 0, "sensitivity_steps": 0}
 
 #: largest subsystem for which the dense step matrices are built (memory ~ 24 n^2 bytes)
 MAX_DENSE_DOFS = 6000
+#: floats kept per stepper by :meth:`MoreauJean.monodromy` (step Jacobians and their powers by active set; 32 MB)
+JACOBIAN_CACHE_FLOATS = 4_000_000
+#: ... and at most this many matrices
+JACOBIAN_CACHE_ENTRIES = 256
 
 
 @dataclass
@@ -305,9 +309,7 @@ class MoreauJean:
         ndarray, shape (2n, 2n)
         """
         n, h = self.n, self.h
-        I = np.eye(n)
-        dUf = np.hstack([-self.Aq, I - self.Au])
-        dU = np.hstack([np.zeros((n, n)), I])
+        I, dUf, dU, dQ0 = self._jacobian_parts()
         pattern = np.asarray(pattern, dtype=np.int64)
         base = pattern & 3
         eq = base >= kernels.STATUS_STICK
@@ -341,11 +343,37 @@ class MoreauJean:
             dP = np.linalg.solve(A, rows)
             dUn += self.WG[:, E] @ dP
         thd = self.theta_dofs[:, None]
-        dQn = np.hstack([I, h * (1 - thd) * I]) + h * thd * dUn
+        dQn = dQ0 + h * thd * dUn
         for j in np.flatnonzero(pattern & kernels.STATUS_PROJECTED):
             w = self.G[:, j] @ self.MinvG[:, j]
             dQn = dQn - np.outer(self.MinvG[:, j], (self.G[:, j] @ dQn) / w)
         return np.vstack([dQn, dUn])
+
+    def _jacobian_parts(self):
+        """The pattern-independent pieces of :meth:`step_jacobian` (formed once): ``I``, ``d u_free / d(q, u)``,
+        ``d u / d(q, u)`` and the ``d q+ / d(q, u)`` part without ``u+``."""
+        parts = self.__dict__.get("_jac_parts")
+        if parts is None:
+            n, h = self.n, self.h
+            I = np.eye(n)
+            thd = self.theta_dofs[:, None]
+            parts = self._jac_parts = (I, np.hstack([-self.Aq, I - self.Au]), np.hstack([np.zeros((n, n)), I]),
+                                       np.hstack([I, h * (1 - thd) * I]))
+        return parts
+
+    def _cached(self, key, make):
+        """``make()`` kept per stepper under ``key`` (step Jacobians and their powers of :meth:`monodromy`, which
+        Newton's iterations ask again for the same active sets), within :data:`JACOBIAN_CACHE_FLOATS`."""
+        cache = self.__dict__.setdefault("_jac_cache", {})
+        value = cache.get(key)
+        if value is None:
+            value = make()
+            size = 4 * self.n * self.n
+            if size * (len(cache) + 1) > JACOBIAN_CACHE_FLOATS or len(cache) >= JACOBIAN_CACHE_ENTRIES:
+                cache.clear()
+            if size <= JACOBIAN_CACHE_FLOATS:
+                cache[key] = value
+        return value
 
     def monodromy(self, status, P=None):
         """Product of the step Jacobians along a trajectory, from its status array (and, with
@@ -372,7 +400,7 @@ class MoreauJean:
         Phi = np.eye(2 * self.n)
         cache = {}
         if self.m == 0:
-            return np.linalg.matrix_power(self.step_jacobian(()), N)
+            return np.linalg.matrix_power(self._cached((), lambda: self.step_jacobian(())), N)
         signs = None
         if self.coupled:
             if P is None:
@@ -388,6 +416,12 @@ class MoreauJean:
         for s, e in zip(starts, ends):
             key = int(codes[s])
             if key not in cache:
-                cache[key] = self.step_jacobian(status[s], None if signs is None else signs[s])
-            Phi = np.linalg.matrix_power(cache[key], int(e - s)) @ Phi
+                # the active set (and slip signs) of the run: its step Jacobian, kept across calls by that pattern
+                pat = (status[s].astype(np.int64).tobytes(), None if signs is None else signs[s].tobytes())
+                jac = self._cached(pat, lambda: self.step_jacobian(status[s], None if signs is None else signs[s]))
+                cache[key] = (pat, jac)
+            pat, jac = cache[key]
+            k = int(e - s)
+            Jk = jac if k == 1 else self._cached((pat, k), lambda: np.linalg.matrix_power(jac, k))
+            Phi = Jk @ Phi
         return Phi
