@@ -9,6 +9,11 @@ import yaml
 
 from mshbm_workflow import wfcore
 
+# Priorities: among the jobs that are ready, Snakemake starts those of higher `priority:` first.  The long jobs
+# (finite-element curves and their models, the damper's and the backbones' curves, the stand-alone benchmarks,
+# the accuracy suite, the long simulations) and the configuration snapshot most of them read have priorities
+# 1-5, so that on a few cores they run next to the many short solves and notebooks instead of after them (the
+# quick run's finite-element curve used to start last and end it alone).
 #: the workflow's libraries (the package mshbm_workflow); rules name the modules they use as inputs
 WF_LIB = "workflow/lib/mshbm_workflow"
 

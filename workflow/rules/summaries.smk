@@ -32,6 +32,7 @@ rule config_snapshot:
         f"{R}/logs/config_snapshot.log",
     benchmark:
         f"{R}/logs/times/config_snapshot.tsv",
+    priority: 5  # long jobs first: a shorter tail on few cores (common.smk, "Priorities")
     threads: 1
     resources:
         mem_mb=200,
@@ -55,6 +56,7 @@ rule exact_reference:
         f"{R}/logs/solves/{{case}}/exact.log",
     benchmark:
         f"{R}/logs/times/solves/{{case}}/exact.tsv",
+    priority: 1  # long jobs first: a shorter tail on few cores (common.smk, "Priorities")
     threads: 1
     resources:
         mem_mb=2000,
