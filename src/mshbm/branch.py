@@ -73,7 +73,10 @@ __all__ = ["Branch", "BranchPoint", "sweep", "continue_forcing", "trace", "unkno
 #: the sweep's largest arclength step next to points that are not smooth (stall, kink, change of the smooth piece;
 #: :func:`mshbm.solvers.arclength.continuation`'s ``ds_rough``); along smooth stretches steps grow to ``ds_max``
 DS_ROUGH = 0.1
-_CONT_KEYS = {"ds", "ds_min", "ds_max", "max_points", "predictor", "max_time", "progress", "stability"}
+_CONT_KEYS = {"ds", "ds_min", "ds_max", "max_points", "predictor", "max_time", "progress", "stability", "grazings"}
+#: how a grazing between two points of a frequency sweep is placed: by solves on both sides to 1e-4 of omega
+#: (``"bisection"``) or by interpolating the test functions of the two points (``"interpolation"``, no solves)
+GRAZINGS = ("bisection", "interpolation")
 #: options that are not the problem's (handled by the start solve / the corrector)
 _SOLVER_KEYS = {"guess", "tol", "max_iter", "line_search", "raise_on_failure", "continuation", "blas_threads"}
 
@@ -165,6 +168,9 @@ def _run(route, system, lam_start, lam_end, method, period, parameter, omega_fix
     ds = _check_number("ds", cont.get("ds", 0.02))
     ds_max = _check_number("ds_max", cont.get("ds_max", 0.5))
     ds_min = _check_number("ds_min", cont.get("ds_min", 1e-5))
+    grazings = cont.get("grazings", "bisection")
+    if grazings not in GRAZINGS:
+        raise InputError("grazings", f"must be one of {', '.join(map(repr, GRAZINGS))}, got {grazings!r}")
     max_time = cont.get("max_time")
     if max_time is not None:
         max_time = _check_number("max_time", max_time)
@@ -251,7 +257,8 @@ def _run(route, system, lam_start, lam_end, method, period, parameter, omega_fix
     # an interrupt after the trace (locating bifurcations, the points' estimates) keeps the traced points
     try:
         others, note = ([], "") if not branch.points else _detect_other(
-            branch, system, grazing_locator(tracer, system, tol) if parameter == "omega" and not interrupted else None)
+            branch, system, grazing_locator(tracer, system, tol)
+            if parameter == "omega" and grazings == "bisection" and not interrupted else None)
     except KeyboardInterrupt as exc:
         interrupted, others, note = exc, [], "interrupted while locating its bifurcations"
     branch.bifurcations = sorted(folds + [dict(b) for b in others], key=lambda b: b.get("index", 0))
@@ -296,7 +303,9 @@ def sweep(system, omega_start, omega_end, method="mshbm", period=1, **options):
         continuation's: ``ds`` (first arclength step, scaled, default 0.02), ``ds_min`` (1e-5),
         ``ds_max`` (0.5 along smooth stretches, 0.1 next to points that are not smooth; growth bounded by a turn of
         the tangent of 0.5 rad per step), ``max_points`` (400), ``predictor`` (``"tangent"`` or ``"secant"``),
-        ``max_time`` (s), ``progress`` (show progress on a terminal; ``"always"``: also elsewhere),
+        ``max_time`` (s), ``progress`` (show progress on a terminal; ``"always"``: also elsewhere), ``grazings``
+        (``"bisection"``: each grazing located by solves on both sides, to 1e-4 of omega; ``"interpolation"``:
+        between its two bracketing points, without solves),
         ``stability`` (as for :func:`mshbm.solve`), ``blas_threads`` (default 1, as for :func:`mshbm.solve`),
         ``accuracy`` and ``estimate_every`` (every point's error estimates and the branch's refinement to a
         requested accuracy, :mod:`mshbm.branch_accuracy`; ``accuracy=False``: none).  HBM with penalty contacts (``d_c = 0``, no friction loaded by a contact) defaults to

@@ -28,6 +28,7 @@ rule accuracy:
         f"{R}/logs/accuracy.log",
     benchmark:
         f"{R}/logs/times/accuracy.tsv",
+    priority: 2  # long jobs first: a shorter tail on few cores (common.smk, "Priorities")
     threads: 1
     resources:
         runtime=40,

@@ -31,6 +31,7 @@ if config.get("backbone"):
             f"{R}/logs/backbone/backbone_{{bmethod}}.log",
         benchmark:
             f"{R}/logs/times/backbone/backbone_{{bmethod}}.tsv",
+        priority: 2  # long jobs first: a shorter tail on few cores (common.smk, "Priorities")
         threads: 1
         resources:
             mem_mb=1000,
@@ -53,6 +54,7 @@ if config.get("backbone"):
             f"{R}/logs/backbone/timing.log",
         benchmark:
             f"{R}/logs/times/backbone/timing.tsv",
+        priority: 2  # long jobs first: a shorter tail on few cores (common.smk, "Priorities")
         threads: 1
         resources:
             mem_mb=1000,
@@ -75,6 +77,7 @@ if config.get("backbone"):
             f"{R}/logs/backbone/impact.log",
         benchmark:
             f"{R}/logs/times/backbone/impact.tsv",
+        priority: 1  # long jobs first: a shorter tail on few cores (common.smk, "Priorities")
         threads: 1
         resources:
             mem_mb=500,

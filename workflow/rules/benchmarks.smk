@@ -35,6 +35,7 @@ if BENCH:
                                            "--profile", "full" if w.bdir == "benchmarks-full" else "default",
                                            "--out", output[0]],
             solver=SOLVER_DIGEST,
+        priority: 1  # long jobs first: a shorter tail on few cores (common.smk, "Priorities")
         threads: 1
         resources:
             mem_mb=2000,
@@ -85,6 +86,7 @@ if BENCH:
         params:
             argv=lambda w, output: ["--profile", bench_profile(w), "--out", output.json] + bench_args(w),
             solver=SOLVER_DIGEST,
+        priority: 2  # long jobs first: a shorter tail on few cores (common.smk, "Priorities")
         threads: 1
         resources:
             mem_mb=6000,

@@ -24,6 +24,7 @@ if BRANCHES:
             argv=lambda w, input, output: ["--config", input.config, "--branch", w.name, "--method", w.bmethod,
                                            "--out", output[0]],
             solver=SOLVER_DIGEST,
+        priority: 1  # long jobs first: a shorter tail on few cores (common.smk, "Priorities")
         threads: 1
         resources:
             mem_mb=2000,

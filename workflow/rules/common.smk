@@ -9,6 +9,17 @@ import yaml
 
 from mshbm_workflow import wfcore
 
+# Benchmarks (`benchmark:`, results/logs/times/): only the rules whose jobs run for more than a few seconds.  Snakemake
+# samples a benchmarked job's process tree every 0.5 s for its first 15 s, in the main Snakemake process, scanning
+# every process of the machine for the job's children each time (a few ms of CPU per sample; in a profile of a
+# short run, a quarter of the main process's CPU).  The short jobs (solves, notebooks, figure summaries, the
+# snapshot) have none; a solve records its own wall and CPU times in its JSON.
+
+# Priorities: among the jobs that are ready, Snakemake starts those of higher `priority:` first.  The long jobs
+# (finite-element curves and their models, the damper's and the backbones' curves, the stand-alone benchmarks,
+# the accuracy suite, the long simulations) and the configuration snapshot most of them read have priorities
+# 1-5, so that on a few cores they run next to the many short solves and notebooks instead of after them (the
+# quick run's finite-element curve used to start last and end it alone).
 #: the workflow's libraries (the package mshbm_workflow); rules name the modules they use as inputs
 WF_LIB = "workflow/lib/mshbm_workflow"
 

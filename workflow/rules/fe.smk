@@ -43,6 +43,7 @@ if config.get("fe_example"):
             f"{R}/logs/fe/fe_model_{{mesh}}.log",
         benchmark:
             f"{R}/logs/times/fe/fe_model_{{mesh}}.tsv",
+        priority: 4  # long jobs first: a shorter tail on few cores (common.smk, "Priorities")
         threads: 1
         resources:
             mem_mb=1000,
@@ -76,6 +77,7 @@ if config.get("fe_example"):
             f"{R}/logs/fe/fe_sweep_{{fmethod}}.log",
         benchmark:
             f"{R}/logs/times/fe/fe_sweep_{{fmethod}}.tsv",
+        priority: 3  # long jobs first: a shorter tail on few cores (common.smk, "Priorities")
         threads: 1
         resources:
             mem_mb=3000,
@@ -108,6 +110,7 @@ if config.get("fe_example"):
             f"{R}/logs/fe/fe_example.log",
         benchmark:
             f"{R}/logs/times/fe/fe_example.tsv",
+        priority: 3  # long jobs first: a shorter tail on few cores (common.smk, "Priorities")
         threads: 1
         resources:
             mem_mb=2000,

@@ -21,6 +21,7 @@ if config.get("intermediate_demo"):
         params:
             argv=lambda w, input, output: ["--config", input.config, "--out", output.json, "--table", output.md],
             solver=SOLVER_DIGEST,
+        priority: 1  # long jobs first: a shorter tail on few cores (common.smk, "Priorities")
         threads: 1
         resources:
             mem_mb=2000,

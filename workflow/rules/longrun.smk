@@ -15,6 +15,7 @@ rule longrun:
         f"{R}/logs/longrun/{{case}}.log",
     benchmark:
         f"{R}/logs/times/longrun/{{case}}.tsv",
+    priority: 1  # long jobs first: a shorter tail on few cores (common.smk, "Priorities")
     threads: 1
     resources:
         mem_mb=1000,
@@ -34,6 +35,7 @@ rule impact_time:
         f"{R}/logs/longrun/impact_time_{{case}}.log",
     benchmark:
         f"{R}/logs/times/longrun/impact_time_{{case}}.tsv",
+    priority: 2  # long jobs first: a shorter tail on few cores (common.smk, "Priorities")
     threads: 1
     resources:
         mem_mb=1000,

@@ -24,8 +24,6 @@ rule notebook:
         pdf=f"{R}/figures/{{name}}.pdf",
     log:
         f"{R}/logs/notebooks/{{name}}.log",
-    benchmark:
-        f"{R}/logs/times/notebooks/{{name}}.tsv",
     wildcard_constraints:
         name="|".join(FIGURES),
     threads: 1

@@ -22,8 +22,6 @@ rule solve:
         solver=SOLVER_DIGEST,
     log:
         f"{R}/logs/solves/{{case}}/{{method}}_nh{{nh}}_N{{steps}}.log",
-    benchmark:
-        f"{R}/logs/times/solves/{{case}}/{{method}}_nh{{nh}}_N{{steps}}.tsv",
     threads: 1
     resources:
         mem_mb=2000,

@@ -13,8 +13,6 @@ rule summary:
         system=lambda w: config["systems"][config["figures"][w.fig]["system"]],
     log:
         f"{R}/logs/summary/{{fig}}.log",
-    benchmark:
-        f"{R}/logs/times/summary/{{fig}}.tsv",
     threads: 1
     resources:
         mem_mb=500,
@@ -30,8 +28,7 @@ rule config_snapshot:
         config={k: v for k, v in config.items() if k != "results_dir"},
     log:
         f"{R}/logs/config_snapshot.log",
-    benchmark:
-        f"{R}/logs/times/config_snapshot.tsv",
+    priority: 5  # long jobs first: a shorter tail on few cores (common.smk, "Priorities")
     threads: 1
     resources:
         mem_mb=200,
@@ -55,6 +52,7 @@ rule exact_reference:
         f"{R}/logs/solves/{{case}}/exact.log",
     benchmark:
         f"{R}/logs/times/solves/{{case}}/exact.tsv",
+    priority: 1  # long jobs first: a shorter tail on few cores (common.smk, "Priorities")
     threads: 1
     resources:
         mem_mb=2000,

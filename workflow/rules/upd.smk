@@ -28,6 +28,7 @@ if config.get("upd"):
             f"{R}/logs/upd/upd_{{umethod}}.log",
         benchmark:
             f"{R}/logs/times/upd/upd_{{umethod}}.tsv",
+        priority: 2  # long jobs first: a shorter tail on few cores (common.smk, "Priorities")
         threads: 1
         resources:
             mem_mb=1000,

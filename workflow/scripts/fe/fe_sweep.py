@@ -103,7 +103,8 @@ def check_against_shooting(s, b, k, dofs, log=print):
 
 
 def run(case_path, out, method, omega_ratio, harmonics=5, steps=None, max_points=60, ds_max=None, stability=False,
-        log=print, integrator=None, accumulation=None, penalty_quadrature=None, check_points=0, estimates=True):
+        log=print, integrator=None, accumulation=None, penalty_quadrature=None, check_points=0, estimates=True,
+        grazings=None):
     if method not in METHODS:
         raise InputError("method", f"{method!r} is not one of {', '.join(METHODS)}")
     r0, r1 = (float(r) for r in omega_ratio)
@@ -117,6 +118,8 @@ def run(case_path, out, method, omega_ratio, harmonics=5, steps=None, max_points
         opts["accuracy"] = False
     if ds_max is not None:
         opts["ds_max"] = float(ds_max)
+    if grazings is not None:  # mshbm.sweep's default: located by bisection
+        opts["grazings"] = str(grazings)
     if method != "shooting":
         opts["harmonics"] = int(harmonics)
     if method in ("mshbm", "shooting") and steps is not None:
@@ -182,11 +185,14 @@ def main(argv=None):
     ap.add_argument("--estimates", choices=("on", "off"), default="on",
                     help="the points' error estimates (mshbm.sweep's default; off: accuracy=False, the discretised "
                          "equations only)")
+    ap.add_argument("--grazings", choices=("bisection", "interpolation"), default=None,
+                    help="grazings of the curve located by solves on both sides (mshbm.sweep's default, bisection) or "
+                         "interpolated between their two points (no solves)")
     a = ap.parse_args(argv)
     st = {"off": False, "auto": "auto", "on": True}[a.stability]
     run(a.case, a.out, a.method, a.omega_ratio, a.harmonics, a.steps, a.max_points, a.ds_max, st,
         integrator=a.integrator, accumulation=a.accumulation, penalty_quadrature=a.penalty_quadrature,
-        check_points=a.check_points, estimates=a.estimates == "on")
+        check_points=a.check_points, estimates=a.estimates == "on", grazings=a.grazings)
     return 0
 
 
