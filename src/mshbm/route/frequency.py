@@ -21,11 +21,10 @@ import time
 import numpy as np
 
 from ..errors import InputError
-from ..methods.exact import exact_periodic
 from ..solvers import newton as newton_
 from .continuation import solve_with_continuation
 from .options import NEWTON_KEYS, only, without
-from .starts import EXACT_MAX_DOFS, exact_section
+from .starts import EXACT_MAX_DOFS, exact_section, metered_exact
 
 __all__ = ["ContinuationStart", "FrequencyStart", "FREQUENCY_RATIOS", "FREQUENCY_EVALUATIONS", "FREQUENCY_FACTOR"]
 
@@ -159,7 +158,7 @@ class FrequencyStart:
         N = int(problem.steps)
         kw = dict(samples=max(N, 64), harmonics=max(ladder.n_h, 1), blas_threads=None)
         try:
-            ex = exact_periodic(system, wa, guess=sol_a, **kw)
+            ex = metered_exact(system, wa, guess=sol_a, **kw)
         except _SOLVE_ERRORS:
             return None
         if not ex.success:
@@ -170,7 +169,7 @@ class FrequencyStart:
                 return None
             nxt = omega if abs(omega - lam) <= abs(step) * 1.0000001 else lam + step
             try:
-                e2 = exact_periodic(system, nxt, guess=ex, **kw)
+                e2 = metered_exact(system, nxt, guess=ex, **kw)
             except _SOLVE_ERRORS:
                 e2 = None
             if e2 is not None and e2.success:

@@ -331,7 +331,7 @@ class Ladder:
         if skipped and won is None:
             budget = (by_caller if by_caller else
                       f"work budget of the start ladder ({self.meter.limit:.0f} Newton residual evaluations, max("
-                      f"{LADDER_EVALUATIONS}, {LADDER_FACTOR:g} x the first attempt's {self.first_cost}))")
+                      f"{LADDER_EVALUATIONS}, {LADDER_FACTOR:g} x the first attempt's {self.first_cost:.0f}))")
             res.message += f"; {budget} spent, starts not tried: {', '.join(skipped)}"
         res.info["starts"] = records
         res.info["start_used"] = None if won is None else won.start

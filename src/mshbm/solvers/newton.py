@@ -47,7 +47,7 @@ def _norm2(v):
 
 
 __all__ = ["solve_problem", "newton", "NewtonResult", "follow_pl_path", "PathResult", "scaled_norm", "Meter",
-           "work_box", "work_spent", "charge"]
+           "work_box", "work_spent", "work_left", "charge"]
 
 
 @dataclass
@@ -272,10 +272,22 @@ def work_box(limit=None, label="work budget"):
 
 def charge(evaluations=1):
     """Charge ``evaluations`` residual evaluations to the meters of the current context (path followers'
-    correctors, which are not :func:`newton` solves)."""
+    correctors, which are not :func:`newton` solves; other work converted to evaluations, e.g. the event-driven
+    flow's, :data:`mshbm.route.starts.EXACT_WORK_PER_EVALUATION`)."""
     m = _METER.get()
     if m is not None:
         m.charge(evaluations)
+
+
+def work_left():
+    """The evaluations left before the first limit of the current context's meters is reached (``None``: no
+    limit)."""
+    m, left = _METER.get(), None
+    while m is not None:
+        if m.limit is not None:
+            left = m.limit - m.used if left is None else min(left, m.limit - m.used)
+        m = m.outer
+    return left
 
 
 def work_spent():
