@@ -373,7 +373,6 @@ def _exact_periodic(system, omega, guess, samples, tol, max_iter, harmonics, jac
             trajectory=ExactTrajectory(flow, out.nodes, t_s))
     if out is not None and out.moreau_segments:
         message = f"{message}; {out.message}"
-    info["work"] = float(flow.work)  # the flow's deterministic work count of the whole solve (flop equivalents)
     n_h = min(int(harmonics), (N - 1) // 2)
     q_hat = fourier.fft(q_time[:N], n_h) if out is not None else np.full((2 * n_h + 1, n), np.nan)
     residual_norm = hist[-1] if hist else np.inf

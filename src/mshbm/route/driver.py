@@ -68,12 +68,14 @@ from .starts import shift_hat
 __all__ = ["Route", "build_problem", "assemble", "EVENT_FALLBACK_EVALUATIONS", "EVENT_FALLBACK_STARTS"]
 
 #: work budget of the event-driven fallback of the start ladder (:func:`_event_fallback`): Newton residual evaluations
-#: of the event-driven problem (each integrates a period; :class:`mshbm.solvers.newton.Meter`, nested solves
-#: included), after which its ladder tries no start and no Newton iteration, the same on every machine; the solve's
-#: ``max_time`` (wall seconds) bounds it too.  It replaces a wall-time box of 10 s.  Calibration
-#: (tests/unit/test_event_fallback.py, test_ladder_fallbacks.py, test_time_budget.py): the certified fallbacks used
-#: at most 5 evaluations; a failing one 376 evaluations in 4.7 s of CPU (12.5 ms each), so 1000 is 10 s and more
-EVENT_FALLBACK_EVALUATIONS = 1000
+#: (:class:`mshbm.solvers.newton.Meter`, nested solves included), the event-driven flow's work counted at
+#: :data:`mshbm.integrators.event.flow.WORK_PER_EVALUATION` an evaluation (about a millisecond of one core each),
+#: after which its ladder tries no start and no Newton iteration, the same on every machine; the solve's
+#: ``max_time`` (wall seconds) bounds it too.  It replaces a wall-time box of 10 s.  Calibration (the fallbacks of
+#: tests/unit/test_event_fallback.py, test_ladder_fallbacks.py, test_step_accuracy_size.py): the certified ones used
+#: at most 6; the failing ones 1381, 9415 (58 DOFs, 2048 steps) and 10320 in 5.7, 37 and 22 s of CPU, 2-4 ms each:
+#: 5000 is some 10-20 s of one core
+EVENT_FALLBACK_EVALUATIONS = 5000
 #: the starts of that fallback's ladder (:mod:`mshbm.route.ladder`), in this order: the failed Moreau-Jean
 #: solution first (its orbit is within one time step of the exact one when only the discrete map lacks a periodic
 #: point), the exact orbit and the simulated transient next, then the cheap default starts and the

@@ -53,6 +53,7 @@ import scipy.sparse.linalg as spla
 
 from .. import condensation, fourier
 from ..errors import InputError
+from ..integrators.event.flow import WORK_PER_EVALUATION
 from ..integrators.moreau_jean import MAX_DENSE_DOFS, MoreauJean
 from ..methods.common import linear_response
 from ..methods.exact import exact_periodic
@@ -62,8 +63,7 @@ from ..solvers.newton import solve_problem
 from .acceptance import displacement_scale
 
 __all__ = ["shifted_system", "shift_hat", "clamped_response", "hat_guess", "event_steps", "section_shift",
-           "section_problem", "exact_section", "metered_exact", "EXACT_MAX_DOFS", "EXACT_WORK",
-           "EXACT_WORK_PER_EVALUATION"]
+           "section_problem", "exact_section", "metered_exact", "EXACT_MAX_DOFS", "EXACT_WORK"]
 
 #: largest system for which the ``"exact"`` start runs the event-driven solver
 EXACT_MAX_DOFS = 100
@@ -73,24 +73,16 @@ EXACT_MAX_DOFS = 100
 #: tests/unit/test_ladder_fallbacks.py, test_event_fallback.py, test_time_budget.py): the converged ones used at most
 #: 1.1e8; 1e10 took 3.1-5.8 s of CPU on the failing ones
 EXACT_WORK = 1e10
-#: the event-driven flow's work (flop equivalents) charged to the solve route's work meters as one Newton residual
-#: evaluation (:func:`mshbm.solvers.newton.charge`): the ``"exact"`` start spends the ladder's budget (and that of an
-#: enclosing ``"frequency"`` start or event-driven fallback) as its Newton solves do, and gets at most what is left.
-#: Measured on the unit tests' ladders: 1e10 flop equivalents took 3.1-3.6 s of CPU, a Moreau-Jean or harmonic
-#: problem's residual evaluation 0.3-1 ms (wall, loaded machine), an event-driven problem's about 12 ms
-EXACT_WORK_PER_EVALUATION = 3e6
 
 
 def metered_exact(system, omega, **kwargs):
     """:func:`mshbm.methods.exact.exact_periodic` within the work budgets of the solve route: a flow work budget of
     :data:`EXACT_WORK`, or less when the meters of the context have fewer evaluations left (at
-    :data:`EXACT_WORK_PER_EVALUATION`); the flow's work is charged to them.  Deterministic: the same on every
-    machine."""
+    :data:`mshbm.integrators.event.flow.WORK_PER_EVALUATION`; the flow charges its work to them).  Deterministic:
+    the same on every machine."""
     left = newton_.work_left()
-    limit = EXACT_WORK if left is None else min(EXACT_WORK, max(left, 0.0) * EXACT_WORK_PER_EVALUATION)
-    ex = exact_periodic(system, omega, work_limit=limit, **kwargs)
-    newton_.charge(float(ex.info.get("work", 0.0)) / EXACT_WORK_PER_EVALUATION)
-    return ex
+    limit = EXACT_WORK if left is None else min(EXACT_WORK, max(left, 0.0) * WORK_PER_EVALUATION)
+    return exact_periodic(system, omega, work_limit=limit, **kwargs)
 
 
 # ---------------------------------------------------------------------------------------------- geometry

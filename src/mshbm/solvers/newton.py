@@ -273,7 +273,7 @@ def work_box(limit=None, label="work budget"):
 def charge(evaluations=1):
     """Charge ``evaluations`` residual evaluations to the meters of the current context (path followers'
     correctors, which are not :func:`newton` solves; other work converted to evaluations, e.g. the event-driven
-    flow's, :data:`mshbm.route.starts.EXACT_WORK_PER_EVALUATION`)."""
+    flow's, :data:`mshbm.integrators.event.flow.WORK_PER_EVALUATION`)."""
     m = _METER.get()
     if m is not None:
         m.charge(evaluations)
