@@ -124,5 +124,15 @@ def test_frequency_start_budget_counts_its_branch_correctors():
         for _ in range(3):
             ev(np.zeros(2), 1.0, jac=False)
         assert meter.used == 3 and newton_.work_spent() == "work budget"
-    with pytest.raises(TypeError):
-        newton_.work_box(3, "x", 1)  # (limit, label) only
+
+
+def test_event_flow_charges_its_work_to_the_meter():
+    from mshbm.integrators.event import flow as event_flow
+    from mshbm.methods.exact import ExactFlow
+
+    system = chain([1.0, 1.0], 1.0, 0.1, forcing=[{"dof": 1, "amplitude": 1.0}], name="linear")
+    flow = ExactFlow(system, 0.7)
+    with newton_.work_box() as meter:
+        flow.simulate(0.0, np.concatenate([np.zeros(4), flow.osc(0.0)]), jac=True)
+    assert flow.work > 0
+    assert meter.used == pytest.approx(flow.work / event_flow.WORK_PER_EVALUATION, rel=1e-15)
