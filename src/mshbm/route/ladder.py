@@ -67,7 +67,7 @@ DEFAULT_STARTS = ("guess", "linear", "regularisation", "shifted", "clamped", "ze
 #: attempt's wall time)``, with the same factor.  Calibration (tests/unit/test_ladder_fallbacks.py,
 #: test_event_fallback.py, test_time_budget.py, the sweeps of tests/integration/test_sweep_accuracy.py): a first
 #: attempt's evaluation took 0.07-70 ms of wall time (median 1.5 ms, loaded machine), so the floor is some 20 s of
-#: evaluations at the median (30 s at 1 ms); the largest whole ladder measured used 13848 evaluations, none reached
+#: evaluations at the median (30 s at 1 ms); the largest whole ladder measured used 17848 evaluations, none reached
 #: the floor
 LADDER_EVALUATIONS = 30000
 LADDER_FACTOR = 30.0
