@@ -51,7 +51,8 @@ def solve(system, omega, method="mshbm", **options):
         element, default from the condensed dynamic stiffness, :mod:`mshbm.methods.dlft`), ``dlft_predictor``
         (DLFT friction: ``"velocity"``, the default, or ``"displacement"``), ``progress`` (print Newton progress to a
         terminal), ``max_time`` (s: wall-time budget of the solve; no Newton iteration or start begins after
-        it, the solve then fails with "time budget spent"; default ``None``), ``raise_on_failure`` (raise ConvergenceError instead of
+        it, the solve then fails with "time budget spent"; default ``None``; the one budget that depends on the
+        machine's load: the solve's internal budgets are counts of work, the same on every machine), ``raise_on_failure`` (raise ConvergenceError instead of
         returning ``success=False``), ``blas_threads`` (BLAS threads during
         the solve, default 1: the dense matrices are small, and one thread keeps
         results bit-identical across machines and parallel jobs from

@@ -60,6 +60,7 @@ from .options import METHODS
 from .route.driver import Route
 from .route.options import capabilities, only, without
 from .solvers.arclength import PREDICTED, continuation
+from .solvers.newton import work_box
 from .branch_grazing import grazing_locator
 from .branch_accuracy import certify_points, check_options, skipped, to_accuracy
 from .branch_result import Branch, BranchPoint
@@ -140,6 +141,12 @@ def _detect_other(branch, system, locate=None):
 
 
 def _run(route, system, lam_start, lam_end, method, period, parameter, omega_fixed, options, family=None):
+    with work_box() as meter:  # the trace's Newton residual evaluations: the unit of the estimates' stride
+        return _traced(meter, route, system, lam_start, lam_end, method, period, parameter, omega_fixed, options,
+                       family)
+
+
+def _traced(meter, route, system, lam_start, lam_end, method, period, parameter, omega_fixed, options, family):
     t0 = time.perf_counter()
     if not isinstance(system, System):
         raise InputError("system", f"must be an mshbm.System, got {type(system).__name__}")
@@ -266,9 +273,10 @@ def _run(route, system, lam_start, lam_end, method, period, parameter, omega_fix
     branch.message = res.message + (f"; {note}" if note else "")
     if interrupted is None and accuracy is not False:
         est_opts = dict(prob_k, **only(rest, "tol", "max_iter", "line_search"))
-        branch.wall_time = time.perf_counter() - t0  # (the trace's time sets the stride of the estimates)
-        try:
-            certify_points(branch, route, tracer, method, est_opts, accuracy, every, [p.lam for p in res.points])
+        branch.wall_time = time.perf_counter() - t0
+        try:  # (the trace's evaluations set the stride of the estimates)
+            certify_points(branch, route, tracer, method, est_opts, accuracy, every, [p.lam for p in res.points],
+                           trace_cost=meter.used)
         except KeyboardInterrupt as exc:
             interrupted = exc
             branch.message += "; interrupted while estimating the points' accuracy"

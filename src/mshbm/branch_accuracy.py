@@ -73,6 +73,7 @@ from .options import check_accuracy
 from .methods.hbm_regularisation import REGULARISATION_BOUND, regularisation_check, regularised
 from .route.refine import _Estimator
 from .route.refine import MAX_HARMONICS, MAX_STEPS
+from .solvers.newton import work_box
 
 __all__ = ["EVERY", "MAX_LEVELS", "check_options", "certify_points", "refined_options", "add_reduction",
            "skipped"]
@@ -150,14 +151,18 @@ def _verdict(values, cert, acc):
     return total + other <= acc
 
 
-def _stride(branch, first_cost, every):
+def _stride(branch, first_cost, every, trace_cost):
     """The stride of the estimated points: ``every`` when given, else :data:`EVERY` widened so that the
-    estimates cost about :data:`BUDGET` times the trace (``first_cost``: the wall time of the first point's
-    estimates, against the trace's mean time per point), at most ``P // 6`` (at least 6 estimated points)."""
+    estimates cost about :data:`BUDGET` times the trace (``first_cost``: the first point's estimates, against the
+    trace's mean per point, ``trace_cost / P``), at most ``P // 6`` (at least 6 estimated points).  Both costs are
+    counts of Newton residual evaluations (:class:`mshbm.solvers.newton.Meter`), not wall times: the stride is the
+    same on every machine, whatever its load.  (An evaluation of the estimates' finer re-solves costs 0.04-10 times
+    one of the trace in wall time on the tests' sweeps, whose traces' wall times include the points' certificates
+    and stability: unweighted; the stride was 4, :data:`EVERY`, by both rules on all of them.)"""
     if every is not None:
         return int(every)
     P = len(branch.points)
-    per_point = float(branch.wall_time) / max(P, 1)
+    per_point = float(trace_cost) / max(P, 1)
     need = math.ceil(first_cost / (BUDGET * per_point)) if per_point > 0 else EVERY
     return int(max(EVERY, min(need, P // 6)))
 
@@ -178,10 +183,11 @@ def _anchors(branch, every):
     return sorted(i for i in idx if 0 <= i < P)
 
 
-def certify_points(branch, route, tracer, method, options, accuracy, every, lams):
+def certify_points(branch, route, tracer, method, options, accuracy, every, lams, trace_cost=0):
     """The estimates and the check ``accuracy`` of every point of ``branch`` (module docstring), its element
     outputs, and the branch's ``accuracy`` summary; ``lams`` the continuation parameter of each point (the
-    tracer's), ``options`` the problem's options, ``accuracy`` the request (``None``: the default gates)."""
+    tracer's), ``options`` the problem's options, ``accuracy`` the request (``None``: the default gates),
+    ``trace_cost`` the trace's Newton residual evaluations (for the stride, :func:`_stride`)."""
     requested = accuracy is not None
     acc = float(accuracy) if requested else DEFAULT_ACCURACY
     P = len(branch.points)
@@ -189,9 +195,9 @@ def certify_points(branch, route, tracer, method, options, accuracy, every, lams
     t0, c0 = time.perf_counter(), time.process_time()
     found = {}
     if P:
-        t1 = time.perf_counter()
-        found[0] = ctx.estimate(branch.points[0], lams[0])
-        every = _stride(branch, time.perf_counter() - t1, every)
+        with work_box() as meter:
+            found[0] = ctx.estimate(branch.points[0], lams[0])
+        every = _stride(branch, meter.used, every, trace_cost)
     todo = [i for i in _anchors(branch, every) if i not in found] if P else []
     while todo:
         for i in todo:

@@ -2,7 +2,7 @@
 certifies the :class:`mshbm.PeriodicSolution`.
 
 A :class:`Route` carries what a solve inherits from the solve that made it: the deadline (the
-``max_time`` budgets and time boxes of the enclosing solves), whether it runs inside a start ladder
+``max_time`` budgets of the enclosing solves, wall time), whether it runs inside a start ladder
 (nested solves are then Newton from their one start: :meth:`Route.single`) or inside the ``"frequency"``
 start (full ladders without that start and without the event-driven fallback: :meth:`Route.anchor`), and
 the sweep component that traces branches (:attr:`Route.sweep`, :mod:`mshbm.branch`).  Nested solves go
@@ -25,7 +25,7 @@ The chain (each step runs only when the previous ones failed and ``continuation`
    that ``supports_event_integrator`` with Moreau-Jean steps (by the default rule: ``integrator`` not given)
    found no certified solution of a system with contact (impact) elements, the same solve with the exact
    event-driven integrator (``integrator="event"``), where that integrator applies to the system,
-   time-boxed by :data:`EVENT_FALLBACK_SECONDS` and the solve's ``max_time``.  Near a grazing or
+   bounded by the work budget :data:`EVENT_FALLBACK_EVALUATIONS` and the solve's ``max_time``.  Near a grazing or
    near-grazing impact the Moreau-Jean map moves the impact by whole steps and may have no periodic point
    at all (its residual stalls above the one-step bound from every start), while the exact flow has the
    orbit.  A solution found so says so: ``info["integrator"] == "event"``, ``info["event_fallback"]`` and
@@ -65,15 +65,21 @@ from . import refine as _refine
 from .options import capabilities, only, without
 from .starts import shift_hat
 
-__all__ = ["Route", "build_problem", "assemble", "EVENT_FALLBACK_SECONDS", "EVENT_FALLBACK_STARTS"]
+__all__ = ["Route", "build_problem", "assemble", "EVENT_FALLBACK_EVALUATIONS", "EVENT_FALLBACK_STARTS"]
 
-#: time box (s) of the event-driven fallback of the start ladder (:func:`_event_fallback`), within the solve's
-#: ``max_time``: the ladder on the event-driven problem tries no start and no Newton iteration after it
-EVENT_FALLBACK_SECONDS = 10.0
+#: work budget of the event-driven fallback of the start ladder (:func:`_event_fallback`): Newton residual evaluations
+#: (:class:`mshbm.solvers.newton.Meter`, nested solves included), the event-driven flow's work counted at
+#: :data:`mshbm.integrators.event.flow.WORK_PER_EVALUATION` an evaluation (about a millisecond of one core each),
+#: after which its ladder tries no start and no Newton iteration, the same on every machine; the solve's
+#: ``max_time`` (wall seconds) bounds it too.  It replaces a wall-time box of 10 s.  Calibration (the fallbacks of
+#: tests/unit/test_event_fallback.py, test_ladder_fallbacks.py, test_step_accuracy_size.py): the certified ones used
+#: at most 6; the failing ones 1381, 7429 (58 DOFs, 2048 steps) and 10320 in 5.7, 27 and 22 s of CPU, 2-4 ms each
+#: (a start may overrun the budget by the Newton iterations it began before): 3000 is some 6-12 s of one core
+EVENT_FALLBACK_EVALUATIONS = 3000
 #: the starts of that fallback's ladder (:mod:`mshbm.route.ladder`), in this order: the failed Moreau-Jean
 #: solution first (its orbit is within one time step of the exact one when only the discrete map lacks a periodic
 #: point), the exact orbit and the simulated transient next, then the cheap default starts and the
-#: continuations, as far as the time box reaches
+#: continuations, as far as the work budget reaches
 EVENT_FALLBACK_STARTS = ("guess", "exact", "transient", "linear", "clamped", "zero", "forcing", "frequency")
 
 
@@ -106,7 +112,9 @@ class Route:
     ----------
     deadline : float or None
         ``time.perf_counter()`` after which no start of a ladder, Newton iteration or event-driven
-        simulation begins (the earliest of the enclosing solves' ``max_time`` and time boxes); ``None``: none.
+        simulation begins (the earliest of the enclosing solves' ``max_time``); ``None``: none.  The only
+        wall-clock budget of the route, the one result that depends on the machine's load: the internal budgets
+        are counts of work (:func:`mshbm.solvers.newton.work_box`, the event-driven flow's ``work_limit``).
     single_start : bool
         Inside a start ladder: a solve is Newton from its one start (the guess), no ladder of its own.
     in_frequency : bool
@@ -145,7 +153,7 @@ class Route:
 
     def anchor(self, deadline=None):
         """The route of the ``"frequency"`` start's solves: full ladders without that start, within
-        ``deadline`` when given (the start's own time box, which lies within this route's)."""
+        ``deadline`` when given (an earlier deadline than this route's)."""
         return replace(self, single_start=False, in_frequency=True, estimate=False,
                        deadline=self.deadline if deadline is None else deadline)
 
@@ -375,7 +383,7 @@ class Route:
         iterations asked for), and the failure is not the certificate's ``undamped_resonance`` (a linear
         structure at resonance has no periodic solution with any integrator).  It runs the ladder
         :data:`EVENT_FALLBACK_STARTS` on the event-driven
-        problem (the failed Moreau-Jean solution first), within :data:`EVENT_FALLBACK_SECONDS`.
+        problem (the failed Moreau-Jean solution first), within :data:`EVENT_FALLBACK_EVALUATIONS`.
 
         Parameters
         ----------
@@ -408,29 +416,29 @@ class Route:
             return _declined(failed, {"applied": False, "reason": "undamped resonance of the linear structure"})
         now = time.perf_counter()
         outer = [d for d in (newton_.deadline(), self.deadline) if d is not None]
-        box = now + EVENT_FALLBACK_SECONDS
-        if outer:
-            if min(outer) - now <= 0.0:
-                return _declined(failed, {"applied": False, "reason": "time budget spent"},
-                                 "was not tried (time budget spent)")
-            box = min(box, min(outer))
+        if outer and min(outer) - now <= 0.0:
+            return _declined(failed, {"applied": False, "reason": "time budget spent"},
+                             "was not tried (time budget spent)")
+        spent = newton_.work_spent()
+        if spent is not None:
+            return _declined(failed, {"applied": False, "reason": f"{spent} spent"}, f"was not tried ({spent} spent)")
         opts = without(options, "guess", "raise_on_failure", "integrator")
         opts["integrator"] = "event"
         guess = failed if np.all(np.isfinite(failed.x)) and np.all(np.isfinite(failed.q_hat)) else None
         record = {"applied": True, "moreau_message": failed.message, "moreau_residual": float(failed.residual),
-                  "moreau_starts": failed.info.get("starts"), "time_box_s": box - now}
+                  "moreau_starts": failed.info.get("starts"), "work_budget": EVENT_FALLBACK_EVALUATIONS}
         try:
-            with newton_.time_box(box):
-                ev = self.tightened(box)._solve(system, omega, method, dict(opts, guess=guess),
-                                                ladder_starts=EVENT_FALLBACK_STARTS)
+            with newton_.work_box(EVENT_FALLBACK_EVALUATIONS, "work budget of the event-driven fallback") as meter:
+                ev = self._solve(system, omega, method, dict(opts, guess=guess), ladder_starts=EVENT_FALLBACK_STARTS)
         except InputError as exc:  # the event-driven flow does not apply to this system
             return _declined(failed, {"applied": False, "reason": str(exc)}, f"does not apply here ({exc})")
         except (FloatingPointError, np.linalg.LinAlgError, ValueError, OverflowError) as exc:
             return _declined(failed, dict(record, success=False, message=f"{type(exc).__name__}: {exc}"),
                              f"(integrator='event') failed too: {type(exc).__name__}: {exc}")
-        record.update(success=bool(ev.success), message=ev.message, wall_time_s=float(ev.wall_time))
+        record.update(success=bool(ev.success), message=ev.message, wall_time_s=float(ev.wall_time),
+                      evaluations=int(meter.used))
         if not ev.success:
-            spent = " (its time box spent)" if time.perf_counter() > box else ""
+            spent = " (its work budget spent)" if meter.spent() is not None else ""
             return _declined(failed, record, f"(integrator='event') failed too{spent}: {ev.message}")
         summary = ev.info.get("event_integrator") or {}
         mixed = summary.get("switched_to_moreau")

@@ -21,23 +21,39 @@ import time
 import numpy as np
 
 from ..errors import InputError
-from ..methods.exact import exact_periodic
+from ..solvers import newton as newton_
 from .continuation import solve_with_continuation
 from .options import NEWTON_KEYS, only, without
-from .starts import EXACT_MAX_DOFS, exact_section
+from .starts import EXACT_MAX_DOFS, exact_section, metered_exact
 
-__all__ = ["ContinuationStart", "FrequencyStart", "FREQUENCY_RATIOS", "FREQUENCY_SECONDS", "FREQUENCY_FACTOR"]
+__all__ = ["ContinuationStart", "FrequencyStart", "FREQUENCY_RATIOS", "FREQUENCY_EVALUATIONS", "FREQUENCY_FACTOR"]
 
 #: anchor frequencies ``omega * r`` of the ``"frequency"`` start, in the order tried
 FREQUENCY_RATIOS = (0.85, 1.18, 0.7, 1.4)
 
-#: time box of the ``"frequency"`` start (within the ladder's budget): ``max(FREQUENCY_SECONDS,
-#: FREQUENCY_FACTOR x the first attempt's wall time)``
-FREQUENCY_SECONDS = 5.0
+#: work budget of the ``"frequency"`` start (within the ladder's): ``max(FREQUENCY_EVALUATIONS, FREQUENCY_FACTOR x
+#: the first attempt's evaluations)`` Newton residual evaluations (:class:`mshbm.solvers.newton.Meter`: the anchors'
+#: solves and the branches' correctors included), the same on every machine; it replaces a wall-time box
+#: ``max(5 s, 10 x the first attempt's wall time)`` with the same factor.  Calibration (the frequency starts of
+#: tests/unit/test_event_fallback.py, test_ladder_fallbacks.py, test_time_budget.py): their evaluations took
+#: 0.3-3 ms of CPU each, so the floor is 5 s and more from about 0.5 ms an evaluation on; none of those starts
+#: succeeded, and one given no budget at all (a one-mass impact at omega = 1.5, 118 branch points) ended as rejected
+FREQUENCY_EVALUATIONS = 10000
 FREQUENCY_FACTOR = 10.0
 
 #: exceptions of a nested solve that end one anchor's try, not the start
 _SOLVE_ERRORS = (InputError, FloatingPointError, np.linalg.LinAlgError, ValueError)
+
+
+def _over(ladder, why):
+    """The start's (or an enclosing) work budget is spent or the caller's deadline has passed (appended to
+    ``why``)."""
+    spent = newton_.work_spent()
+    if spent is None and ladder.deadline is not None and time.perf_counter() > ladder.deadline:
+        spent = "time budget (max_time)"
+    if spent is not None:
+        why.append(f"{spent} spent")
+    return spent is not None
 
 
 def _nested_options(ladder):
@@ -88,24 +104,18 @@ class FrequencyStart:
             # the branch of this problem's equations (the sweep's own defaults may differ)
             opts.setdefault(key, value)
         why = []
-        box = t0 + max(FREQUENCY_SECONDS, FREQUENCY_FACTOR * (ladder.attempts[0].wall_time if ladder.attempts
-                                                              else 0.0))
-        outer = ladder.deadline
-        ladder.deadline = box if outer is None else min(box, outer)
-        try:
+        limit = max(FREQUENCY_EVALUATIONS, FREQUENCY_FACTOR * (ladder.first_cost or 0))
+        with newton_.work_box(limit, "work budget of the 'frequency' start"):
             return self._anchors(ladder, opts, why, t0)
-        finally:
-            ladder.deadline = outer
 
     def _anchors(self, ladder, opts, why, t0):
         system, omega, method = ladder.system, ladder.omega, ladder.method
         for r in FREQUENCY_RATIOS:
-            if ladder.deadline is not None and time.perf_counter() > ladder.deadline:
-                why.append("time budget spent")
+            if _over(ladder, why):
                 break
             wa = omega * r
             try:
-                sol_a = ladder.route.anchor(ladder.deadline).solve(system, wa, method, stability=False, **opts)
+                sol_a = ladder.route.anchor().solve(system, wa, method, stability=False, **opts)
             except _SOLVE_ERRORS as exc:
                 why.append(f"omega_a = {wa:.4g}: {type(exc).__name__}: {exc}"[:160])
                 continue
@@ -118,6 +128,7 @@ class FrequencyStart:
             if ladder.route.sweep is None:
                 why.append("no continuation driver in the solve route")
                 continue
+            # the branch's correctors are metered (the start's work budget); the caller's max_time stays wall time
             left = None if ladder.deadline is None else max(1.0, ladder.deadline - time.perf_counter())
             try:
                 br = ladder.route.anchor().trace(system, wa, omega, method, guess=sol_a, stability=False, max_time=left,
@@ -149,18 +160,18 @@ class FrequencyStart:
         N = int(problem.steps)
         kw = dict(samples=max(N, 64), harmonics=max(ladder.n_h, 1), blas_threads=None)
         try:
-            ex = exact_periodic(system, wa, guess=sol_a, **kw)
+            ex = metered_exact(system, wa, guess=sol_a, **kw)
         except _SOLVE_ERRORS:
             return None
         if not ex.success:
             return None
         lam, step, dist = wa, (omega - wa) / 4.0, omega - wa
         while lam != omega:
-            if ladder.deadline is not None and time.perf_counter() > ladder.deadline:
+            if _over(ladder, []):
                 return None
             nxt = omega if abs(omega - lam) <= abs(step) * 1.0000001 else lam + step
             try:
-                e2 = exact_periodic(system, nxt, guess=ex, **kw)
+                e2 = metered_exact(system, nxt, guess=ex, **kw)
             except _SOLVE_ERRORS:
                 e2 = None
             if e2 is not None and e2.success:

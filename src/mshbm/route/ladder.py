@@ -23,9 +23,11 @@ discretisation; the starts only differ in where Newton begins.  The first accept
 If none is accepted, the attempt with the smallest residual ``||R||_inf`` is returned with
 ``success=False`` and a message listing the starts tried.
 
-The ladder owns its time budget: no further start is tried once it has run for
-``max(LADDER_SECONDS, LADDER_FACTOR x the first attempt's wall time)``, nor after the deadline of the
-route that runs it (:class:`mshbm.route.driver.Route`, the solve's ``max_time``).
+The ladder owns its work budget, a count of Newton residual evaluations (:class:`mshbm.solvers.newton.Meter`, nested
+solves included), not wall time: no further start is tried, and no Newton iteration of a start begins, once the
+ladder has used ``max(LADDER_EVALUATIONS, LADDER_FACTOR x the first attempt's evaluations)``; the point where it
+stops is the same on every machine, whatever its load.  Only the deadline of the route that runs it
+(:class:`mshbm.route.driver.Route`, the caller's ``max_time`` in wall seconds) depends on the load.
 
 :meth:`Ladder.run` returns a :class:`mshbm.solvers.newton.NewtonResult`;
 ``result.info["starts"]`` holds one record per attempt (start, accepted, residual, iterations, wall
@@ -48,7 +50,7 @@ from .starts import (ClampedStart, ExactStart, GuessStart, LinearStart, Regulari
                      ShiftedStart, TransientStart, ZeroStart, hat_guess)
 
 __all__ = ["Attempt", "Ladder", "residual_accept", "solve_from_starts", "STARTS", "DEFAULT_STARTS",
-           "LADDER_SECONDS", "LADDER_FACTOR"]
+           "LADDER_EVALUATIONS", "LADDER_FACTOR"]
 
 #: the registered starts, by name
 STARTS = {s.name: s for s in (GuessStart(), LinearStart(), RegularisationStart(), ShiftedStart(), ClampedStart(),
@@ -59,9 +61,15 @@ STARTS = {s.name: s for s in (GuessStart(), LinearStart(), RegularisationStart()
 DEFAULT_STARTS = ("guess", "linear", "regularisation", "shifted", "clamped", "zero", "exact", "transient",
                   "forcing", "friction", "section", "frequency")
 
-#: time budget of the start ladder: no further start is tried once the ladder has run for
-#: ``max(LADDER_SECONDS, LADDER_FACTOR x the first attempt's wall time)``; the failure names the skipped starts
-LADDER_SECONDS = 30.0
+#: work budget of the start ladder (Newton residual evaluations, :class:`mshbm.solvers.newton.Meter`): no further
+#: start is tried once the ladder has used ``max(LADDER_EVALUATIONS, LADDER_FACTOR x the first attempt's
+#: evaluations)``; the failure names the skipped starts.  It replaces a wall-time box ``max(30 s, 30 x the first
+#: attempt's wall time)``, with the same factor.  Calibration (tests/unit/test_ladder_fallbacks.py,
+#: test_event_fallback.py, test_time_budget.py, the sweeps of tests/integration/test_sweep_accuracy.py): a first
+#: attempt's evaluation took 0.07-70 ms of wall time (median 1.5 ms, loaded machine), so the floor is some 20 s of
+#: evaluations at the median (30 s at 1 ms); the largest whole ladder measured used 17848 evaluations, none reached
+#: the floor
+LADDER_EVALUATIONS = 30000
 LADDER_FACTOR = 30.0
 
 
@@ -154,7 +162,7 @@ class Ladder:
     accept : callable
         ``accept(attempt: Attempt) -> bool``; the first attempt it accepts is returned.
     route : mshbm.route.driver.Route
-        The route of the solve that runs the ladder: its deadline bounds the ladder, its nested solves
+        The route of the solve that runs the ladder: its deadline (``max_time``) bounds the ladder, its nested solves
         (continuations, anchors, branches) go through it.
     options : dict
         The method's options as given to :func:`mshbm.solve` (``harmonics``, ``steps``, ``theta``,
@@ -167,13 +175,12 @@ class Ladder:
     transient_periods : sequence of int
         Checkpoints (periods simulated so far) of the ``"transient"`` start.
     transient_budget : float
-        Largest ``n^2 x steps x periods`` the ``"transient"`` start simulates (skipped above).
-    transient_seconds : float
-        Wall-time box of the simulation of the ``"transient"`` start.
+        Largest ``n^2 x steps x periods`` the ``"transient"`` start simulates (skipped above): a deterministic
+        bound of its cost.
     """
 
     def __init__(self, problem, method, system, omega, newton_options, accept, *, route, options=None, guess=None,
-                 fallback=True, transient_periods=(10, 40, 160), transient_budget=2e9, transient_seconds=20.0):
+                 fallback=True, transient_periods=(10, 40, 160), transient_budget=2e9):
         self.problem, self.method, self.system, self.omega = problem, method, system, float(omega)
         self.route = route
         self.nkw = dict(newton_options)
@@ -183,10 +190,14 @@ class Ladder:
         self.fallback = fallback
         self.transient_periods = tuple(sorted(int(p) for p in transient_periods))
         self.transient_budget = float(transient_budget)
-        self.transient_seconds = float(transient_seconds)
         self.attempts = []
         self.n_h = int(problem.n_h)
-        self.deadline = None  # wall-clock end of the ladder's time budget (set once the first attempt is made)
+        self.deadline = route.deadline  # the caller's wall-clock deadline (max_time; None: none)
+        #: the ladder's work meter (:class:`mshbm.solvers.newton.Meter`, set by :meth:`run`): Newton residual
+        #: evaluations so far; its limit is set once the first attempt is made
+        self.meter = None
+        #: the first attempt's Newton residual evaluations (the unit of the ladder's and the starts' budgets)
+        self.first_cost = None
         self.section_candidate = None  # the "shifted" start's solution for the "section" start
 
     # -- the attempts
@@ -237,9 +248,16 @@ class Ladder:
         return self.problem.initial_guess(hat_guess(q_hat, self.omega))
 
     # -- the ladder
-    def budget_end(self, t_start):
-        """End of the ladder's own time budget, ``max(LADDER_SECONDS, LADDER_FACTOR x first attempt)``."""
-        return t_start + max(LADDER_SECONDS, LADDER_FACTOR * self.attempts[0].wall_time)
+    def budget(self):
+        """The ladder's own work budget, ``max(LADDER_EVALUATIONS, LADDER_FACTOR x the first attempt's
+        evaluations)`` (Newton residual evaluations)."""
+        return max(LADDER_EVALUATIONS, LADDER_FACTOR * self.first_cost)
+
+    def over(self):
+        """The ladder's starts should stop: its work budget (or an enclosing one) is spent, or the caller's
+        deadline has passed."""
+        return (self.meter is not None and self.meter.spent() is not None) or (
+            self.deadline is not None and time.perf_counter() > self.deadline)
 
     def run(self, starts=DEFAULT_STARTS):
         """Try ``starts`` (names of :data:`STARTS`) in order until ``accept`` accepts a Newton solution.
@@ -257,31 +275,34 @@ class Ladder:
         unknown = [s for s in starts if s not in STARTS]
         if unknown:
             raise InputError("starts", f"unknown start {unknown[0]!r} (choose from {', '.join(DEFAULT_STARTS)})")
-        won, skipped, t_start = None, [], time.perf_counter()
-        inherited = self.route.deadline
-        by_caller = False  # the caller's deadline (max_time, an enclosing time box) stopped the ladder, not its own budget
-        for name in starts:
-            own = self.attempts and time.perf_counter() - t_start > max(LADDER_SECONDS,
-                                                                        LADDER_FACTOR * self.attempts[0].wall_time)
-            outer = self.attempts and inherited is not None and time.perf_counter() > inherited
-            if own or outer:
-                by_caller = by_caller or (outer and not own and not skipped)
-                skipped.append(name)  # the ladder's time budget is spent: report, do not try further starts
-                continue
-            if self.attempts and self.deadline is None:
-                self.deadline = self.budget_end(t_start)
-                if inherited is not None:
-                    self.deadline = min(self.deadline, inherited)
-            n0 = len(self.attempts)
-            # every Newton solve of this start ends at the ladder's deadline (newton.time_box), so one start cannot
-            # run on far beyond the budget
-            with newton_.time_box(self.deadline):
-                att = STARTS[name].run(self)
-            if att is not None:
-                att = self.keep_one(n0)
-            if att is not None and att.accepted:
-                won = att
-                break
+        won, skipped = None, []
+        by_caller = None  # what stopped the ladder when not its own budget: the caller's deadline or enclosing budget
+        with newton_.work_box(None, "work budget of the start ladder") as meter:
+            self.meter = meter
+            for name in starts:
+                if self.attempts:
+                    own = meter.limit is not None and meter.used >= meter.limit
+                    outer = meter.outer.spent() if meter.outer is not None else None
+                    if self.deadline is not None and time.perf_counter() > self.deadline:
+                        outer = "the caller's time budget (max_time)"
+                    if own or outer:
+                        if not skipped and not own:
+                            by_caller = outer
+                        skipped.append(name)  # the ladder's budget is spent: report, do not try further starts
+                        continue
+                n0 = len(self.attempts)
+                # every Newton solve of this start stops once the ladder's budget is spent (the meter) or at the
+                # caller's deadline (newton.time_box), so one start cannot run on far beyond the budget
+                with newton_.time_box(self.deadline):
+                    att = STARTS[name].run(self)
+                if self.attempts and self.first_cost is None:
+                    self.first_cost = meter.used
+                    meter.limit = self.budget()
+                if att is not None:
+                    att = self.keep_one(n0)
+                if att is not None and att.accepted:
+                    won = att
+                    break
         return self._result(won, skipped, by_caller)
 
     def _result(self, won, skipped, by_caller):
@@ -311,9 +332,9 @@ class Ladder:
         res.nit, res.nfev = nit, nfev
         res.info = dict(res.info or {})
         if skipped and won is None:
-            budget = ("the caller's time budget (max_time or an enclosing time box)" if by_caller else
-                      f"time budget of the start ladder (max({LADDER_SECONDS:g} s, {LADDER_FACTOR:g} x the first "
-                      "attempt))")
+            budget = (by_caller if by_caller else
+                      f"work budget of the start ladder ({self.meter.limit:.0f} Newton residual evaluations, max("
+                      f"{LADDER_EVALUATIONS}, {LADDER_FACTOR:g} x the first attempt's {self.first_cost:.0f}))")
             res.message += f"; {budget} spent, starts not tried: {', '.join(skipped)}"
         res.info["starts"] = records
         res.info["start_used"] = None if won is None else won.start
@@ -326,9 +347,9 @@ class Ladder:
 
 def solve_from_starts(problem, method, system, omega, newton_options, accept, *, route, guess=None,
                       starts=DEFAULT_STARTS, solve_options=None, fallback=True, transient_periods=(10, 40, 160),
-                      transient_budget=2e9, transient_seconds=20.0):
+                      transient_budget=2e9):
     """:meth:`Ladder.run` of a new :class:`Ladder` (parameters as there; ``solve_options`` its ``options``)."""
     ladder = Ladder(problem, method, system, omega, newton_options, accept, route=route, options=solve_options,
                     guess=guess, fallback=fallback, transient_periods=transient_periods,
-                    transient_budget=transient_budget, transient_seconds=transient_seconds)
+                    transient_budget=transient_budget)
     return ladder.run(starts)

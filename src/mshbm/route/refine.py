@@ -4,7 +4,8 @@ Every certified result of :func:`mshbm.solve` carries, besides the certificate o
 (:mod:`mshbm.certificate`), estimates of the relative amplitude error
 ``e = max_i |A_i - A_i^exact| / max_i A_i`` (``A_i = (max - min) / 2`` of DOF ``i``) that each approximation
 causes, measured by re-solving the same problem at another discretisation from the converged answer (Newton,
-the start ladder with the answer as its only start, time-boxed: :data:`RESOLVE_SECONDS`, :data:`RESOLVE_FACTOR`).
+the start ladder with the answer as its only start, within a work budget of Newton residual evaluations:
+:data:`RESOLVE_EVALUATIONS`, :data:`RESOLVE_FACTOR`).
 With the amplitude change ``d`` between the two answers and an algebraic convergence ``e(n) ~ n^-p``:
 
 ``truncation`` (HBM, DLFT, MS-HBM)
@@ -22,7 +23,7 @@ With the amplitude change ``d`` between the two answers and an algebraic converg
     Zero for the exact event-driven flow (no time steps).
 ``model_substitution`` (MS-HBM's subsystem impact mass on a consistent mass, where the contact impacts)
     The amplitude change against the re-solve with ``impact_mass="effective"`` and the event-driven flow (the
-    exact orbit, the answer and the transient as starts; time box :data:`IMPACT_MASS_SECONDS`).
+    exact orbit, the answer and the transient as starts; work budget :data:`IMPACT_MASS_EVALUATIONS`).
 
 ``p`` is :data:`RATE` = 1 (first order: Moreau-Jean at impacts and stick-slip, the Fourier series of kinks),
 or, in a refinement with two successive changes ``d_1, d_2`` of the same estimate at ratio 2, the observed
@@ -114,12 +115,24 @@ IRREGULAR_RATE = 3.0
 MAX_HARMONICS, MAX_STEPS = 2000, 1 << 24
 #: a truncation estimate below this fraction of the top retained harmonics is checked by a second doubling
 TAIL_FACTOR = 0.1
-#: time box (s) of one re-solve of an estimate: this many seconds, or this factor times the solve's wall time
-RESOLVE_SECONDS, RESOLVE_FACTOR = 5.0, 2.0
-#: time box (s) of the re-solve with the effective impact mass (``model_substitution`` of MS-HBM's subsystem law):
-#: it starts from the exact orbit, whose event-driven solve alone took 2-4 s of CPU on the reduced cantilever
-IMPACT_MASS_SECONDS = 20.0
+#: work budget of one re-solve of an estimate, in Newton residual evaluations (:class:`mshbm.solvers.newton.Meter`,
+#: nested solves included; the same on every machine, not wall time): ``max(RESOLVE_EVALUATIONS, RESOLVE_FACTOR x the
+#: solve's evaluations)``.  It replaces ``max(5 s, 2 x the solve's wall time)``: the floor is above what one Newton
+#: solve from the answer can use (``max_iter = 50`` iterations of at most 12 evaluations with the line search and
+#: its watchdog), so a re-solve is bounded by its own Newton as on an idle machine before
+RESOLVE_EVALUATIONS, RESOLVE_FACTOR = 1000, 2.0
+#: the same for the re-solve with the effective impact mass (``model_substitution`` of MS-HBM's subsystem law, on
+#: the event-driven flow, from the exact orbit; formerly 20 s): its starts "exact" (bounded by its own flow work
+#: budget, :data:`mshbm.route.starts.EXACT_WORK`), "guess" and "transient"
+IMPACT_MASS_EVALUATIONS = 2000
 _DROP = ("guess", "stability", "progress", "raise_on_failure", "accuracy")
+
+
+def _resolve_box(sol, floor):
+    """The work budget of a re-solve from ``sol``: ``max(floor, RESOLVE_FACTOR x sol.nfev)`` Newton residual
+    evaluations (:func:`mshbm.solvers.newton.work_box`)."""
+    return newton_.work_box(max(floor, RESOLVE_FACTOR * int(getattr(sol, "nfev", 0) or 0)),
+                            "work budget of the estimate's re-solve")
 
 
 def _top_harmonics(sol, floor):
@@ -203,13 +216,12 @@ class _Estimator:
             return self.solved[key]
         t = time.perf_counter()
         # the start ladder with the answer as its only start (Newton, its fallbacks, and the acceptance of an
-        # impacting orbit periodic to one step's accuracy), time-boxed: no other start, which could find another
-        # orbit
-        route = self.route.tightened(t + max(RESOLVE_SECONDS, RESOLVE_FACTOR * float(sol.wall_time)))
+        # impacting orbit periodic to one step's accuracy), within a work budget: no other start, which could find
+        # another orbit
         try:
-            with newton_.time_box(route.deadline):
-                alt = route._solve(self.system, self.omega, self.method, dict(opts, guess=sol),
-                                   ladder_starts=("guess",))
+            with _resolve_box(sol, RESOLVE_EVALUATIONS):
+                alt = self.route._solve(self.system, self.omega, self.method, dict(opts, guess=sol),
+                                        ladder_starts=("guess",))
         except InputError:
             alt = None
         self.spent += time.perf_counter() - t
@@ -383,11 +395,10 @@ class _Estimator:
 
         t = time.perf_counter()
         opts = self.settings(sol)
-        route = self.route.tightened(t + max(RESOLVE_SECONDS, RESOLVE_FACTOR * float(sol.wall_time)))
         try:
-            with newton_.time_box(route.deadline):
-                alt = route._solve(self.system.map_forcing(rotate), self.omega, self.method, dict(opts, guess=sol),
-                                   ladder_starts=("guess",))
+            with _resolve_box(sol, RESOLVE_EVALUATIONS):
+                alt = self.route._solve(self.system.map_forcing(rotate), self.omega, self.method,
+                                        dict(opts, guess=sol), ladder_starts=("guess",))
         except InputError:
             alt = None
         self.spent += time.perf_counter() - t
@@ -442,12 +453,11 @@ class _Estimator:
         opts = dict(self.settings(sol), impact_mass="effective", integrator="event")
         opts.pop("accumulation", None)  # (the effective law's own default: the Zeno closure)
         t = time.perf_counter()
-        route = self.route.tightened(t + max(IMPACT_MASS_SECONDS, RESOLVE_FACTOR * float(sol.wall_time)))
         try:
-            with newton_.time_box(route.deadline):
+            with _resolve_box(sol, IMPACT_MASS_EVALUATIONS):
                 # the exact orbit first: Newton from the subsystem law's orbit (one impact on the reduced cantilever,
                 # where the effective mass's bounces accumulate) took ~20 s
-                alt = route._solve(self.system, self.omega, self.method, dict(opts, guess=sol),
+                alt = self.route._solve(self.system, self.omega, self.method, dict(opts, guess=sol),
                                    ladder_starts=("exact", "guess", "transient"))
             why = "" if alt.success else alt.message[:200]
         except InputError as exc:

@@ -35,8 +35,8 @@ velocities, ``omega`` the forcing frequency (period ``T = 2 pi / omega``), ``n_h
     Moreau-Jean simulation of the whole system (friction and impacts exact, the method's steps per period)
     from the best attempt so far (from rest if that one ran away beyond 1e3 times
     :func:`mshbm.route.acceptance.displacement_scale`), Newton restarted at the checkpoints
-    ``transient_periods``; time-boxed by ``transient_budget`` (``n^2 x steps x periods``) and
-    ``transient_seconds``.  Finds attracting orbits;
+    ``transient_periods``; bounded by ``transient_budget`` (``n^2 x steps x periods``, deterministic) and the
+    ladder's budget (:meth:`mshbm.route.ladder.Ladder.over`, checked after each period).  Finds attracting orbits;
 ``"section"`` (time-stepping problems)
     the ``"shifted"`` start's solution with the section *kept* at ``t0`` when the orbit mapped back to
     ``t = 0`` was not accepted (an impact near ``t = 0`` makes the state there ambiguous to one step): the
@@ -53,6 +53,7 @@ import scipy.sparse.linalg as spla
 
 from .. import condensation, fourier
 from ..errors import InputError
+from ..integrators.event.flow import WORK_PER_EVALUATION
 from ..integrators.moreau_jean import MAX_DENSE_DOFS, MoreauJean
 from ..methods.common import linear_response
 from ..methods.exact import exact_periodic
@@ -62,12 +63,26 @@ from ..solvers.newton import solve_problem
 from .acceptance import displacement_scale
 
 __all__ = ["shifted_system", "shift_hat", "clamped_response", "hat_guess", "event_steps", "section_shift",
-           "section_problem", "exact_section", "EXACT_MAX_DOFS", "EXACT_SHARE"]
+           "section_problem", "exact_section", "metered_exact", "EXACT_MAX_DOFS", "EXACT_WORK"]
 
 #: largest system for which the ``"exact"`` start runs the event-driven solver
 EXACT_MAX_DOFS = 100
-#: share of the ladder's remaining time budget one event-driven solve of the ``"exact"`` start may use
-EXACT_SHARE = 0.4
+#: work budget of one event-driven periodic solve of the ``"exact"`` start (the flow's deterministic count
+#: :attr:`mshbm.integrators.event.flow.EventFlow.work`, flop equivalents, 0.2-3 ns of one core each): it replaces 40 %
+#: of the ladder's remaining wall time (12 s and more on an idle machine).  Calibration (the 75 exact starts of
+#: tests/unit/test_ladder_fallbacks.py, test_event_fallback.py, test_time_budget.py): the converged ones used at most
+#: 1.1e8; 1e10 took 3.1-5.8 s of CPU on the failing ones
+EXACT_WORK = 1e10
+
+
+def metered_exact(system, omega, **kwargs):
+    """:func:`mshbm.methods.exact.exact_periodic` within the work budgets of the solve route: a flow work budget of
+    :data:`EXACT_WORK`, or less when the meters of the context have fewer evaluations left (at
+    :data:`mshbm.integrators.event.flow.WORK_PER_EVALUATION`; the flow charges its work to them).  Deterministic:
+    the same on every machine."""
+    left = newton_.work_left()
+    limit = EXACT_WORK if left is None else min(EXACT_WORK, max(left, 0.0) * WORK_PER_EVALUATION)
+    return exact_periodic(system, omega, work_limit=limit, **kwargs)
 
 
 # ---------------------------------------------------------------------------------------------- geometry
@@ -350,18 +365,18 @@ class ExactStart:
         N = int(problem.steps) if problem.time_step is not None else 2048
         why = []
         for g in self._guesses(ladder):
-            # the event-driven simulation stops at the ladder's (or the solve's) deadline: at a low frequency
-            # with stiff modes the flow has many steps a period and a Newton solve of it can take minutes
+            # the event-driven solve stops when its work budget EXACT_WORK is spent (at a low frequency with stiff
+            # modes the flow has many steps a period and a Newton solve of it can take minutes), or at the caller's
+            # deadline (max_time)
+            spent = newton_.work_spent()
             stop = [d for d in (ladder.deadline, newton_.deadline()) if d is not None]
             left = None if not stop else min(stop) - time.perf_counter()
-            if left is not None and left <= 0.0:
-                why.append("time budget spent")
+            if spent is not None or (left is not None and left <= 0.0):
+                why.append(f"{spent or 'time budget'} spent")
                 break
-            if left is not None:
-                left = max(min(left, 1.0), EXACT_SHARE * left)  # the later starts keep a share of the budget
             try:
-                ex = exact_periodic(system, omega, guess=g, samples=max(N, 64),
-                                    harmonics=max(ladder.n_h, 1), blas_threads=None, time_limit=left)
+                ex = metered_exact(system, omega, guess=g, samples=max(N, 64), harmonics=max(ladder.n_h, 1),
+                                   blas_threads=None, time_limit=left)
             except (InputError, FloatingPointError, np.linalg.LinAlgError, ValueError) as exc:
                 why.append(f"{type(exc).__name__}: {exc}")
                 continue
@@ -445,8 +460,7 @@ class TransientStart:
                 break
         if att is not None:
             ladder.attempts.append(att)
-            att.note += f"; time box {ladder.transient_seconds:g} s" if time.perf_counter() - t0 > \
-                ladder.transient_seconds else ""
+            att.note += f"; stopped after {done} periods (budget spent)" if done < total else ""
         return att
 
     @staticmethod
@@ -473,7 +487,6 @@ class TransientStart:
 
     @staticmethod
     def _over(ladder, t0):
-        """The simulation stops: its time box ``transient_seconds`` is spent, or the ladder's deadline has
-        passed (its Newton solves would stop at once)."""
-        now = time.perf_counter()
-        return now - t0 > ladder.transient_seconds or (ladder.deadline is not None and now > ladder.deadline)
+        """The simulation stops: the ladder's budget is spent or the caller's deadline has passed (its Newton
+        solves would stop at once)."""
+        return ladder.over()

@@ -57,7 +57,7 @@ from .arclength_parts import (ContinuationPoint, ContinuationResult, Evaluator, 
 from .arclength_kinks import KINK_STEPS, cross_kink, family_step
 from .arclength_fallbacks import Fallbacks
 from .arclength_steps import PREDICTED, next_ds, smooth_step
-from .newton import newton
+from .newton import newton, work_spent
 
 #: a step whose tangents at its ends have ``|cos| <`` this is taken as a kink of the branch (see ``continuation``)
 KINK_COS = 0.9
@@ -544,6 +544,10 @@ class _Trace(Fallbacks):
                 break
             if self.max_time is not None and time.perf_counter() - self.t_start > self.max_time:
                 self.message = f"stopped by the time limit ({self.max_time:g} s) at lam = {points[-1].lam:.6g}"
+                break
+            spent = work_spent()
+            if spent is not None:  # a work budget of the solve route (mshbm.solvers.newton.work_box)
+                self.message = f"stopped by the {spent} at lam = {points[-1].lam:.6g}"
                 break
             p = points[-1]
             w = np.asarray(self.unknown_scale(p.x, p.lam), dtype=float)

@@ -13,6 +13,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
+from .newton import charge
+
 __all__ = ["ContinuationPoint", "ContinuationResult", "Failed", "bordered_solve", "Evaluator", "orientation",
            "tangent", "backtrack", "stall_folds", "locate_fold", "free_directions", "FREE_RTOL"]
 
@@ -104,6 +106,7 @@ class Evaluator:
         None without ``jac``; ``g`` None without ``dlam``, see :meth:`g`)."""
         R, J = self.residual(x, lam)
         self.n_res += 1
+        charge(1)  # the work meter of the solve route (mshbm.solvers.newton.work_box), deterministic
         s = np.asarray(self.residual_scale(x, lam), dtype=float)
         r = float(np.max(np.abs(R) / s)) if R.size else 0.0
         if not jac:

@@ -46,7 +46,8 @@ def _norm2(v):
     return math.sqrt(float(v.dot(v)))
 
 
-__all__ = ["solve_problem", "newton", "NewtonResult", "follow_pl_path", "PathResult", "scaled_norm"]
+__all__ = ["solve_problem", "newton", "NewtonResult", "follow_pl_path", "PathResult", "scaled_norm", "Meter",
+           "work_box", "work_spent", "work_left", "charge"]
 
 
 @dataclass
@@ -223,7 +224,88 @@ def deadline():
     return _DEADLINE.get()
 
 
+class Meter:
+    """A deterministic work meter of the Newton solves in a context (:func:`work_box`): ``used`` counts the
+    residual evaluations of every Newton solve in the block, nested ones included (continuation stages, anchor
+    solves, branch correctors); with a ``limit``, an iteration that starts once ``used >= limit`` (or an enclosing
+    meter's) ends its solve with the failure "work budget spent".  The count is the same on every machine, whatever
+    its load: the solve route's internal budgets are meters, only the caller's ``max_time`` is wall time."""
+
+    __slots__ = ("limit", "used", "outer", "label")
+
+    def __init__(self, limit=None, outer=None, label="work budget"):
+        self.limit = None if limit is None else float(limit)
+        self.used = 0
+        self.outer = outer
+        self.label = label
+
+    def spent(self):
+        """The label of the innermost meter of this chain whose limit is reached (``None``: none)."""
+        m = self
+        while m is not None:
+            if m.limit is not None and m.used >= m.limit:
+                return m.label
+            m = m.outer
+        return None
+
+    def charge(self, evaluations):
+        m = self
+        while m is not None:
+            m.used += evaluations
+            m = m.outer
+
+
+_METER = contextvars.ContextVar("mshbm_newton_meter", default=None)
+
+
+@contextlib.contextmanager
+def work_box(limit=None, label="work budget"):
+    """Within the block, a :class:`Meter` counts the Newton residual evaluations (yielded); with ``limit``, every
+    Newton solve stops once the block has used ``limit`` evaluations (enclosing limits stay)."""
+    meter = Meter(limit, _METER.get(), label)
+    token = _METER.set(meter)
+    try:
+        yield meter
+    finally:
+        _METER.reset(token)
+
+
+def charge(evaluations=1):
+    """Charge ``evaluations`` residual evaluations to the meters of the current context (path followers'
+    correctors, which are not :func:`newton` solves; other work converted to evaluations, e.g. the event-driven
+    flow's, :data:`mshbm.integrators.event.flow.WORK_PER_EVALUATION`)."""
+    m = _METER.get()
+    if m is not None:
+        m.charge(evaluations)
+
+
+def work_left():
+    """The evaluations left before the first limit of the current context's meters is reached (``None``: no
+    limit)."""
+    m, left = _METER.get(), None
+    while m is not None:
+        if m.limit is not None:
+            left = m.limit - m.used if left is None else min(left, m.limit - m.used)
+        m = m.outer
+    return left
+
+
+def work_spent():
+    """The label of a spent work budget of the current context (``None``: none spent, or no budget)."""
+    m = _METER.get()
+    return None if m is None else m.spent()
+
+
 def _newton(fun, x, tol, max_iter, line_search, callback, scale, watchdog=None, reuse_jacobian=False):
+    meter = _METER.get()
+    charged = [0]  # the evaluations charged to the meter so far (at the iterations' budget checks)
+    res = _iterate(fun, x, tol, max_iter, line_search, callback, scale, watchdog, reuse_jacobian, meter, charged)
+    if meter is not None:
+        meter.charge(res.nfev - charged[0])
+    return res
+
+
+def _iterate(fun, x, tol, max_iter, line_search, callback, scale, watchdog, reuse_jacobian, meter, charged):
     x = np.array(x, dtype=float)
     if watchdog is None:
         watchdog = max_iter
@@ -249,6 +331,13 @@ def _newton(fun, x, tol, max_iter, line_search, callback, scale, watchdog=None, 
         if stop is not None and time.perf_counter() > stop:
             return NewtonResult(x, False, f"time budget spent at iteration {it}: scaled ||R||_inf = {r:.2e}",
                                 it, nfev, r, hist)
+        if meter is not None:
+            meter.charge(nfev - charged[0])
+            charged[0] = nfev
+            spent = meter.spent()
+            if spent is not None:
+                return NewtonResult(x, False, f"{spent} spent at iteration {it}: scaled ||R||_inf = {r:.2e}",
+                                    it, nfev, r, hist)
         Jd = J.data if sp.issparse(J) else J
         if not np.isfinite(Jd).all():
             return NewtonResult(x, False, f"Jacobian is not finite at iteration {it}", it, nfev, r, hist)

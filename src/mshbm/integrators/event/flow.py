@@ -18,6 +18,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from ...errors import InputError
+from ...solvers.newton import charge
 from ...system import System
 from .fallback import MoreauFallback
 from .location import BATCH_MARGIN, event_free_steps, locate
@@ -25,7 +26,7 @@ from .modes import FREE, MAX_DOFS, MOREAU, SLIP_P, EventError, ModeCatalogue, _S
 from .quadrature import FourierQuadrature
 from .transitions import Transitions
 
-__all__ = ["EventFlow", "FlowRun", "WORK_STEP", "WORK_LOCATE", "WORK_EVENT", "WORK_GEMM"]
+__all__ = ["EventFlow", "FlowRun", "WORK_STEP", "WORK_LOCATE", "WORK_EVENT", "WORK_GEMM", "WORK_PER_EVALUATION"]
 
 #: the deterministic work count of :attr:`EventFlow.work` (flop equivalents): a full sub-step costs ``WORK_STEP`` (the
 #: loop's Python overhead) plus ``2 D^2`` for the state and ``2 D^2 / WORK_GEMM`` per sensitivity column it updates
@@ -36,6 +37,12 @@ WORK_STEP = 2e3
 WORK_LOCATE = 2e4
 WORK_EVENT = 2e5
 WORK_GEMM = 8.0
+#: the flow's work charged to the solve route's work meters (:func:`mshbm.solvers.newton.work_box`, whose unit is a
+#: Newton residual evaluation) as one evaluation: about a millisecond of one core, as a Moreau-Jean or harmonic
+#: problem's evaluation of the examples (0.3-1 ms); 1e10 flop equivalents took 3.1-5.8 s of CPU on the exact starts
+#: of tests/unit/test_ladder_fallbacks.py.  The event-driven flow then spends the budgets of the start ladder, the
+#: "frequency" start and the event-driven fallback by its cost, whatever the size of the system
+WORK_PER_EVALUATION = 3e6
 
 
 def _power_apply(md, P, k):
@@ -324,8 +331,17 @@ class EventFlow(ModeCatalogue, Transitions, FourierQuadrature, MoreauFallback):
         self.n_taylor = free.n_taylor
 
     # ------------------------------------------------------------------ simulation
-    def simulate(self, t0, z0, duration=None, jac=False, sample_times=None, record=False, mode=None,
-                 jac_cols="state", fourier=None, jac_init=None):
+    def simulate(self, *args, **kwargs):
+        """:meth:`_simulate` (its parameters), its work (:attr:`work`) charged to the solve route's work meters at
+        :data:`WORK_PER_EVALUATION` a Newton residual evaluation (:func:`mshbm.solvers.newton.charge`)."""
+        w0 = self.work
+        try:
+            return self._simulate(*args, **kwargs)
+        finally:
+            charge((self.work - w0) / WORK_PER_EVALUATION)
+
+    def _simulate(self, t0, z0, duration=None, jac=False, sample_times=None, record=False, mode=None,
+                  jac_cols="state", fourier=None, jac_init=None):
         """Event-driven flow from ``(t0, z0)`` over ``duration`` (default one period).
 
         Parameters

@@ -1,0 +1,138 @@
+"""The solve route's internal budgets are counts of work, not wall time (mshbm.solvers.newton.work_box): the start
+ladder, the "frequency" start, the event-driven fallback, the estimates' re-solves and the stride of a sweep's
+estimates stop at the same point on every machine, whatever its load; only the caller's max_time is wall time."""
+from __future__ import annotations
+
+import time
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+import mshbm
+from mshbm import branch_accuracy, chain
+from mshbm.route import driver, ladder
+from mshbm.solvers import newton as newton_
+
+
+def _linear(x, jac=True):
+    """R = x^3 - 2 (Newton converges in some 6 iterations from 1)."""
+    return x ** 3 - 2.0, (np.diag(3.0 * x ** 2) if jac else None)
+
+
+def test_meter_counts_the_evaluations_and_stops_newton_at_its_limit():
+    with newton_.work_box() as meter:
+        free = newton_.newton(_linear, np.ones(2))
+    assert free.success and meter.used == free.nfev >= 6
+    stops = []
+    for _ in range(2):
+        with newton_.work_box(4) as outer:
+            with newton_.work_box(100) as inner:  # the enclosing, smaller limit stays
+                res = newton_.newton(_linear, np.ones(2))
+        assert not res.success and res.message.startswith("work budget spent at iteration")
+        assert inner.used == outer.used == res.nfev
+        stops.append((res.nit, res.nfev, res.x.tobytes()))
+    assert stops[0] == stops[1] and 4 <= stops[0][1] < free.nfev
+    newton_.charge(5)  # no meter: nothing to charge, no error
+    assert newton_.work_spent() is None
+
+
+def _impact():
+    return chain([1.0], 1.0, 0.02, forcing=[{"dof": 0, "amplitude": 1.0}],
+                 elements=[mshbm.Contact(0, 0.1, 0.7, 1e4, 0.0)])
+
+
+def _jumping_clock(monkeypatch, step):
+    """time.perf_counter jumps ``step`` seconds forward at every call (a machine loaded beyond any wall-time box)."""
+    real, calls = time.perf_counter, [0]
+
+    def clock():
+        calls[0] += 1
+        return real() + step * calls[0]
+    monkeypatch.setattr(time, "perf_counter", clock)
+
+
+def _ladder_run(s):
+    sol = mshbm.solve(s, 1.5, "shooting", steps=512, stability=False, accuracy=False)
+    return sol, [(r["start"], r["iterations"], r["residual"]) for r in sol.info["starts"]]
+
+
+def test_ladder_out_of_budget_skips_the_same_starts_whatever_the_clock(monkeypatch):
+    s = _impact()
+    monkeypatch.setattr(ladder, "LADDER_EVALUATIONS", 1)
+    monkeypatch.setattr(ladder, "LADDER_FACTOR", 1.0)  # the budget: the first attempt's evaluations
+    monkeypatch.setattr(driver, "EVENT_FALLBACK_EVALUATIONS", 0)  # the fallback tries no Newton iteration
+    a, starts_a = _ladder_run(s)
+    assert not a.success and "work budget of the start ladder" in a.message and "starts not tried:" in a.message
+    skipped = a.message.split("starts not tried: ")[1].split(";")[0]
+    assert skipped.startswith("regularisation, shifted") or skipped.startswith("shifted")
+    # a loaded machine: every clock reading 1000 s later than the last (any wall-time box would be spent at once)
+    _jumping_clock(monkeypatch, 1000.0)
+    b, starts_b = _ladder_run(s)
+    assert starts_b == starts_a
+    assert b.message.split("starts not tried: ")[1].split(";")[0] == skipped
+    assert np.array_equal(a.x, b.x) and a.residual == b.residual
+
+
+def test_generous_budget_reaches_the_same_answer_on_a_loaded_clock(monkeypatch):
+    """The default budgets, with the clock jumping 1000 s at every reading: the ladder (and the event-driven
+    fallback, which solves this impact) end as on an idle machine."""
+    s = _impact()
+    ref, starts_ref = _ladder_run(s)
+    _jumping_clock(monkeypatch, 1000.0)
+    sol, starts = _ladder_run(s)
+    assert ref.success and sol.success
+    assert starts == starts_ref and np.array_equal(sol.x, ref.x)
+    assert sol.info.get("integrator") == ref.info.get("integrator")
+
+
+def test_event_fallback_budget_is_a_count(monkeypatch):
+    s = _impact()
+    monkeypatch.setattr(driver, "EVENT_FALLBACK_EVALUATIONS", 1)
+    monkeypatch.setattr(ladder, "LADDER_EVALUATIONS", 1)
+    monkeypatch.setattr(ladder, "LADDER_FACTOR", 1.0)
+    out = []
+    for step in (0.0, 1000.0):
+        if step:
+            _jumping_clock(monkeypatch, step)
+        sol = mshbm.solve(s, 1.5, "shooting", steps=512, stability=False, accuracy=False)
+        rec = sol.info.get("event_fallback") or {}
+        out.append((sol.success, rec.get("applied"), rec.get("evaluations"), sol.residual))
+    assert out[0] == out[1]
+    assert out[0][1] is True and out[0][2] is not None and out[0][2] >= 1
+
+
+def test_stride_from_evaluations_not_wall_time():
+    # 60 points traced with 600 evaluations (10 a point); the first point's estimates 40 evaluations: the
+    # estimates cost BUDGET = 0.5 times the trace at a stride ceil(40 / (0.5 * 10)) = 8, within [EVERY, P // 6]
+    for wall in (1e-3, 1e3):  # the trace's wall time does not enter
+        br = SimpleNamespace(points=[None] * 60, wall_time=wall)
+        assert branch_accuracy._stride(br, 40, None, 600) == 8
+        assert branch_accuracy._stride(br, 1, None, 600) == branch_accuracy.EVERY
+        assert branch_accuracy._stride(br, 10 ** 6, None, 600) == 60 // 6
+        assert branch_accuracy._stride(br, 40, 3, 600) == 3  # given: as given
+
+
+def test_frequency_start_budget_counts_its_branch_correctors():
+    """The branch traced by the "frequency" start stops at the start's work budget (arclength correctors are
+    metered), not at a wall-time limit."""
+    from mshbm.solvers.arclength_parts import Evaluator
+
+    ev = Evaluator(lambda x, lam: (x - lam, np.eye(x.size)), lambda x, lam: -np.ones(x.size),
+                   lambda x, lam: np.ones(x.size), lambda x, lam: np.ones(x.size), 1.0)
+    with newton_.work_box(3) as meter:
+        for _ in range(3):
+            ev(np.zeros(2), 1.0, jac=False)
+        assert meter.used == 3 and newton_.work_spent() == "work budget"
+
+
+def test_event_flow_charges_its_work_to_the_meter():
+    from mshbm.integrators.event import flow as event_flow
+    from mshbm.methods.exact import ExactFlow
+
+    system = chain([1.0, 1.0], 1.0, 0.1, forcing=[{"dof": 1, "amplitude": 1.0}], name="linear")
+    flow = ExactFlow(system, 0.7)
+    with newton_.work_box() as meter:
+        flow.simulate(0.0, np.concatenate([np.zeros(4), flow.osc(0.0)]), jac=True)
+    assert flow.work > 0
+    assert meter.used == pytest.approx(flow.work / event_flow.WORK_PER_EVALUATION, rel=1e-15)
