@@ -178,3 +178,29 @@ def test_point_reports_the_gap_of_a_relative_contact():
         assert not rec["active"]
         # the old formula gap - max q_0 differs by more than the tolerance here
         assert abs(rec["min_gap"] - (gap - abs(Q[0]))) > 1e-2
+
+
+def test_grazing_location_within_its_budget(monkeypatch):
+    """The grazing bisection spends at most its budget (branch.LOCATE_SHARE of the trace's work, at least
+    LOCATE_FLOOR residual evaluations).  With the default the corner's grazing is located to 1e-5 (test above)
+    within it; with no budget at all the same sweep gives the same points, places the grazing by interpolation
+    between its two branch points (around the corner sqrt(1.99) lies outside their omega interval: 0.02 off)
+    and says in its message that the location stopped at its budget."""
+    from mshbm import branch as branch_mod
+
+    zeta, sigma, r = 0.05, 1.0, 0.8
+    system = _oscillator(zeta, sigma, r)
+    full = mshbm.sweep(system, 1.8, 1.3, "shooting", **EVENT)
+    assert "budget" not in full.message
+    monkeypatch.setattr(branch_mod, "LOCATE_FLOOR", 0)
+    monkeypatch.setattr(branch_mod, "LOCATE_SHARE", 0.0)
+    b = mshbm.sweep(system, 1.8, 1.3, "shooting", **EVENT)
+    assert b.success and "grazings located to the brackets reached within their budget" in b.message, b.message
+    assert np.array_equal(b.omega, full.omega)
+    graz, = [f for f in b.bifurcations if f["type"] == "grazing"]
+    graz_full, = [f for f in full.bifurcations if f["type"] == "grazing"]
+    assert graz["located"] == "interpolation" and graz["index"] == graz_full["index"]
+    i = graz["index"]
+    lo, hi = sorted((b.omega[i], b.omega[i + 1]))
+    assert lo <= graz["omega"] <= hi
+    assert 0.01 < abs(graz["omega"] - np.sqrt(1.99)) < 0.03
