@@ -595,7 +595,7 @@ class _Trace(Fallbacks):
                 self.success, self.message = True, f"reached lam_end = {lam_end:.6g} in {len(points)} points"
                 break
             self.add(q, self.ds)
-            if self.retraced(w):  # a false fold: the branch already traced, backwards (see Fallbacks.retraced)
+            if self.retraced(w) or self.crawled():  # a false fold, or no progress (see Fallbacks): a gap onwards
                 continue
             if not self.lo <= q.lam <= self.hi:
                 self.message = f"the branch left the parameter range [{self.lo:.6g}, {self.hi:.6g}] at lam = {q.lam:.6g}"
@@ -603,7 +603,7 @@ class _Trace(Fallbacks):
             self.ds = next_ds(self, p, q, it, kink, smooth)
         gaps = [k for k in self.kinks if k.get("gap")]
         if gaps and self.success:
-            where = ", ".join(f"{k['lam']:.6g}" for k in gaps)
+            where = ", ".join(f"{k['lam']:.6g}" + " (a crawl)" * bool(k.get("crawl")) for k in gaps)
             self.message += (f" ({len(gaps)} gap(s) bridged by a natural-parameter step where the arclength corrector "
                              f"could not pass, from lam = {where}: a fold there is not traced)")
         folds = self.folds + stall_folds(points, self.stall_fold_rtol)
