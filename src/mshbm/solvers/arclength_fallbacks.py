@@ -12,7 +12,8 @@ import numpy as np
 from .arclength_parts import Failed
 from .arclength_steps import EXACT_REACH, exact_root
 
-__all__ = ["Fallbacks", "CYCLE_RTOL", "RETRACE_BACK", "RETRACE_RTOL", "CRAWL_POINTS", "CRAWL_STEP", "CRAWL_LAM"]
+__all__ = ["Fallbacks", "CYCLE_RTOL", "RETRACE_BACK", "RETRACE_RTOL", "CRAWL_POINTS", "CRAWL_STEP", "CRAWL_LAM",
+           "STUCK_BACK"]
 
 #: points of a cycle (:meth:`Fallbacks.cross_cycle`) lie within this (relative to ``lam_scale``) of one ``lam``
 CYCLE_RTOL = 1e-5
@@ -26,6 +27,8 @@ RETRACE_RTOL = 5e-3
 CRAWL_POINTS = 15
 CRAWL_STEP = 0.125
 CRAWL_LAM = 0.01
+#: a corrected point that repeats one of the last ``STUCK_BACK`` points is stuck (:meth:`Fallbacks.stuck`)
+STUCK_BACK = 5
 
 
 class Fallbacks:
@@ -122,19 +125,46 @@ class Fallbacks:
                    for a, b in zip(points[-1 - n:-1], points[-n:]))
         if path >= n * CRAWL_STEP * self.ds0:
             return False
+        self.crawl_gap_start(f"the arclength steps crawled at lam = {q.lam:.6g} ({n} points within "
+                             f"{abs(q.lam - points[-1 - n].lam):.2g} in lam, {path:.2g} scaled): the curve there "
+                             "is not traced")
+        return True
+
+    def crawl_gap_start(self, why):
+        """Start a crawl's gap at the last point (see :meth:`crawled`), onwards towards ``lam_end``."""
+        points, n = self.points, CRAWL_POINTS
         self.counters["crawls"] = self.counters.get("crawls", 0) + 1
         p = points[-1]
         if p.dlam * self.direction < 0:  # onwards, towards lam_end
             points[-1] = replace(p, dx=-p.dx, dlam=-p.dlam, orientation=-p.orientation)
         step = 0.5 * self.ds0 * self.lsc
         last = [k for k in self.kinks if k.get("crawl")]
-        if last and last[-1]["index"] == len(points) - 1 - n:  # crawling again right after a crawl's gap: a wider gap
+        if last and last[-1]["index"] >= len(points) - 1 - n:  # crawling again right after a crawl's gap: wider
             step = max(step, 2.0 * abs(last[-1]["lam_right"] - last[-1]["lam"]))
-        self.natural, self.gap_from, self.crawl_gap = step, len(points), True
-        self.natural_reason = (f"the arclength steps crawled at lam = {q.lam:.6g} ({n} points within "
-                               f"{abs(q.lam - points[-1 - n].lam):.2g} in lam, {path:.2g} scaled): the curve there "
-                               "is not traced")
+        self.natural, self.gap_from, self.crawl_gap, self.natural_reason = step, len(points), True, why
+
+    def stuck(self, back):
+        """Where the corrected point repeats one of the last ``STUCK_BACK`` points (index ``back``, see
+        :meth:`revisited`): the steps have shrunk to nothing there (not a closed loop of the curve, which comes back
+        to a point far behind) and would cycle; a crawl's gap onwards instead (:meth:`crawled`; once per point).
+        Returns True when it started one."""
+        points = self.points
+        if back < len(points) - STUCK_BACK or self.natural is not None or not self.natural_fallback \
+                or self.gap_from == len(points):
+            return False
+        self.crawl_gap_start(f"the arclength steps stuck at lam = {points[-1].lam:.6g} (the corrected point "
+                             f"repeated point {back}): the curve there is not traced")
         return True
+
+    def revisited(self, q, w, rtol=1e-6):
+        """Index of an earlier point (not one of the last two) that ``q`` repeats to ``rtol`` in the scaled
+        unknowns and parameter: the continuation has come round to where it was and would trace the same points
+        again (a closed loop, or a step sequence that cycles); ``None`` otherwise.  Exact repetition only: the
+        two sides of a fold, or a branch passing near an earlier part, are not taken for it."""
+        for i, p in enumerate(self.points[:-2]):
+            if abs(q.lam - p.lam) <= rtol * self.lsc and float(np.max(np.abs((q.x - p.x) / w), initial=0.0)) <= rtol:
+                return i
+        return None
 
     def natural_step(self, p, w):
         """One natural-parameter step from ``p`` (Newton at fixed ``lam``, the step ``natural`` in ``lam``
