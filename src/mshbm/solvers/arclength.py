@@ -409,16 +409,6 @@ class _Trace(Fallbacks):
                 raise Failed(what + (f": {q.payload}" if detail and isinstance(q.payload, str) else ""))
         return q
 
-    def revisited(self, q, w, rtol=1e-6):
-        """Index of an earlier point (not one of the last two) that ``q`` repeats to ``rtol`` in the scaled
-        unknowns and parameter: the continuation has come round to where it was and would trace the same points
-        again (a closed loop, or a step sequence that cycles); ``None`` otherwise.  Exact repetition only: the
-        two sides of a fold, or a branch passing near an earlier part, are not taken for it."""
-        for i, p in enumerate(self.points[:-2]):
-            if abs(q.lam - p.lam) <= rtol * self.lsc and float(np.max(np.abs((q.x - p.x) / w), initial=0.0)) <= rtol:
-                return i
-        return None
-
     def add(self, q, ds):
         self.failures_at_point = self.counters["corrector_failures"]  # see smooth_step
         self.points.append(q)
@@ -573,6 +563,8 @@ class _Trace(Fallbacks):
                     self.success, self.message = True, f"reached lam_end = {lam_end:.6g} in {len(points)} points"
                     break
                 continue
+            if back is not None and self.stuck(back):  # a repeat of one of the last points: a gap onwards
+                continue
             if back is not None:  # the curve closed on itself: it would be traced again and again
                 self.message = (f"the continuation came back to its point {back} (lam = {lam_back:.6g}) and "
                                 "would trace the same points again (a closed loop of the curve, or a cycle of steps "
@@ -599,7 +591,7 @@ class _Trace(Fallbacks):
                 self.success, self.message = True, f"reached lam_end = {lam_end:.6g} in {len(points)} points"
                 break
             self.add(q, self.ds)
-            if self.retraced(w):  # a false fold: the branch already traced, backwards (see Fallbacks.retraced)
+            if self.retraced(w) or self.crawled():  # a false fold, or no progress (see Fallbacks): a gap onwards
                 continue
             if not self.lo <= q.lam <= self.hi:
                 self.message = f"the branch left the parameter range [{self.lo:.6g}, {self.hi:.6g}] at lam = {q.lam:.6g}"
@@ -607,7 +599,7 @@ class _Trace(Fallbacks):
             self.ds = next_ds(self, p, q, it, kink, smooth)
         gaps = [k for k in self.kinks if k.get("gap")]
         if gaps and self.success:
-            where = ", ".join(f"{k['lam']:.6g}" for k in gaps)
+            where = ", ".join(f"{k['lam']:.6g}" + " (a crawl)" * bool(k.get("crawl")) for k in gaps)
             self.message += (f" ({len(gaps)} gap(s) bridged by a natural-parameter step where the arclength corrector "
                              f"could not pass, from lam = {where}: a fold there is not traced)")
         folds = self.folds + stall_folds(points, self.stall_fold_rtol)

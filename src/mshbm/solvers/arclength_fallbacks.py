@@ -1,8 +1,8 @@
 """The fallbacks of the continuation (:mod:`mshbm.solvers.arclength`, its ``_Trace``): step control after a failed
 step, natural-parameter steps where the arclength corrector cannot go on (at points accepted at one time step's
-accuracy, across gaps of the curve, and past a false reversal onto the branch already traced), and the end point at
-``lam_end``.  A mixin: the methods use the trace's state (``points``, ``ds``, ``natural``, ``gap_from``, ``counters``,
-...) and its Newton (``newton_fixed``)."""
+accuracy, across gaps of the curve, past a false reversal onto the branch already traced, and where the branch
+crawls: :meth:`Fallbacks.crawled`), and the end point at ``lam_end``.  A mixin: the methods use the trace's state
+(``points``, ``ds``, ``natural``, ``gap_from``, ``counters``, ...) and its Newton (``newton_fixed``)."""
 from __future__ import annotations
 
 from dataclasses import replace
@@ -12,7 +12,8 @@ import numpy as np
 from .arclength_parts import Failed
 from .arclength_steps import EXACT_REACH, exact_root
 
-__all__ = ["Fallbacks", "CYCLE_RTOL", "RETRACE_BACK", "RETRACE_RTOL"]
+__all__ = ["Fallbacks", "CYCLE_RTOL", "RETRACE_BACK", "RETRACE_RTOL", "CRAWL_POINTS", "CRAWL_STEP", "CRAWL_LAM",
+           "STUCK_BACK"]
 
 #: points of a cycle (:meth:`Fallbacks.cross_cycle`) lie within this (relative to ``lam_scale``) of one ``lam``
 CYCLE_RTOL = 1e-5
@@ -21,6 +22,13 @@ CYCLE_RTOL = 1e-5
 #: that part (:meth:`Fallbacks.retraced`)
 RETRACE_BACK = 0.01
 RETRACE_RTOL = 5e-3
+#: a crawl (:meth:`Fallbacks.crawled`): the last ``CRAWL_POINTS`` arclength steps were on average shorter than
+#: ``CRAWL_STEP * ds0`` (scaled) and advanced less than ``CRAWL_LAM`` of the range ``|lam_end - lam0|`` in ``lam``
+CRAWL_POINTS = 15
+CRAWL_STEP = 0.125
+CRAWL_LAM = 0.01
+#: a corrected point that repeats one of the last ``STUCK_BACK`` points is stuck (:meth:`Fallbacks.stuck`)
+STUCK_BACK = 5
 
 
 class Fallbacks:
@@ -28,6 +36,8 @@ class Fallbacks:
 
     #: the farthest point from which a retrace (:meth:`retraced`) was last bridged
     retrace_from = None
+    #: the gap under way was started by :meth:`crawled`
+    crawl_gap = False
 
     def finish_at_end(self, p, q):
         """Solve at ``lam_end`` from the interpolation between points ``p`` and ``q`` that bracket it, else from
@@ -92,6 +102,70 @@ class Fallbacks:
                                f"traced (within {best:.2g} of it, scaled): no fold there")
         return True
 
+    def crawled(self):
+        """Whether the branch crawls: its last ``CRAWL_POINTS`` points (arclength steps, all after the last gap)
+        moved on average less than ``CRAWL_STEP * ds0`` per step (scaled distance, the arclength's norm with the
+        scale of the last point) and less than ``CRAWL_LAM`` of the range in ``lam``.  A fold is traced with steps
+        of the order of ``ds0`` (the step control grows them on a smooth curve); a corrector that converges only
+        partly (a stiff penalty law) or a tangent that misses by one time step's accuracy shortens every step
+        instead, and the branch would use up ``max_points`` or the time limit in place.  Then a gap is bridged
+        (:meth:`start_gap`'s natural-parameter step onwards, the pointwise solve where Newton fails; twice as wide as
+        the last gap when the branch crawls again right after a crawl's gap), recorded as a gap (kink ``"crawl":
+        True``, counter ``crawls``): the curve in it is not traced."""
+        points, n = self.points, CRAWL_POINTS
+        gaps = [k["index"] for k in self.kinks if k.get("gap")]
+        if self.natural is not None or not self.natural_fallback or len(points) <= n \
+                or (gaps and max(gaps) > len(points) - 1 - n):
+            return False
+        q, span = points[-1], abs(self.lam_end - self.lam0)
+        if abs(q.lam - points[-1 - n].lam) >= CRAWL_LAM * span:
+            return False
+        w = np.asarray(self.unknown_scale(q.x, q.lam), dtype=float)
+        path = sum(float(np.linalg.norm(np.append((b.x - a.x) / w, (b.lam - a.lam) / self.lsc)))
+                   for a, b in zip(points[-1 - n:-1], points[-n:]))
+        if path >= n * CRAWL_STEP * self.ds0:
+            return False
+        self.crawl_gap_start(f"the arclength steps crawled at lam = {q.lam:.6g} ({n} points within "
+                             f"{abs(q.lam - points[-1 - n].lam):.2g} in lam, {path:.2g} scaled): the curve there "
+                             "is not traced")
+        return True
+
+    def crawl_gap_start(self, why):
+        """Start a crawl's gap at the last point (see :meth:`crawled`), onwards towards ``lam_end``."""
+        points, n = self.points, CRAWL_POINTS
+        self.counters["crawls"] = self.counters.get("crawls", 0) + 1
+        p = points[-1]
+        if p.dlam * self.direction < 0:  # onwards, towards lam_end
+            points[-1] = replace(p, dx=-p.dx, dlam=-p.dlam, orientation=-p.orientation)
+        step = 0.5 * self.ds0 * self.lsc
+        last = [k for k in self.kinks if k.get("crawl")]
+        if last and last[-1]["index"] >= len(points) - 1 - n:  # crawling again right after a crawl's gap: wider
+            step = max(step, 2.0 * abs(last[-1]["lam_right"] - last[-1]["lam"]))
+        self.natural, self.gap_from, self.crawl_gap, self.natural_reason = step, len(points), True, why
+
+    def stuck(self, back):
+        """Where the corrected point repeats one of the last ``STUCK_BACK`` points (index ``back``, see
+        :meth:`revisited`): the steps have shrunk to nothing there (not a closed loop of the curve, which comes back
+        to a point far behind) and would cycle; a crawl's gap onwards instead (:meth:`crawled`; once per point).
+        Returns True when it started one."""
+        points = self.points
+        if back < len(points) - STUCK_BACK or self.natural is not None or not self.natural_fallback \
+                or self.gap_from == len(points):
+            return False
+        self.crawl_gap_start(f"the arclength steps stuck at lam = {points[-1].lam:.6g} (the corrected point "
+                             f"repeated point {back}): the curve there is not traced")
+        return True
+
+    def revisited(self, q, w, rtol=1e-6):
+        """Index of an earlier point (not one of the last two) that ``q`` repeats to ``rtol`` in the scaled
+        unknowns and parameter: the continuation has come round to where it was and would trace the same points
+        again (a closed loop, or a step sequence that cycles); ``None`` otherwise.  Exact repetition only: the
+        two sides of a fold, or a branch passing near an earlier part, are not taken for it."""
+        for i, p in enumerate(self.points[:-2]):
+            if abs(q.lam - p.lam) <= rtol * self.lsc and float(np.max(np.abs((q.x - p.x) / w), initial=0.0)) <= rtol:
+                return i
+        return None
+
     def natural_step(self, p, w):
         """One natural-parameter step from ``p`` (Newton at fixed ``lam``, the step ``natural`` in ``lam``
         adapted); returns True when the branch ends."""
@@ -138,7 +212,8 @@ class Fallbacks:
         self.add(q, natural / lsc)
         if self.gap_from is not None:  # a gap bridged: back to arclength steps from the new point
             self.kinks.append({"lam": float(p.lam), "lam_right": float(q.lam), "index": len(self.points) - 1,
-                               "gap": True, "reason": self.natural_reason})
+                               "gap": True, "reason": self.natural_reason, "crawl": self.crawl_gap})
+            self.crawl_gap = False
             self.counters["gaps"] = self.counters.get("gaps", 0) + 1
             self.natural, self.gap_from, self.ds = None, None, self.ds0
             if (q.lam - lam_end) * direction < 0:
