@@ -32,13 +32,14 @@ def _coulomb(zeta, omega, R):
 
 def _verdict(sol, exact, accuracy, kind):
     """The error against ``exact``; a success is within ``accuracy``, a failure names ``kind`` as the largest
-    estimate."""
+    estimate or as the one that could not be made (the refinement's last level: which level the solve reaches
+    within ``max_time`` depends on the machine)."""
     err = abs(float(sol.amplitude[0]) - exact) / exact
     if sol.success:
         assert err <= accuracy, (err, sol.info["accuracy"])
     else:
         assert sol.certificate.failed == ["accuracy"], sol.message
-        assert f"largest: {kind}" in sol.message, sol.message
+        assert f"largest: {kind}" in sol.message or f"not estimated: {kind}" in sol.message, sol.message
     return err
 
 
