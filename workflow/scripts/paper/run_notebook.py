@@ -38,6 +38,11 @@ def read_source(path):
     return nb
 
 
+#: kernel starts per notebook: a kernel that dies before its first reply (seen once in 40-odd quick runs, two
+#: notebooks starting in the same second on a loaded machine: a race for the kernel's ports) is started again
+KERNEL_STARTS = 3
+
+
 def main(smk):
     inputs = dict(smk.input.items())
     nb_in = inputs.pop("nb")
@@ -54,8 +59,15 @@ def main(smk):
     logging.basicConfig(filename=smk.log[0], filemode="w", level=logging.INFO,
                         format="%(asctime)s %(name)s %(message)s")
     logging.info("parameters: %s", params)
-    pm.execute_notebook(read_source(nb_in), outputs["nb"], parameters=params, kernel_name="python3", progress_bar=False,
-                        log_output=True, cwd=os.getcwd())
+    for attempt in range(1, KERNEL_STARTS + 1):
+        try:
+            pm.execute_notebook(read_source(nb_in), outputs["nb"], parameters=params, kernel_name="python3",
+                                progress_bar=False, log_output=True, cwd=os.getcwd())
+            break
+        except RuntimeError as exc:  # the kernel's start, not a cell (a cell's error is PapermillExecutionError)
+            if "Kernel died before replying to kernel_info" not in str(exc) or attempt == KERNEL_STARTS:
+                raise
+            logging.warning("kernel start %d of %d failed (%s); starting a new kernel", attempt, KERNEL_STARTS, exc)
     nb = nbformat.read(outputs["nb"], as_version=4)
     body = export_html(nb, os.path.splitext(os.path.basename(nb_in))[0])
     with open(outputs["html"], "w", encoding="utf-8") as fh:
