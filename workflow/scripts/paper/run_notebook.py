@@ -38,7 +38,7 @@ def read_source(path):
     return nb
 
 
-#: kernel starts per notebook: a kernel that dies before its first reply (seen once in 40-odd quick runs, two
+#: kernel starts per notebook: a kernel that dies before its first reply (seen once, in a fresh-clone test run: two
 #: notebooks starting in the same second on a loaded machine: a race for the kernel's ports) is started again
 KERNEL_STARTS = 3
 
