@@ -92,14 +92,10 @@ class Fallbacks:
         del points[f + 1:]
         self.folds = [fo for fo in self.folds if fo["index"] <= f]
         self.kinks = [k for k in self.kinks if k["index"] <= f]
-        p = points[f]
-        if p.dlam * direction < 0:  # onwards: the way the branch went before the false turn
-            points[f] = replace(p, dx=-p.dx, dlam=-p.dlam, orientation=-p.orientation)
-        # a gap from f (start_gap): natural-parameter steps onwards, the pointwise solve where they fail, then
-        # arclength steps again
-        self.natural, self.gap_from = self.ds0 * lsc * 0.5, len(points)
-        self.natural_reason = (f"the arclength steps turned back at lam = {p.lam:.6g} onto the branch already "
-                               f"traced (within {best:.2g} of it, scaled): no fold there")
+        # a gap from f onwards, the way the branch went before the false turn
+        self.gap_onwards(self.ds0 * lsc * 0.5, f"the arclength steps turned back at lam = {points[f].lam:.6g} onto "
+                                               f"the branch already traced (within {best:.2g} of it, scaled): no fold "
+                                               "there")
         return True
 
     def crawled(self):
@@ -134,14 +130,20 @@ class Fallbacks:
         """Start a crawl's gap at the last point (see :meth:`crawled`), onwards towards ``lam_end``."""
         points, n = self.points, CRAWL_POINTS
         self.counters["crawls"] = self.counters.get("crawls", 0) + 1
-        p = points[-1]
-        if p.dlam * self.direction < 0:  # onwards, towards lam_end
-            points[-1] = replace(p, dx=-p.dx, dlam=-p.dlam, orientation=-p.orientation)
         step = 0.5 * self.ds0 * self.lsc
         last = [k for k in self.kinks if k.get("crawl")]
         if last and last[-1]["index"] >= len(points) - 1 - n:  # crawling again right after a crawl's gap: wider
             step = max(step, 2.0 * abs(last[-1]["lam_right"] - last[-1]["lam"]))
-        self.natural, self.gap_from, self.crawl_gap, self.natural_reason = step, len(points), True, why
+        self.gap_onwards(step, why)
+        self.crawl_gap = True
+
+    def gap_onwards(self, step, why):
+        """A gap from the last point onwards, towards ``lam_end`` (its tangent turned that way where it points
+        back): natural-parameter steps of ``step`` (:meth:`start_gap`'s mechanism), the reason ``why``."""
+        p = self.points[-1]
+        if p.dlam * self.direction < 0:
+            self.points[-1] = replace(p, dx=-p.dx, dlam=-p.dlam, orientation=-p.orientation)
+        self.natural, self.gap_from, self.natural_reason = step, len(self.points), why
 
     def stuck(self, back):
         """Where the corrected point repeats one of the last ``STUCK_BACK`` points (index ``back``, see
