@@ -53,8 +53,8 @@ import time
 import numpy as np
 
 from .arclength_parts import (ContinuationPoint, ContinuationResult, Evaluator, Failed, backtrack, bordered_solve,
-                              free_directions, locate_fold, orientation, stall_folds, tangent)
-from .arclength_kinks import KINK_STEPS, cross_kink, family_step
+                              free_directions, orientation, stall_folds, tangent)
+from .arclength_kinks import KINK_STEPS, cross_kink, family_step, fold_or_corner
 from .arclength_fallbacks import Fallbacks
 from .arclength_steps import PREDICTED, next_ds, smooth_step
 from .newton import newton, work_spent
@@ -488,22 +488,7 @@ class _Trace(Fallbacks):
         return None
 
     def fold(self, step_p, w, q):
-        """A fold between the last point ``p`` and ``q`` (the ``lam`` component of the tangent changed sign),
-        located by :func:`mshbm.solvers.arclength_parts.locate_fold`."""
-        p, ds, fold_rtol = step_p, self.ds, self.fold_rtol
-        if p.dlam * q.dlam < 0 and p.segment is not None and q.segment is not None and p.segment != q.segment:
-            # the turn in lam comes with a change of the smooth piece: a corner (e.g. a grazing, where an impacting
-            # branch bends away from the non-impacting one), not a fold (whose tangent turns smoothly)
-            self.kinks.append({"lam": float(p.lam), "lam_right": float(q.lam), "index": len(self.points),
-                               "reversal": True})
-            return
-        if p.dlam * q.dlam < 0 and p.stall is None and q.stall is None:
-            try:
-                self.folds.append(locate_fold(self.step, p, w, ds, q, len(self.points), fold_rtol, self.lsc))
-            except Failed as exc:
-                self.folds.append({"lam": float(0.5 * (p.lam + q.lam)) if abs(q.lam - p.lam) <= fold_rtol * abs(q.lam)
-                                   else max(p.lam, q.lam) if p.dlam > 0 else min(p.lam, q.lam),
-                                   "x": q.x, "index": len(self.points), "located": False, "note": str(exc)})
+        return fold_or_corner(self, step_p, w, q)
 
     # ------------------------------------------------------------------ the branch
     def start(self, x0):

@@ -1,7 +1,9 @@
 """Steps at fixed parameter of pseudo-arclength continuation (:mod:`mshbm.solvers.arclength`): across a kink
 of the branch that the arclength corrector cannot turn (:func:`cross_kink`), and onwards at the edge of a
 family of solutions (:func:`family_step`).  Each takes the run object of :func:`mshbm.solvers.arclength.continuation`
-(``trace``: its settings, the branch so far, its Newton solves) and returns the new point.
+(``trace``: its settings, the branch so far, its Newton solves) and returns the new point.  A turn in ``lam``
+between two points is recorded as a fold or, where the smooth piece changed with it, as a corner
+(:func:`fold_or_corner`).
 
 Notation as in :mod:`mshbm.solvers.arclength`.
 """
@@ -9,9 +11,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .arclength_parts import Failed
+from .arclength_parts import Failed, locate_fold
 
-__all__ = ["cross_kink", "family_step", "KINK_STEPS"]
+__all__ = ["cross_kink", "family_step", "fold_or_corner", "KINK_STEPS"]
 
 #: relative steps in lam tried, in this order, by a step at fixed lam across a kink (:func:`cross_kink`)
 KINK_STEPS = (1e-3, 1e-4, 1e-5)
@@ -113,3 +115,23 @@ def family_step(trace, p, w):
                        "fixed_lam": True, "family": True})
     trace.counters["family_steps"] = trace.counters.get("family_steps", 0) + 1
     return q
+
+
+def fold_or_corner(trace, step_p, w, q):
+    """A fold between the last point ``p`` of ``trace`` and ``q`` (the ``lam`` component of the tangent changed
+    sign), located by :func:`mshbm.solvers.arclength_parts.locate_fold` and appended to ``trace.folds``; a turn
+    that comes with a change of the smooth piece is a corner instead (appended to ``trace.kinks``)."""
+    p, ds, fold_rtol = step_p, trace.ds, trace.fold_rtol
+    if p.dlam * q.dlam < 0 and p.segment is not None and q.segment is not None and p.segment != q.segment:
+        # the turn in lam comes with a change of the smooth piece: a corner (e.g. a grazing, where an impacting
+        # branch bends away from the non-impacting one), not a fold (whose tangent turns smoothly)
+        trace.kinks.append({"lam": float(p.lam), "lam_right": float(q.lam), "index": len(trace.points),
+                            "reversal": True})
+        return
+    if p.dlam * q.dlam < 0 and p.stall is None and q.stall is None:
+        try:
+            trace.folds.append(locate_fold(trace.step, p, w, ds, q, len(trace.points), fold_rtol, trace.lsc))
+        except Failed as exc:
+            trace.folds.append({"lam": float(0.5 * (p.lam + q.lam)) if abs(q.lam - p.lam) <= fold_rtol * abs(q.lam)
+                                else max(p.lam, q.lam) if p.dlam > 0 else min(p.lam, q.lam),
+                                "x": q.x, "index": len(trace.points), "located": False, "note": str(exc)})
