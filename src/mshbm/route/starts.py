@@ -30,7 +30,9 @@ velocities, ``omega`` the forcing frequency (period ``T = 2 pi / omega``), ``n_h
     all displacements and velocities zero;
 ``"exact"`` (one element, at most :data:`EXACT_MAX_DOFS` DOFs)
     the exact event-driven periodic orbit (:func:`mshbm.methods.exact.exact_periodic`), itself started
-    from the linear response, then from rest, then from the best attempt so far;
+    from the linear response, then from rest, then from the state a Moreau-Jean transient from rest reaches
+    (first when the linear response runs through a stop), then from the best attempt so far; when none of
+    them gives the orbit, the attempt is recorded without a Newton solve of the method;
 ``"transient"``
     Moreau-Jean simulation of the whole system (friction and impacts exact, the method's steps per period)
     from the best attempt so far (from rest if that one ran away beyond 1e3 times
