@@ -57,9 +57,10 @@ from .. import condensation, fourier
 from ..errors import InputError
 from ..integrators.event.flow import WORK_PER_EVALUATION
 from ..integrators.moreau_jean import MAX_DENSE_DOFS, MoreauJean
-from ..methods.common import linear_response
+from ..methods.common import linear_penetrates, linear_response
 from ..methods.exact import exact_periodic
 from ..methods.registry import build_problem
+from ..methods.shooting import EXACT_PREFERRED_DOFS
 from ..solvers import newton as newton_
 from ..solvers.newton import solve_problem
 from .acceptance import displacement_scale
@@ -67,8 +68,9 @@ from .acceptance import displacement_scale
 __all__ = ["shifted_system", "shift_hat", "clamped_response", "hat_guess", "event_steps", "section_shift",
            "section_problem", "exact_section", "metered_exact", "EXACT_MAX_DOFS", "EXACT_WORK"]
 
-#: largest system for which the ``"exact"`` start runs the event-driven solver
-EXACT_MAX_DOFS = 100
+#: largest system for which the ``"exact"`` start runs the event-driven solver (event shooting prefers that start
+#: below the same size: :data:`mshbm.methods.shooting.EXACT_PREFERRED_DOFS`)
+EXACT_MAX_DOFS = EXACT_PREFERRED_DOFS
 #: work budget of one event-driven periodic solve of the ``"exact"`` start (the flow's deterministic count
 #: :attr:`mshbm.integrators.event.flow.EventFlow.work`, flop equivalents, 0.2-3 ns of one core each): it replaces 40 %
 #: of the ladder's remaining wall time (12 s and more on an idle machine).  Calibration (the 75 exact starts of
@@ -410,7 +412,7 @@ class ExactStart:
         guesses = ["linear", {"q0": np.zeros(n), "u0": np.zeros(n)}]
         simulated = ExactStart._transient_state(ladder)
         if simulated is not None:
-            if ExactStart._linear_penetrates(ladder):
+            if linear_penetrates(ladder.system, ladder.omega, ladder.n_h):
                 guesses.insert(0, simulated)
             else:
                 guesses.append(simulated)
@@ -427,19 +429,6 @@ class ExactStart:
             except (FloatingPointError, np.linalg.LinAlgError, ValueError):
                 pass
         return guesses
-
-    @staticmethod
-    def _linear_penetrates(ladder):
-        """True if the linear response (no elements) closes a contact's gap somewhere in the period."""
-        els = [el for el in ladder.system.elements if el.unilateral]
-        if not els:
-            return False
-        n_h = max(ladder.n_h, 1)
-        q_hat = linear_response(ladder.system, ladder.omega, n_h)
-        tau = 2.0 * math.pi * np.arange(8 * n_h + 8) / (8 * n_h + 8)
-        k = np.arange(1, n_h + 1)
-        q = q_hat[0] + np.cos(np.outer(tau, k)) @ q_hat[1::2] + np.sin(np.outer(tau, k)) @ q_hat[2::2]
-        return any(float(np.min(el.gap + el.local(q))) < 0.0 for el in els)
 
     @staticmethod
     def _transient_state(ladder, drift_tol=1e-3):
