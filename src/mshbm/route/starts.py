@@ -409,13 +409,18 @@ class ExactStart:
         from rest (reduced cantilever's tip stop at 1.01-1.02 w_1: 30 iterations, 2.7 s CPU, from the linear
         response; 3-5 iterations from 40 simulated periods)."""
         n = ladder.system.n
-        guesses = ["linear", {"q0": np.zeros(n), "u0": np.zeros(n)}]
-        simulated = ExactStart._transient_state(ladder)
-        if simulated is not None:
-            if linear_penetrates(ladder.system, ladder.omega, ladder.n_h):
-                guesses.insert(0, simulated)
-            else:
-                guesses.append(simulated)
+        # (a generator: the simulation runs only when its turn comes)
+        first = linear_penetrates(ladder.system, ladder.omega, ladder.n_h)
+        if first:
+            simulated = ExactStart._transient_state(ladder)
+            if simulated is not None:
+                yield simulated
+        yield "linear"
+        yield {"q0": np.zeros(n), "u0": np.zeros(n)}
+        if not first:
+            simulated = ExactStart._transient_state(ladder)
+            if simulated is not None:
+                yield simulated
         best = ladder.best()
         if best is not None:
             try:
@@ -425,10 +430,9 @@ class ExactStart:
                 td = np.asarray(p["time_dofs"], dtype=np.int64)
                 q0[td], u0[td] = p["q_time"][0], p["u_time"][0]
                 if np.all(np.isfinite(q0)) and np.all(np.isfinite(u0)):
-                    guesses.append({"q0": q0, "u0": u0})
+                    yield {"q0": q0, "u0": u0}
             except (FloatingPointError, np.linalg.LinAlgError, ValueError):
                 pass
-        return guesses
 
     @staticmethod
     def _transient_state(ladder, drift_tol=1e-3):
