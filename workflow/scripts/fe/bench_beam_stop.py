@@ -162,7 +162,15 @@ def main(argv=None):
     unknown = [m for m in methods if m not in METHODS]
     if unknown:
         ap.error(f"--methods: unknown {unknown[0]!r} (choose from {', '.join(METHODS)})")
-    res = run([float(r) for r in a.ratios.split(",")], a.ref_modes, a.harmonics, a.steps, methods)
+    try:
+        ratios = [float(r) for r in a.ratios.split(",") if r.strip()]
+    except ValueError:
+        ap.error(f"--ratios: comma-separated numbers, got {a.ratios!r}")
+    if not ratios or any(not (r > 0.0 and math.isfinite(r)) for r in ratios):
+        ap.error(f"--ratios: positive numbers, got {a.ratios!r}")
+    if a.ref_modes < 1 or a.harmonics < 1 or a.steps < 8:
+        ap.error("--ref-modes and --harmonics must be >= 1, --steps >= 8")
+    res = run(ratios, a.ref_modes, a.harmonics, a.steps, methods)
     for label, s in res["summary"].items():
         print(f"{label}: largest CPU {s['cpu_max_s']:.2f} s, largest amplitude difference "
               f"{s['amplitude_rel_diff_max']:.2e}, episodes agree: {s['episodes_agree']}, certified "
