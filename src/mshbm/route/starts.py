@@ -30,7 +30,9 @@ velocities, ``omega`` the forcing frequency (period ``T = 2 pi / omega``), ``n_h
     all displacements and velocities zero;
 ``"exact"`` (one element, at most :data:`EXACT_MAX_DOFS` DOFs)
     the exact event-driven periodic orbit (:func:`mshbm.methods.exact.exact_periodic`), itself started
-    from the linear response, then from rest, then from the best attempt so far;
+    from the linear response, then from rest, then from the state a Moreau-Jean transient from rest reaches
+    (first when the linear response runs through a stop), then from the best attempt so far; when none of
+    them gives the orbit, the attempt is recorded without a Newton solve of the method;
 ``"transient"``
     Moreau-Jean simulation of the whole system (friction and impacts exact, the method's steps per period)
     from the best attempt so far (from rest if that one ran away beyond 1e3 times
@@ -55,9 +57,10 @@ from .. import condensation, fourier
 from ..errors import InputError
 from ..integrators.event.flow import WORK_PER_EVALUATION
 from ..integrators.moreau_jean import MAX_DENSE_DOFS, MoreauJean
-from ..methods.common import linear_response
+from ..methods.common import linear_penetrates, linear_response
 from ..methods.exact import exact_periodic
 from ..methods.registry import build_problem
+from ..methods.shooting import EXACT_PREFERRED_DOFS
 from ..solvers import newton as newton_
 from ..solvers.newton import solve_problem
 from .acceptance import displacement_scale
@@ -65,8 +68,9 @@ from .acceptance import displacement_scale
 __all__ = ["shifted_system", "shift_hat", "clamped_response", "hat_guess", "event_steps", "section_shift",
            "section_problem", "exact_section", "metered_exact", "EXACT_MAX_DOFS", "EXACT_WORK"]
 
-#: largest system for which the ``"exact"`` start runs the event-driven solver
-EXACT_MAX_DOFS = 100
+#: largest system for which the ``"exact"`` start runs the event-driven solver (event shooting prefers that start
+#: below the same size: :data:`mshbm.methods.shooting.EXACT_PREFERRED_DOFS`)
+EXACT_MAX_DOFS = EXACT_PREFERRED_DOFS
 #: work budget of one event-driven periodic solve of the ``"exact"`` start (the flow's deterministic count
 #: :attr:`mshbm.integrators.event.flow.EventFlow.work`, flop equivalents, 0.2-3 ns of one core each): it replaces 40 %
 #: of the ladder's remaining wall time (12 s and more on an idle machine).  Calibration (the 75 exact starts of
@@ -387,16 +391,36 @@ class ExactStart:
                     return att
                 return exact_section(ladder, ex, N, att, t0)
             why.append(ex.message)
-        return ladder.try_("exact", problem.initial_guess("linear"),
-                           "exact_periodic failed: " + "; ".join(w[:120] for w in why), 0, t0)
+        # no Newton solve of the method from the linear response here: that is the start "linear" (tried before
+        # this one, or after it when "exact" is preferred); the record names why the exact orbit was not found
+        x0 = problem.initial_guess("linear")
+        failed = newton_.NewtonResult(x=np.array(x0, dtype=float), success=False, nit=0, nfev=0,
+                                      residual_norm=float("inf"), message="the exact orbit was not found")
+        return ladder.try_("exact", x0, "exact_periodic failed: " + "; ".join(w[:120] for w in why), 0, t0,
+                           result=failed)
 
     @staticmethod
     def _guesses(ladder):
         """The linear start, the state of rest (on the reduced cantilever's tip stop at 0.99 w_1 the exact flow's
-        Newton converged from rest in 0.7 s CPU and stalled from the linear response), then the state at
-        ``t = 0`` of the best attempt so far (when finite)."""
+        Newton converged from rest in 0.7 s CPU and stalled from the linear response), the state a Moreau-Jean
+        transient from rest reaches (:meth:`_transient_state`), then the state at ``t = 0`` of the best attempt
+        so far (when finite).  The transient state comes first when the linear response runs through a stop:
+        the linear start is then no answer, and near the resonance the exact flow's Newton stalls from it and
+        from rest (reduced cantilever's tip stop at 1.01-1.02 w_1: 30 iterations, 2.7 s CPU, from the linear
+        response; 3-5 iterations from 40 simulated periods)."""
         n = ladder.system.n
-        guesses = ["linear", {"q0": np.zeros(n), "u0": np.zeros(n)}]
+        # (a generator: the simulation runs only when its turn comes)
+        first = linear_penetrates(ladder.system, ladder.omega, ladder.n_h)
+        if first:
+            simulated = ExactStart._transient_state(ladder)
+            if simulated is not None:
+                yield simulated
+        yield "linear"
+        yield {"q0": np.zeros(n), "u0": np.zeros(n)}
+        if not first:
+            simulated = ExactStart._transient_state(ladder)
+            if simulated is not None:
+                yield simulated
         best = ladder.best()
         if best is not None:
             try:
@@ -406,10 +430,41 @@ class ExactStart:
                 td = np.asarray(p["time_dofs"], dtype=np.int64)
                 q0[td], u0[td] = p["q_time"][0], p["u_time"][0]
                 if np.all(np.isfinite(q0)) and np.all(np.isfinite(u0)):
-                    guesses.append({"q0": q0, "u0": u0})
+                    yield {"q0": q0, "u0": u0}
             except (FloatingPointError, np.linalg.LinAlgError, ValueError):
                 pass
-        return guesses
+
+    @staticmethod
+    def _transient_state(ladder, drift_tol=1e-3):
+        """``{"q0", "u0"}`` at ``t = 0`` after a Moreau-Jean simulation of the whole system from rest (the method's
+        steps per period, 1024 for HBM), ended when the state changes by less than ``drift_tol`` of its size over
+        a period or after ``max(transient_periods)`` periods; ``None`` when the simulation would exceed the
+        ladder's ``transient_budget`` (``n^2 x steps x periods``), fails or diverges."""
+        system, omega = ladder.system, ladder.omega
+        n = system.n
+        steps = int(ladder.problem.steps) if ladder.problem.time_step is not None else 1024
+        periods = max(ladder.transient_periods)
+        if n > MAX_DENSE_DOFS or float(n) * n * steps * periods > ladder.transient_budget:
+            return None
+        T = 2 * math.pi / omega
+        try:
+            stepper = MoreauJean(system.M, system.C, system.K, system.elements, T / steps,
+                                 float(ladder.options.get("theta", 0.5)), bool(ladder.options.get("project", True)))
+        except InputError:
+            return None
+        B = stepper.increments(system.forcing(np.linspace(0.0, T, steps + 1), omega))
+        q, u = np.zeros(n), np.zeros(n)
+        for _ in range(periods):
+            tr = stepper.run(q, u, B)
+            q1, u1 = tr.q[-1, :n].copy(), tr.u[-1, :n].copy()
+            if not (np.all(np.isfinite(q1)) and np.all(np.isfinite(u1))):
+                return None
+            size = max(float(np.max(np.abs(tr.q[:, :n]))), float(np.max(np.abs(tr.u[:, :n]))) / omega, 1e-300)
+            drift = max(float(np.max(np.abs(q1 - q))), float(np.max(np.abs(u1 - u))) / omega)
+            q, u = q1, u1
+            if drift <= drift_tol * size:
+                break
+        return {"q0": q[:n].copy(), "u0": u[:n].copy()}
 
 
 class TransientStart:
