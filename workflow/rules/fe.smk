@@ -152,3 +152,35 @@ if config.get("fe_example"):
     rule fe_curves:
         input:
             expand(f"{FE_DIR}/sweep/sweep_{{fmethod}}.json", fmethod=FE.get("long_methods", []) + FE["methods"]),
+
+
+# Cold single solves of a stop on a finite-element node (the sweep suite's beam-stop-cb: the 0.1 m steel cantilever
+# of 40 elements, its stop on the tip node, reduced by Craig-Bampton) at nine frequencies across w_1 +- 10 %: CPU per
+# point and agreement with event shooting on the beam reduced with 12 modes, per method (scripts/fe/bench_beam_stop.py;
+# about 20 s of CPU).  Part of `rule all`; `snakemake --cores 1 <results>/fe/beam_stop/bench.json` alone.
+rule bench_beam_stop:
+    input:
+        script="workflow/scripts/fe/bench_beam_stop.py",
+        sweeps="workflow/sweeps.yaml",
+        systems=f"{WF_LIB}/sweep_systems.py",
+    output:
+        json=f"{R}/fe/beam_stop/bench.json",
+    params:
+        argv=lambda w, output: ["--out", output.json],
+        solver=SOLVER_DIGEST,
+    log:
+        f"{R}/logs/fe/bench_beam_stop.log",
+    benchmark:
+        f"{R}/logs/times/fe/bench_beam_stop.tsv",
+    priority: 2  # long jobs first: a shorter tail on few cores (common.smk, "Priorities")
+    threads: 1
+    resources:
+        mem_mb=2000,
+        runtime=10,
+    message:
+        "python {input.script} {params.argv}"
+    script:
+        "../scripts/cli_job.py"
+
+
+EXTRA_TARGETS.append(f"{R}/fe/beam_stop/bench.json")

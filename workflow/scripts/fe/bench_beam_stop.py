@@ -53,9 +53,10 @@ import yaml
 import mshbm
 from mshbm._blas import blas_threads
 
+from mshbm_workflow import sweep_systems
+
+#: the repository (for the sweep suite's configuration, workflow/sweeps.yaml, where the beam is defined)
 ROOT = Path(__file__).resolve().parents[3]
-sys.path.insert(0, str(ROOT / "workflow" / "lib"))
-from mshbm_workflow import sweep_systems  # noqa: E402
 
 #: the method rows: label -> (method, options)
 METHODS = {
