@@ -34,7 +34,10 @@ and time_discretisation 5.4e-3 from the other; its own estimate 7.4e-3, its erro
 between its neighbours, and the estimated points include the peaks and the bifurcations where estimates turn;
 the note of every interpolated estimate names its two points, and ``certificate["accuracy"]["estimated"]`` is
 ``"re-solve"`` or ``"interpolated"``.  The default stride is :data:`EVERY`, widened (at most to ``P // 6``)
-when the first point's estimates cost more than :data:`BUDGET` times the stride's points' tracing.  Measured on
+when the estimates cost more than :data:`BUDGET` times the stride's points' tracing: their cost is the mean over
+the anchors of stride ``P // 6`` (estimated first; the first point alone, before a contact closes, costs nothing
+and set the stride to 4 on a 2-DOF chain whose impacting points' re-solves cost 500 times more: 379 points,
+estimates far beyond the trace's time).  Measured on
 the examples (README, "Frequency-response curves"; CPU time): +13 % (friction3, MS-HBM), +30 % (impact5,
 Moreau-Jean shooting), about +100 % (a reduced FE beam, with ``reduction``), +160 % (damper2d, HBM, whose many
 alternating verdicts are bisected); ``estimate_every=1`` +45 % to +380 %.  Why not a second branch at ``2 n_h``
@@ -153,8 +156,9 @@ def _verdict(values, cert, acc):
 
 def _stride(branch, first_cost, every, trace_cost):
     """The stride of the estimated points: ``every`` when given, else :data:`EVERY` widened so that the
-    estimates cost about :data:`BUDGET` times the trace (``first_cost``: the first point's estimates, against the
-    trace's mean per point, ``trace_cost / P``), at most ``P // 6`` (at least 6 estimated points).  Both costs are
+    estimates cost about :data:`BUDGET` times the trace (``first_cost``: the mean cost of the coarse anchors'
+    estimates, :func:`certify_points`, against the trace's mean per point, ``trace_cost / P``), at most ``P // 6``
+    (at least 6 estimated points).  Both costs are
     counts of Newton residual evaluations (:class:`mshbm.solvers.newton.Meter`), not wall times: the stride is the
     same on every machine, whatever its load.  (An evaluation of the estimates' finer re-solves costs 0.04-10 times
     one of the trace in wall time on the tests' sweeps, whose traces' wall times include the points' certificates
@@ -165,6 +169,20 @@ def _stride(branch, first_cost, every, trace_cost):
     per_point = float(trace_cost) / max(P, 1)
     need = math.ceil(first_cost / (BUDGET * per_point)) if per_point > 0 else EVERY
     return int(max(EVERY, min(need, P // 6)))
+
+
+def _coarse_estimates(branch, ctx, every, lams, trace_cost):
+    """``(found, stride)``: the estimates of the coarse anchors (:func:`_anchors` at stride ``P // 6``, at least
+    :data:`EVERY`; only the first point when ``every`` is given) and the stride that their mean cost in Newton
+    residual evaluations sets (:func:`_stride`).  The first point alone (often before the elements act, where the
+    estimates cost nothing) set the stride to :data:`EVERY` on branches whose later points cost a hundred times
+    more."""
+    first = [0] if every is not None else _anchors(branch, max(EVERY, len(branch.points) // 6))
+    found = {}
+    with work_box() as meter:
+        for i in first:
+            found[i] = ctx.estimate(branch.points[i], lams[i])
+    return found, _stride(branch, meter.used / len(first), every, trace_cost)
 
 
 def _anchors(branch, every):
@@ -193,11 +211,7 @@ def certify_points(branch, route, tracer, method, options, accuracy, every, lams
     P = len(branch.points)
     ctx = _Context(route, tracer, method, options, acc, lams)
     t0, c0 = time.perf_counter(), time.process_time()
-    found = {}
-    if P:
-        with work_box() as meter:
-            found[0] = ctx.estimate(branch.points[0], lams[0])
-        every = _stride(branch, meter.used, every, trace_cost)
+    found, every = _coarse_estimates(branch, ctx, every, lams, trace_cost) if P else ({}, every)
     todo = [i for i in _anchors(branch, every) if i not in found] if P else []
     while todo:
         for i in todo:

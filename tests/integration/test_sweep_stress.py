@@ -109,3 +109,59 @@ def test_bad_configuration_is_exit_2(tmp_path, capsys):
     bad.write_text(CONFIG.read_text().replace("checks: 10", "checks: 0"))
     assert sweeps.main(["--config", str(bad), "--out", str(tmp_path / "o")]) == 2
     assert "checks" in capsys.readouterr().err
+
+
+class _Cert:
+    def __init__(self, failed):
+        self.failed = failed
+
+
+class _Sol:
+    def __init__(self, amplitude, success, failed=()):
+        self.amplitude, self.success, self.message = np.asarray(amplitude, float), success, "stub"
+        self.certificate = _Cert(list(failed))
+
+
+class _Point:
+    def __init__(self, omega, amplitude):
+        self.omega, self.amplitude, self.solution = omega, np.asarray(amplitude, float), object()
+
+
+class _Branch:
+    def __init__(self, points):
+        self.points = points
+        self.omega = np.array([p.omega for p in points])
+
+
+@pytest.mark.parametrize("point_certified", [True, False])
+def test_a_coexisting_solution_is_reported_as_such_not_as_a_deviation(monkeypatch, point_certified):
+    # at the sweep point (amplitude 1), the default start's certified solve lands on another solution (amplitude 4:
+    # deviation |1 - 4| / 4 = 0.75); the solve from the sweep point stays on it (1 + 1e-9), certified or failing only on accuracy
+    point = _Point(2.0, [1.0])
+
+    def solve(system, omega, method, guess=None, **opts):
+        if guess is None:
+            return _Sol([4.0], True)
+        return _Sol([1.0 + 1e-9], point_certified, () if point_certified else ("accuracy",))
+
+    monkeypatch.setattr(sweep_runner.mshbm, "solve", solve)
+    case = {"method": "hbm", "options": {}}
+    (rec,) = sweep_runner.run_checks(None, case, _Branch([point]), 1, 10.0, 60.0, 0.005)
+    assert rec["coexisting"] and rec["start"] == "sweep point"
+    assert rec["independent_deviation"] == pytest.approx(0.75)
+    assert rec["point_deviation"] == pytest.approx(1e-9)
+    assert rec["success"] is point_certified
+    # certified: the deviation is the point's own solve's; not certified: none (the check is not certified), never
+    # the distance 0.75 to the other solution
+    assert rec["deviation"] == (pytest.approx(1e-9) if point_certified else None)
+
+
+def test_a_solve_from_the_sweep_point_that_leaves_it_is_no_coexistence(monkeypatch):
+    point = _Point(2.0, [1.0])
+
+    def solve(system, omega, method, guess=None, **opts):
+        return _Sol([4.0], True) if guess is None else _Sol([2.0], False, ("accuracy",))
+
+    monkeypatch.setattr(sweep_runner.mshbm, "solve", solve)
+    (rec,) = sweep_runner.run_checks(None, {"method": "hbm", "options": {}}, _Branch([point]), 1, 10.0, 60.0, 0.005)
+    assert not rec.get("coexisting") and rec["start"] == "default" and rec["deviation"] == pytest.approx(0.75)

@@ -136,3 +136,29 @@ def test_event_flow_charges_its_work_to_the_meter():
         flow.simulate(0.0, np.concatenate([np.zeros(4), flow.osc(0.0)]), jac=True)
     assert flow.work > 0
     assert meter.used == pytest.approx(flow.work / event_flow.WORK_PER_EVALUATION, rel=1e-15)
+
+
+def test_stride_from_the_coarse_anchors_not_the_first_point():
+    # 120 points traced with 1200 evaluations (10 a point); the estimates cost 1 evaluation up to point 59 (the
+    # contact open) and 200 from point 60 on.  The coarse anchors (stride 120 // 6 = 20: points 0, 20, ..., 100,
+    # 119, and the amplitude peak 90) cost (1 * 3 + 200 * 5) / 8 = 125.4 on average: stride ceil(125.4 / 5) = 26 ->
+    # capped at 120 // 6 = 20.  By the first point alone (1 evaluation) it was EVERY = 4: 30 estimates at 200.
+    from mshbm.solvers.newton import charge
+
+    amp = [2.0 if i == 90 else 1.0 + 1e-3 * i for i in range(120)]  # rising, one peak at point 90
+    br = SimpleNamespace(points=[SimpleNamespace(amplitude=np.array([a])) for a in amp], bifurcations=[])
+    seen = []
+
+    class Ctx:
+        def estimate(self, bp, lam):
+            seen.append(lam)
+            charge(1 if lam < 60 else 200)
+            return {}
+
+    found, every = branch_accuracy._coarse_estimates(br, Ctx(), None, list(range(120)), 1200)
+    assert sorted(found) == seen == [0, 20, 40, 60, 80, 90, 100, 119]
+    assert every == 20
+    # a given stride: only the first point first, the stride as given
+    seen.clear()
+    found, every = branch_accuracy._coarse_estimates(br, Ctx(), 3, list(range(120)), 1200)
+    assert sorted(found) == seen == [0] and every == 3

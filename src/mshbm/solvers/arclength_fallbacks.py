@@ -13,7 +13,7 @@ from .arclength_parts import Failed
 from .arclength_steps import EXACT_REACH, exact_root
 
 __all__ = ["Fallbacks", "CYCLE_RTOL", "RETRACE_BACK", "RETRACE_RTOL", "CRAWL_POINTS", "CRAWL_STEP", "CRAWL_LAM",
-           "STUCK_BACK"]
+           "STUCK_BACK", "WIDE_JUMP"]
 
 #: points of a cycle (:meth:`Fallbacks.cross_cycle`) lie within this (relative to ``lam_scale``) of one ``lam``
 CYCLE_RTOL = 1e-5
@@ -29,6 +29,8 @@ CRAWL_STEP = 0.125
 CRAWL_LAM = 0.01
 #: a corrected point that repeats one of the last ``STUCK_BACK`` points is stuck (:meth:`Fallbacks.stuck`)
 STUCK_BACK = 5
+#: the first of a gap's wider jumps (:meth:`Fallbacks.wide_jump`), in units of the gap's first natural-parameter step
+WIDE_JUMP = 2.0
 
 
 class Fallbacks:
@@ -189,10 +191,19 @@ class Fallbacks:
                 if exact is not None:
                     track = x
                     x, it, r, data, st = exact
-            q, _, _ = self.make_point(x, lam_n, it, r, data, natural / lsc, self.scaled_t(p, w), st)
-            q.track = track
-            q.dx, q.dlam = (x - p.x) / (natural / lsc), sgn * lsc  # secant, not the (useless) tangent
-            self.judged(q)
+            q = None
+            if st is not None and self.gap_from is not None:
+                # a gap's step (a jump of 0.5 ds0 or more) accepted at step accuracy with no exact root near it: the
+                # iterate may be no solution at all (beam-friction-stop-cb, Moreau-Jean MS-HBM: 1.41 mm where every
+                # solve from it converges to 0.58 mm); the pointwise solve there, when it finds one, is the point
+                q, _ = self.pointwise(p, w, lam_n, sgn, natural)
+                if q is not None:
+                    self.counters["stall_replaced"] = self.counters.get("stall_replaced", 0) + 1
+            if q is None:
+                q, _, _ = self.make_point(x, lam_n, it, r, data, natural / lsc, self.scaled_t(p, w), st)
+                q.track = track
+                q.dx, q.dlam = (x - p.x) / (natural / lsc), sgn * lsc  # secant, not the (useless) tangent
+                self.judged(q)
         except Failed as exc:
             self.counters["natural_failures"] = self.counters.get("natural_failures", 0) + 1
             q, why = self.pointwise(p, w, lam_n, sgn, natural)
@@ -203,6 +214,12 @@ class Fallbacks:
                 if (lam_n - lam_end) * direction > 0:
                     lam_n = lam_end
                 q, why = self.pointwise(p, w, lam_n, direction, natural)
+            if q is None and natural * 0.5 < self.ds_min * lsc and self.gap_from is not None:
+                q, lam_w, width = self.wide_jump(p, w, exc, why)
+                if q is not None:
+                    lam_n, natural = lam_w, width
+                else:
+                    why += f"; no wider jump onwards up to lam = {lam_end:.6g} found a solution either"
             if q is None:
                 self.natural = natural * 0.5
                 if self.natural < self.ds_min * lsc:
@@ -228,6 +245,37 @@ class Fallbacks:
             return True
         self.natural = min(natural * 1.5, self.ds_max * lsc)
         return False
+
+    def wide_jump(self, p, w, exc, why):
+        """Where a gap's natural-parameter steps onwards failed down to ``ds_min`` (no solution of the method near
+        ``p`` beyond it: a stretch where Newton from ``p`` and the pointwise solve both fail): wider jumps onwards,
+        ``WIDE_JUMP * 2**k`` times the gap's first step up to ``lam_end``, each by Newton from ``p`` and then the
+        pointwise solve, as a sweep in the parameter alone would go on past a stretch without solutions.  The first
+        point found ends the gap (recorded with its width; the curve in it is not traced, counter ``wide_jumps``).
+        Returns ``(q or None, lam_n, natural)``."""
+        direction, lam_end, lsc = self.direction, self.lam_end, self.lsc
+        base = 0.5 * self.ds0 * lsc
+        width = WIDE_JUMP * base
+        while True:
+            lam_n = p.lam + direction * width
+            if (lam_n - lam_end) * direction > 0:
+                lam_n, width = lam_end, abs(lam_end - p.lam)
+            q = None
+            try:
+                x, it, r, data, st = self.newton_fixed(p.x, lam_n, free=self.free_units(p, w))
+                q, _, _ = self.make_point(x, lam_n, it, r, data, width / lsc, self.scaled_t(p, w), st)
+                q.dx, q.dlam = (x - p.x) / (width / lsc), direction * lsc
+                self.judged(q)
+            except Failed:
+                q, _ = self.pointwise(p, w, lam_n, direction, width)
+            if q is not None:
+                self.counters["wide_jumps"] = self.counters.get("wide_jumps", 0) + 1
+                self.natural_reason += (f"; no solution found from lam = {p.lam:.6g} to within {base:.2g} of it "
+                                        f"({exc}{why}): jumped {width:.3g} onwards to lam = {lam_n:.6g}")
+                return q, lam_n, width
+            if lam_n == lam_end:
+                return None, lam_n, width
+            width *= 2.0
 
     def pointwise(self, p, w, lam_n, sgn, natural):
         """Where Newton at fixed ``lam_n`` from ``p`` failed in a natural-parameter step: the point from

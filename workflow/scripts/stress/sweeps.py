@@ -213,7 +213,8 @@ def markdown(rows, s, meta):
             msg = msg[:157] + "..."
         checks = f"{r.get('checks_certified', 0)}/{len(r.get('checks') or [])}"
         if r.get("independent_differs"):
-            checks += f" ({r['independent_differs']} indep. elsewhere)"
+            checks += f" ({r['independent_differs']} indep. elsewhere"
+            checks += f", {r['coexisting']} coexisting)" if r.get("coexisting") else ")"
         lines.append(f"| {r['name']} | {r.get('dofs', '–')} | {rng} | {'yes' if r.get('reached') else '**no**'} | "
                      f"{r.get('points', 0)} | {_fmt(r.get('cpu_s'), '.1f')} | {dev} | {checks} | "
                      f"{r.get('stop')}: {msg} |")
@@ -225,6 +226,8 @@ def markdown(rows, s, meta):
             text = (f"- {r['name']} at omega = {c['omega']:.6g}: deviation {_fmt(c.get('deviation'), '.2e')}"
                     f" (independent {_fmt(c.get('independent_deviation'), '.2e')}, from the sweep point "
                     f"{_fmt(c.get('point_deviation'), '.2e')}); solve: {_short(c.get('message'))}")
+            if c.get("coexisting"):
+                text += "; coexisting: the solve from the sweep point stays on it, the independent one is another solution"
             if c.get("point_message"):
                 text += f"; from the sweep point: {_short(c['point_message'])}"
             lines.append(text)
