@@ -109,7 +109,7 @@ def test_threaded_lapack_paths(runs):
 def test_lapack_thread_dependence_root_cause():
     """The root cause in isolation: inv/solve of a 240x240 SPD matrix with 1 and 2 BLAS threads.  The solves
     are Newton from the linear start alone (``continuation=False``): two iterations through the 120-DOF step
-    matrices, 0.4 s of CPU (the start ladder after them took 14 s per solve and adds no BLAS path)."""
+    matrices, 0.4 s of CPU (the start ladder that followed them took 14 s per solve)."""
     from threadpoolctl import threadpool_limits
 
     rng = np.random.default_rng(0)
