@@ -33,6 +33,13 @@ from workflow_run import QUICK, TARGET, copy_workflow, run
 
 #: the xdist work unit of the tests that share the quick workflow's run
 QUICK_GROUP = "quick-workflow"
+#: Snakemake's job-rate window for the quick run (default 100 jobs per 1 s).  After every pass of its scheduling loop
+#: Snakemake arms a timer of that window that wakes the loop again, and every job start and end begins another such
+#: chain of timers: towards the end of the run some hundred chains wake the loop (a new thread each, and a
+#: re-evaluation of the ready jobs) about a hundred times a second.  The main Snakemake process of the quick run took
+#: 99 s of CPU with the 1 s window and 12 s with 5 s (2 cores, 911 and 778 s of wall on a loaded machine; the same
+#: outputs); the cost is up to 5 s of wall at the end, when the process waits for its last timers
+QUICK_RATE = ["--max-jobs-per-timespan", "1000/5s"]
 #: (controller) the folder where the xdist workers write the work units of their collection
 UNITS_DIR = pytest.StashKey[str]()
 #: solves that compile the numba kernels of the package (run once, while the xdist workers collect)
@@ -203,6 +210,6 @@ def quick_run(workdir):
     # little, and every test of the unit then errored)
     # greedy job selection: the default ILP scheduler starts the CBC solver once per finished job (about 0.1 s of
     # wall each, while a core waits); the rules' priorities order the long jobs first either way
-    proc = run(TARGET + ["--cores", "2", "--scheduler", "greedy"] + QUICK, workdir, timeout=2400)
+    proc = run(TARGET + ["--cores", "2", "--scheduler", "greedy"] + QUICK_RATE + QUICK, workdir, timeout=2400)
     assert proc.returncode == 0, proc.stdout[-4000:] + proc.stderr[-4000:]
     return workdir / "results" / "quick"

@@ -2,10 +2,10 @@
 and its quick profile -- no certified success outside its accuracy, the exact event-driven variants within it on
 every case, every failure diagnosed, and the unit-scaled copy read like the original.
 
-The quick profile runs here (in this process, < 60 s CPU of solves after the warm-up): the event-driven shooting and
-MS-HBM, HBM and DLFT on two closed-form impact orbits (restitution 0 with a sticking phase, and 0.5), Den Hartog's
-damped Coulomb oscillator, and the first system with forcing and gap scaled by 1e-11; default settings and
-``accuracy`` 1e-2, 1e-3.
+The quick profile is the quick workflow's run of it (rule accuracy_quick, < 60 s CPU of solves after the warm-up):
+the event-driven shooting and MS-HBM, HBM and DLFT on two closed-form impact orbits (restitution 0 with a sticking
+phase, and 0.5), Den Hartog's damped Coulomb oscillator, and the first system with forcing and gap scaled by 1e-11;
+default settings and ``accuracy`` 1e-2, 1e-3.
 """
 import json
 import math
@@ -18,10 +18,8 @@ import closed_forms as cf
 import mshbm
 from mshbm_workflow import accuracy_refs as ar
 from mshbm_workflow.accuracy_cases import build_system, load_config, methods_for, plan_systems, reference
-from workflow_run import load_script
 
 ROOT = Path(__file__).resolve().parents[2]
-SCRIPT = ROOT / "workflow" / "scripts" / "stress" / "accuracy.py"
 CONFIG = ROOT / "workflow" / "accuracy.yaml"
 
 
@@ -85,10 +83,10 @@ def test_scaled_copies_scale_the_reference_exactly():
 
 # ----------------------------------------------------------------------------- the quick profile
 @pytest.fixture(scope="module")
-def quick(tmp_path_factory):
-    out = tmp_path_factory.mktemp("accuracy-quick")
-    mod = load_script(SCRIPT.relative_to(ROOT / "workflow" / "scripts"))
-    assert mod.main(["--config", str(CONFIG), "--quick", "--out", str(out)]) == 0
+def quick(quick_run):
+    """The quick profile as the quick workflow's job ran it (rule accuracy_quick: this script with
+    ``--config workflow/accuracy.yaml --quick``; fixture ``quick_run``, tests/conftest.py), not a second run."""
+    out = quick_run / "accuracy-quick"
 
     def reject(name):
         raise AssertionError(f"{name} in the JSON summary")

@@ -106,9 +106,10 @@ def test_threaded_lapack_paths(runs):
     assert not diff, "results with blas_threads=None depend on the thread count:\n" + "\n".join(diff)
 
 
-@pytest.mark.slow
 def test_lapack_thread_dependence_root_cause():
-    """The root cause in isolation: inv/solve of a 240x240 SPD matrix with 1 and 2 BLAS threads."""
+    """The root cause in isolation: inv/solve of a 240x240 SPD matrix with 1 and 2 BLAS threads.  The solves
+    are Newton from the linear start alone (``continuation=False``): two iterations through the 120-DOF step
+    matrices, 0.4 s of CPU (the start ladder that followed them took 14 s per solve)."""
     from threadpoolctl import threadpool_limits
 
     rng = np.random.default_rng(0)
@@ -121,9 +122,9 @@ def test_lapack_thread_dependence_root_cause():
     assert np.array_equal(res[1][0], res[2][0])  # matrix products are thread-count independent
     if not np.array_equal(res[1][1], res[2][1]):  # LU may not be: then solve() must pin the threads
         with threadpool_limits(2, user_api="blas"):
-            sol = mshbm.solve(friction_chain(120), OMEGA, "shooting", steps=64, max_iter=2)
+            sol = mshbm.solve(friction_chain(120), OMEGA, "shooting", steps=64, max_iter=2, continuation=False)
         with threadpool_limits(1, user_api="blas"):
-            ref = mshbm.solve(friction_chain(120), OMEGA, "shooting", steps=64, max_iter=2)
+            ref = mshbm.solve(friction_chain(120), OMEGA, "shooting", steps=64, max_iter=2, continuation=False)
         assert np.array_equal(sol.x, ref.x)  # the default blas_threads=1 shields solve()
 
 

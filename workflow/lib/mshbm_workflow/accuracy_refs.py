@@ -225,7 +225,8 @@ def coulomb(omega, zeta, R):
     (X, phi), r = best
     # admissibility: x' > 0 on (0, T/2) and the turning point is no stop (|cos(phi) + X| > R)
     tt = np.linspace(0.0, half, 2001)[1:-1]
-    xd = np.array([(expm(Ah * t) @ (np.array([-X, 0.0]) - part(0.0, phi)) + part(t, phi))[1] for t in tt])
+    flow = _phi_h(tt, zeta) if zeta < 1.0 else np.array([expm(Ah * t) for t in tt])  # e^{A_h t}, closed form
+    xd = (flow @ (np.array([-X, 0.0]) - part(0.0, phi)))[:, 1] + part(tt, phi)[1]
     if np.min(xd) <= 0 or math.cos(phi) + X <= R:
         return None
     return {"amplitude": float(X), "phase": float(phi), "residual": r}
