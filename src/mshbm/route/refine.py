@@ -40,18 +40,15 @@ is 1.8e-3 off at ``n_h`` = 5 and 10, which agree to 5e-6, while 10 -> 20 changes
   :data:`MAX_RATE`; on the first level at most 1); when they do not decrease (``d_1 >= d_2``), one more
   change ``d_0`` (``N`` against ``2 N``, a re-solve made only when ``d_1`` could pass) and the envelope of the
   three at first order, each as a change ``N -> 2 N``, summed from ``N`` on: ``2 max(d_0, d_1 / 2, d_2 / 4)``
-  (Moreau-Jean converges at first order; changes that do not fall are the events moving on the grid: on
-  examples/impact5.yaml at ``omega = 0.663``, MS-HBM at 2048 steps, ``d_2, d_1, d_0`` = 9.4e-4, 1.0e-3, 2.0e-3
-  and the error 3.1e-3, estimate 3.9e-3 and the grid shift below; the slowest rate, ``d_1 / (2^MIN_RATE - 1)``,
-  read 150 and 9.6 times the error of shooting at 2048 steps on a Coulomb oscillator, ``omega = 2.37``, and a
-  two-mass chain with a stop and friction); when
-  ``d_1`` fell faster than :data:`IRREGULAR_RATE` (8 times: a cancellation, no scheme of order 2 converges so),
-  their envelope at first order, ``max(d_1, d_2 / 2)``.  An estimate
-  about to pass gets the change of the answer at ``N / 2`` steps when the time grid is shifted by half a step
-  against the forcing added (:meth:`_Estimator.grid_shift`; the error of an event depends on its place between
-  two grid points, which a halving can leave where it was; the change at ``N / 2`` is about twice the one at
-  ``N``, first order, and one alignment's error is up to about twice the spread of two): the halvings measure
-  the part of the error that falls with the step, the shift the part that depends on the alignment.
+  (Moreau-Jean converges at first order; changes that do not fall are the events moving on the grid, where
+  the slowest rate, ``d_1 / (2^MIN_RATE - 1)``, over-reads the error by one to two orders); when ``d_1`` fell
+  faster than :data:`IRREGULAR_RATE` (8 times: a cancellation, no scheme of order 2 converges so), their
+  envelope at first order, ``max(d_1, d_2 / 2)``.  An estimate about to pass gets the change of the answer at
+  ``N / 2`` steps when the time grid is shifted by half a step against the forcing added
+  (:meth:`_Estimator.grid_shift`; the error of an event depends on its place between two grid points, which a
+  halving can leave where it was; the change at ``N / 2`` is about twice the one at ``N``, first order, and one
+  alignment's error is up to about twice the spread of two): the halvings measure the part of the error that
+  falls with the step, the shift the part that depends on the alignment.
 * ``truncation``: Richardson at the slower of the last two observed rates where three successive doublings are
   known (one rate alone can be read fast where the changes oscillate about their decay), and a change that fell
   faster than :data:`MAX_RATE` from the previous level's, or an estimate below
@@ -59,9 +56,6 @@ is 1.8e-3 off at ``n_h`` = 5 and 10, which agree to 5e-6, while 10 -> 20 changes
   pass: a second doubling ``2 n_f`` gives ``d_1 + d_2 / (1 - 2^-p)`` (``p`` their observed rate in
   ``[MIN_RATE, MAX_RATE]``).  The coarse fallback takes the rate observed against the change into ``n_c`` (at
   most :data:`RATE`), else :data:`MIN_RATE`.
-
-Measured on the accuracy suite's 26 Moreau-Jean and 3 HBM rows that were certified outside their accuracy:
-each now succeeds within it or fails naming the estimate (README, "Known limits").
 
 An estimate whose re-solves both fail is ``None`` ("not estimated"), and the combined check ``accuracy``
 (:func:`mshbm.certificate.combined.combined_check`: the sum of ``truncation``, ``time_discretisation`` and the
@@ -298,10 +292,8 @@ class _Estimator:
     def rate(self, kind, d, pair=None):
         """The rate ``p`` of the estimate ``kind`` with the amplitude change ``d`` at ratio 2: :data:`RATE`, or
         the rate observed against the previous level's change (Richardson), within ``[MIN_RATE, MAX_RATE]``;
-        where the two changes before ``d`` are known too (three successive doublings), the slower of the last
-        two observed rates (module docstring, "Irregular convergence": DLFT on Den Hartog's Coulomb oscillator
-        ``zeta = 0.1, omega = 0.8, R = 0.2`` has the changes 4.7e-4, 2.1e-4, 1.2e-4, 5.0e-5 from n_h = 20 to 320,
-        rates 1.17, 0.82, 1.25: the last alone read 8.5e-5 at n_h = 160, where the error is 1.06e-4)."""
+        after three successive doublings, the slower of the last two observed rates (module docstring,
+        "Irregular convergence")."""
         last = self.diffs.get(kind)
         self.diffs[kind] = d
         seq = self.changes.setdefault(kind, []) if pair is not None else []
