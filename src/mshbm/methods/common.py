@@ -7,7 +7,7 @@ from .. import condensation, fourier
 from ..errors import InputError
 from ..validate import check_guess, check_guess_values
 
-__all__ = ["linear_response", "linear_penetrates", "pad_hat", "guess_parts", "complement", "failed_parts"]
+__all__ = ["linear_response", "pad_hat", "guess_parts", "complement", "failed_parts"]
 
 
 def failed_parts(t, N, hat_shape, time_dofs, n_el, harmonics, why):
@@ -54,20 +54,6 @@ def linear_response(system, omega, n_h):
         if np.all(np.isfinite(x)):
             Z[k] = x
     return fourier.from_complex(Z)
-
-
-def linear_penetrates(system, omega, n_h):
-    """True if the linear response (:func:`linear_response`, ``n_h`` harmonics) closes the gap of a contact
-    element somewhere in the period (sampled at ``8 n_h + 8`` points): the linear start is then no answer."""
-    els = [el for el in system.elements if el.unilateral]
-    if not els:
-        return False
-    n_h = max(int(n_h), 1)
-    q_hat = linear_response(system, omega, n_h)
-    tau = 2.0 * np.pi * np.arange(8 * n_h + 8) / (8 * n_h + 8)
-    k = np.arange(1, n_h + 1)
-    q = q_hat[0] + np.cos(np.outer(tau, k)) @ q_hat[1::2] + np.sin(np.outer(tau, k)) @ q_hat[2::2]
-    return any(float(np.min(el.gap + el.local(q))) < 0.0 for el in els)
 
 
 def guess_parts(guess, system, omega, n_h, states=True):

@@ -23,14 +23,10 @@ from __future__ import annotations
 import numpy as np
 
 from .base import Partition, PeriodicProblem, forward_difference_jacobian, section_limits
-from .common import failed_parts, guess_parts, linear_penetrates
+from .common import failed_parts, guess_parts
 from ..integrators.registry import make_integrator
 from ..scaling import displacement_floor, velocity_scale
 from .stuck_gauge import centred_member
-
-#: largest system on which event shooting prefers the exact start, and on which the start ladder's ``"exact"`` start
-#: runs at all (:data:`mshbm.route.starts.EXACT_MAX_DOFS`)
-EXACT_PREFERRED_DOFS = 100
 
 __all__ = ["ShootingProblem"]
 
@@ -80,12 +76,6 @@ class ShootingProblem(PeriodicProblem):
         self.t = self.integrator.t
         self.ns = system.n
         self.n = self.integrator.n  # integrated states (the structure's, then the Jenkins sliders')
-        if (integrator == "event" and len(system.elements) == 1 and system.n <= EXACT_PREFERRED_DOFS
-                and linear_penetrates(system, self.omega, self.n_h)):
-            # the linear response runs through the stop, so the linear start is no answer: the exact orbit (this
-            # flow's own periodic orbit) first (reduced cantilever's tip stop at 1.02 w_1: 1.6 s CPU after three
-            # failed starts, 0.5 s so)
-            self.preferred_starts = ("exact",)
 
     @property
     def n_unknowns(self):

@@ -30,9 +30,9 @@ velocities, ``omega`` the forcing frequency (period ``T = 2 pi / omega``), ``n_h
     all displacements and velocities zero;
 ``"exact"`` (one element, at most :data:`EXACT_MAX_DOFS` DOFs)
     the exact event-driven periodic orbit (:func:`mshbm.methods.exact.exact_periodic`), itself started
-    from the linear response, then from rest, then from the state a Moreau-Jean transient from rest reaches
-    (first when the linear response runs through a stop), then from the best attempt so far; when none of
-    them gives the orbit, the attempt is recorded without a Newton solve of the method;
+    from the linear response, then from rest, then from the best attempt so far, then from the state a
+    Moreau-Jean transient from rest reaches; when none of them gives the orbit, the attempt is recorded
+    without a Newton solve of the method;
 ``"transient"``
     Moreau-Jean simulation of the whole system (friction and impacts exact, the method's steps per period)
     from the best attempt so far (from rest if that one ran away beyond 1e3 times
@@ -57,10 +57,9 @@ from .. import condensation, fourier
 from ..errors import InputError
 from ..integrators.event.flow import WORK_PER_EVALUATION
 from ..integrators.moreau_jean import MAX_DENSE_DOFS, MoreauJean
-from ..methods.common import linear_penetrates, linear_response
+from ..methods.common import linear_response
 from ..methods.exact import exact_periodic
 from ..methods.registry import build_problem
-from ..methods.shooting import EXACT_PREFERRED_DOFS
 from ..solvers import newton as newton_
 from ..solvers.newton import solve_problem
 from .acceptance import displacement_scale
@@ -68,9 +67,8 @@ from .acceptance import displacement_scale
 __all__ = ["shifted_system", "shift_hat", "clamped_response", "hat_guess", "event_steps", "section_shift",
            "section_problem", "exact_section", "metered_exact", "EXACT_MAX_DOFS", "EXACT_WORK"]
 
-#: largest system for which the ``"exact"`` start runs the event-driven solver (event shooting prefers that start
-#: below the same size: :data:`mshbm.methods.shooting.EXACT_PREFERRED_DOFS`)
-EXACT_MAX_DOFS = EXACT_PREFERRED_DOFS
+#: largest system for which the ``"exact"`` start runs the event-driven solver
+EXACT_MAX_DOFS = 100
 #: work budget of one event-driven periodic solve of the ``"exact"`` start (the flow's deterministic count
 #: :attr:`mshbm.integrators.event.flow.EventFlow.work`, flop equivalents, 0.2-3 ns of one core each): it replaces 40 %
 #: of the ladder's remaining wall time (12 s and more on an idle machine).  Calibration (the 75 exact starts of
@@ -392,7 +390,7 @@ class ExactStart:
                 return exact_section(ladder, ex, N, att, t0)
             why.append(ex.message)
         # no Newton solve of the method from the linear response here: that is the start "linear" (tried before
-        # this one, or after it when "exact" is preferred); the record names why the exact orbit was not found
+        # this one); the record names why the exact orbit was not found
         x0 = problem.initial_guess("linear")
         failed = newton_.NewtonResult(x=np.array(x0, dtype=float), success=False, nit=0, nfev=0,
                                       residual_norm=float("inf"), message="the exact orbit was not found")
@@ -402,25 +400,16 @@ class ExactStart:
     @staticmethod
     def _guesses(ladder):
         """The linear start, the state of rest (on the reduced cantilever's tip stop at 0.99 w_1 the exact flow's
-        Newton converged from rest in 0.7 s CPU and stalled from the linear response), the state a Moreau-Jean
-        transient from rest reaches (:meth:`_transient_state`), then the state at ``t = 0`` of the best attempt
-        so far (when finite).  The transient state comes first when the linear response runs through a stop:
-        the linear start is then no answer, and near the resonance the exact flow's Newton stalls from it and
-        from rest (reduced cantilever's tip stop at 1.01-1.02 w_1: 30 iterations, 2.7 s CPU, from the linear
-        response; 3-5 iterations from 40 simulated periods)."""
+        Newton converged from rest and stalled from the linear response), the state at ``t = 0`` of the best
+        attempt so far (when finite), then the state a Moreau-Jean transient from rest reaches
+        (:meth:`_transient_state`; near that beam's resonance, 1.01-1.02 w_1, the exact flow's Newton stalls from
+        the linear response and from rest and converges in 3-5 iterations from 40 simulated periods).  The
+        transient comes last: tried before the best attempt, it led the impact chain's period-2 solve at pi / 5 to
+        the T-periodic orbit instead of the attracting 2T one."""
         n = ladder.system.n
         # (a generator: the simulation runs only when its turn comes)
-        first = linear_penetrates(ladder.system, ladder.omega, ladder.n_h)
-        if first:
-            simulated = ExactStart._transient_state(ladder)
-            if simulated is not None:
-                yield simulated
         yield "linear"
         yield {"q0": np.zeros(n), "u0": np.zeros(n)}
-        if not first:
-            simulated = ExactStart._transient_state(ladder)
-            if simulated is not None:
-                yield simulated
         best = ladder.best()
         if best is not None:
             try:
@@ -433,6 +422,9 @@ class ExactStart:
                     yield {"q0": q0, "u0": u0}
             except (FloatingPointError, np.linalg.LinAlgError, ValueError):
                 pass
+        simulated = ExactStart._transient_state(ladder)
+        if simulated is not None:
+            yield simulated
 
     @staticmethod
     def _transient_state(ladder, drift_tol=1e-3):

@@ -25,14 +25,13 @@ closure's resolution and on the modes kept (reference at 0.99 w_1: 3 impacts wit
 amplitudes equal to 7.5e-5).  The rows therefore also give the *episodes*: groups of impacts less than
 :data:`EPISODE_GAP` of the period apart (one bounce sequence and its contact phase), which do converge.
 
-Measured (n_H = 10, 1024 steps, CPU of one core on a loaded 2-core machine): event MS-HBM 0.21-1.10 s a point
-(before the exact start's transient guess: up to 21.0 s at 1.02 w_1), event shooting 0.08-0.51 s (2.9 s), Moreau-Jean
-MS-HBM 0.03-0.97 s (11.9 s); the reference 0.19-1.03 s (19.3 s).  Largest tip amplitude differences to the
-reference: 2.0e-3, 1.3e-4, 3.5e-3; one impact episode a period wherever the reference has one; certified 9, 9, 8 of
-9 points (Moreau-Jean MS-HBM at 1.02 w_1: its time-step error estimate's re-solves at 512 and 2048 steps fail).
-With the defaults (n_H = 5, 4096 steps) MS-HBM's truncation estimate leaves 1.0-1.02 w_1 uncertified (its answers
-0.9-2.8 % below the reference), and Moreau-Jean MS-HBM costs 4-6 s there (its steps find no certified orbit; the
-event-driven fallback does).
+Measured (n_H = 10, 1024 steps, CPU of one core on a loaded 2-core machine): event MS-HBM 0.2-5.1 s a point
+(before the exact start's transient guess: up to 21.0 s at 1.02 w_1, now 1.7 s there; 5.1 s at 1.01), event
+shooting 0.07-2.3 s, Moreau-Jean MS-HBM 0.03-10.5 s (10.5 s at 1.01 w_1, certified; it was not before).  Largest tip
+amplitude differences to the reference: 2.0e-3, 1.3e-4, 3.5e-3; one impact episode a period wherever the reference
+has one; certified 9, 9, 8 of 9 points (Moreau-Jean MS-HBM at 1.02 w_1: its time-step error estimate's re-solves
+fail).  With the defaults (n_H = 5, 4096 steps) MS-HBM's truncation estimate leaves 1.0-1.02 w_1 uncertified (its
+answers 0.9-2.8 % below the reference).
 
 The JSON holds ``rows`` (one per method and frequency), ``reference`` (per frequency) and ``summary`` (per method:
 the largest CPU time, the largest amplitude difference, whether the episodes agree everywhere).
