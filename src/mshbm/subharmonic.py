@@ -109,13 +109,16 @@ def subharmonic_content(sol, k):
     return float(np.max(amp[j % k != 0], initial=0.0)) / top
 
 
-def transient_guess(system, omega, options, periods=150):
+def transient_guess(system, omega, options, periods=150, drift_tol=None):
     """Guess ``{q_hat, q0, u0}`` from a Moreau-Jean simulation from rest over ``periods`` periods
-    ``2 pi / omega`` of ``system`` (the attracting orbit, if the motion settles); ``None`` if it diverges."""
+    ``2 pi / omega`` of ``system`` (the attracting orbit, if the motion settles); ``None`` if it diverges.
+    With ``drift_tol``, the simulation ends early once the structure's state changes by less than ``drift_tol`` of
+    its size over a period."""
     if system.n > MAX_DENSE_DOFS:
         return None
     N = int(options.get("steps") or 4096)
     n_h = int(options.get("harmonics") or 5)
+    n = system.n
     T = 2 * np.pi / omega
     mj = MoreauJean(system.M, system.C, system.K, system.elements, T / N, float(options.get("theta", 0.5)),
                     bool(options.get("project", True)))
@@ -124,7 +127,15 @@ def transient_guess(system, omega, options, periods=150):
     tr = None
     for _ in range(int(periods)):
         tr = mj.run(q, u, B)
-        q, u = tr.q[-1].copy(), tr.u[-1].copy()
-        if not (np.all(np.isfinite(q)) and np.all(np.isfinite(u))):
+        q1, u1 = tr.q[-1].copy(), tr.u[-1].copy()
+        if not (np.all(np.isfinite(q1)) and np.all(np.isfinite(u1))):
             return None
+        settled = False
+        if drift_tol is not None:
+            size = max(float(np.max(np.abs(tr.q[:, :n]))), float(np.max(np.abs(tr.u[:, :n]))) / omega, 1e-300)
+            drift = max(float(np.max(np.abs(q1[:n] - q[:n]))), float(np.max(np.abs(u1[:n] - u[:n]))) / omega)
+            settled = drift <= drift_tol * size
+        q, u = q1, u1
+        if settled:
+            break
     return {"q_hat": fourier.fft(tr.q[:-1], n_h), "q0": q, "u0": u}

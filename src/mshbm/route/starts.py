@@ -62,6 +62,7 @@ from ..methods.exact import exact_periodic
 from ..methods.registry import build_problem
 from ..solvers import newton as newton_
 from ..solvers.newton import solve_problem
+from ..subharmonic import transient_guess
 from .acceptance import displacement_scale
 
 __all__ = ["shifted_system", "shift_hat", "clamped_response", "hat_guess", "event_steps", "section_shift",
@@ -428,35 +429,22 @@ class ExactStart:
 
     @staticmethod
     def _transient_state(ladder, drift_tol=1e-3):
-        """``{"q0", "u0"}`` at ``t = 0`` after a Moreau-Jean simulation of the whole system from rest (the method's
-        steps per period, 1024 for HBM), ended when the state changes by less than ``drift_tol`` of its size over
-        a period or after ``max(transient_periods)`` periods; ``None`` when the simulation would exceed the
-        ladder's ``transient_budget`` (``n^2 x steps x periods``), fails or diverges."""
-        system, omega = ladder.system, ladder.omega
-        n = system.n
+        """``{"q0", "u0"}`` at ``t = 0`` after a Moreau-Jean simulation of the whole system from rest
+        (:func:`mshbm.subharmonic.transient_guess`; the method's steps per period, 1024 for HBM), ended when the
+        state changes by less than ``drift_tol`` of its size over a period or after ``max(transient_periods)``
+        periods; ``None`` when the simulation would exceed the ladder's ``transient_budget`` (``n^2 x steps x
+        periods``), fails or diverges."""
+        n = ladder.system.n
         steps = int(ladder.problem.steps) if ladder.problem.time_step is not None else 1024
         periods = max(ladder.transient_periods)
         if n > MAX_DENSE_DOFS or float(n) * n * steps * periods > ladder.transient_budget:
             return None
-        T = 2 * math.pi / omega
+        opts = {"steps": steps, "theta": ladder.options.get("theta", 0.5), "project": ladder.options.get("project", True)}
         try:
-            stepper = MoreauJean(system.M, system.C, system.K, system.elements, T / steps,
-                                 float(ladder.options.get("theta", 0.5)), bool(ladder.options.get("project", True)))
+            guess = transient_guess(ladder.system, ladder.omega, opts, periods, drift_tol=drift_tol)
         except InputError:
             return None
-        B = stepper.increments(system.forcing(np.linspace(0.0, T, steps + 1), omega))
-        q, u = np.zeros(n), np.zeros(n)
-        for _ in range(periods):
-            tr = stepper.run(q, u, B)
-            q1, u1 = tr.q[-1, :n].copy(), tr.u[-1, :n].copy()
-            if not (np.all(np.isfinite(q1)) and np.all(np.isfinite(u1))):
-                return None
-            size = max(float(np.max(np.abs(tr.q[:, :n]))), float(np.max(np.abs(tr.u[:, :n]))) / omega, 1e-300)
-            drift = max(float(np.max(np.abs(q1 - q))), float(np.max(np.abs(u1 - u))) / omega)
-            q, u = q1, u1
-            if drift <= drift_tol * size:
-                break
-        return {"q0": q[:n].copy(), "u0": u[:n].copy()}
+        return None if guess is None else {"q0": guess["q0"][:n].copy(), "u0": guess["u0"][:n].copy()}
 
 
 class TransientStart:
