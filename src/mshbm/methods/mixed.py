@@ -32,9 +32,7 @@ Moreau-Jean: forward sensitivities of the steps, blockwise where the subsystem f
 independent blocks (:class:`mshbm.integrators.subsystem.SubsystemStepper`).  The event-driven flow: the
 coupling coefficients are forcing states of the flow, the sensitivities to ``p`` columns of its
 saltation-corrected monodromy and ``FFT(q_1)`` the exact Fourier coefficients of the flow, so the only
-error left is the harmonic truncation of the coupling (:mod:`mshbm.integrators.event.period`); its
-``accumulation="close"`` keeps the monodromy exact through accumulating impacts, which lets Newton
-converge on stiff bodies that bounce to rest every period.
+error left is the harmonic truncation of the coupling (:mod:`mshbm.integrators.event.period`).
 """
 from __future__ import annotations
 

@@ -10,10 +10,8 @@ With the amplitude change ``d`` between the two answers and an algebraic converg
 
 ``truncation`` (HBM, DLFT, MS-HBM)
     Against the re-solve at ``n_f = 2 n_h`` (3 for ``n_h = 1``: a half-wave symmetric orbit has odd harmonics
-    only, and ``n_h = 2`` would change nothing): ``d / (1 - (n_h / n_f)^p)``.  (A coarser partner ``n_h / 2`` would be cheaper,
-    but where the series converges fast its change is far larger than the error at ``n_h``: on the paper's
-    friction oscillator ``n_h = 2`` is 7 % off, ``n_h = 5`` 5e-5.)  When that re-solve fails, against
-    ``n_c = n_h // 2``: ``d / ((n_h / n_c)^p - 1)``.
+    only): ``d / (1 - (n_h / n_f)^p)`` (a coarser partner's change is far larger than the error where the series
+    converges fast); when that re-solve fails, against ``n_c = n_h // 2``: ``d / ((n_h / n_c)^p - 1)``.
 ``time_discretisation`` (shooting and MS-HBM with Moreau-Jean steps)
     Against the re-solve at ``N / 2`` steps per period: ``d / (2^p - 1)``; when it fails, against ``2 N``:
     ``d / (1 - 2^-p)``; at least half the displacement change of one step at the largest velocity jump ``J``
@@ -49,8 +47,8 @@ is 1.8e-3 off at ``n_h`` = 5 and 10, which agree to 5e-6, while 10 -> 20 changes
   halving can leave where it was; the change at ``N / 2`` is about twice the one at ``N``, first order, and one
   alignment's error is up to about twice the spread of two): the halvings measure the part of the error that
   falls with the step, the shift the part that depends on the alignment.
-* ``truncation``: Richardson at the slower of the last two observed rates where three successive doublings are
-  known (one rate alone can be read fast where the changes oscillate about their decay), and a change that fell
+* ``truncation``: Richardson at the slowest of the last :data:`RATE_WINDOW` observed rates of successive
+  doublings (one rate alone, or two, can be read fast where the changes oscillate about their decay), and a change that fell
   faster than :data:`MAX_RATE` from the previous level's, or an estimate below
   :data:`TAIL_FACTOR` times the top retained harmonics (:func:`_top_harmonics`), is not trusted when it could
   pass: a second doubling ``2 n_f`` gives ``d_1 + d_2 / (1 - 2^-p)`` (``p`` their observed rate in
@@ -108,18 +106,16 @@ MIN_RATE, MAX_RATE = 0.25, 2.0
 #: a time-step change that falls faster than this rate (8 times per halving) is a cancellation, not the
 #: convergence of a scheme of order <= 2 (a rate a little above 2 is the second order of smooth motion, clamped)
 IRREGULAR_RATE = 3.0
+RATE_WINDOW = 3  #: a truncation rate is the slowest of at most this many rates of successive doublings
 MAX_HARMONICS, MAX_STEPS = 2000, 1 << 24
 #: a truncation estimate below this fraction of the top retained harmonics is checked by a second doubling
 TAIL_FACTOR = 0.1
 #: work budget of one re-solve of an estimate, in Newton residual evaluations (:class:`mshbm.solvers.newton.Meter`,
-#: nested solves included; the same on every machine, not wall time): ``max(RESOLVE_EVALUATIONS, RESOLVE_FACTOR x the
-#: solve's evaluations)``.  It replaces ``max(5 s, 2 x the solve's wall time)``: the floor is above what one Newton
-#: solve from the answer can use (``max_iter = 50`` iterations of at most 12 evaluations with the line search and
-#: its watchdog), so a re-solve is bounded by its own Newton as on an idle machine before
+#: nested solves included; the same on every machine): ``max(RESOLVE_EVALUATIONS, RESOLVE_FACTOR x the solve's
+#: evaluations)``; the floor is above what one Newton solve from the answer can use (50 iterations of at most 12)
 RESOLVE_EVALUATIONS, RESOLVE_FACTOR = 1000, 2.0
 #: the same for the re-solve with the effective impact mass (``model_substitution`` of MS-HBM's subsystem law, on
-#: the event-driven flow, from the exact orbit; formerly 20 s): its starts "exact" (bounded by its own flow work
-#: budget, :data:`mshbm.route.starts.EXACT_WORK`), "guess" and "transient"
+#: the event-driven flow; starts "exact" within :data:`mshbm.route.starts.EXACT_WORK`, "guess", "transient")
 IMPACT_MASS_EVALUATIONS = 2000
 _DROP = ("guess", "stability", "progress", "raise_on_failure", "accuracy")
 
@@ -292,8 +288,8 @@ class _Estimator:
     def rate(self, kind, d, pair=None):
         """The rate ``p`` of the estimate ``kind`` with the amplitude change ``d`` at ratio 2: :data:`RATE`, or
         the rate observed against the previous level's change (Richardson), within ``[MIN_RATE, MAX_RATE]``;
-        after three successive doublings, the slower of the last two observed rates (module docstring,
-        "Irregular convergence")."""
+        after three successive doublings, the slowest of the last :data:`RATE_WINDOW` observed rates (module
+        docstring, "Irregular convergence")."""
         last = self.diffs.get(kind)
         self.diffs[kind] = d
         seq = self.changes.setdefault(kind, []) if pair is not None else []
@@ -301,9 +297,12 @@ class _Estimator:
             seq.append((pair, d))
         if last is not None and d > 0 and last > 0:
             p = math.log2(last / d)
-            if len(seq) >= 3 and seq[-3][0][1] == seq[-2][0][0] and seq[-2][0][1] == seq[-1][0][0] \
-                    and seq[-3][1] > 0 and seq[-2][1] == last:
-                p = min(p, math.log2(seq[-3][1] / last))
+            # the successive doublings that end in this one (each change's finer level the next one's coarser)
+            k = len(seq) - 1
+            while k > 0 and seq[k - 1][0][1] == seq[k][0][0] and seq[k - 1][1] > 0 and len(seq) - k < RATE_WINDOW + 1:
+                k -= 1
+            if len(seq) - k >= 3 and seq[-2][1] == last:
+                p = min(math.log2(a[1] / b[1]) for a, b in zip(seq[k:-1], seq[k + 1:]))
             return min(MAX_RATE, max(MIN_RATE, p))
         return RATE
 
