@@ -36,6 +36,7 @@ from .branch import sweep
 from .branch_accuracy import add_reduction
 from .errors import InputError
 from .interrupt import SweepInterrupted
+from .io.case import describe_auto
 from .io.overrides import add_set_option, case_sets
 from . import io as _io
 from .options import COMMON as _COMMON, METHODS
@@ -204,11 +205,15 @@ def run(args, exit_codes, write_json, error):
     case = _io.load_case(args.case, sets=case_sets(args))
     method = args.method or case.method
     dofs = labels = _check_dofs(args.dofs, case.system.n)
+    defaults = {k: v for k, v in case.solver.items() if k != "method" and k in (METHODS.get(method, set()) | _COMMON)}
+    cli = {k: getattr(args, k) for k in ("harmonics", "steps", "integrator") if getattr(args, k) is not None}
+    if param == "omega" and case.reduction is None:  # stiff time-integrated DOFs (mshbm.io.case.Case.solve)
+        case.reduction = case.automatic_reduction(method, {**defaults, **cli}, omega=max(start, end))
+        if case.reduction is not None and not args.quiet:
+            print(describe_auto(case.reduction), flush=True)
     if case.reduction is not None:  # the branch holds the reduced model's DOFs: its boundary DOFs are physical
         labels = [int(d) for d in (dofs if args.dofs else case.reduction.boundary[:6])]
         dofs = [case.reduction.reduced_dof(d, "--dofs") for d in labels]
-    defaults = {k: v for k, v in case.solver.items() if k != "method" and k in (METHODS.get(method, set()) | _COMMON)}
-    cli = {k: getattr(args, k) for k in ("harmonics", "steps", "integrator") if getattr(args, k) is not None}
     if args.max_points is not None:
         cli["max_points"] = args.max_points
     if args.accuracy is not None:

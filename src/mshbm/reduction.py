@@ -40,10 +40,17 @@ import scipy.sparse.linalg as spla
 from .errors import InputError
 from .system import System
 
-__all__ = ["ReducedModel", "craig_bampton", "REDUCTION_BOUND"]
+__all__ = ["ReducedModel", "craig_bampton", "REDUCTION_BOUND", "auto_reduction", "stiff_time_dofs"]
 
 #: the reduction estimate warns above this relative error (the accuracy at which truncation estimates warn)
 REDUCTION_BOUND = 1e-2
+#: a time-integrated DOF whose local frequency ``sqrt(K_dd / M_dd)`` exceeds this multiple of ``omega`` is stiff
+#: (the node of a fine mesh: 10^3-10^7; the lumped bodies of the examples: below 4)
+AUTO_STIFF_RATIO = 200.0
+#: the automatic reduction keeps the fixed-interface modes up to this multiple of the highest harmonic
+#: ``n_h omega`` (at least :data:`AUTO_MIN_MODES`, at most :data:`AUTO_MAX_MODES`); the reduction estimate judges it
+AUTO_CUTOFF = 20.0
+AUTO_MIN_MODES, AUTO_MAX_MODES = 8, 256
 
 
 @dataclass
@@ -64,6 +71,9 @@ class ReducedModel:
         Fixed-interface natural frequencies kept (rad/s).
     build_time : float
         Seconds to build the reduction.
+    auto : dict or None
+        Set when the reduction was chosen automatically (:func:`auto_reduction`): the largest stiffness ratio
+        ``sqrt(K_dd / M_dd) / omega`` of the time-integrated DOFs and the modes' cut-off (rad/s).
     """
 
     full: System
@@ -78,6 +88,7 @@ class ReducedModel:
     _K_II_lu: object = field(default=None, repr=False)
     _Phi: np.ndarray = field(default=None, repr=False)
     _cache: dict = field(default_factory=dict, repr=False)
+    auto: dict = None
 
     @property
     def n_modes(self):
@@ -96,7 +107,7 @@ class ReducedModel:
         return {"method": "craig_bampton", "boundary": self.boundary.tolist(), "modes": self.n_modes,
                 "n_full": int(self.full.n), "n_reduced": int(self.system.n),
                 "highest_mode_rad_s": float(self.frequencies[-1]) if self.frequencies.size else None,
-                "build_time_s": float(self.build_time)}
+                "build_time_s": float(self.build_time), **({"auto": dict(self.auto)} if self.auto else {})}
 
     def solve(self, omega, method="mshbm", **options):
         """:func:`mshbm.solve` on the reduced model, the answer on the full model's DOFs (:meth:`expand`)."""
@@ -366,3 +377,40 @@ def craig_bampton(system, modes, keep=()):
     red = System(Mr, Cr, Kr, f_r, els, name=f"{system.name} (Craig-Bampton: {b} boundary DOFs + {modes} modes)")
     return ReducedModel(system, red, T, B, freqs, time.perf_counter() - t0, _interior=I,
                         _K_II_lu=lu if sp.issparse(system.K) else None, _Phi=Phi)
+
+
+def stiff_time_dofs(system, omega, timed):
+    """``(dofs, ratio)``: the DOFs of ``timed`` whose local frequency ``sqrt(K_dd / M_dd)`` exceeds
+    :data:`AUTO_STIFF_RATIO` ``omega`` (int array) and the largest ratio ``sqrt(K_dd / M_dd) / omega`` of ``timed``
+    (0 when none has mass)."""
+    timed = np.asarray(timed, dtype=np.int64)
+    if not timed.size:
+        return timed, 0.0
+    kd = np.asarray(_csr(system.K).diagonal())[timed] if sp.issparse(system.K) else np.diag(system.K)[timed]
+    md = np.asarray(_csr(system.M).diagonal())[timed] if sp.issparse(system.M) else np.diag(system.M)[timed]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(md > 0, np.sqrt(np.maximum(kd, 0.0) / np.where(md > 0, md, 1.0)), 0.0) / float(omega)
+    return timed[ratio > AUTO_STIFF_RATIO], float(ratio.max(initial=0.0))
+
+
+def auto_reduction(system, omega, timed, harmonics):
+    """The automatic Craig-Bampton reduction of a case without ``reduce:`` for a method that integrates the DOFs
+    ``timed`` in time, or ``None`` when none of them is stiff (:func:`stiff_time_dofs`), the model has support
+    motion, or the reduction would not shrink it.  Boundary: the element DOFs; modes: the fixed-interface modes
+    up to :data:`AUTO_CUTOFF` ``harmonics omega``, at least :data:`AUTO_MIN_MODES` (doubled until the highest
+    kept one passes the cut-off).  ``as_dict()`` of the result holds ``auto: True`` and the stiffness ratio."""
+    stiff, ratio = stiff_time_dofs(system, omega, timed)
+    if not stiff.size or system.omega_dependent:
+        return None
+    b = len({int(d) for e in system.elements for d in e.dofs})
+    n_i = system.n - b
+    modes = min(AUTO_MIN_MODES, n_i - 1)
+    if modes < 0 or b + modes >= system.n:
+        return None
+    cutoff = AUTO_CUTOFF * max(int(harmonics), 1) * float(omega)
+    red = craig_bampton(system, modes)
+    while red.frequencies.size and red.frequencies[-1] < cutoff and modes < min(AUTO_MAX_MODES, n_i - 1):
+        modes = min(2 * modes, AUTO_MAX_MODES, n_i - 1)
+        red = craig_bampton(system, modes)
+    red.auto = {"stiffness_ratio": ratio, "cutoff_rad_s": cutoff}
+    return red

@@ -12,6 +12,8 @@ import scipy.sparse as sp
 from .. import api
 from .. import options as options_
 from ..errors import InputError
+from ..methods.capabilities import capabilities as method_capabilities
+from ..reduction import auto_reduction
 from ..system import System, chain
 from .overrides import apply_sets as _apply_sets
 from .keys import (BASE_KEYS, CHAIN_KEYS, CONTACT_KEYS, CUBIC_KEYS, FORCING_KEYS, FRICTION_KEYS,  # noqa: F401
@@ -43,6 +45,10 @@ class Case:
         File the case was read from.
     reduction : mshbm.reduction.ReducedModel or None
         The Craig-Bampton reduction of ``reduce:`` (``system`` stays the full model).
+    auto_reduce : bool
+        Without ``reduce:`` (or with ``reduce: auto``), a method that integrates stiff DOFs in time (the nodes
+        of a fine mesh) solves an automatic reduction (:func:`mshbm.reduction.auto_reduction`, :meth:`solve`);
+        ``reduce: none`` solves the model as written.
     """
 
     system: System
@@ -51,6 +57,7 @@ class Case:
     name: str = "case"
     source: str | None = None
     reduction: object = None
+    auto_reduce: bool = True
     #: the parsed case file and the directory of its matrix files (for :meth:`with_sets`)
     data: dict | None = field(default=None, repr=False)
     base_dir: object = field(default=None, repr=False)
@@ -83,13 +90,34 @@ class Case:
         opts = {**defaults, **options}
         from_file = set(defaults) - set(options)
         try:
-            if self.reduction is not None:
-                return self.reduction.solve(self.omega, method, **opts)
+            red = self.reduction if self.reduction is not None else self.automatic_reduction(method, opts)
+            if red is not None:
+                sol = red.solve(self.omega, method, **opts)
+                if red.auto:
+                    sol.message = f"{sol.message}; {describe_auto(red)}"
+                return sol
             return api.solve(self.system, self.omega, method, **opts)
         except InputError as exc:
             if exc.key in from_file:
                 raise InputError(f"solver.{exc.key}", exc.problem) from None
             raise
+
+    def automatic_reduction(self, method, options, omega=None):
+        """The automatic reduction for ``method`` with ``options`` at ``omega`` (default: the case's; a sweep's
+        highest) (:func:`mshbm.reduction.auto_reduction`: the method integrates stiff DOFs in time), built once
+        per DOF set, ``n_h`` and ``omega``; ``None`` when it does not apply (``reduce:`` given or ``none``, a
+        ``partition`` given, an unknown method, no stiff DOF)."""
+        if self.reduction is not None or not self.auto_reduce or "partition" in options \
+                or method not in options_.METHODS:
+            return None
+        caps = method_capabilities(method)
+        timed = caps.timed_dofs(self.system)
+        n_h = options.get("harmonics") or caps.default_harmonics
+        omega = float(self.omega if omega is None else omega)
+        key = ("auto_reduction", tuple(int(d) for d in timed[:64]), int(timed.size), int(n_h), omega)
+        if key not in self._matrices:
+            self._matrices[key] = auto_reduction(self.system, omega, timed, n_h)
+        return self._matrices[key]
 
     def with_sets(self, sets):
         """This case with the dotted-key assignments ``sets`` applied (:func:`mshbm.io.overrides.apply_sets`:
@@ -185,9 +213,20 @@ def parse_case(data, name=None, source=None, base_dir=None, matrix_cache=None):
                                                  "renumbered): leave the partition to its default")
         n = system.n
     solver = _solver(data.get("solver"), n)
-    reduction = _reduce(data.get("reduce"), system, n) if "reduce" in data else None
+    raw = data.get("reduce", "auto")
+    auto = raw == "auto"
+    reduction = None if auto or raw is False or raw == "none" else _reduce(raw, system, n)
     return Case(system=system, omega=omega, solver=solver, name=name, source=source, data=data, base_dir=base_dir,
-                _matrices=matrix_cache, reduction=reduction)
+                _matrices=matrix_cache, reduction=reduction, auto_reduce=auto)
+
+
+def describe_auto(red):
+    """The message note of an automatic reduction ``red`` (:func:`mshbm.reduction.auto_reduction`)."""
+    d = red.as_dict()
+    return (f"solved on an automatic Craig-Bampton reduction onto the {len(d['boundary'])} element DOFs and "
+            f"{d['modes']} fixed-interface modes (up to {d['highest_mode_rad_s']:.4g} rad/s): the time-integrated "
+            f"DOFs are stiff (local frequency up to {red.auto['stiffness_ratio']:.3g} omega; reduce: none solves "
+            f"the model as written), its error estimate 'reduction' in the certificate")
 
 
 def _apply_overrides(data, overrides):
