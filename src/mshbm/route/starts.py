@@ -32,7 +32,9 @@ velocities, ``omega`` the forcing frequency (period ``T = 2 pi / omega``), ``n_h
     the exact event-driven periodic orbit (:func:`mshbm.methods.exact.exact_periodic`), itself started
     from the linear response, then from rest, then from the best attempt so far, then from the state a
     Moreau-Jean transient from rest reaches; when none of them gives the orbit, the attempt is recorded
-    without a Newton solve of the method;
+    without a Newton solve of the method.  Where the linear response runs through the stop, that transient
+    state is probed first (:meth:`ExactStart._guesses`): its orbit is taken at once when it is attracting and
+    the method's solution from it is accepted, and has its ordinary turn, last, otherwise;
 ``"transient"``
     Moreau-Jean simulation of the whole system (friction and impacts exact, the method's steps per period)
     from the best attempt so far (from rest if that one ran away beyond 1e3 times
@@ -394,10 +396,10 @@ class ExactStart:
         t0 = time.perf_counter()
         N = int(problem.steps) if problem.time_step is not None else 2048
         why = []
-        probe = {}  # the attracting orbit's probe (_guesses): its state and, once solved, its exact orbit
+        probe = {}  # the transient state's probe (_guesses): "state", "orbit" and the "attempts" set aside
         for g in self._guesses(ladder, probe):
             if g is _PROBED:  # the transient state's turn, its orbit known from the probe
-                if "attempts" in probe:  # (attracting, its attempts not accepted): those attempts, now
+                if "attempts" in probe:  # (attracting, not accepted): the attempts set aside, now
                     ladder.attempts.extend(probe["attempts"])
                     return ladder.attempts[-1]
                 ex = probe["orbit"]
@@ -457,15 +459,20 @@ class ExactStart:
         Newton converged from rest and stalled from the linear response), the state at ``t = 0`` of the best
         attempt so far (when finite), then the state a Moreau-Jean transient from rest reaches
         (:meth:`_transient_state`; near that beam's resonance, 1.01-1.02 w_1, the exact flow's Newton stalls from
-        the linear response and from rest, 2-5 s of CPU, and converges in 3 iterations from the transient state).
+        the linear response and from rest, 30 and 16 iterations, 2-5 s of CPU, and converges in 3 iterations from
+        the transient state).
 
         Where the linear response runs through the stop (:func:`linear_penetrates`: the linear start is then no
-        answer) the transient state is *probed* first: its exact orbit is taken at once when it is attracting (the
-        exact monodromy's multipliers inside the unit circle: the orbit the simulation settled on).  An orbit that
-        is not attracting is not taken there: near an unstable orbit the simulation's drift over a period can be
-        small before it leaves (the impact chain's period-2 solve at pi / 5: the T-periodic orbit, unstable, instead
-        of the attracting 2T one); the probe's orbit then has its ordinary turn, last, without a second solve.
-        ``probe`` receives ``"state"`` (the probed guess) and ``"orbit"`` (its exact solve)."""
+        answer) and ``T`` is the forcing's own period (:func:`forced_at_fundamental`), the transient state is
+        *probed* first: :meth:`run` takes its exact orbit at once when the orbit is attracting (the exact monodromy's
+        multipliers inside the unit circle: the orbit the simulation settled on, not one it passed near) and the
+        method's solution from it is accepted.  Otherwise the order above holds as without the probe: the probe's
+        attempts are set aside, so that the best attempt so far is the same, and are recorded at the transient
+        state's own turn, last, with no second solve (``probe`` holds ``"state"``, the probed guess, ``"orbit"``,
+        its exact orbit, and ``"attempts"``, the attempts set aside).  Not for the ``kT`` problems of
+        :mod:`mshbm.period`: their orbit comes in ``k`` copies shifted by the forcing period and the transient picks
+        one by chance (on the impact chain's period-2 MS-HBM solve at pi / 5 the method's Newton converged from the
+        one the ordinary order reaches, not from the transient's, and the solve ended on the T-periodic orbit)."""
         n = ladder.system.n
         # (a generator: the simulation runs only when its turn comes)
         if linear_penetrates(ladder.system, ladder.omega, ladder.n_h) and forced_at_fundamental(ladder.system,
