@@ -69,7 +69,7 @@ from .acceptance import displacement_scale
 
 __all__ = ["shifted_system", "shift_hat", "clamped_response", "hat_guess", "event_steps", "section_shift",
            "section_problem", "exact_section", "metered_exact", "linear_penetrates", "forced_at_fundamental",
-           "EXACT_MAX_DOFS", "EXACT_WORK"]
+           "EXACT_MAX_DOFS", "EXACT_WORK", "PROBE_NOTE"]
 
 #: largest system for which the ``"exact"`` start runs the event-driven solver
 EXACT_MAX_DOFS = 100
@@ -83,6 +83,8 @@ EXACT_WORK = 1e10
 
 #: the exact start's guess "the transient state, its orbit known from the probe" (:meth:`ExactStart._guesses`)
 _PROBED = object()
+#: the end of the note of an exact start's attempt from the probed transient state
+PROBE_NOTE = "; from the Moreau-Jean transient state, probed first"
 
 
 def metered_exact(system, omega, **kwargs):
@@ -423,7 +425,7 @@ class ExactStart:
                     probe["orbit"] = ex
                     if ex.success and ex.stable is True and np.all(np.isfinite(ex.q_hat)):
                         n0 = len(ladder.attempts)
-                        att = self._from_orbit(ladder, ex, N, t0)
+                        att = self._from_orbit(ladder, ex, N, t0, PROBE_NOTE)
                         if att.accepted:
                             return att
                         # not accepted: as if not probed (the attempts kept for the transient state's own turn, so
@@ -443,12 +445,12 @@ class ExactStart:
                            result=failed)
 
     @staticmethod
-    def _from_orbit(ladder, ex, N, t0):
+    def _from_orbit(ladder, ex, N, t0, how=""):
         """The method's Newton from the exact orbit ``ex`` (and from it with the section moved away from its events,
-        :func:`exact_section`, when that is not accepted)."""
+        :func:`exact_section`, when that is not accepted); ``how`` ends the attempt's note."""
         problem = ladder.problem
         gg = {"q_hat": ex.q_hat, "q0": ex.q[0].copy(), "u0": ex.u[0].copy()}
-        att = ladder.try_("exact", problem.initial_guess(gg), f"exact orbit: {ex.message}", 0, t0)
+        att = ladder.try_("exact", problem.initial_guess(gg), f"exact orbit: {ex.message}{how}", 0, t0)
         if att.accepted or problem.time_step is None or ex.q.shape[0] != N + 1:
             return att
         return exact_section(ladder, ex, N, att, t0)
