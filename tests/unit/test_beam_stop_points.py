@@ -12,8 +12,8 @@ iterations.  Measured (CPU, one BLAS thread; bench_beam_stop.py): event MS-HBM a
 1.01 w_1 1.0 s (10.5-13.9 s).  The transient state is not probed for the kT problems of mshbm.period (the impact
 chain's period-2 solve at pi / 5 then ended on the T-periodic orbit: tests/integration/test_sweep.py).  The impacts
 per period are no converged quantity (the reference's bounce sequence, a geometric one at the ratio e = 0.7, ends
-where the Zeno closure's resolution is reached: 20 impacts with 12 modes, 17-24 with 6-16); the impact episodes (one
-bounce sequence and its contact phase) are.
+where the Zeno closure's resolution is reached: 20 impacts with 12 modes, 3-24 with 6-16 at 0.99-1.02 w_1); the
+impact episodes (one bounce sequence and its contact phase) are.
 """
 import importlib.util
 import math

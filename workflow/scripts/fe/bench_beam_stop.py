@@ -26,7 +26,8 @@ amplitudes equal to 7.5e-5).  The rows therefore also give the *episodes*: group
 :data:`EPISODE_GAP` of the period apart (one bounce sequence and its contact phase), which do converge.
 
 Measured (n_H = 10, 1024 steps, CPU of one core on a loaded 2-core machine): event MS-HBM 0.2-1.2 s a point, event
-shooting 0.07-1.5 s, Moreau-Jean MS-HBM 0.04-1.0 s, all within the 2 s a point asked.  Before the exact start probed
+shooting 0.07-2.0 s (1.5-2.0 s at 1.02 w_1 in two runs: its linear, clamped and zero starts stall before the exact
+one), Moreau-Jean MS-HBM 0.04-1.2 s, within the 2 s a point asked.  Before the exact start probed
 the Moreau-Jean transient state first (the same run, the probe switched off: the state was its last guess, after the
 linear response, rest and the best attempt, from which the exact flow's Newton stalls near w_1): event MS-HBM 5.4 s
 at 1.01 w_1 and 2.1 s at 0.99, event shooting 2.5 s at 1.02, Moreau-Jean MS-HBM 11.2 / 3.4 / 2.3 s at 1.01 / 0.99 /
@@ -38,8 +39,9 @@ error estimate's re-solves fail).  With the defaults (n_H = 5, 4096 steps) MS-HB
 
 The impacts per period of the reference are a geometric bounce sequence (impulses and intervals falling by about
 ``e = 0.7`` a bounce) that ends where the Zeno closure's resolution is reached (a bounce height of 1e-10 of the
-displacement scale): 17-24 impacts with 6-16 modes kept, 9-12 of them above 1 % of the first impulse, over a bounce
-sequence of 0.018 T with 6 modes and 0.001 T with 16.  The count is a property of the closure, not of the orbit.
+displacement scale): at 0.99-1.02 w_1 3-24 impacts with 6-16 modes kept (3, 24, 24 with 6; 19, 20, 20 with 12), 9-12
+of them above 1 % of the first impulse at 1.01-1.02 w_1, over a bounce sequence of 0.018 T with 6 modes and 0.001 T
+with 16, the amplitudes equal to 1e-4.  The count is a property of the closure, not of the orbit.
 
 The JSON holds ``rows`` (one per method and frequency; ``iterations``: the method's Newton iterations, all starts;
 ``probed``: the answer came from the exact orbit of the probed transient state), ``reference`` (per frequency) and
