@@ -32,7 +32,9 @@ velocities, ``omega`` the forcing frequency (period ``T = 2 pi / omega``), ``n_h
     the exact event-driven periodic orbit (:func:`mshbm.methods.exact.exact_periodic`), itself started
     from the linear response, then from rest, then from the best attempt so far, then from the state a
     Moreau-Jean transient from rest reaches; when none of them gives the orbit, the attempt is recorded
-    without a Newton solve of the method;
+    without a Newton solve of the method.  Where the linear response runs through the stop, that transient
+    state is probed first (:meth:`ExactStart._guesses`): its orbit is taken at once when it is attracting and
+    the method's solution from it is accepted, and has its ordinary turn, last, otherwise;
 ``"transient"``
     Moreau-Jean simulation of the whole system (friction and impacts exact, the method's steps per period)
     from the best attempt so far (from rest if that one ran away beyond 1e3 times
@@ -66,7 +68,8 @@ from ..subharmonic import transient_guess
 from .acceptance import displacement_scale
 
 __all__ = ["shifted_system", "shift_hat", "clamped_response", "hat_guess", "event_steps", "section_shift",
-           "section_problem", "exact_section", "metered_exact", "EXACT_MAX_DOFS", "EXACT_WORK"]
+           "section_problem", "exact_section", "metered_exact", "linear_penetrates", "forced_at_fundamental",
+           "EXACT_MAX_DOFS", "EXACT_WORK", "PROBE_NOTE"]
 
 #: largest system for which the ``"exact"`` start runs the event-driven solver
 EXACT_MAX_DOFS = 100
@@ -76,6 +79,12 @@ EXACT_MAX_DOFS = 100
 #: tests/unit/test_ladder_fallbacks.py, test_event_fallback.py, test_time_budget.py): the converged ones used at most
 #: 1.1e8; 1e10 took 3.1-5.8 s of CPU on the failing ones
 EXACT_WORK = 1e10
+
+
+#: the exact start's guess "the transient state, its orbit known from the probe" (:meth:`ExactStart._guesses`)
+_PROBED = object()
+#: the end of the note of an exact start's attempt from the probed transient state
+PROBE_NOTE = "; from the Moreau-Jean transient state, probed first"
 
 
 def metered_exact(system, omega, **kwargs):
@@ -165,6 +174,28 @@ def clamped_response(system, omega, n_h):
             Z[k][Ld] = x
     q_hat[:, Ld] = fourier.from_complex(Z)[:, Ld]
     return q_hat
+
+
+def linear_penetrates(system, omega, n_h):
+    """True if the linear response (no elements, ``n_h`` harmonics) closes the gap of a contact element somewhere in
+    the period (sampled at ``8 n_h + 8`` points): the linear start is then no answer."""
+    els = [el for el in system.elements if el.unilateral]
+    if not els:
+        return False
+    n_h = max(int(n_h), 1)
+    q_hat = linear_response(system, omega, n_h)
+    tau = 2.0 * np.pi * np.arange(8 * n_h + 8) / (8 * n_h + 8)
+    k = np.arange(1, n_h + 1)
+    q = q_hat[0] + np.cos(np.outer(tau, k)) @ q_hat[1::2] + np.sin(np.outer(tau, k)) @ q_hat[2::2]
+    return any(float(np.min(el.gap + el.local(q))) < 0.0 for el in els)
+
+
+def forced_at_fundamental(system, omega):
+    """True if the forcing has the harmonic ``omega`` itself, so that ``T = 2 pi / omega`` is the forcing's own period:
+    not so for the ``kT`` problems of :mod:`mshbm.period` (forcing at multiples of ``k omega`` only), whose orbits
+    come in ``k`` copies shifted by the forcing period."""
+    F = np.asarray(system.forcing_hat(max(system.n_forcing_harmonics, 1), omega), dtype=float)
+    return bool(np.any(F[1:3] != 0.0))
 
 
 def hat_guess(q_hat, omega):
@@ -367,28 +398,43 @@ class ExactStart:
         t0 = time.perf_counter()
         N = int(problem.steps) if problem.time_step is not None else 2048
         why = []
-        for g in self._guesses(ladder):
-            # the event-driven solve stops when its work budget EXACT_WORK is spent (at a low frequency with stiff
-            # modes the flow has many steps a period and a Newton solve of it can take minutes), or at the caller's
-            # deadline (max_time)
-            spent = newton_.work_spent()
-            stop = [d for d in (ladder.deadline, newton_.deadline()) if d is not None]
-            left = None if not stop else min(stop) - time.perf_counter()
-            if spent is not None or (left is not None and left <= 0.0):
-                why.append(f"{spent or 'time budget'} spent")
-                break
-            try:
-                ex = metered_exact(system, omega, guess=g, samples=max(N, 64), harmonics=max(ladder.n_h, 1),
-                                   blas_threads=None, time_limit=left)
-            except (InputError, FloatingPointError, np.linalg.LinAlgError, ValueError) as exc:
-                why.append(f"{type(exc).__name__}: {exc}")
-                continue
+        probe = {}  # the transient state's probe (_guesses): "state", "orbit" and the "attempts" set aside
+        for g in self._guesses(ladder, probe):
+            if g is _PROBED:  # the transient state's turn, its orbit known from the probe
+                if "attempts" in probe:  # (attracting, not accepted): the attempts set aside, now
+                    ladder.attempts.extend(probe["attempts"])
+                    return ladder.attempts[-1]
+                ex = probe["orbit"]
+            else:
+                # the event-driven solve stops when its work budget EXACT_WORK is spent (at a low frequency with stiff
+                # modes the flow has many steps a period and a Newton solve of it can take minutes), or at the
+                # caller's deadline (max_time)
+                spent = newton_.work_spent()
+                stop = [d for d in (ladder.deadline, newton_.deadline()) if d is not None]
+                left = None if not stop else min(stop) - time.perf_counter()
+                if spent is not None or (left is not None and left <= 0.0):
+                    why.append(f"{spent or 'time budget'} spent")
+                    break
+                try:
+                    ex = metered_exact(system, omega, guess=g, samples=max(N, 64), harmonics=max(ladder.n_h, 1),
+                                       blas_threads=None, time_limit=left)
+                except (InputError, FloatingPointError, np.linalg.LinAlgError, ValueError) as exc:
+                    why.append(f"{type(exc).__name__}: {exc}")
+                    continue
+                if g is probe.get("state") and "orbit" not in probe:
+                    probe["orbit"] = ex
+                    if ex.success and ex.stable is True and np.all(np.isfinite(ex.q_hat)):
+                        n0 = len(ladder.attempts)
+                        att = self._from_orbit(ladder, ex, N, t0, PROBE_NOTE)
+                        if att.accepted:
+                            return att
+                        # not accepted: as if not probed (the attempts kept for the transient state's own turn, so
+                        # that the best attempt, a guess before it, is the one it would have been)
+                        probe["attempts"] = ladder.attempts[n0:]
+                        del ladder.attempts[n0:]
+                    continue  # (named in the record at the transient state's own turn)
             if ex.success and np.all(np.isfinite(ex.q_hat)):
-                gg = {"q_hat": ex.q_hat, "q0": ex.q[0].copy(), "u0": ex.u[0].copy()}
-                att = ladder.try_("exact", problem.initial_guess(gg), f"exact orbit: {ex.message}", 0, t0)
-                if att.accepted or problem.time_step is None or ex.q.shape[0] != N + 1:
-                    return att
-                return exact_section(ladder, ex, N, att, t0)
+                return self._from_orbit(ladder, ex, N, t0)
             why.append(ex.message)
         # no Newton solve of the method from the linear response here: that is the start "linear" (tried before
         # this one); the record names why the exact orbit was not found
@@ -399,16 +445,43 @@ class ExactStart:
                            result=failed)
 
     @staticmethod
-    def _guesses(ladder):
+    def _from_orbit(ladder, ex, N, t0, how=""):
+        """The method's Newton from the exact orbit ``ex`` (and from it with the section moved away from its events,
+        :func:`exact_section`, when that is not accepted); ``how`` ends the attempt's note."""
+        problem = ladder.problem
+        gg = {"q_hat": ex.q_hat, "q0": ex.q[0].copy(), "u0": ex.u[0].copy()}
+        att = ladder.try_("exact", problem.initial_guess(gg), f"exact orbit: {ex.message}{how}", 0, t0)
+        if att.accepted or problem.time_step is None or ex.q.shape[0] != N + 1:
+            return att
+        return exact_section(ladder, ex, N, att, t0)
+
+    @staticmethod
+    def _guesses(ladder, probe):
         """The linear start, the state of rest (on the reduced cantilever's tip stop at 0.99 w_1 the exact flow's
         Newton converged from rest and stalled from the linear response), the state at ``t = 0`` of the best
         attempt so far (when finite), then the state a Moreau-Jean transient from rest reaches
         (:meth:`_transient_state`; near that beam's resonance, 1.01-1.02 w_1, the exact flow's Newton stalls from
-        the linear response and from rest and converges in 3-5 iterations from 40 simulated periods).  The
-        transient comes last: tried before the best attempt, it led the impact chain's period-2 solve at pi / 5 to
-        the T-periodic orbit instead of the attracting 2T one."""
+        the linear response and from rest, 30 and 16 iterations, 2-5 s of CPU, and converges in 3 iterations from
+        the transient state).
+
+        Where the linear response runs through the stop (:func:`linear_penetrates`: the linear start is then no
+        answer) and ``T`` is the forcing's own period (:func:`forced_at_fundamental`), the transient state is
+        *probed* first: :meth:`run` takes its exact orbit at once when the orbit is attracting (the exact monodromy's
+        multipliers inside the unit circle: the orbit the simulation settled on, not one it passed near) and the
+        method's solution from it is accepted.  Otherwise the order above holds as without the probe: the probe's
+        attempts are set aside, so that the best attempt so far is the same, and are recorded at the transient
+        state's own turn, last, with no second solve (``probe`` holds ``"state"``, the probed guess, ``"orbit"``,
+        its exact orbit, and ``"attempts"``, the attempts set aside).  Not for the ``kT`` problems of
+        :mod:`mshbm.period`: their orbit comes in ``k`` copies shifted by the forcing period and the transient picks
+        one by chance (on the impact chain's period-2 MS-HBM solve at pi / 5 the method's Newton converged from the
+        one the ordinary order reaches, not from the transient's, and the solve ended on the T-periodic orbit)."""
         n = ladder.system.n
         # (a generator: the simulation runs only when its turn comes)
+        if linear_penetrates(ladder.system, ladder.omega, ladder.n_h) and forced_at_fundamental(ladder.system,
+                                                                                              ladder.omega):
+            probe["state"] = ExactStart._transient_state(ladder)
+            if probe["state"] is not None:
+                yield probe["state"]
         yield "linear"
         yield {"q0": np.zeros(n), "u0": np.zeros(n)}
         best = ladder.best()
@@ -423,6 +496,10 @@ class ExactStart:
                     yield {"q0": q0, "u0": u0}
             except (FloatingPointError, np.linalg.LinAlgError, ValueError):
                 pass
+        if "state" in probe:  # probed first: its orbit (a failed probe solve is named in the record already)
+            if "orbit" in probe:
+                yield _PROBED
+            return
         simulated = ExactStart._transient_state(ladder)
         if simulated is not None:
             yield simulated
