@@ -22,6 +22,13 @@ independent of the sweep; when that is not certified or lands elsewhere, from th
 The CPU limit (:func:`cpu_limit`) is a profiling timer (``ITIMER_PROF``: the process's user + system time)
 whose signal raises :class:`CpuLimit`, a :class:`KeyboardInterrupt`: the sweep then ends like after Ctrl-C and
 its :class:`mshbm.interrupt.SweepInterrupted` carries the points so far.
+
+A case with a ``reduction`` (the automatic Craig-Bampton reduction of a method that integrates stiff DOFs in time,
+:func:`mshbm_workflow.sweep_systems.time_reduction`) is swept on the reduced model and certified as ``mshbm
+sweep`` certifies it: the reduction's error estimate is added to every point's ``accuracy``
+(:func:`mshbm.branch_accuracy.add_reduction`).  Its check solves are :meth:`mshbm.reduction.ReducedModel.solve`
+(certified with the same estimate, as ``mshbm solve``), and every amplitude compared (checks, closed forms, the
+curve) is on the full model's DOFs (:func:`point_amplitude`).
 """
 from __future__ import annotations
 
@@ -34,6 +41,7 @@ import traceback
 import numpy as np
 
 import mshbm
+from mshbm.branch_accuracy import add_reduction
 from mshbm.interrupt import SweepInterrupted
 
 #: options of mshbm.sweep that are the continuation's (not passed to the check solves)
@@ -129,9 +137,23 @@ def _message(exc):
     return f"{type(exc).__name__}: {text}"
 
 
-def run_sweep(system, case, cpu_s):
+def point_amplitude(point, reduction=None):
+    """Amplitude per DOF (``(max - min) / 2``) of a branch point, on the full model's DOFs when the branch is of the
+    ``reduction``'s reduced model (:meth:`mshbm.reduction.ReducedModel.expand`; NaN without a solution), shape
+    (n,)."""
+    if reduction is None:
+        return np.asarray(point.amplitude, float)
+    if point.solution is None:
+        return np.full(reduction.full.n, np.nan)
+    return np.asarray(reduction.expand(point.solution, estimate=False).amplitude, float)
+
+
+def run_sweep(system, case, cpu_s, reduction=None):
     """``(branch or None, stop, cpu_s, wall_s, error)``: the case's sweep under the CPU limit; ``stop`` is
-    ``"end"``, ``"cpu-limit"``, ``"stopped"`` (the sweep ended before the end of its range) or ``"error"``."""
+    ``"end"``, ``"cpu-limit"``, ``"stopped"`` (the sweep ended before the end of its range) or ``"error"``.
+    With a ``reduction`` the sweep is of its reduced model, and a branch that was not interrupted gets the
+    reduction's estimate in every point's certificate (:func:`mshbm.branch_accuracy.add_reduction`, in the CPU
+    time)."""
     w0, w1 = case["omega"]
     opts = dict(case.get("options") or {})
     opts.setdefault("stability", False)
@@ -139,7 +161,9 @@ def run_sweep(system, case, cpu_s):
     branch, stop, error = None, "stopped", None
     try:
         with cpu_limit(cpu_s):
-            branch = mshbm.sweep(system, w0, w1, case["method"], **opts)
+            branch = mshbm.sweep(system if reduction is None else reduction.system, w0, w1, case["method"], **opts)
+            if reduction is not None and len(branch):
+                add_reduction(branch, reduction)
     except SweepInterrupted as exc:
         branch = exc.branch
         stop = "cpu-limit" if isinstance(exc.cause, CpuLimit) else "interrupted"
@@ -157,18 +181,24 @@ def _at_end(omega, end):
     return abs(float(omega) - float(end)) <= 1e-9 * max(abs(float(end)), 1.0)
 
 
-def _solve(system, omega, method, opts, guess, cpu_s):
-    """``(solution or None, message)`` of one check solve under the CPU limit."""
+def _solve(system, omega, method, opts, guess, cpu_s, reduction=None):
+    """``(solution or None, message)`` of one check solve under the CPU limit; with a ``reduction``, of its
+    reduced model from ``guess`` (a point of the reduced model's branch) on the full model's DOFs, certified
+    with the reduction's estimate (:meth:`mshbm.reduction.ReducedModel.solve`)."""
     try:
         with cpu_limit(cpu_s):
-            sol = mshbm.solve(system, float(omega), method, guess=guess, **opts)
+            if reduction is None:
+                sol = mshbm.solve(system, float(omega), method, guess=guess, **opts)
+            else:
+                sol = reduction.solve(float(omega), method, guess=guess, **opts)
     except (CpuLimit, Exception) as exc:
         return None, _message(exc)[:300]
     return sol, str(sol.message)[:300]
 
 
-def run_checks(system, case, branch, count, cpu_s, budget_s, tol):
-    """The pointwise solves at ``count`` points of ``branch``.
+def run_checks(system, case, branch, count, cpu_s, budget_s, tol, reduction=None):
+    """The pointwise solves at ``count`` points of ``branch`` (of ``reduction``'s reduced model when given: the
+    solves are then :meth:`mshbm.reduction.ReducedModel.solve`, the amplitudes compared on the full model's DOFs).
 
     At each point, :func:`mshbm.solve` from its default start (independent of the sweep); when that is not
     certified or deviates by more than ``tol`` (another of coexisting solutions, or a wrong point), again from
@@ -193,15 +223,16 @@ def run_checks(system, case, branch, count, cpu_s, budget_s, tol):
             out.append(rec)
             continue
         t0 = time.process_time()
-        sol, msg = _solve(system, p.omega, method, opts, None, cpu_s)
+        amp = point_amplitude(p, reduction)
+        sol, msg = _solve(system, p.omega, method, opts, None, cpu_s, reduction)
         rec.update(start="default", message=msg)
         if sol is not None and sol.success:
-            rec.update(success=True, deviation=deviation(p.amplitude, sol.amplitude))
+            rec.update(success=True, deviation=deviation(amp, sol.amplitude))
             rec["independent_deviation"] = rec["deviation"]
         if (rec["deviation"] is None or rec["deviation"] > tol) and p.solution is not None:
-            sol, msg = _solve(system, p.omega, method, opts, p.solution, cpu_s)
+            sol, msg = _solve(system, p.omega, method, opts, p.solution, cpu_s, reduction)
             rec["point_message"] = msg
-            d = deviation(p.amplitude, sol.amplitude) if _converged(sol) else None
+            d = deviation(amp, sol.amplitude) if _converged(sol) else None
             if d is not None:
                 rec["point_deviation"] = d
             if d is not None and d <= tol and rec["deviation"] is not None:
@@ -241,22 +272,26 @@ def bifurcations(branch):
     return out
 
 
-def run_case(case, system, suite):
+def run_case(case, system, suite, reduction=None):
     """The report row of one case (module docstring); ``suite``: ``cpu_limit_s``, ``checks``,
-    ``check_cpu_s``, ``check_budget_s``, ``tolerance``."""
+    ``check_cpu_s``, ``check_budget_s``, ``tolerance``; ``reduction``: the automatic reduction of ``system`` the
+    case is swept on (``None``: ``system`` itself)."""
     cpu_s = float(case.get("cpu_limit_s", suite["cpu_limit_s"]))
-    branch, stop, cpu, wall, error = run_sweep(system, case, cpu_s)
+    branch, stop, cpu, wall, error = run_sweep(system, case, cpu_s, reduction)
     w0, w1 = case["omega"]
     row = {"name": case["name"], "system": case["system"], "method": case["method"],
            "label": case.get("label", case["method"]), "options": case.get("options") or {},
            "omega_start": float(w0), "omega_end": float(w1), "dofs": int(system.n),
            "cpu_limit_s": cpu_s, "cpu_s": cpu, "wall_s": wall, "stop": stop, "error": error}
+    if reduction is not None:
+        row.update(reduced_dofs=int(reduction.system.n), reduction=reduction.as_dict())
     if branch is None:
         msg = error or (f"CPU limit of {cpu_s:g} s reached before the first point" if stop == "cpu-limit" else stop)
         row.update(success=False, reached=False, points=0, message=msg, omega_last=None,
                    bifurcations=[], checks=[], max_deviation=None, checks_certified=0, within=False)
         return row
     pts = len(branch)
+    amps = [point_amplitude(p, reduction) for p in branch.points]
     row.update(success=bool(branch.success), points=pts,
                reached=bool(pts and _at_end(branch.omega[-1], w1)),
                message=str(branch.message), omega_last=float(branch.omega[-1]) if pts else None,
@@ -264,16 +299,16 @@ def run_case(case, system, suite):
                omega_max=float(branch.omega.max()) if pts else None,
                bifurcations=bifurcations(branch), counters=_plain(branch.counters),
                curve={"omega": [float(w) for w in branch.omega],
-                      "amplitude_max": [float(np.max(p.amplitude)) for p in branch.points]})
+                      "amplitude_max": [float(np.max(a)) for a in amps]})
     if stop == "cpu-limit":
         row["message"] = f"CPU limit of {cpu_s:g} s reached ({row['message']})"
     if case.get("exact") in ("linear", "stuck") and pts:
         stuck = case["exact"] == "stuck"
-        row["exact_deviation"] = max(deviation(p.amplitude, linear_reference(system, p.omega, stuck))
-                                     for p in branch.points)
+        row["exact_deviation"] = max(deviation(a, linear_reference(system, p.omega, stuck))
+                                     for p, a in zip(branch.points, amps))
     tol = float(case.get("tolerance", suite["tolerance"]))
     checks = run_checks(system, case, branch, int(suite["checks"]), float(suite["check_cpu_s"]),
-                        float(suite["check_budget_s"]), tol) if pts else []
+                        float(suite["check_budget_s"]), tol, reduction) if pts else []
     devs = [c["deviation"] for c in checks if c["deviation"] is not None]
     row.update(checks=checks, checks_certified=len(devs), max_deviation=max(devs) if devs else None,
                checks_cpu_s=sum(c["cpu_s"] for c in checks), tolerance=tol,

@@ -25,6 +25,12 @@ FE notation: ``n_el`` elements, ``L`` the length, ``b x h`` the section, ``E``, 
 ``w`` of node ``i``; Rayleigh damping ``C = alpha M + beta K`` with the ratio ``zeta`` at the first two
 natural frequencies; ``w_1`` (rad/s) the first natural frequency of the structure without elements (bodies
 included).  Forcing ``{at: <where>, amplitude: F}`` (N, ``F cos(omega t)``).
+
+Automatic reduction (:func:`time_reduction`): a system without ``reduce:`` (a chain, a beam or plate without it, a
+case file without it) that a sweep's method integrates in time on stiff DOFs (the nodes of a fine mesh: local
+frequency ``sqrt(K_dd / M_dd)`` above 200 ``omega``) is swept on the package's automatic Craig-Bampton reduction
+(:func:`mshbm.reduction.auto_reduction`, as ``mshbm solve`` and ``mshbm sweep`` do for a case file), with its
+error estimate in every point's certificate (workflow/lib/mshbm_workflow/sweep_runner.py).
 """
 from __future__ import annotations
 
@@ -38,7 +44,8 @@ import scipy.sparse as sp
 
 import mshbm
 from mshbm import Contact, Friction, Jenkins, System
-from mshbm.reduction import craig_bampton
+from mshbm.methods.capabilities import capabilities as method_capabilities
+from mshbm.reduction import auto_reduction, craig_bampton
 
 ROOT = Path(__file__).resolve().parents[3]
 
@@ -171,7 +178,8 @@ def fe_system(kind, spec, name):
     linear = System(M, C, K, f_hat, (), name=name)
     elements = _elements(spec.get("elements"), mesh.dof, linear, w[0])
     system = System(M, C, K, f_hat, elements, name=name)
-    info = {"dofs": n, "w1": float(w[0]), "w2": float(w[1]), "alpha": float(alpha), "beta": float(beta)}
+    info = {"dofs": n, "w1": float(w[0]), "w2": float(w[1]), "alpha": float(alpha), "beta": float(beta),
+            "auto_reduce": not spec.get("reduce")}
     if spec.get("reduce"):
         red = craig_bampton(system, int(spec["reduce"]["modes"]), keep=[mesh.dof(k) for k in
                                                                          spec["reduce"].get("keep", [])])
@@ -192,7 +200,7 @@ def chain_system(spec, name):
     elements = _elements(spec.get("elements"), int, linear, w1)
     system = mshbm.chain(masses, spec["stiffness"], spec.get("damping", 0.0), forcing=forcing, elements=elements,
                          name=name)
-    return system, float(w1), {"dofs": len(masses), "w1": float(w1)}
+    return system, float(w1), {"dofs": len(masses), "w1": float(w1), "auto_reduce": True}
 
 
 def case_system(spec, name):
@@ -202,7 +210,8 @@ def case_system(spec, name):
     system = case.system
     system.name = name
     w1 = natural_frequencies(system.M, system.K, 1)[0]
-    return system, float(w1), {"dofs": int(system.n), "w1": float(w1), "case": spec["case"]}
+    return system, float(w1), {"dofs": int(system.n), "w1": float(w1), "case": spec["case"],
+                                "auto_reduce": bool(case.auto_reduce and case.reduction is None)}
 
 
 def build(spec, name):
@@ -216,3 +225,15 @@ def build(spec, name):
     if "plate" in spec:
         return fe_system("plate", spec["plate"], name)
     raise ValueError(f"system {name}: one of case, chain, beam, plate")
+
+
+def time_reduction(system, info, method, options, omega):
+    """The automatic Craig-Bampton reduction a sweep of ``system`` with ``method`` and ``options`` (the sweep's,
+    ``harmonics`` among them) is traced on, or ``None``: :func:`mshbm.reduction.auto_reduction` at ``omega`` (rad/s,
+    the range's highest, as ``mshbm sweep``) when ``info["auto_reduce"]`` (the system has no ``reduce:``), no
+    ``partition`` is given and the method integrates stiff DOFs in time (module docstring)."""
+    if not info.get("auto_reduce") or "partition" in options:
+        return None
+    caps = method_capabilities(method)
+    n_h = options.get("harmonics") or caps.default_harmonics
+    return auto_reduction(system, float(omega), caps.timed_dofs(system), n_h)

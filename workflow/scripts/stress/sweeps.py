@@ -6,7 +6,9 @@ Run by the Snakemake rules ``sweep_stress`` / ``sweep_stress_quick`` (workflow/r
         [--cases NAME,NAME] [--cpu-limit S]
 
 Every case (``<system>/<label>``, workflow/sweeps.yaml) is one :func:`mshbm.sweep` in a child process under a
-CPU-time limit, then pointwise :func:`mshbm.solve` checks (:mod:`mshbm_workflow.sweep_runner`).  Writes
+CPU-time limit, then pointwise :func:`mshbm.solve` checks (:mod:`mshbm_workflow.sweep_runner`); a method that
+integrates stiff DOFs in time sweeps the automatic Craig-Bampton reduction (:func:`mshbm_workflow.sweep_systems.
+time_reduction`, as ``mshbm sweep`` does for a case file).  Writes
 ``<out>/summary.json`` (every row, the summary) and ``<out>/summary.md`` (the table and the summary line:
 the fraction of sweeps that reached the end of their range, the fraction within the tolerance of their
 pointwise solves).  The JSON is rewritten after every case, so an interrupted run keeps its rows.  Exit code
@@ -85,11 +87,18 @@ def select(cfg, profile, names=None):
 
 # ----------------------------------------------------------------------------------------------- running
 def _build(cfg, case):
+    """``(system, case, info, reduction)``: the case's system, the case with its range in rad/s, the model's
+    description and the automatic reduction its method is swept on (:func:`sweep_systems.time_reduction`)."""
     system, w1, info = sweep_systems.build(cfg["systems"][case["system"]], case["system"])
     case = dict(case)
     if "omega_ratio" in case:
         case["omega"] = [float(r) * w1 for r in case["omega_ratio"]]
-    return system, case, info
+    reduction = sweep_systems.time_reduction(system, info, case["method"], case.get("options") or {},
+                                             max(case["omega"]))
+    if reduction is not None:
+        info = dict(info, reduced_dofs=int(reduction.system.n), reduction_modes=reduction.n_modes,
+                    reduction="automatic")
+    return system, case, info, reduction
 
 
 def _child(conn, cfg, case, suite, hard_cpu):
@@ -103,8 +112,8 @@ def _child(conn, cfg, case, suite, hard_cpu):
     except (ValueError, OSError):
         pass
     try:
-        system, case, info = _build(cfg, case)
-        row = run_case(case, system, suite)
+        system, case, info, reduction = _build(cfg, case)
+        row = run_case(case, system, suite, reduction)
         row["model"] = info
     except Exception as exc:
         row = {"name": case["name"], "system": case["system"], "method": case["method"],
@@ -196,7 +205,9 @@ def markdown(rows, s, meta):
              f"CPU limit per sweep {meta['cpu_limit_s']:g} s; {meta['checks']} pointwise `mshbm.solve` checks per "
              f"sweep (from solve's default start; where that is not certified or lands elsewhere, from the sweep point: "
              f"\"indep. elsewhere\" counts those); deviation = max_i |A_i − A_solve,i| / max_i |A_solve,i| over the "
-             f"certified checks (A: amplitude per DOF).  Reached: the last point is at omega_end.  Warm-up {meta['warmup_cpu_s']:.0f} s "
+             f"certified checks (A: amplitude per DOF).  DOFs \"n → m\": swept on the automatic Craig-Bampton "
+             f"reduction to m DOFs (stiff time-integrated DOFs), compared on the n DOFs, its estimate in every "
+             f"certificate.  Reached: the last point is at omega_end.  Warm-up {meta['warmup_cpu_s']:.0f} s "
              f"CPU (numba compilation, not in the rows).", "",
              "| case | DOFs | range (rad/s) | reached | points | CPU s | max dev. | checks cert. | stop / message |",
              "|---|---:|---|:---:|---:|---:|---:|---:|---|"]
@@ -215,7 +226,8 @@ def markdown(rows, s, meta):
         if r.get("independent_differs"):
             checks += f" ({r['independent_differs']} indep. elsewhere"
             checks += f", {r['coexisting']} coexisting)" if r.get("coexisting") else ")"
-        lines.append(f"| {r['name']} | {r.get('dofs', '–')} | {rng} | {'yes' if r.get('reached') else '**no**'} | "
+        dofs = f"{r.get('dofs', '–')}" + (f" → {r['reduced_dofs']}" if r.get("reduced_dofs") else "")
+        lines.append(f"| {r['name']} | {dofs} | {rng} | {'yes' if r.get('reached') else '**no**'} | "
                      f"{r.get('points', 0)} | {_fmt(r.get('cpu_s'), '.1f')} | {dev} | {checks} | "
                      f"{r.get('stop')}: {msg} |")
     lines += ["", "## Checks outside the tolerance or not certified", ""]
