@@ -13,7 +13,7 @@ from .arclength_parts import Failed
 from .arclength_steps import EXACT_REACH, exact_root
 
 __all__ = ["Fallbacks", "CYCLE_RTOL", "RETRACE_BACK", "RETRACE_RTOL", "CRAWL_POINTS", "CRAWL_STEP", "CRAWL_LAM",
-           "STUCK_BACK", "WIDE_JUMP"]
+           "STUCK_BACK", "WIDE_JUMP", "JUMP_RTOL", "JUMP_RETRIES"]
 
 #: points of a cycle (:meth:`Fallbacks.cross_cycle`) lie within this (relative to ``lam_scale``) of one ``lam``
 CYCLE_RTOL = 1e-5
@@ -31,6 +31,10 @@ CRAWL_LAM = 0.01
 STUCK_BACK = 5
 #: the first of a gap's wider jumps (:meth:`Fallbacks.wide_jump`), in units of the gap's first natural-parameter step
 WIDE_JUMP = 2.0
+#: a gap's natural-parameter step whose point lies farther than this (scaled, relative to the last point's size)
+#: from the secant of the branch's last two points has jumped to another solution; the step is quartered, at most
+#: ``JUMP_RETRIES`` times per gap, before the jump is taken (:meth:`Fallbacks.jumped`)
+JUMP_RTOL, JUMP_RETRIES = 0.1, 2
 
 
 class Fallbacks:
@@ -40,6 +44,8 @@ class Fallbacks:
     retrace_from = None
     #: the gap under way was started by :meth:`crawled`
     crawl_gap = False
+    #: per gap (its ``gap_from``), the steps quartered after a jump (:meth:`jumped`)
+    jump_tries = None
 
     def finish_at_end(self, p, q):
         """Solve at ``lam_end`` from the interpolation between points ``p`` and ``q`` that bracket it, else from
@@ -227,6 +233,9 @@ class Fallbacks:
                                     f"the arclength corrector failed ({self.natural_reason})")
                     return True
                 return False
+        if self.jumped(p, q, w, natural):
+            self.natural = natural * 0.25
+            return False
         self.counters["natural_points"] = self.counters.get("natural_points", 0) + 1
         self.add(q, natural / lsc)
         if self.gap_from is not None:  # a gap bridged: back to arclength steps from the new point
@@ -245,6 +254,31 @@ class Fallbacks:
             return True
         self.natural = min(natural * 1.5, self.ds_max * lsc)
         return False
+
+    def jumped(self, p, q, w, natural):
+        """Whether a gap's point ``q`` (a natural-parameter step of ``natural`` from the last point ``p``) lies
+        more than :data:`JUMP_RTOL` (scaled, relative to ``p``'s size) off the secant of the branch's last two points:
+        a jump onto another solution (where a crawl's gap starts on an impacting branch, Newton from ``p`` a step of
+        ``0.5 ds0`` onwards can land on the coexisting orbit without impacts, while the branch goes on).  Then the
+        step is to be quartered (True), at most :data:`JUMP_RETRIES` times per gap; after that the jump is taken and
+        the gap's reason says so."""
+        if self.gap_from is None or len(self.points) < 2:
+            return False
+        a = self.points[-2]
+        slope = (p.x - a.x) / (p.lam - a.lam) if p.lam != a.lam else np.zeros_like(p.x)
+        size = max(float(np.linalg.norm(p.x / w)), 1.0)
+        off = float(np.linalg.norm((q.x - p.x - (q.lam - p.lam) * slope) / w)) / size
+        if off <= JUMP_RTOL:
+            return False
+        tries = self.jump_tries.get(self.gap_from, 0) if self.jump_tries else 0
+        if tries >= JUMP_RETRIES:
+            self.natural_reason += (f"; the gap's point at lam = {q.lam:.6g} lies {off:.2g} (scaled) off the branch's "
+                                    "secant: it may be another solution, the branch beyond the gap's start untraced")
+            self.counters["jumps"] = self.counters.get("jumps", 0) + 1
+            return False
+        self.jump_tries = {**(self.jump_tries or {}), self.gap_from: tries + 1}
+        self.counters["jump_retries"] = self.counters.get("jump_retries", 0) + 1
+        return True
 
     def wide_jump(self, p, w, exc, why):
         """Where a gap's natural-parameter steps onwards failed down to ``ds_min`` (no solution of the method near
