@@ -584,7 +584,8 @@ class _Trace(Fallbacks):
             self.ds = next_ds(self, p, q, it, kink, smooth)
         gaps = [k for k in self.kinks if k.get("gap")]
         if gaps and self.success:
-            where = ", ".join(f"{k['lam']:.6g}" + " (a crawl)" * bool(k.get("crawl")) for k in gaps)
+            where = ", ".join(f"{k['lam']:.6g}" + " (a crawl)" * bool(k.get("crawl"))
+                              + " (landed off the branch: maybe another solution)" * bool(k.get("jump")) for k in gaps)
             self.message += (f" ({len(gaps)} gap(s) bridged by a natural-parameter step where the arclength corrector "
                              f"could not pass, from lam = {where}: a fold there is not traced)")
         folds = self.folds + stall_folds(points, self.stall_fold_rtol)
