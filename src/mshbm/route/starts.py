@@ -191,9 +191,8 @@ def linear_penetrates(system, omega, n_h):
 
 
 def forced_at_fundamental(system, omega):
-    """True if the forcing has the harmonic ``omega`` itself, so that ``T = 2 pi / omega`` is the forcing's own period:
-    not so for the ``kT`` problems of :mod:`mshbm.period` (forcing at multiples of ``k omega`` only), whose orbits
-    come in ``k`` copies shifted by the forcing period."""
+    """True if the forcing has the harmonic ``omega`` itself (``T`` is its own period; not so for the ``kT`` problems
+    of :mod:`mshbm.period`, whose orbits come in ``k`` copies shifted by the forcing period)."""
     F = np.asarray(system.forcing_hat(max(system.n_forcing_harmonics, 1), omega), dtype=float)
     return bool(np.any(F[1:3] != 0.0))
 
@@ -406,9 +405,8 @@ class ExactStart:
                     return ladder.attempts[-1]
                 ex = probe["orbit"]
             else:
-                # the event-driven solve stops when its work budget EXACT_WORK is spent (at a low frequency with stiff
-                # modes the flow has many steps a period and a Newton solve of it can take minutes), or at the
-                # caller's deadline (max_time)
+                # the event-driven solve stops when its work budget EXACT_WORK is spent (stiff modes at a low
+                # frequency: many flow steps a period), or at the caller's deadline (max_time)
                 spent = newton_.work_spent()
                 stop = [d for d in (ladder.deadline, newton_.deadline()) if d is not None]
                 left = None if not stop else min(stop) - time.perf_counter()
@@ -428,8 +426,7 @@ class ExactStart:
                         att = self._from_orbit(ladder, ex, N, t0, PROBE_NOTE)
                         if att.accepted:
                             return att
-                        # not accepted: as if not probed (the attempts kept for the transient state's own turn, so
-                        # that the best attempt, a guess before it, is the one it would have been)
+                        # not accepted: as if not probed (its attempts wait for the transient state's own turn)
                         probe["attempts"] = ladder.attempts[n0:]
                         del ladder.attempts[n0:]
                     continue  # (named in the record at the transient state's own turn)
@@ -470,11 +467,10 @@ class ExactStart:
         multipliers inside the unit circle: the orbit the simulation settled on, not one it passed near) and the
         method's solution from it is accepted.  Otherwise the order above holds as without the probe: the probe's
         attempts are set aside, so that the best attempt so far is the same, and are recorded at the transient
-        state's own turn, last, with no second solve (``probe`` holds ``"state"``, the probed guess, ``"orbit"``,
-        its exact orbit, and ``"attempts"``, the attempts set aside).  Not for the ``kT`` problems of
-        :mod:`mshbm.period`: their orbit comes in ``k`` copies shifted by the forcing period and the transient picks
-        one by chance (on the impact chain's period-2 MS-HBM solve at pi / 5 the method's Newton converged from the
-        one the ordinary order reaches, not from the transient's, and the solve ended on the T-periodic orbit)."""
+        state's own turn, last, with no second solve (``probe``: ``"state"``, ``"orbit"``, ``"attempts"``).  Not for
+        the ``kT`` problems of :mod:`mshbm.period`: their orbit comes in ``k`` copies shifted by the forcing period and
+        the transient picks one by chance (the impact chain's period-2 MS-HBM solve at pi / 5 then ended on the
+        T-periodic orbit)."""
         n = ladder.system.n
         # (a generator: the simulation runs only when its turn comes)
         if linear_penetrates(ladder.system, ladder.omega, ladder.n_h) and forced_at_fundamental(ladder.system,
