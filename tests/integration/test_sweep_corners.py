@@ -50,7 +50,15 @@ def _near_miss_11(omega, zeta, sigma, r):
     return sigma + res.fun
 
 
-def test_grazing_corner_located_on_the_branch_where_it_happens():
+@pytest.fixture(scope="module")
+def grazing_branch():
+    """The impact oscillator (zeta 0.05, stop at 1, e 0.8) swept down from 1.8 to 1.3 by event-driven shooting
+    with the default grazing budget: one sweep for the two tests that read it."""
+    system = _oscillator(0.05, 1.0, 0.8)
+    return system, mshbm.sweep(system, 1.8, 1.3, "shooting", **EVENT)
+
+
+def test_grazing_corner_located_on_the_branch_where_it_happens(grazing_branch):
     """Swept down from 1.8: the grazing at sqrt(1.99) = 1.4106736 lies *outside* the omega interval of the two
     points around it (1.4237 non-impacting, 1.4331 impacting: the branch turns back there).  It used to be
     'located' at 1.4331 (bisection at the middle frequency of that interval) and the corner reported as a fold.
@@ -58,7 +66,7 @@ def test_grazing_corner_located_on_the_branch_where_it_happens():
     with the closed forms: |G| without impacts, the (1,1) orbit with them, and the contact is reported active
     exactly at the impacting points."""
     zeta, sigma, r = 0.05, 1.0, 0.8
-    b = mshbm.sweep(_oscillator(zeta, sigma, r), 1.8, 1.3, "shooting", **EVENT)
+    _, b = grazing_branch
     assert b.success, b.message
     graz = [f for f in b.bifurcations if f["type"] == "grazing"]
     assert len(graz) == 1 and graz[0]["located"] == "bisection"
@@ -180,7 +188,7 @@ def test_point_reports_the_gap_of_a_relative_contact():
         assert abs(rec["min_gap"] - (gap - abs(Q[0]))) > 1e-2
 
 
-def test_grazing_location_within_its_budget(monkeypatch):
+def test_grazing_location_within_its_budget(grazing_branch, monkeypatch):
     """The grazing bisection spends at most its budget (branch.LOCATE_SHARE of the trace's work, at least
     LOCATE_FLOOR residual evaluations).  With the default the corner's grazing is located to 1e-5 (test above)
     within it; with no budget at all the same sweep gives the same points, places the grazing by interpolation
@@ -188,9 +196,7 @@ def test_grazing_location_within_its_budget(monkeypatch):
     and says in its message that the location stopped at its budget."""
     from mshbm import branch as branch_mod
 
-    zeta, sigma, r = 0.05, 1.0, 0.8
-    system = _oscillator(zeta, sigma, r)
-    full = mshbm.sweep(system, 1.8, 1.3, "shooting", **EVENT)
+    system, full = grazing_branch
     assert "budget" not in full.message
     monkeypatch.setattr(branch_mod, "LOCATE_FLOOR", 0)
     monkeypatch.setattr(branch_mod, "LOCATE_SHARE", 0.0)

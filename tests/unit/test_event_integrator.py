@@ -224,18 +224,27 @@ def test_ball_accumulation_in_moreau_mode_and_event_cap():
 
 
 # ----------------------------------------------------------------------------- monodromy
+@pytest.fixture(scope="module")
+def friction_and_stop():
+    """A 2-mass chain with Coulomb friction on mass 0 and a stop at mass 1, forced at 0.8 rad/s, and its periodic
+    solution by shooting (2048 steps; about 7 s of CPU: the Moreau-Jean ladder, then the event-driven integrator
+    from its best attempt), solved once for the three tests that start flows from it."""
+    omega = 0.8
+    s = chain([1.0, 1.0], 1.0, 0.05, forcing=[{"dof": 1, "amplitude": 1.5}],
+              elements=[Friction(0, 1.0, 0.3), Contact(1, 0.8, 0.7)])
+    return s, omega, mshbm.solve(s, omega, "shooting", steps=2048, stability=False)
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("case", ["friction+contact", "two stops"])
-def test_monodromy_of_two_element_flow_against_finite_differences(case, two_stops):
+def test_monodromy_of_two_element_flow_against_finite_differences(case, two_stops, friction_and_stop):
     if case == "two stops":
         s, _, _, sol = two_stops
         omega = OMEGA_BD
         x0 = np.concatenate([sol.q[0], sol.u[0]])
     else:
-        omega = 0.8
-        s = chain([1.0, 1.0], 1.0, 0.05, forcing=[{"dof": 1, "amplitude": 1.5}],
-                  elements=[Friction(0, 1.0, 0.3), Contact(1, 0.8, 0.7)])
-        ex = exact_periodic(s, omega, mshbm.solve(s, omega, "shooting", steps=2048, stability=False))
+        s, omega, sol = friction_and_stop
+        ex = exact_periodic(s, omega, sol)
         assert ex.success, ex.message
         kinds = {e.kind for e in ex.info["events"]}
         assert {"free->free", "slip-->stick", "stick->slip-"} <= kinds  # impacts and stick-slip
@@ -264,7 +273,7 @@ def test_monodromy_of_two_element_flow_against_finite_differences(case, two_stop
 
 
 @pytest.mark.parametrize("case", ["friction+contact", "two stops"])
-def test_batched_event_free_sub_steps_give_the_same_flow(case, two_stops, monkeypatch):
+def test_batched_event_free_sub_steps_give_the_same_flow(case, two_stops, friction_and_stop, monkeypatch):
     """``EventFlow.batch`` (the stability analysis's flows) screens runs of event-free sub-steps at once: the same
     events, end state and monodromy as sub-step by sub-step (to rounding), with far fewer calls of ``locate``."""
     from mshbm.integrators.event import flow as flow_mod
@@ -273,10 +282,8 @@ def test_batched_event_free_sub_steps_give_the_same_flow(case, two_stops, monkey
         s, _, _, sol = two_stops
         omega, ts = OMEGA_BD, 0.1
     else:
-        omega, ts = 0.8, 0.37
-        s = chain([1.0, 1.0], 1.0, 0.05, forcing=[{"dof": 1, "amplitude": 1.5}],
-                  elements=[Friction(0, 1.0, 0.3), Contact(1, 0.8, 0.7)])
-        sol = mshbm.solve(s, omega, "shooting", steps=2048, stability=False)
+        s, omega, sol = friction_and_stop
+        ts = 0.37
     n = s.n
     calls = []
     real = flow_mod.locate
@@ -298,16 +305,14 @@ def test_batched_event_free_sub_steps_give_the_same_flow(case, two_stops, monkey
     assert nb < na / 3
 
 
-def test_screened_sub_steps_are_bit_identical_to_the_step_by_step_loop(monkeypatch):
+def test_screened_sub_steps_are_bit_identical_to_the_step_by_step_loop(friction_and_stop, monkeypatch):
     """``EventFlow.screen`` (the default) screens runs of event-free sub-steps and advances them one by one with the
     loop's own products: the same events, end state, monodromy and Fourier sums to the bit, with and without the
     forcing states and Fourier coefficients of MS-HBM's coupled flow, and far fewer calls of ``locate``."""
     from mshbm.integrators.event import flow as flow_mod
 
-    omega, ts = 0.8, 0.37
-    s = chain([1.0, 1.0], 1.0, 0.05, forcing=[{"dof": 1, "amplitude": 1.5}],
-              elements=[Friction(0, 1.0, 0.3), Contact(1, 0.8, 0.7)])
-    sol = mshbm.solve(s, omega, "shooting", steps=2048, stability=False, accuracy=False)
+    s, omega, sol = friction_and_stop  # its start state: the same bits as solved with accuracy=False
+    ts = 0.37
     calls = []
     real = flow_mod.locate
     monkeypatch.setattr(flow_mod, "locate", lambda *a: calls.append(1) or real(*a))
