@@ -40,7 +40,7 @@ import scipy.sparse.linalg as spla
 from .errors import InputError
 from .system import System
 
-__all__ = ["ReducedModel", "craig_bampton", "REDUCTION_BOUND", "auto_reduction", "stiff_time_dofs"]
+__all__ = ["ReducedModel", "craig_bampton", "REDUCTION_BOUND", "auto_reduction", "method_reduction", "stiff_time_dofs"]
 
 #: the reduction estimate warns above this relative error (the accuracy at which truncation estimates warn)
 REDUCTION_BOUND = 1e-2
@@ -398,7 +398,7 @@ def auto_reduction(system, omega, timed, harmonics):
     ``timed`` in time, or ``None`` when none of them is stiff (:func:`stiff_time_dofs`), the model has support
     motion, or the reduction would not shrink it.  Boundary: the element DOFs; modes: the fixed-interface modes
     up to :data:`AUTO_CUTOFF` ``harmonics omega``, at least :data:`AUTO_MIN_MODES` (doubled until the highest
-    kept one passes the cut-off).  ``as_dict()`` of the result holds ``auto: True`` and the stiffness ratio."""
+    kept one passes the cut-off).  Its :attr:`ReducedModel.auto` holds the largest stiffness ratio and the cut-off."""
     stiff, ratio = stiff_time_dofs(system, omega, timed)
     if not stiff.size or system.omega_dependent:
         return None
@@ -414,3 +414,15 @@ def auto_reduction(system, omega, timed, harmonics):
         red = craig_bampton(system, modes)
     red.auto = {"stiffness_ratio": ratio, "cutoff_rad_s": cutoff}
     return red
+
+
+def method_reduction(system, omega, method, options):
+    """:func:`auto_reduction` for a solve or sweep with ``method`` and ``options`` at ``omega``: the DOFs the method
+    integrates in time (its capabilities, the default partition) and its ``harmonics``; ``None`` when a
+    ``partition`` is given (the user chose the time-integrated DOFs) or none of them is stiff."""
+    from .methods.capabilities import capabilities
+
+    if "partition" in options:
+        return None
+    caps = capabilities(method)
+    return auto_reduction(system, omega, caps.timed_dofs(system), options.get("harmonics") or caps.default_harmonics)

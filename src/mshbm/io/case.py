@@ -12,8 +12,7 @@ import scipy.sparse as sp
 from .. import api
 from .. import options as options_
 from ..errors import InputError
-from ..methods.capabilities import capabilities as method_capabilities
-from ..reduction import auto_reduction
+from ..reduction import method_reduction
 from ..system import System, chain
 from .overrides import apply_sets as _apply_sets
 from .keys import (BASE_KEYS, CHAIN_KEYS, CONTACT_KEYS, CUBIC_KEYS, FORCING_KEYS, FRICTION_KEYS,  # noqa: F401
@@ -107,16 +106,12 @@ class Case:
         highest) (:func:`mshbm.reduction.auto_reduction`: the method integrates stiff DOFs in time), built once
         per DOF set, ``n_h`` and ``omega``; ``None`` when it does not apply (``reduce:`` given or ``none``, a
         ``partition`` given, an unknown method, no stiff DOF)."""
-        if self.reduction is not None or not self.auto_reduce or "partition" in options \
-                or method not in options_.METHODS:
+        if self.reduction is not None or not self.auto_reduce or method not in options_.METHODS:
             return None
-        caps = method_capabilities(method)
-        timed = caps.timed_dofs(self.system)
-        n_h = options.get("harmonics") or caps.default_harmonics
         omega = float(self.omega if omega is None else omega)
-        key = ("auto_reduction", tuple(int(d) for d in timed[:64]), int(timed.size), int(n_h), omega)
+        key = ("auto_reduction", method, options.get("harmonics"), "partition" in options, omega)
         if key not in self._matrices:
-            self._matrices[key] = auto_reduction(self.system, omega, timed, n_h)
+            self._matrices[key] = method_reduction(self.system, omega, method, options)
         return self._matrices[key]
 
     def with_sets(self, sets):

@@ -44,8 +44,7 @@ import scipy.sparse as sp
 
 import mshbm
 from mshbm import Contact, Friction, Jenkins, System
-from mshbm.methods.capabilities import capabilities as method_capabilities
-from mshbm.reduction import auto_reduction, craig_bampton
+from mshbm.reduction import craig_bampton, method_reduction
 
 ROOT = Path(__file__).resolve().parents[3]
 
@@ -232,8 +231,6 @@ def time_reduction(system, info, method, options, omega):
     ``harmonics`` among them) is traced on, or ``None``: :func:`mshbm.reduction.auto_reduction` at ``omega`` (rad/s,
     the range's highest, as ``mshbm sweep``) when ``info["auto_reduce"]`` (the system has no ``reduce:``), no
     ``partition`` is given and the method integrates stiff DOFs in time (module docstring)."""
-    if not info.get("auto_reduce") or "partition" in options:
+    if not info.get("auto_reduce"):
         return None
-    caps = method_capabilities(method)
-    n_h = options.get("harmonics") or caps.default_harmonics
-    return auto_reduction(system, float(omega), caps.timed_dofs(system), n_h)
+    return method_reduction(system, float(omega), method, options)
