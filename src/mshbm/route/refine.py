@@ -48,8 +48,8 @@ is 1.8e-3 off at ``n_h`` = 5 and 10, which agree to 5e-6, while 10 -> 20 changes
   alignment's error is up to about twice the spread of two): the halvings measure the part of the error that
   falls with the step, the shift the part that depends on the alignment.
 * ``truncation``: Richardson at the slowest of the last :data:`RATE_WINDOW` observed rates of successive
-  doublings (one rate alone, or two, can be read fast where the changes oscillate about their decay), and a change that fell
-  faster than :data:`MAX_RATE` from the previous level's, or an estimate below
+  doublings (one rate alone, or two, can be read fast where the changes oscillate about their decay), and a
+  change that fell faster than :data:`MAX_RATE` from the previous level's, or an estimate below
   :data:`TAIL_FACTOR` times the top retained harmonics (:func:`_top_harmonics`), is not trusted when it could
   pass: a second doubling ``2 n_f`` gives ``d_1 + d_2 / (1 - 2^-p)`` (``p`` their observed rate in
   ``[MIN_RATE, MAX_RATE]``).  The coarse fallback takes the rate observed against the change into ``n_c`` (at

@@ -254,10 +254,7 @@ class Fallbacks:
         """Whether a gap's point ``q`` (a step onwards from the last point ``p``) lies more than :data:`JUMP_RTOL`
         (scaled, relative to ``p``'s size) off the secant of the branch's last two points; then the gap's reason
         says that it may be another solution and the branch beyond the gap's start is not traced (counter
-        ``jumps``).  On the reduced cantilever with a tip stop (event shooting) the impacting branch crawls at
-        1071.3 rad/s and the crawl's gap lands 9.4 rad/s on, on the orbit without impacts, while the impacting branch
-        goes on (Newton from its own points, up to 1100 rad/s).  Shorter steps there trace it to 1089.3 rad/s, at six
-        times the sweep's cost, and change which gaps other sweeps bridge: the gap is said, not refused."""
+        ``jumps``; the gap is said, not refused: tests/unit/test_continuation_jump.py)."""
         if len(self.points) < 2:
             return False
         a = self.points[-2]
