@@ -191,7 +191,9 @@ class ModeCatalogue:
         if ns_f > MAX_SUBSTEPS:  # a stiff subsystem: fail at once rather than step for hours
             raise EventError(f"the event-driven flow would need {ns_f:.3g} sub-steps per period (balanced "
                              f"||D^-1 A_xx D||_1 = {norm_xx:.3g} 1/s: stiff or heavily damped DOFs) > {MAX_SUBSTEPS}; "
-                             "use integrator='moreau' or keep the stiff DOFs out of the time-integrated subsystem")
+                             "keep the stiff DOFs out of the time-integrated subsystem (the nodes of a fine mesh: "
+                             "reduce the model onto its element DOFs, mshbm.reduction.method_reduction, which a case "
+                             "file without reduce: does by itself), or use integrator='moreau'")
         ns = int(ns_f)
         md.h = self.T / ns
         md.scale, md.norm_xx = d, norm_xx
