@@ -315,8 +315,9 @@ def _partition(key, value, n):
 
 def _reduce(value, system, n):
     if not isinstance(value, dict):
-        raise InputError("reduce", f"must be a mapping {{method: craig_bampton, modes: n, keep: [dofs]}}, "
-                                   f"got {_describe(value)}")
+        raise InputError("reduce", f"must be a mapping {{method: craig_bampton, modes: n, keep: [dofs]}}, auto "
+                                   "(the default: a reduction where a time-integrating method meets stiff DOFs) or "
+                                   f"none, got {_describe(value)}")
     _check_keys("reduce", value, REDUCE_KEYS)
     if value.get("method", "craig_bampton") != "craig_bampton":
         raise InputError("reduce.method", f"must be 'craig_bampton', got {_describe(value.get('method'))}")
