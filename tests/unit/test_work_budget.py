@@ -37,6 +37,28 @@ def test_meter_counts_the_evaluations_and_stops_newton_at_its_limit():
     assert newton_.work_spent() is None
 
 
+
+def _dear(x, jac=True):
+    """:func:`_linear`, each evaluation charging 100 evaluations more (as an event-driven flow charges its work)."""
+    newton_.charge(100)
+    return _linear(x, jac)
+
+
+def test_a_budget_of_newton_evaluations_scales_with_the_first_evaluation_s_cost():
+    free = newton_.newton(_dear, np.ones(2))
+    assert free.success and free.nfev >= 6
+    with newton_.work_box(150) as meter:  # 150 evaluations: the first (101) leaves too little for a second
+        stopped = newton_.newton(_dear, np.ones(2))
+    assert not stopped.success and stopped.nit == 1 and meter.limit == 150
+    with newton_.work_box(150, evaluations=20) as meter:  # at least 20 evaluations of 101 each
+        res = newton_.newton(_dear, np.ones(2))
+    assert res.success and res.x.tobytes() == free.x.tobytes()
+    assert meter.limit == 20 * 101 and meter.used == 101 * res.nfev
+    with newton_.work_box(150):  # the floor applies to the meter given it, not to an enclosing one
+        with newton_.work_box(10_000, evaluations=20) as inner:
+            res = newton_.newton(_dear, np.ones(2))
+    assert inner.limit == 10_000 and not res.success
+
 def _impact():
     return chain([1.0], 1.0, 0.02, forcing=[{"dof": 0, "amplitude": 1.0}],
                  elements=[mshbm.Contact(0, 0.1, 0.7, 1e4, 0.0)])

@@ -182,8 +182,9 @@ class Route:
         route = self.tightened(deadline)
         if accuracy is False and route.law_estimates:
             route = replace(route, law_estimates=False)
-        with newton_.time_box(deadline):
+        with newton_.time_box(deadline), newton_.work_box() as meter:
             sol = route._chain(system, omega, method, dict(options))
+        sol.info["work"] = float(meter.used)  # Newton residual evaluations, the event flow's work included
         with blas_threads(check_threads(options.pop("blas_threads", 1))), validate.quiet_floats():
             if self.estimate and accuracy is not False:  # the error estimates, and the refinement to a request
                 with newton_.time_box(deadline):

@@ -96,8 +96,7 @@ from .options import capabilities, without
 
 __all__ = ["MAX_LEVELS", "RATE", "estimate_and_refine", "amplitude_change"]
 
-#: most refinements of one solve
-MAX_LEVELS = 6
+MAX_LEVELS = 6  #: most refinements of one solve
 #: the assumed (slowest) algebraic convergence rate ``p`` of the estimates
 RATE = 1.0
 #: the range of an observed rate (two successive amplitude changes at ratio 2); at most the Moreau-Jean scheme's
@@ -110,21 +109,22 @@ RATE_WINDOW = 3  #: a truncation rate is the slowest of at most this many rates 
 MAX_HARMONICS, MAX_STEPS = 2000, 1 << 24
 #: a truncation estimate below this fraction of the top retained harmonics is checked by a second doubling
 TAIL_FACTOR = 0.1
-#: work budget of one re-solve of an estimate, in Newton residual evaluations (:class:`mshbm.solvers.newton.Meter`,
-#: nested solves included; the same on every machine): ``max(RESOLVE_EVALUATIONS, RESOLVE_FACTOR x the solve's
-#: evaluations)``; the floor is above what one Newton solve from the answer can use (50 iterations of at most 12)
-RESOLVE_EVALUATIONS, RESOLVE_FACTOR = 1000, 2.0
-#: the same for the re-solve with the effective impact mass (``model_substitution`` of MS-HBM's subsystem law, on
-#: the event-driven flow; starts "exact" within :data:`mshbm.route.starts.EXACT_WORK`, "guess", "transient")
+#: work budget of one re-solve of an estimate in Newton residual evaluations, nested solves included (the same on
+#: every machine; :func:`_resolve_box`); the floor is above one Newton solve from the answer (50 iterations of 12)
+RESOLVE_EVALUATIONS, RESOLVE_FACTOR, RESOLVE_NEWTON = 1000, 2.0, 60
+#: the same for the re-solve with the effective impact mass (``model_substitution``; event-driven flow; starts
+#: "exact" within :data:`mshbm.route.starts.EXACT_WORK`, "guess", "transient")
 IMPACT_MASS_EVALUATIONS = 2000
 _DROP = ("guess", "stability", "progress", "raise_on_failure", "accuracy")
 
 
 def _resolve_box(sol, floor):
-    """The work budget of a re-solve from ``sol``: ``max(floor, RESOLVE_FACTOR x sol.nfev)`` Newton residual
-    evaluations (:func:`mshbm.solvers.newton.work_box`)."""
-    return newton_.work_box(max(floor, RESOLVE_FACTOR * int(getattr(sol, "nfev", 0) or 0)),
-                            "work budget of the estimate's re-solve")
+    """The work budget of a re-solve from ``sol`` in evaluations (:func:`mshbm.solvers.newton.work_box`):
+    ``max(floor, RESOLVE_FACTOR x W)``, ``W`` the larger of ``sol.nfev`` and the solve's metered work
+    (``info["work"]``: an event-driven flow charges its work), and at least :data:`RESOLVE_NEWTON` times the cost
+    of the re-solve's first Newton evaluation (its flow, with 2 n_h Fourier sums, costs several times the solve's)."""
+    own = max(float(getattr(sol, "nfev", 0) or 0), float(sol.info.get("work", 0.0) or 0.0))
+    return newton_.work_box(max(floor, RESOLVE_FACTOR * own), "work budget of the estimate's re-solve", RESOLVE_NEWTON)
 
 
 def _top_harmonics(sol, floor):

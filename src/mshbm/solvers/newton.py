@@ -231,13 +231,25 @@ class Meter:
     meter's) ends its solve with the failure "work budget spent".  The count is the same on every machine, whatever
     its load: the solve route's internal budgets are meters, only the caller's ``max_time`` is wall time."""
 
-    __slots__ = ("limit", "used", "outer", "label")
+    __slots__ = ("limit", "used", "outer", "label", "evaluations")
 
-    def __init__(self, limit=None, outer=None, label="work budget"):
+    def __init__(self, limit=None, outer=None, label="work budget", evaluations=None):
         self.limit = None if limit is None else float(limit)
         self.used = 0
         self.outer = outer
         self.label = label
+        #: with a limit: at least this many Newton evaluations of the block's first Newton solve, whatever one costs
+        #: (the event-driven flow charges its work per evaluation: :meth:`first_evaluation`)
+        self.evaluations = evaluations
+
+    def first_evaluation(self, cost):
+        """The first Newton evaluation in the block (or a nested one) cost ``cost`` evaluations of this meter: the
+        limit becomes at least :attr:`evaluations` times that, once."""
+        m = self
+        while m is not None:
+            if m.evaluations is not None and m.limit is not None:
+                m.limit, m.evaluations = max(m.limit, m.evaluations * float(cost)), None
+            m = m.outer
 
     def spent(self):
         """The label of the innermost meter of this chain whose limit is reached (``None``: none)."""
@@ -259,10 +271,11 @@ _METER = contextvars.ContextVar("mshbm_newton_meter", default=None)
 
 
 @contextlib.contextmanager
-def work_box(limit=None, label="work budget"):
+def work_box(limit=None, label="work budget", evaluations=None):
     """Within the block, a :class:`Meter` counts the Newton residual evaluations (yielded); with ``limit``, every
-    Newton solve stops once the block has used ``limit`` evaluations (enclosing limits stay)."""
-    meter = Meter(limit, _METER.get(), label)
+    Newton solve stops once the block has used ``limit`` evaluations (enclosing limits stay); with ``evaluations``
+    too, the limit is at least that many times the cost of the block's first Newton evaluation."""
+    meter = Meter(limit, _METER.get(), label, evaluations)
     token = _METER.set(meter)
     try:
         yield meter
@@ -310,8 +323,11 @@ def _iterate(fun, x, tol, max_iter, line_search, callback, scale, watchdog, reus
     if watchdog is None:
         watchdog = max_iter
     nfev = 0
+    used = None if meter is None else meter.used
     R, J = fun(x)
     nfev += 1
+    if meter is not None:
+        meter.first_evaluation(meter.used - used + 1)
     hist = []
     for it in range(max_iter + 1):
         if not np.isfinite(R).all():
