@@ -139,6 +139,9 @@ class ReducedModel:
             t, h = B[t[t < b]], B[h[h < b]]
             partition = dataclasses.replace(partition, time=t, harmonic=h,
                                             condensed=np.setdiff1d(np.arange(self.full.n), np.union1d(t, h)))
+        info.pop("amplitude_exact", None)  # the reduced DOFs': the full model's follow
+        if not keep.all():  # time-stepped modal coordinates: the mesh's amplitudes from their time series
+            info["amplitude_exact"] = self.grid_amplitude(sol)
         out = dataclasses.replace(sol, q_hat=np.asarray(sol.q_hat) @ self.T.T, time_dofs=B[td[keep]],
                                   q_time=np.asarray(sol.q_time)[:, keep], u_time=np.asarray(sol.u_time)[:, keep],
                                   info=info, elements=elements, partition=partition)
@@ -160,6 +163,19 @@ class ReducedModel:
                                                           "reduction": err},
                                             "passed": cert["accuracy"].passed}
         return out
+
+    def grid_amplitude(self, sol, block=2048):
+        """``(max - min) / 2`` of every full-model DOF of the reduced solution ``sol``, shape (n,): of
+        ``q = T q_r(t)`` on the solution's time grid (time-stepped modal coordinates are carried by their time
+        series; their Fourier series of ``n_h`` harmonics alone missed 0.3 % of the largest amplitude on the
+        workflow's impacting plate at ``n_h = 5``); the boundary DOFs keep ``sol``'s own amplitudes."""
+        Q = np.asarray(sol.displacement())  # (N + 1, b + n_m): time series and the Fourier DOFs on the grid
+        amp = np.empty(self.full.n)
+        for i in range(0, self.full.n, block):  # rows of T in blocks: (N + 1) x block at a time
+            Y = Q @ self.T[i:i + block].T
+            amp[i:i + block] = 0.5 * (Y.max(axis=0) - Y.min(axis=0))
+        amp[self.boundary] = np.asarray(sol.amplitude)[:self.boundary.size]
+        return amp
 
     def error_estimate(self, sol, content=1e-3):
         """Relative error of the reduced model's linear response at the boundary (module docstring) over the

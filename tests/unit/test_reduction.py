@@ -334,3 +334,22 @@ def test_tip_stop_sweep_ends_agree_with_the_converged_reference(ratio):
         assert not [e for e in sol.info["event_list"] if e.impulse > 0.0]
     assert not [e for e in ref.info["event_list"] if e.impulse > 0.0]
     assert ref.displacement([0]).max() < 1e-3  # the tip below the gap
+
+
+def test_expanded_shooting_amplitudes_come_from_the_time_series_not_the_output_harmonics():
+    """Event shooting on the reduced cantilever integrates the modal coordinates in time; the mesh DOFs' amplitudes
+    are those of ``T q_r(t)`` on the time grid, whatever ``harmonics`` the output's Fourier series keeps (they came
+    from that series: measured 3.6 % of the largest amplitude off with 5 harmonics, 0.38 % with 40), within the
+    grid's resolution (1024 against 4096 steps: measured 1.6e-4); the tip keeps the event flow's exact extrema."""
+    s, w1, tip = blade()
+    rm = craig_bampton(s, 8)
+    amps = {}
+    for nh, steps in ((5, 1024), (40, 1024), (40, 4096)):
+        red = mshbm.solve(rm.system, w1, "shooting", integrator="event", harmonics=nh, steps=steps, stability=False)
+        assert red.success, red.message
+        full = rm.expand(red)
+        amps[nh, steps] = full.amplitude
+        assert full.amplitude[tip] == red.amplitude[0]
+    scale = amps[40, 4096].max()
+    assert np.abs(amps[5, 1024] - amps[40, 1024]).max() <= 1e-12 * scale
+    assert np.abs(amps[40, 1024] - amps[40, 4096]).max() <= 5e-4 * scale
