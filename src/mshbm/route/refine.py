@@ -52,8 +52,8 @@ is 1.8e-3 off at ``n_h`` = 5 and 10, which agree to 5e-6, while 10 -> 20 changes
   change that fell faster than :data:`MAX_RATE` from the previous level's, or an estimate below
   :data:`TAIL_FACTOR` times the top retained harmonics (:func:`_top_harmonics`), is not trusted when it could
   pass: a second doubling ``2 n_f`` gives ``d_1 + d_2 / (1 - 2^-p)`` (``p`` their observed rate in
-  ``[MIN_RATE, MAX_RATE]``).  The coarse fallback takes the rate observed against the change into ``n_c`` (at
-  most :data:`RATE`), else :data:`MIN_RATE`.
+  ``[MIN_RATE, MAX_RATE]``).  The coarse fallback takes the slowest of the last :data:`RATE_WINDOW` rates
+  observed into ``n_c`` and against it (at most :data:`RATE`), else :data:`MIN_RATE`.
 
 An estimate whose re-solves both fail is ``None`` ("not estimated"), and the combined check ``accuracy``
 (:func:`mshbm.certificate.combined.combined_check`: the sum of ``truncation``, ``time_discretisation`` and the
@@ -78,6 +78,7 @@ from __future__ import annotations
 
 import math
 import time
+from copy import copy
 from dataclasses import replace
 
 import numpy as np
@@ -244,9 +245,10 @@ class _Estimator:
             c = self.resolve(sol, harmonics=nc)
             if c is not None:
                 d = amplitude_change(sol, c, self.floor)
-                # the rate observed against the change into n_c (a previous level's), else the slowest rate: with
-                # the finer re-solve failed nothing shows that the series has reached its asymptotic decay
-                prev = next((v for pair, v in reversed(self.changes.get("truncation", [])) if pair[1] == nc), None)
+                # the slowest of the last RATE_WINDOW rates observed into n_c, else MIN_RATE: with the finer re-solve
+                # failed nothing shows that the series has reached its asymptotic decay
+                seq = [(pair, v) for pair, v in self.changes.get("truncation", []) if pair[1] <= nc]
+                prev = seq[-1][1] if seq and seq[-1][0][1] == nc else None
                 p, how = MIN_RATE, " (no change into n_c observed: the slowest rate)"
                 if prev is not None and prev > 0 and d > 0:
                     q = math.log2(prev / d)
@@ -254,7 +256,9 @@ class _Estimator:
                         d, how = max(d, prev / 2.0 ** RATE), f" (irregular: envelope of {prev:.3g})"
                         p = RATE
                     else:
-                        p, how = max(MIN_RATE, min(RATE, q)), " (observed against the change into n_c, at most 1)"
+                        ch = [v for _, v in seq[-RATE_WINDOW:]] + [d]
+                        q = min(math.log2(a / b) if a > 0 < b else MIN_RATE for a, b in zip(ch, ch[1:]))
+                        p, how = max(MIN_RATE, min(RATE, q)), " (the slowest rate observed into n_c, at most 1)"
                 return d / ((n / nc) ** p - 1.0), (f"amplitude change {d:.3g} against n_h = {nc}, "
                                                    f"/ (({n}/{nc})^p - 1), p = {p:.3g}{how}")
         return None, f"not estimated: the re-solves at n_h = {nf} and {n // 2} failed ({'; '.join(self.failures[-2:])})"
@@ -566,9 +570,7 @@ def estimate_and_refine(route, system, omega, method, options, sol, accuracy=Non
     sol.info["accuracy"] = {"accuracy": acc, "requested": requested, "estimate": chk.value, "passed": chk.passed,
                             "estimates": {k: v for k, v in estimates(sol.certificate).items()},
                             "levels": levels, "estimate_time_s": est.spent}
-    sol.wall_time = float(sol.wall_time) + (est.spent if len(levels) == 1 else 0.0)
-    if len(levels) > 1:
-        sol.wall_time = time.perf_counter() - t0
+    sol.wall_time = float(sol.wall_time) + est.spent if len(levels) == 1 else time.perf_counter() - t0
     return sol
 
 
@@ -578,10 +580,7 @@ def _only_accuracy(sol):
 
 
 def _fresh(sol):
-    """A copy of ``sol`` whose certificate has no estimates yet (a cached re-solve is also another level's
-    partner)."""
-    from copy import copy
-
+    """A copy of ``sol`` whose certificate has no estimates yet (a cached re-solve is another level's partner)."""
     out = copy(sol)
     out.info = dict(sol.info)
     cert = copy(sol.certificate)
