@@ -15,7 +15,10 @@ import numpy as np
 from ..moreau_jean import MoreauJean
 from .modes import MOREAU, RELEASE_STEPS, EventError
 
-__all__ = ["MoreauFallback"]
+__all__ = ["MoreauFallback", "STEPPERS"]
+
+#: Moreau-Jean steppers kept per flow (one per step size; the oldest other than the full step is dropped first)
+STEPPERS = 16
 
 
 class MoreauFallback:
@@ -25,6 +28,9 @@ class MoreauFallback:
     def _stepper(self, h):
         key = float(h)
         if key not in self._mj:
+            if len(self._mj) >= STEPPERS:  # the last chunk's steps vary with the state (and the start-time replays)
+                h0 = self.T / self.moreau_steps
+                del self._mj[next(k for k in self._mj if k != h0)]
             s = self.system
             self._mj[key] = MoreauJean(s.M, s.C, s.K, self.elements, h, 0.5, True)
         return self._mj[key]
