@@ -5,7 +5,7 @@ tip) on 10 elements, Craig-Bampton with the tip DOF and two modes (3 DOFs), by e
 (``accumulation="close"``), swept up from 0.9 w_1: the linear response grazes the stop at 0.977 w_1 and the impacting
 branch leans to higher frequencies, gaining impacts per period (1, 2, 3, 4) at corners a fraction of a per cent
 apart.  At 1.0263 w_1 the arclength steps turn back onto the part already traced (a corner, no fold), and the gap
-bridged there was one natural-parameter step of 0.5 ds0 (10.5 rad/s) by Newton from the last point, then the
+bridged there was one natural-parameter step of 0.5 ds0 (9.4 rad/s) by Newton from the last point, then the
 pointwise solve: it landed on the orbit without impacts at 1.0353 w_1 ("landed off the branch"), and the sweep went on
 along the linear response, the impacting branch above 1.026 w_1 and its fold (1.069 w_1) untraced.  A gap's point off
 the branch is now replaced by Newton from the last point at a fraction of the step
@@ -13,7 +13,7 @@ the branch is now replaced by Newton from the last point at a fraction of the st
 References: the linear response in closed form, ``|(K - w^2 M + i w C)^-1 F|``, at the points without impacts before
 the grazing; pointwise certified solves at the impacting points after the gap.  (The first 50 points only, one BLAS
 thread: the trace beyond them passes more corners, and which steps it takes there depends on the rounding; measured
-12 s CPU.)
+15 s CPU with the solves.)
 """
 import numpy as np
 import pytest
