@@ -3,8 +3,10 @@ reduced cantilever with a tip stop (workflow/sweeps.yaml, beam-stop-cb, event sh
 at 1071.3 rad/s, and the crawl's gap, one step of 0.5 ds0 (9.4 rad/s) by Newton from the last point, lands on the
 coexisting orbit without impacts (tip amplitude 7.3e-4 where the impacting branch goes on at 1.05e-3, solved by
 Newton from its own points up to 1100 rad/s).  The gap's reason then says so instead of only "a fold there is not
-traced".  Shorter steps there traced the impacting branch to 1089.3 rad/s, at six times the sweep's CPU, and changed
-which gaps two tested sweeps bridge (tests/integration/test_sweep_steps.py): the jump is said, not refused."""
+traced".  (That crawl came from the event flow's sensitivities through its Moreau-Jean segments, now exact:
+tests/unit/test_moreau_segment_jacobian.py.)  Such a point is first replaced by Newton from the last point at a
+fraction of the step where that stays on the branch (:meth:`Fallbacks.nearer_on_branch`,
+tests/integration/test_sweep_impacting_gap.py); where it does not, the jump is said, not refused."""
 from types import SimpleNamespace
 
 import numpy as np

@@ -10,10 +10,11 @@ from dataclasses import replace
 import numpy as np
 
 from .arclength_parts import Failed
+from .arclength_kinks import fixed_lam_solve
 from .arclength_steps import EXACT_REACH, exact_root
 
 __all__ = ["Fallbacks", "CYCLE_RTOL", "RETRACE_BACK", "RETRACE_RTOL", "CRAWL_POINTS", "CRAWL_STEP", "CRAWL_LAM",
-           "STUCK_BACK", "WIDE_JUMP", "JUMP_RTOL"]
+           "STUCK_BACK", "WIDE_JUMP", "JUMP_RTOL", "GAP_HALVINGS"]
 
 #: points of a cycle (:meth:`Fallbacks.cross_cycle`) lie within this (relative to ``lam_scale``) of one ``lam``
 CYCLE_RTOL = 1e-5
@@ -34,6 +35,9 @@ WIDE_JUMP = 2.0
 #: a gap's point that lies farther than this (scaled, relative to the last point's size) from the secant of the
 #: branch's last two points may lie on another solution (:meth:`Fallbacks.jumped`)
 JUMP_RTOL = 0.1
+#: a gap's point off the branch is replaced by Newton from the last point at 1/2, 1/4, ... of the step, this many
+#: (:meth:`Fallbacks.nearer_on_branch`)
+GAP_HALVINGS = 5
 
 
 class Fallbacks:
@@ -230,6 +234,10 @@ class Fallbacks:
                                     f"the arclength corrector failed ({self.natural_reason})")
                     return True
                 return False
+        if self.gap_from is not None and self.off_secant(p, q, w) > JUMP_RTOL:
+            nearer = self.nearer_on_branch(p, w, lam_n, sgn)
+            if nearer is not None:
+                q, natural = nearer
         jump = self.gap_from is not None and self.jumped(p, q, w)
         self.counters["natural_points"] = self.counters.get("natural_points", 0) + 1
         self.add(q, natural / lsc)
@@ -250,6 +258,45 @@ class Fallbacks:
         self.natural = min(natural * 1.5, self.ds_max * lsc)
         return False
 
+    def off_secant(self, p, q, w):
+        """How far ``q`` lies off the secant of the branch's last two points (``p`` the last), scaled by ``w`` and
+        relative to ``p``'s size (0 with fewer than two points)."""
+        if len(self.points) < 2:
+            return 0.0
+        a = self.points[-2]
+        slope = (p.x - a.x) / (p.lam - a.lam) if p.lam != a.lam else np.zeros_like(p.x)
+        size = max(float(np.linalg.norm(p.x / w)), 1.0)
+        return float(np.linalg.norm((q.x - p.x - (q.lam - p.lam) * slope) / w)) / size
+
+    def nearer_on_branch(self, p, w, lam_n, sgn):
+        """Where a gap's point at ``lam_n`` lies off the branch (:meth:`off_secant` above :data:`JUMP_RTOL`: Newton from
+        ``p`` or the pointwise solve found another solution): Newton at fixed ``lam`` from ``p`` (and from the method's
+        restarts, :func:`mshbm.solvers.arclength_kinks.fixed_lam_solve`) at steps of ``1/2, 1/4, ...``
+        (:data:`GAP_HALVINGS` of them) of the way to ``lam_n``, the first point it converges to on the branch (within
+        :data:`JUMP_RTOL` of the secant) instead.  A branch whose smooth pieces are short (an impacting
+        orbit whose bounce sequence gains or loses an impact every fraction of a per cent in ``lam``) is passed by
+        Newton from its own points in short steps where a long step leaves it (beam-stop-cb by event shooting with the
+        Zeno closure: the step of 9.4 rad/s from 1087.0 rad/s landed on the orbit without impacts, half of it stays on
+        the impacting one; tests/integration/test_sweep_impacting_gap.py).  Returns ``(q, step)`` (``step`` in
+        ``lam``) or None (counter ``nearer_points``); where it is None the gap's point is kept and said
+        (:meth:`jumped`)."""
+        width = abs(lam_n - p.lam)
+        for k in range(1, GAP_HALVINGS + 1):
+            step = width / 2 ** k
+            lam_k = p.lam + sgn * step
+            try:
+                x, it, r, data, _ = fixed_lam_solve(self, p, w, lam_k)
+                q, _, _ = self.make_point(x, lam_k, it, r, data, step / self.lsc, self.scaled_t(p, w), None)
+                q.dx, q.dlam = (x - p.x) / (step / self.lsc), sgn * self.lsc  # secant, as a natural step's
+                if self.off_secant(p, q, w) > JUMP_RTOL:
+                    continue
+                self.judged(q)
+            except Failed:
+                continue
+            self.counters["nearer_points"] = self.counters.get("nearer_points", 0) + 1
+            return q, step
+        return None
+
     def jumped(self, p, q, w):
         """Whether a gap's point ``q`` (a step onwards from the last point ``p``) lies more than :data:`JUMP_RTOL`
         (scaled, relative to ``p``'s size) off the secant of the branch's last two points; then the gap's reason
@@ -257,10 +304,7 @@ class Fallbacks:
         ``jumps``; the gap is said, not refused: tests/unit/test_continuation_jump.py)."""
         if len(self.points) < 2:
             return False
-        a = self.points[-2]
-        slope = (p.x - a.x) / (p.lam - a.lam) if p.lam != a.lam else np.zeros_like(p.x)
-        size = max(float(np.linalg.norm(p.x / w)), 1.0)
-        off = float(np.linalg.norm((q.x - p.x - (q.lam - p.lam) * slope) / w)) / size
+        off = self.off_secant(p, q, w)
         if off <= JUMP_RTOL:
             return False
         self.natural_reason += (f"; the gap's point at lam = {q.lam:.6g} lies {off:.2g} (scaled) off the branch's "

@@ -13,7 +13,7 @@ import numpy as np
 
 from .arclength_parts import Failed, locate_fold
 
-__all__ = ["cross_kink", "family_step", "fold_or_corner", "KINK_STEPS"]
+__all__ = ["cross_kink", "family_step", "fold_or_corner", "fixed_lam_solve", "KINK_STEPS"]
 
 #: relative steps in lam tried, in this order, by a step at fixed lam across a kink (:func:`cross_kink`)
 KINK_STEPS = (1e-3, 1e-4, 1e-5)
@@ -43,7 +43,7 @@ def cross_kink(trace, p, w):
         if (lam_n - lam_end) * direction > 0 and (p.lam - lam_end) * direction < 0:
             lam_n = lam_end
         try:
-            x, it, r, data, x0 = _fixed_lam_solve(trace, p, w, lam_n)
+            x, it, r, data, x0 = fixed_lam_solve(trace, p, w, lam_n)
         except Failed as exc:
             last = str(exc)
             continue
@@ -72,7 +72,7 @@ def cross_kink(trace, p, w):
     raise Failed(last)
 
 
-def _fixed_lam_solve(trace, p, w, lam_n):
+def fixed_lam_solve(trace, p, w, lam_n):
     """Newton at fixed ``lam_n`` from ``p.x``, then from the starts of ``trace.restarts`` (module docstring):
     the first solution within the jump guard ``max_jump ds0`` (scaled) of its start; returns ``(x, iterations,
     residual, data, start)``."""

@@ -525,13 +525,14 @@ class EventFlow(ModeCatalogue, Transitions, FourierQuadrature, MoreauFallback):
             except _Switch as sw:
                 if record:
                     nodes.append((a, z.copy(), z.copy(), MOREAU))
+                start = self._moreau_start(md, i_ev, z, a, Phi) if jac else None
                 a, z, Phi, seg = self._moreau(a, z, T_end, Phi, samp.interpolate, nodes, sw.reason, four)
                 moreau.append(seg)
                 mode_time[MOREAU] = mode_time.get(MOREAU, 0.0) + seg["t_end"] - seg["t_start"]
                 ctx["impacts"].clear()
                 st, z = self.select(z)
                 if jac:
-                    Phi = self._project_jac(Phi, st)
+                    Phi = self._project_jac(self._moreau_shift(start, seg, z, st, T_end, Phi), st)
                 if record:
                     nodes.append((a, z.copy(), z.copy(), mode_code(st)))
                 md, thr, est = enter(st, z)
