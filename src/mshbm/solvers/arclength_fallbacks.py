@@ -234,7 +234,7 @@ class Fallbacks:
                                     f"the arclength corrector failed ({self.natural_reason})")
                     return True
                 return False
-        if self.gap_from is not None and self.off_secant(p, q, w) > JUMP_RTOL:
+        if self.gap_from is not None and not self.crawl_gap and self.off_secant(p, q, w) > JUMP_RTOL:
             nearer = self.nearer_on_branch(p, w, lam_n, sgn)
             if nearer is not None:
                 q, natural = nearer
