@@ -273,7 +273,8 @@ class Fallbacks:
         ``p`` or the pointwise solve found another solution): Newton at fixed ``lam`` from ``p`` (and from the method's
         restarts, :func:`mshbm.solvers.arclength_kinks.fixed_lam_solve`) at steps of ``1/2, 1/4, ...``
         (:data:`GAP_HALVINGS` of them) of the way to ``lam_n``, the first point it converges to on the branch (within
-        :data:`JUMP_RTOL` of the secant) instead.  A branch whose smooth pieces are short (an impacting
+        :data:`JUMP_RTOL` of the secant) instead; not for a crawl's gap, which is there to leave a branch that the
+        steps cannot follow (shortened, chain2-rel-contact by MS-HBM crawled again up to its 400 points).  A branch whose smooth pieces are short (an impacting
         orbit whose bounce sequence gains or loses an impact every fraction of a per cent in ``lam``) is passed by
         Newton from its own points in short steps where a long step leaves it (beam-stop-cb by event shooting with the
         Zeno closure: the step of 9.4 rad/s from 1087.0 rad/s landed on the orbit without impacts, half of it stays on
