@@ -118,7 +118,7 @@ def test_event_mshbm_truncation_estimate_comes_from_its_doubled_harmonics(points
     bench, system, w1, refs = points
     omega = 1.01 * w1
     ref = _cold(system, omega, "shooting", integrator="event", accumulation="close", steps=STEPS, stability=False)
-    sol = _cold(system, omega, "mshbm", integrator="event", harmonics=20, steps=STEPS, stability=False)
+    sol = _cold(system, omega, "mshbm", integrator="event", harmonics=20, steps=STEPS, stability=False, guess=ref)
     assert ref.success and sol.success, (ref.message, sol.message)
     trunc = sol.certificate["truncation"]
     err = float(np.max(np.abs(sol.amplitude - ref.amplitude)) / np.max(ref.amplitude))
