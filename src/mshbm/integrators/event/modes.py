@@ -268,6 +268,22 @@ class ModeCatalogue:
         d = md.scale
         return d[:, None] * sla.expm(md.A * (s * d[None, :] / d[:, None])) / d[None, :]
 
+    def _expm_rows(self, md, ss):
+        """The ``q`` rows of ``exp(A s)`` at the times ``ss`` within a sub-step (``0 <= s <= h_s``), shape
+        ``(len(ss), n, D)``: ``D (sum_j (A_s s)^j / j!)[:n] D^-1`` with the ``n_taylor`` terms of the mode (the
+        series of :meth:`propagate_matrix`, exact to rounding on a sub-step: ``||A_s||_1 h_s`` sets its length),
+        one product of an ``n x D`` block per term instead of one :func:`scipy.linalg.expm` per time."""
+        n, d = self.n, md.scale
+        As = md.A * (d[None, :] / d[:, None])
+        P = np.zeros((n, As.shape[0]))
+        P[:, :n] = np.eye(n)
+        terms = [P]
+        for j in range(1, md.n_taylor):
+            P = (P @ As) / j
+            terms.append(P)
+        Eg = np.tensordot(self.spow(np.asarray(ss, dtype=float), md.n_taylor), np.array(terms), axes=(1, 0))
+        return Eg * (d[:n, None] / d[None, :])
+
     # ------------------------------------------------------------------ pieces
     def osc(self, t):
         """Oscillator part ``[1, cos(k omega t), sin(k omega t)]`` of ``z`` at time ``t``."""
