@@ -44,6 +44,10 @@ MAX_SUBSTEPS = 2 ** 16
 #: flows, so that repeated solves of one problem (Newton restarts, benchmarks, continuation at one
 #: frequency) compute them once; keyed by the exact bytes of ``A``
 SHARED_MAX, SHARED_MAX_D = 32, 400
+#: a state's Taylor powers (:meth:`ModeCatalogue.powers`) by the compiled loop up to this size of ``z`` (a few
+#: microseconds instead of ``n_taylor`` NumPy products of some microseconds each); BLAS's products beyond
+POWERS_LOOP_MAX_D = 48
+_NO_INT, _NO_FLOAT = np.zeros(0, np.int64), np.zeros(0)
 _SHARED = {}
 
 
@@ -353,6 +357,9 @@ class ModeCatalogue:
         if self.ncx and z.ndim == 1:
             return _powers_state(md.A, np.ascontiguousarray(z, dtype=float), md.n_taylor, self.iy, self.n,
                                  self._yc, self._ys, self._yw)
+        if z.ndim == 1 and z.shape[0] <= POWERS_LOOP_MAX_D:  # no forcing states: every row from the full A
+            return _powers_state(md.A, np.ascontiguousarray(z, dtype=float), md.n_taylor, z.shape[0], self.n,
+                                 _NO_INT, _NO_INT, _NO_FLOAT)
         W = np.empty((z.shape[0], md.n_taylor) + z.shape[1:])
         W[:, 0] = z
         for j in range(1, md.n_taylor):
