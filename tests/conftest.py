@@ -56,6 +56,10 @@ for system in (friction_chain(3), impact_chain(5)):
             mshbm.solve(system, OMEGA, method, **options)
         except mshbm.InputError:
             pass
+# HBM's kernel of frictions loaded by a contact (examples/damper2d.yaml)
+from mshbm.io import load_case
+problem = mshbm.build_problem(load_case("../examples/damper2d.yaml").model, 0.8, "hbm", harmonics=3)[0]
+problem.residual(problem.initial_guess())
 """
 
 

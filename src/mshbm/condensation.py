@@ -234,12 +234,12 @@ class Condensation:
                 sol = band.solve(factors, rhs)
                 solve_k = None  # a band LU is O(n_E): nothing to gain from reuse
             else:
-                H_EE = dynamic_stiffness(blocks["M"][0], blocks["C"][0], blocks["K"][0], w)
                 refined = None if reuse is None else reuse.refine(key, k, w, blocks["M"][0], blocks["C"][0], rhs)
                 if refined is not None:
                     sol, self.rcond[k] = refined
                     solve_k = None
                 else:
+                    H_EE = dynamic_stiffness(blocks["M"][0], blocks["C"][0], blocks["K"][0], w)  # only to factorise
                     try:
                         # H is complex symmetric: symmetric mode keeps the fill-reducing ordering
                         # (default pivoting destroys it on 2-D meshes, and the factorisation becomes far slower)

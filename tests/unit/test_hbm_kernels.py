@@ -77,3 +77,37 @@ def test_element_forces_match_the_element_laws(seed):
     lam = prob._element_forces(q, u)
     np.testing.assert_allclose(lam, lam_ref, rtol=1e-14, atol=1e-300)
     np.testing.assert_array_equal(lam[:, 1], lam_ref[:, 1])  # contact: the same arithmetic
+
+
+@pytest.mark.parametrize("n_h, scale", [(9, 0.3), (9, 3.0), (15, 1.0)])
+def test_loaded_friction_kernel_equals_generic_path(n_h, scale):
+    """examples/damper2d.yaml (a friction whose normal load is a contact's force, the contact open on part of the
+    period at these amplitudes): HBMProblem.residual with the compiled kernel of loaded frictions
+    (hbm_kernels.aft_forces_loaded) equals the generic regularised_forces path in R and J, and its Jacobian blocks
+    by products (any matrices) equal those by the trigonometric sums."""
+    from pathlib import Path
+    from mshbm.io import load_case
+
+    case = load_case(Path(__file__).resolve().parents[2] / "examples" / "damper2d.yaml")
+    prob, _ = mshbm.build_problem(case.model, 0.9, "hbm", harmonics=n_h)
+    assert prob._fast is None and prob._loaded is not None
+    x = np.random.default_rng(n_h).normal(scale=scale, size=prob.n_unknowns)
+    q, u = prob._time(x)
+    lam_n = prob._element_forces(q, u)[:, prob._loaded[6].max()]
+    assert np.any(lam_n > 0) and np.any(lam_n == 0)  # the contact opens and closes
+    R1, J1 = prob.residual(x)
+    loaded, prob._loaded = prob._loaded, None
+    R2, J2 = prob.residual(x)
+    prob._loaded = loaded
+    np.testing.assert_allclose(R1, R2, rtol=0, atol=1e-11 * np.abs(R2).max())
+    np.testing.assert_allclose(J1, J2, rtol=0, atol=1e-11 * np.abs(J2).max())
+    assert np.array_equal(prob.residual(x, jac=False)[0], R1)
+    nc, nN = 2 * n_h + 1, prob.nl_cols.size
+    Xn = np.ascontiguousarray(x.reshape(nc, prob.nR)[:, prob.nl_cols])
+    out = []
+    for kw in (prob._kw, np.zeros(0)):
+        Fn, Jn = np.empty((nc, nN)), np.empty((nc, nN, nc, nN))
+        hk.aft_forces_loaded(Xn, prob.Vs, prob.VsOm, prob.E, *prob._loaded, True, Fn, Jn, kw)
+        out.append((Fn, Jn))
+    np.testing.assert_array_equal(out[0][0], out[1][0])
+    np.testing.assert_allclose(out[0][1], out[1][1], rtol=0, atol=1e-11 * np.abs(out[1][1]).max())

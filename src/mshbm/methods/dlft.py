@@ -235,8 +235,8 @@ class DLFTProblem(ContactPath, HarmonicProblem):
         else:
             c = Condensation(system, omega, self.n_h, nl, np.setdiff1d(np.arange(n), nl))
             sub_nl = lambda A: A.tocsr()[nl][:, nl].toarray() if sp.issparse(A) else np.asarray(A)[np.ix_(nl, nl)]
-            Hd = np.array([condensation.dynamic_stiffness(sub_nl(system.M), sub_nl(system.C), sub_nl(system.K),
-                                                          k * omega) - c.T[k] for k in range(self.n_h + 1)])
+            Mn, Cn, Kn = sub_nl(system.M), sub_nl(system.C), sub_nl(system.K)
+            Hd = np.array([condensation.dynamic_stiffness(Mn, Cn, Kn, k * omega) - c.T[k] for k in range(self.n_h + 1)])
         pn = {int(d): i for i, d in enumerate(nl)}
         Md = np.asarray(system.M.diagonal() if sp.issparse(system.M) else np.diag(system.M), dtype=float)
         if dlft_penalty is None:

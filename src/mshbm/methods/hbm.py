@@ -74,6 +74,41 @@ def _fast_laws(elements, nl_cols, pos):
             np.array(p2, float), np.array(p3, float))
 
 
+def _loaded_laws(elements, nl_cols, pos):
+    """Arrays of :func:`hbm_kernels.aft_forces_loaded` (those of :func:`_fast_laws` and ``load``) where a friction
+    takes its normal load from a contact element (single-DOF elements, no history, no cone), else ``None``."""
+    cols = {int(c): i for i, c in enumerate(nl_cols)}
+    rows, load = [], []
+    for el in elements:
+        law = type(el).regularised_law
+        if el.relative_to is not None or el.history or el.cone_partner is not None:
+            return None
+        if law is Friction.regularised_law and el.normal_contact is not None:
+            c = el.normal_contact
+            if not (0 <= c < len(elements) and type(elements[c]).regularised_law is Contact.regularised_law):
+                return None
+            rows.append((hbm_kernels.KIND_LOADED_FRICTION, cols[pos[el.dof]], el.sign, el.mu, el.smoothing,
+                         el.normal_force))
+            load.append(c)
+            continue
+        if el.normal_contact is not None:
+            return None
+        if law is Friction.regularised_law:
+            rows.append((hbm_kernels.KIND_FRICTION, cols[pos[el.dof]], el.sign, el.bound * 2.0 / np.pi,
+                         el.smoothing, 0.0))
+        elif law is Contact.regularised_law:
+            rows.append((hbm_kernels.KIND_CONTACT, cols[pos[el.dof]], el.sign, el.gap, el.penalty_stiffness,
+                         el.penalty_damping))
+        else:
+            return None
+        load.append(-1)
+    if not any(c >= 0 for c in load):
+        return None
+    kind, col, sign, p1, p2, p3 = zip(*rows)
+    return (np.array(kind, np.int64), np.array(col, np.int64), np.array(sign, float), np.array(p1, float),
+            np.array(p2, float), np.array(p3, float), np.array(load, np.int64))
+
+
 def scaled_regularisation(system, factor):
     """Copy of ``system`` whose HBM laws are ``factor`` times stiffer (``kappa``; ``k_c`` and ``d_c``:
     :meth:`mshbm.elements.Element.scaled`)."""
@@ -135,6 +170,8 @@ class HBMProblem(PiecewiseLinearPaths, HarmonicProblem):
         if why:
             raise InputError("penalty_quadrature", why)
         self._fast = None if self._linear else _fast_laws(system.elements, self.nl_cols, pos)
+        self._loaded = None if self._linear or self._fast is not None else _loaded_laws(system.elements,
+                                                                                         self.nl_cols, pos)
         self._kw = np.arange(1, self.n_h + 1) * float(self.omega)  # the harmonics' frequencies k omega (rad/s)
 
     def residual_scale(self, x=None):
@@ -165,6 +202,8 @@ class HBMProblem(PiecewiseLinearPaths, HarmonicProblem):
             new.__dict__.pop(k, None)
         pos = {int(d): i for i, d in enumerate(self.keep)}
         new._fast = None if self._linear else _fast_laws(system.elements, self.nl_cols, pos)
+        new._loaded = None if self._linear or new._fast is not None else _loaded_laws(system.elements,
+                                                                                       self.nl_cols, pos)
         return new
 
     def rebuilt(self, omega):
@@ -184,14 +223,17 @@ class HBMProblem(PiecewiseLinearPaths, HarmonicProblem):
     def residual(self, x, jac=True):
         """``(R, J)`` with shapes ``(n_x,)`` and ``(n_x, n_x)`` (dense if condensed, else sparse)."""
         nc, nR = 2 * self.n_h + 1, self.nR
-        if self._fast is not None:  # one compiled pass (mshbm.methods.hbm_kernels)
+        if self._fast is not None or self._loaded is not None:  # one compiled pass (mshbm.methods.hbm_kernels)
             nN = self.nl_cols.size
             every = nN == nR  # every kept DOF carries an element (the default condensation): no gather
             X = x.reshape(nc, nR)
             Xn = np.ascontiguousarray(X if every else X[:, self.nl_cols])
             Fn = np.empty((nc, nN))
             Jn = np.empty((nc, nN, nc, nN)) if jac else _NO_JAC
-            hbm_kernels.aft_forces(Xn, self.Vs, self.VsOm, self.E, *self._fast, jac, Fn, Jn, self._kw)
+            if self._fast is not None:
+                hbm_kernels.aft_forces(Xn, self.Vs, self.VsOm, self.E, *self._fast, jac, Fn, Jn, self._kw)
+            else:  # frictions loaded by contacts
+                hbm_kernels.aft_forces_loaded(Xn, self.Vs, self.VsOm, self.E, *self._loaded, jac, Fn, Jn, self._kw)
             R = self.A @ x - self.r
             if every:
                 R -= Fn.reshape(-1)

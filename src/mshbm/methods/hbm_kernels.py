@@ -26,7 +26,7 @@ import numpy as np
 from numba import njit
 
 #: law codes of :func:`aft_forces`
-KIND_FRICTION, KIND_CONTACT = 0, 1
+KIND_FRICTION, KIND_CONTACT, KIND_LOADED_FRICTION = 0, 1, 2
 
 
 @njit(cache=True)
@@ -137,12 +137,24 @@ def _trig_block(dq, du, idx, Ns, kw, Jn, i):  # pragma: no cover - compiled
     M = 2 * nh + 1
     Cq, Sq, Cu, Su = np.zeros(M), np.zeros(M), np.zeros(M), np.zeros(M)
     two_pi_n = 2.0 * math.pi / Ns
-    for t in range(idx.shape[0]):
+    n_act = idx.shape[0]
+    table = n_act * M > Ns  # cos, sin of the grid's Ns phases once, then looked up (the same numbers)
+    ct = np.empty(Ns if table else 0)
+    st = np.empty(Ns if table else 0)
+    if table:
+        for r in range(Ns):
+            ct[r] = math.cos(two_pi_n * r)
+            st[r] = math.sin(two_pi_n * r)
+    for t in range(n_act):
         s = idx[t]
         a, b = dq[s], du[s]
         for m in range(M):
-            ph = two_pi_n * ((m * s) % Ns)
-            c, sn = math.cos(ph), math.sin(ph)
+            r = (m * s) % Ns
+            if table:
+                c, sn = ct[r], st[r]
+            else:
+                ph = two_pi_n * r
+                c, sn = math.cos(ph), math.sin(ph)
             Cq[m] += a * c
             Sq[m] += a * sn
             Cu[m] += b * c
@@ -224,3 +236,100 @@ def aft_forces_numpy(Xn, Vs, VsOm, E, kind, col, sign, p1, p2, p3, jac=True):
     for i in range(nN):
         Jn[:, i, :, i] = (E * dq[:, i]) @ Vs + (E * du[:, i]) @ VsOm
     return Fn, Jn
+
+
+@njit(cache=True)
+def aft_forces_loaded(Xn, Vs, VsOm, E, kind, col, sign, p1, p2, p3, load, jac, Fn, Jn, kw):  # pragma: no cover
+    """:func:`aft_forces` with frictions loaded by a contact (``kind`` 2, ``load[j]`` the index of the contact
+    among the elements, a ``kind`` 1 row; ``-1`` for the others): ``lambda_T = mu (N_0 + max(lambda_N, 0))
+    phi(gamma_T)``, ``phi = -(2/pi) arctan(kappa gamma_T)`` (:meth:`mshbm.elements.Friction.coupled_law`), with
+    ``p1 = mu``, ``p2 = kappa``, ``p3 = N_0``.  Its Jacobian couples the friction's DOF to the contact's through
+    ``lambda_N``: blocks ``Jn[:, i, :, k] = E diag(dq_ik) Vs + E diag(du_ik) VsOm`` for every pair of DOFs (``i, k``)
+    with a nonzero derivative, each as the diagonal blocks of :func:`aft_forces` (``kw``: the same meaning)."""
+    Ns, nc = Vs.shape
+    nN = Xn.shape[1]
+    m = kind.shape[0]
+    q = Vs @ Xn
+    u = VsOm @ Xn
+    f = np.zeros((Ns, nN))
+    dq = np.zeros((nN, nN, Ns))
+    du = np.zeros((nN, nN, Ns))
+    lam = np.zeros((Ns, m))
+    dls = np.zeros((Ns, m))
+    dlg = np.zeros((Ns, m))
+    for rnd in range(2):  # the contacts and the unloaded frictions first, then the frictions they load
+        for j in range(m):
+            if (kind[j] == 2) != (rnd == 1):
+                continue
+            c = col[j]
+            w = sign[j]
+            for s in range(Ns):
+                gamma = w * u[s, c]
+                if kind[j] == 0:
+                    ku = p2[j] * gamma
+                    f[s, c] += w * (-p1[j] * math.atan(ku))
+                    du[c, c, s] += w * w * (-p1[j] * p2[j] / (1.0 + ku * ku))
+                elif kind[j] == 1:
+                    g = p1[j] + w * q[s, c]
+                    if g <= 0.0:
+                        lj = -(p2[j] * g + p3[j] * gamma)
+                        lam[s, j] = lj
+                        dls[s, j] = -p2[j]
+                        dlg[s, j] = -p3[j]
+                        f[s, c] += w * lj
+                        dq[c, c, s] += w * w * (-p2[j])
+                        du[c, c, s] += w * w * (-p3[j])
+                else:
+                    jc = load[j]
+                    cn = col[jc]
+                    wn = sign[jc]
+                    ln = lam[s, jc]
+                    pos = ln > 0.0
+                    FN = p3[j] + (ln if pos else 0.0)
+                    ku = p2[j] * gamma
+                    phi = -(2.0 / math.pi) * math.atan(ku)
+                    dphi = -(2.0 / math.pi) * p2[j] / (1.0 + ku * ku)
+                    f[s, c] += w * (p1[j] * FN * phi)
+                    du[c, c, s] += w * w * (p1[j] * FN * dphi)
+                    if pos:
+                        dq[c, cn, s] += (w * wn) * (p1[j] * phi * dls[s, jc])
+                        du[c, cn, s] += (w * wn) * (p1[j] * phi * dlg[s, jc])
+    for i in range(nN):
+        for a in range(nc):
+            Fn[a, i] = 0.0
+        for s in range(Ns):
+            fs = f[s, i]
+            if fs == 0.0:
+                continue
+            for a in range(nc):
+                Fn[a, i] += E[a, s] * fs
+    if not jac:
+        return
+    Jn[:] = 0.0
+    idx = np.empty(Ns, dtype=np.int64)
+    Jt = np.zeros((nc, 1, nc, 1))
+    for i in range(nN):
+        for k in range(nN):
+            n_act = 0
+            for s in range(Ns):
+                if dq[i, k, s] != 0.0 or du[i, k, s] != 0.0:
+                    idx[n_act] = s
+                    n_act += 1
+            if n_act == 0:
+                continue
+            if kw.shape[0] > 0:
+                _trig_block(dq[i, k], du[i, k], idx[:n_act], Ns, kw, Jt, 0)
+                for a in range(nc):
+                    for b in range(nc):
+                        Jn[a, i, b, k] = Jt[a, 0, b, 0]
+            else:
+                for t in range(n_act):
+                    s = idx[t]
+                    cq = dq[i, k, s]
+                    cu = du[i, k, s]
+                    for a in range(nc):
+                        ea = E[a, s]
+                        if ea == 0.0:
+                            continue
+                        for b in range(nc):
+                            Jn[a, i, b, k] += ea * (cq * Vs[s, b] + cu * VsOm[s, b])

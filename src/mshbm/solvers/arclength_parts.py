@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
-from .newton import charge
+from .newton import _METER, charge
 
 __all__ = ["ContinuationPoint", "ContinuationResult", "Failed", "bordered_solve", "Evaluator", "orientation",
            "tangent", "backtrack", "stall_folds", "locate_fold", "free_directions", "FREE_RTOL"]
@@ -93,20 +93,44 @@ def bordered_solve(A, b, free=None):
 
 
 class Evaluator:
-    """Scaled evaluation of the callables at ``(x, lam)``, counting calls."""
+    """Scaled evaluation of the callables at ``(x, lam)``, counting calls.
+
+    The last ``(R, J)`` is kept with its ``(x, lam)`` (bit for bit): a corrector evaluates the point its line
+    search accepted a second time, with the Jacobian the residual callable computed for the trial already
+    (it always returns one), so that evaluation is served from the kept one.  It counts and charges the work
+    meters as the evaluation it replaces (the route's budgets see the same work)."""
 
     def __init__(self, residual, d_lam, residual_scale, unknown_scale, lam_scale):
         self.residual, self.d_lam = residual, d_lam
         self.residual_scale, self.unknown_scale = residual_scale, unknown_scale
         self.lam_scale = float(lam_scale)
         self.n_res = self.n_dlam = 0
+        self.n_reused = 0  # evaluations served from the kept one
+        self._last = None  # ((shape, x bytes, lam), R, J, the work it charged to the meters)
+
+    def _evaluate(self, x, lam):
+        """``(R, J)`` of ``residual(x, lam)``, from the kept evaluation where ``(x, lam)`` is its point."""
+        x = np.asarray(x, dtype=float)
+        key = (x.shape, x.tobytes(), float(lam))
+        last = self._last
+        if last is not None and last[0] == key:
+            self.n_reused += 1
+            charge(last[3])
+            return np.array(last[1]), (last[2].copy() if last[2] is not None else None)
+        meter = _METER.get()
+        used0 = meter.used if meter is not None else 0.0
+        self._last = None
+        R, J = self.residual(x, lam)
+        charge(1)  # the work meter of the solve route (mshbm.solvers.newton.work_box), deterministic
+        work = meter.used - used0 if meter is not None else 1.0
+        self._last = (key, np.array(R), (J.copy() if J is not None else None), work)
+        return R, J
 
     def __call__(self, x, lam, jac=True, dlam=True):
         """``(R, s, r, J, g)``: residual, row scale, scaled residual norm, Jacobian and ``dR/dlam`` (``J, g``
         None without ``jac``; ``g`` None without ``dlam``, see :meth:`g`)."""
-        R, J = self.residual(x, lam)
+        R, J = self._evaluate(x, lam)
         self.n_res += 1
-        charge(1)  # the work meter of the solve route (mshbm.solvers.newton.work_box), deterministic
         s = np.asarray(self.residual_scale(x, lam), dtype=float)
         r = float(np.max(np.abs(R) / s)) if R.size else 0.0
         if not jac:

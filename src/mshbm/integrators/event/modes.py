@@ -44,6 +44,10 @@ MAX_SUBSTEPS = 2 ** 16
 #: flows, so that repeated solves of one problem (Newton restarts, benchmarks, continuation at one
 #: frequency) compute them once; keyed by the exact bytes of ``A``
 SHARED_MAX, SHARED_MAX_D = 32, 400
+#: a state's Taylor powers (:meth:`ModeCatalogue.powers`) by the compiled loop up to this size of ``z`` (a few
+#: microseconds instead of ``n_taylor`` NumPy products of some microseconds each); BLAS's products beyond
+POWERS_LOOP_MAX_D = 48
+_NO_INT, _NO_FLOAT = np.zeros(0, np.int64), np.zeros(0)
 _SHARED = {}
 
 
@@ -268,6 +272,22 @@ class ModeCatalogue:
         d = md.scale
         return d[:, None] * sla.expm(md.A * (s * d[None, :] / d[:, None])) / d[None, :]
 
+    def _expm_rows(self, md, ss):
+        """The ``q`` rows of ``exp(A s)`` at the times ``ss`` within a sub-step (``0 <= s <= h_s``), shape
+        ``(len(ss), n, D)``: ``D (sum_j (A_s s)^j / j!)[:n] D^-1`` with the ``n_taylor`` terms of the mode (the
+        series of :meth:`propagate_matrix`, exact to rounding on a sub-step: ``||A_s||_1 h_s`` sets its length),
+        one product of an ``n x D`` block per term instead of one :func:`scipy.linalg.expm` per time."""
+        n, d = self.n, md.scale
+        As = md.A * (d[None, :] / d[:, None])
+        P = np.zeros((n, As.shape[0]))
+        P[:, :n] = np.eye(n)
+        terms = [P]
+        for j in range(1, md.n_taylor):
+            P = (P @ As) / j
+            terms.append(P)
+        Eg = np.tensordot(self.spow(np.asarray(ss, dtype=float), md.n_taylor), np.array(terms), axes=(1, 0))
+        return Eg * (d[:n, None] / d[None, :])
+
     # ------------------------------------------------------------------ pieces
     def osc(self, t):
         """Oscillator part ``[1, cos(k omega t), sin(k omega t)]`` of ``z`` at time ``t``."""
@@ -337,6 +357,9 @@ class ModeCatalogue:
         if self.ncx and z.ndim == 1:
             return _powers_state(md.A, np.ascontiguousarray(z, dtype=float), md.n_taylor, self.iy, self.n,
                                  self._yc, self._ys, self._yw)
+        if z.ndim == 1 and z.shape[0] <= POWERS_LOOP_MAX_D:  # no forcing states: every row from the full A
+            return _powers_state(md.A, np.ascontiguousarray(z, dtype=float), md.n_taylor, z.shape[0], self.n,
+                                 _NO_INT, _NO_INT, _NO_FLOAT)
         W = np.empty((z.shape[0], md.n_taylor) + z.shape[1:])
         W[:, 0] = z
         for j in range(1, md.n_taylor):

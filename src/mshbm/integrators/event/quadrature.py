@@ -42,7 +42,7 @@ class FourierQuadrature:
             h, n = md.h, self.n
             ss = 0.5 * h * (_GL_X + 1.0)
             if sh["Eg"] is None:  # the q rows of exp(A s_g) at the nodes of a full sub-step
-                sh["Eg"] = np.array([self._expm(md, x)[:n] for x in ss])  # (g, n, D)
+                sh["Eg"] = self._expm_rows(md, ss)  # (g, n, D)
             B0 = self._fourier_basis(ss, nfr) * (0.5 * h * _GL_W)[:, None]  # (g, nc)
             G0 = sh["G0"][nfr] = np.einsum("gk,gnd->knd", B0, sh["Eg"])
         return G0
