@@ -21,7 +21,7 @@ coarser discretisation and appends the ``accuracy`` check; :func:`mshbm.certify`
 from __future__ import annotations
 
 from .record import Check
-from .substitution import IMPACT_MASS_PENDING
+from .substitution import IMPACT_MASS_PENDING, NOT_FOUND
 
 __all__ = ["DEFAULT_ACCURACY", "ESTIMATES", "combined_check", "gate"]
 
@@ -60,10 +60,11 @@ def combined_check(cert, accuracy, requested):
         worst = max(est, key=est.get)
         note += f"; largest: {worst} ({REMEDY[worst]} reduce it)"
     missing = [k for k in ("truncation", "time_discretisation") if k in cert and cert[k].value is None]
-    # MS-HBM's subsystem impact law: the solve route estimates its effect (mshbm.route.refine); without that
-    # estimate a success could lie outside the accuracy
+    # MS-HBM's subsystem impact law (the solve route estimates its effect, mshbm.route.refine) and a substituted law
+    # whose exact orbit was not found: without that estimate a success could lie outside the accuracy
     basis = (cert.info.get("model_substitution") or {}).get("value_basis")
-    if "model_substitution" in cert and cert["model_substitution"].value is None and basis == IMPACT_MASS_PENDING:
+    if "model_substitution" in cert and cert["model_substitution"].value is None and basis in (IMPACT_MASS_PENDING,
+                                                                                                 NOT_FOUND):
         missing.append("model_substitution")
     ok = total <= accuracy and not missing
     if missing:

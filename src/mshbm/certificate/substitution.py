@@ -35,7 +35,8 @@ distance of the reported amplitudes from the orbit of the system as written (the
 Without any cost: a substituted contact whose reported force vanishes on every sample (never touched) or is
 positive on every sample (persistent contact) has no impact, so its restitution plays no part (value 0).  Not
 estimated (value ``None``, the note says why) where the exact flow does not apply (relative elements, friction
-loaded by a contact, more than :data:`MAX_DOFS` DOFs) or does not converge from the reported solution.
+loaded by a contact, more than :data:`MAX_DOFS` DOFs: named only) or does not converge from the reported solution
+(:data:`NOT_FOUND`: the combined ``accuracy`` check then fails, the error against the model as written unknown).
 
 The bound :data:`MODEL_SUBSTITUTION_BOUND` is the default stated accuracy; the check never gates by itself (the
 combined estimate does), and the message of a solution names the substitution whenever one is made.
@@ -48,7 +49,7 @@ import numpy as np
 
 from .record import Check
 
-__all__ = ["MODEL_SUBSTITUTION_BOUND", "RESTITUTION_TOL", "Substitution", "substituted_laws",
+__all__ = ["MODEL_SUBSTITUTION_BOUND", "RESTITUTION_TOL", "NOT_FOUND", "Substitution", "substituted_laws",
            "model_substitution_check", "describe_substitution"]
 
 #: bound of ``model_substitution`` (relative amplitude error; the default stated accuracy)
@@ -121,6 +122,9 @@ def substituted_laws(problem):
 
 #: ``info["value_basis"]`` of MS-HBM's subsystem impact law before the solve route estimates it (mshbm.route.refine)
 IMPACT_MASS_PENDING = "impact mass: not estimated"
+#: ``info["value_basis"]`` where the exact flow applies but its periodic orbit was not found (the combined ``accuracy``
+#: check fails: the effect of the substitution is not known; "not applicable" systems are only named)
+NOT_FOUND = "exact orbit not found"
 
 
 def describe_substitution(subs):
@@ -168,6 +172,8 @@ def model_substitution_check(problem, sol, cert, estimate=True):
     value, why = _exact_change(system, sol, involved, info)
     if value is None:
         note = f"{what}: its effect on the amplitudes was not estimated ({why})"
+        if info.get("value_basis") is None:  # the exact flow applies but found no orbit: the accuracy is not known
+            info["value_basis"] = NOT_FOUND
         cert.checks.append(Check("model_substitution", None, MODEL_SUBSTITUTION_BOUND, False, False, note))
         return
     note = (f"{what}: relative amplitude change of the exact event-driven orbit when e_N is replaced so (max over "
@@ -184,6 +190,7 @@ def _exact_change(system, sol, subs, info):
     from ..methods.exact import exact_periodic
 
     if system.n > MAX_DOFS:
+        info["value_basis"] = "not applicable"
         return None, f"{system.n} DOFs > {MAX_DOFS}: the exact flow's dense matrices are too costly"
     els = list(system.elements)
     for s in subs:
@@ -200,7 +207,10 @@ def _exact_change(system, sol, subs, info):
         try:
             ex = exact_periodic(sysx, sol.omega, guess=sol, samples=1024, blas_threads=None, work_limit=WORK_LIMIT,
                                 tol=max(tol, 1e-300))
-        except (EventError, ValueError, np.linalg.LinAlgError, InputError) as exc:
+        except InputError as exc:  # the exact flow does not apply (relative elements, friction loaded by a contact)
+            info["value_basis"] = "not applicable"
+            return None, f"the exact flow of the system {name} failed: {type(exc).__name__}: {exc}"
+        except (EventError, ValueError, np.linalg.LinAlgError) as exc:
             return None, f"the exact flow of the system {name} failed: {type(exc).__name__}: {exc}"
         if not ex.success:
             return None, f"the exact periodic orbit of the system {name} was not found: {ex.message}"
