@@ -9,6 +9,19 @@ from mshbm.methods import hbm_kernels as hk
 from mshbm.system import chain
 
 
+
+def _against_generic(prob, kernel, x):
+    """``prob.residual(x)`` with its compiled kernel (attribute ``kernel``), checked against the generic path (the
+    kernel switched off) to 1e-11 of the largest entry; returns ``(R, J)`` of the kernel."""
+    R1, J1 = prob.residual(x)
+    saved = getattr(prob, kernel)
+    setattr(prob, kernel, None)
+    R2, J2 = prob.residual(x)
+    setattr(prob, kernel, saved)
+    np.testing.assert_allclose(R1, R2, rtol=0, atol=1e-11 * np.abs(R2).max())
+    np.testing.assert_allclose(J1, J2, rtol=0, atol=1e-11 * np.abs(J2).max())
+    return R1, J1
+
 def _matrices(n_h, Ns, omega):
     Vs = fourier.idft_matrix(Ns, n_h)
     VsOm = np.ascontiguousarray(Vs @ fourier.derivative(np.eye(2 * n_h + 1), omega))
@@ -50,12 +63,7 @@ def test_kernel_path_equals_generic_path():
     prob, _ = mshbm.build_problem(s, 0.9, "hbm", harmonics=7, steps=256)
     assert prob._fast is not None
     x = np.random.default_rng(1).normal(size=prob.n_unknowns)
-    R1, J1 = prob.residual(x)
-    fast, prob._fast = prob._fast, None
-    R2, J2 = prob.residual(x)
-    prob._fast = fast
-    np.testing.assert_allclose(R1, R2, rtol=0, atol=1e-11 * np.abs(R2).max())
-    np.testing.assert_allclose(J1, J2, rtol=0, atol=1e-11 * np.abs(J2).max())
+    R1, J1 = _against_generic(prob, "_fast", x)
 
 
 @pytest.mark.parametrize("seed", range(3))
@@ -95,12 +103,7 @@ def test_loaded_friction_kernel_equals_generic_path(n_h, scale):
     q, u = prob._time(x)
     lam_n = prob._element_forces(q, u)[:, prob._loaded[6].max()]
     assert np.any(lam_n > 0) and np.any(lam_n == 0)  # the contact opens and closes
-    R1, J1 = prob.residual(x)
-    loaded, prob._loaded = prob._loaded, None
-    R2, J2 = prob.residual(x)
-    prob._loaded = loaded
-    np.testing.assert_allclose(R1, R2, rtol=0, atol=1e-11 * np.abs(R2).max())
-    np.testing.assert_allclose(J1, J2, rtol=0, atol=1e-11 * np.abs(J2).max())
+    R1, J1 = _against_generic(prob, "_loaded", x)
     assert np.array_equal(prob.residual(x, jac=False)[0], R1)
     nc, nN = 2 * n_h + 1, prob.nl_cols.size
     Xn = np.ascontiguousarray(x.reshape(nc, prob.nR)[:, prob.nl_cols])

@@ -56,22 +56,29 @@ def _fast_laws(elements, nl_cols, pos):
     cols = {int(c): i for i, c in enumerate(nl_cols)}
     rows = []
     for el in elements:
-        law = type(el).regularised_law
         if el.relative_to is not None or el.history or el.normal_contact is not None or el.cone_partner is not None:
             return None
-        if law is Friction.regularised_law:
-            rows.append((hbm_kernels.KIND_FRICTION, cols[pos[el.dof]], el.sign, el.bound * 2.0 / np.pi,
-                         el.smoothing, 0.0))
-        elif law is Contact.regularised_law:
-            rows.append((hbm_kernels.KIND_CONTACT, cols[pos[el.dof]], el.sign, el.gap, el.penalty_stiffness,
-                         el.penalty_damping))
-        else:
+        row = _law_row(el, cols, pos)
+        if row is None:
             return None
+        rows.append(row)
     if not rows:
         return None
     kind, col, sign, p1, p2, p3 = zip(*rows)
     return (np.array(kind, np.int64), np.array(col, np.int64), np.array(sign, float), np.array(p1, float),
             np.array(p2, float), np.array(p3, float))
+
+
+def _law_row(el, cols, pos):
+    """The kernel's row ``(kind, column, sign, p1, p2, p3)`` of a single-DOF friction or contact element with the
+    package's regularised law, else ``None``."""
+    law = type(el).regularised_law
+    if law is Friction.regularised_law:
+        return hbm_kernels.KIND_FRICTION, cols[pos[el.dof]], el.sign, el.bound * 2.0 / np.pi, el.smoothing, 0.0
+    if law is Contact.regularised_law:
+        return (hbm_kernels.KIND_CONTACT, cols[pos[el.dof]], el.sign, el.gap, el.penalty_stiffness,
+                el.penalty_damping)
+    return None
 
 
 def _loaded_laws(elements, nl_cols, pos):
@@ -91,16 +98,10 @@ def _loaded_laws(elements, nl_cols, pos):
                          el.normal_force))
             load.append(c)
             continue
-        if el.normal_contact is not None:
+        row = None if el.normal_contact is not None else _law_row(el, cols, pos)
+        if row is None:
             return None
-        if law is Friction.regularised_law:
-            rows.append((hbm_kernels.KIND_FRICTION, cols[pos[el.dof]], el.sign, el.bound * 2.0 / np.pi,
-                         el.smoothing, 0.0))
-        elif law is Contact.regularised_law:
-            rows.append((hbm_kernels.KIND_CONTACT, cols[pos[el.dof]], el.sign, el.gap, el.penalty_stiffness,
-                         el.penalty_damping))
-        else:
-            return None
+        rows.append(row)
         load.append(-1)
     if not any(c >= 0 for c in load):
         return None

@@ -75,16 +75,7 @@ def aft_forces(Xn, Vs, VsOm, E, kind, col, sign, p1, p2, p3, jac, Fn, Jn, kw):  
                     f[s, c] += w * (-(p2[j] * g + p3[j] * w * us))
                     dq[s, c] += -p2[j]
                     du[s, c] += -p3[j]
-    # Fn = E f, summed over the samples in order; samples without force (an open contact) add nothing
-    for i in range(nN):
-        for a in range(nc):
-            Fn[a, i] = 0.0
-        for s in range(Ns):
-            fs = f[s, i]
-            if fs == 0.0:
-                continue
-            for a in range(nc):
-                Fn[a, i] += E[a, s] * fs
+    _synthesis(E, f, Fn, nN, nc, Ns)
     if not jac:
         return
     Jn[:] = 0.0
@@ -111,16 +102,38 @@ def aft_forces(Xn, Vs, VsOm, E, kind, col, sign, p1, p2, p3, jac, Fn, Jn, kw):  
                 for b in range(nc):
                     Jn[a, i, b, i] = B[a, b]
         else:
-            for t in range(n_act):
-                s = idx[t]
-                cq = dq[s, i]
-                cu = du[s, i]
-                for a in range(nc):
-                    ea = E[a, s]
-                    if ea == 0.0:
-                        continue
-                    for b in range(nc):
-                        Jn[a, i, b, i] += ea * (cq * Vs[s, b] + cu * VsOm[s, b])
+            _accumulate(E, Vs, VsOm, idx, n_act, dq[:, i], du[:, i], Jn, i, i, nc)
+
+
+@njit(cache=True)
+def _accumulate(E, Vs, VsOm, idx, n_act, cq_s, cu_s, Jn, i, k, nc):  # pragma: no cover - compiled
+    """``Jn[:, i, :, k] += sum_s E[:, s] (cq_s[s] Vs[s] + cu_s[s] VsOm[s])`` over the active samples ``idx[:n_act]``
+    (the sample by sample sum of the kernels' Jacobian, in order)."""
+    for t in range(n_act):
+        s = idx[t]
+        cq = cq_s[s]
+        cu = cu_s[s]
+        for a in range(nc):
+            ea = E[a, s]
+            if ea == 0.0:
+                continue
+            for b in range(nc):
+                Jn[a, i, b, k] += ea * (cq * Vs[s, b] + cu * VsOm[s, b])
+
+
+@njit(cache=True)
+def _synthesis(E, f, Fn, nN, nc, Ns):  # pragma: no cover - compiled
+    """``Fn = E f`` (shapes ``(nc, Ns) x (Ns, nN)``), summed over the samples in order; samples without force (an
+    open contact) add nothing."""
+    for i in range(nN):
+        for a in range(nc):
+            Fn[a, i] = 0.0
+        for s in range(Ns):
+            fs = f[s, i]
+            if fs == 0.0:
+                continue
+            for a in range(nc):
+                Fn[a, i] += E[a, s] * fs
 
 
 @njit(cache=True)
@@ -294,15 +307,7 @@ def aft_forces_loaded(Xn, Vs, VsOm, E, kind, col, sign, p1, p2, p3, load, jac, F
                     if pos:
                         dq[c, cn, s] += (w * wn) * (p1[j] * phi * dls[s, jc])
                         du[c, cn, s] += (w * wn) * (p1[j] * phi * dlg[s, jc])
-    for i in range(nN):
-        for a in range(nc):
-            Fn[a, i] = 0.0
-        for s in range(Ns):
-            fs = f[s, i]
-            if fs == 0.0:
-                continue
-            for a in range(nc):
-                Fn[a, i] += E[a, s] * fs
+    _synthesis(E, f, Fn, nN, nc, Ns)
     if not jac:
         return
     Jn[:] = 0.0
@@ -323,13 +328,4 @@ def aft_forces_loaded(Xn, Vs, VsOm, E, kind, col, sign, p1, p2, p3, load, jac, F
                     for b in range(nc):
                         Jn[a, i, b, k] = Jt[a, 0, b, 0]
             else:
-                for t in range(n_act):
-                    s = idx[t]
-                    cq = dq[i, k, s]
-                    cu = du[i, k, s]
-                    for a in range(nc):
-                        ea = E[a, s]
-                        if ea == 0.0:
-                            continue
-                        for b in range(nc):
-                            Jn[a, i, b, k] += ea * (cq * Vs[s, b] + cu * VsOm[s, b])
+                _accumulate(E, Vs, VsOm, idx, n_act, dq[i, k], du[i, k], Jn, i, k, nc)
