@@ -62,6 +62,7 @@ Location
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, fields
 from typing import Any, Callable, Optional, Sequence
 
@@ -292,12 +293,16 @@ def _side_value(kind, p, other):
 def extrapolate_grazing(side, other):
     """omega where the grazing test function of the points ``side`` (one side of a grazing, nearest last; the
     other side's end ``other``) vanishes, extrapolated linearly in omega from the two nearest; ``None``
-    without two usable points."""
+    without two usable points, or where it lands farther than half the frequency from the nearest (a test
+    function nearly flat on the side: beam-stop-cb by event shooting extrapolated to omega = -1.4e5 from points
+    near 1080 rad/s, and its sweep ended in an error after the trace; at a corner the grazing lies outside the
+    bracket, but some bracket widths away)."""
     vals = [(p.omega, _side_value("grazing", p, other)) for p in side[-2:]]
     if len(vals) < 2 or any(v is None for _, v in vals) or vals[0][0] == vals[1][0] or vals[0][1] == vals[1][1]:
         return None
     (w0, f0), (w1, f1) = vals
-    return w1 - f1 * (w1 - w0) / (f1 - f0)
+    w = w1 - f1 * (w1 - w0) / (f1 - f0)
+    return w if math.isfinite(w) and abs(w - w1) <= 0.5 * abs(w1) else None
 
 
 def _estimate(kind, sides, a, b, tol):

@@ -56,6 +56,8 @@ def grazing_locator(tracer, system, tol):
         # the other piece), one just short of it does
         target = 0.5 * (end.omega + other.omega) if target is None else end.omega + 0.9 * (target - end.omega)
         for _ in range(6):
+            if not target > 0.0:
+                return None
             lam = target * tracer.k  # the records' omega is the base frequency of kT-periodic orbits
             problem = tracer.problem(lam)
             starts = [end.x.x]

@@ -210,3 +210,27 @@ def test_grazing_location_within_its_budget(grazing_branch, monkeypatch):
     lo, hi = sorted((b.omega[i], b.omega[i + 1]))
     assert lo <= graz["omega"] <= hi
     assert 0.01 < abs(graz["omega"] - np.sqrt(1.99)) < 0.03
+
+
+
+def test_a_wild_grazing_extrapolation_is_no_estimate(grazing_branch, monkeypatch):
+    """A side's test function that is nearly flat extrapolates its grazing far away (beam-stop-cb by event shooting:
+    omega = -1.4e5 rad/s from points near 1080 rad/s; the locator solved there and the sweep ended in an InputError
+    after its trace).  Such an extrapolation (farther than half the frequency from the side's nearest point) is
+    none: with every side's test function made nearly flat the same sweep gives the same points and places the
+    grazing between its branch points (bisected at the bracket's middle), not at the absurd extrapolation."""
+    from mshbm import bifurcations
+
+    system, full = grazing_branch
+    real = bifurcations._side_value
+
+    def flat(kind, p, other):
+        v = real(kind, p, other)
+        return None if v is None else 1.0 + 1e-9 * v  # a zero far away, at about 1e9 / slope
+
+    monkeypatch.setattr(bifurcations, "_side_value", flat)
+    b = mshbm.sweep(system, 1.8, 1.3, "shooting", **EVENT)
+    assert b.success, b.message
+    assert np.array_equal(b.omega, full.omega)
+    graz = [f for f in b.bifurcations if f["type"] == "grazing"]
+    assert graz and all(1.3 <= g["omega"] <= 1.8 for g in graz), graz
