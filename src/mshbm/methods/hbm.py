@@ -110,6 +110,15 @@ def _loaded_laws(elements, nl_cols, pos):
             np.array(p2, float), np.array(p3, float), np.array(load, np.int64))
 
 
+def _kernel_laws(linear, elements, nl_cols, pos):
+    """``(fast, loaded)``: the arrays of the compiled kernel that applies (:func:`_fast_laws`, else
+    :func:`_loaded_laws`), the other ``None``; both ``None`` for a linear problem or where neither applies."""
+    if linear:
+        return None, None
+    fast = _fast_laws(elements, nl_cols, pos)
+    return fast, (None if fast is not None else _loaded_laws(elements, nl_cols, pos))
+
+
 def scaled_regularisation(system, factor):
     """Copy of ``system`` whose HBM laws are ``factor`` times stiffer (``kappa``; ``k_c`` and ``d_c``:
     :meth:`mshbm.elements.Element.scaled`)."""
@@ -170,9 +179,7 @@ class HBMProblem(PiecewiseLinearPaths, HarmonicProblem):
         why = linear_quadrature_unsupported(system.elements) if self._linear else None
         if why:
             raise InputError("penalty_quadrature", why)
-        self._fast = None if self._linear else _fast_laws(system.elements, self.nl_cols, pos)
-        self._loaded = None if self._linear or self._fast is not None else _loaded_laws(system.elements,
-                                                                                         self.nl_cols, pos)
+        self._fast, self._loaded = _kernel_laws(self._linear, system.elements, self.nl_cols, pos)
         self._kw = np.arange(1, self.n_h + 1) * float(self.omega)  # the harmonics' frequencies k omega (rad/s)
 
     def residual_scale(self, x=None):
@@ -202,9 +209,7 @@ class HBMProblem(PiecewiseLinearPaths, HarmonicProblem):
         for k in ("_scale", "_F"):  # the force scale may include k_c gap (unforced systems)
             new.__dict__.pop(k, None)
         pos = {int(d): i for i, d in enumerate(self.keep)}
-        new._fast = None if self._linear else _fast_laws(system.elements, self.nl_cols, pos)
-        new._loaded = None if self._linear or new._fast is not None else _loaded_laws(system.elements,
-                                                                                       self.nl_cols, pos)
+        new._fast, new._loaded = _kernel_laws(self._linear, system.elements, self.nl_cols, pos)
         return new
 
     def rebuilt(self, omega):
